@@ -1,0 +1,232 @@
+"""Physical effects as composable parts: a small class with named, bounded parameters.
+
+An effect changes the model in one of two ways:
+
+* ``apply(model) -> model`` returns a changed copy of the model (specimen, foundation, loading or friction
+  law). The built-in effects all work this way, so they run in the compiled fast path.
+* ``wrench(t, state) -> (force, moment)`` adds a force at the mass centre and a moment about it (world
+  axes, SI) at every evaluation of the right-hand side. Any Python code may go here; it runs slower
+  (the compiled kernel calls back into Python) but through the same right-hand side.
+
+Writing one (``docs/adding-an-effect.md`` has the full tutorial)::
+
+    @register
+    class ViscousDrag(Effect):
+        name = "viscous_drag"
+        parameters = {"c_N_s_m": Parameter(0.0, 0.0, 50.0, "N s/m", "drag per unit speed")}
+
+        def wrench(self, t, state):
+            return -self["c_N_s_m"] * state.velocity, np.zeros(3)
+
+Built-in names are part of the interface: ``end_friction``, ``rate_friction``, ``tip_offset``,
+``actuator_rise``, ``contact_friction``, ``plane_tilt``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, ClassVar
+
+import numpy as np
+
+from .specimen import Foundation, Plane
+
+if TYPE_CHECKING:
+    from .model import BlockState, Model
+
+
+class EffectError(ValueError):
+    """An unknown effect or parameter, or a value outside its bounds."""
+
+
+@dataclass(frozen=True)
+class Parameter:
+    """One named parameter of an effect: its default, physical bounds, unit and meaning."""
+
+    default: float
+    lower: float
+    upper: float
+    unit: str
+    doc: str
+
+
+class Effect:
+    """Base class: set ``name`` and ``parameters``; override ``apply`` and/or ``wrench``."""
+
+    name: ClassVar[str] = ""
+    parameters: ClassVar[dict[str, Parameter]] = {}
+
+    def __init__(self, **values: float):
+        unknown = set(values) - set(self.parameters)
+        if unknown:
+            raise EffectError(f"effect {self.name!r} has no parameter {sorted(unknown)[0]!r} "
+                              f"(its parameters: {', '.join(self.parameters) or 'none'})")
+        self.values: dict[str, float] = {}
+        for key, spec in self.parameters.items():
+            value = float(values.get(key, spec.default))
+            if not math.isfinite(value) or not spec.lower <= value <= spec.upper:
+                raise EffectError(f"effect {self.name!r}: {key} = {value} is outside [{spec.lower}, {spec.upper}] "
+                                  f"{spec.unit}")
+            self.values[key] = value
+
+    def __getitem__(self, key: str) -> float:
+        return self.values[key]
+
+    def __repr__(self) -> str:
+        inner = ",".join(f"{k}={v:g}" for k, v in self.values.items())
+        return f"{self.name}:{inner}" if inner else self.name
+
+    def __eq__(self, other: object) -> bool:
+        return type(self) is type(other) and self.values == other.values  # type: ignore[attr-defined]
+
+    def __hash__(self) -> int:
+        return hash((type(self), tuple(sorted(self.values.items()))))
+
+    def apply(self, model: Model) -> Model:
+        """The model with this effect's parameter changes. Default: unchanged."""
+        return model
+
+    def wrench(self, t: float, state: BlockState) -> tuple[np.ndarray, np.ndarray]:
+        """Extra (force at the mass centre, moment about it), world axes. Default: none."""
+        raise NotImplementedError
+
+    @property
+    def has_wrench(self) -> bool:
+        return type(self).wrench is not Effect.wrench
+
+
+REGISTRY: dict[str, type[Effect]] = {}
+
+
+def register(cls: type[Effect]) -> type[Effect]:
+    """Class decorator: make an effect available by name (CLI ``--effect NAME:...``, the workbench)."""
+    if not cls.name:
+        raise EffectError(f"{cls.__name__} needs a class attribute 'name'")
+    REGISTRY[cls.name] = cls
+    return cls
+
+
+def make_effect(spec: str) -> Effect:
+    """Build an effect from ``NAME[:PARAM=VALUE[,PARAM=VALUE...]]`` (the CLI's ``--effect`` syntax)."""
+    name, _, rest = spec.partition(":")
+    name = name.strip()
+    if name not in REGISTRY:
+        raise EffectError(f"unknown effect {name!r}; known effects: {', '.join(sorted(REGISTRY))}")
+    values: dict[str, float] = {}
+    for item in filter(None, (part.strip() for part in rest.split(","))):
+        key, eq, value = item.partition("=")
+        if not eq:
+            raise EffectError(f"effect {name!r}: expected PARAM=VALUE, got {item!r}")
+        try:
+            values[key.strip()] = float(value)
+        except ValueError:
+            raise EffectError(f"effect {name!r}: {key.strip()} = {value!r} is not a number") from None
+    return REGISTRY[name](**values)
+
+
+# -- the built-in library ------------------------------------------------------------------------
+
+@register
+class EndFriction(Effect):
+    """Friction between the load tip and the aft face (paper eq. 32-33): turns case B into case A.
+
+    Magnitude ``F_T (e1.g1) tan(phi_EF)``, opposing the slip of the aft face relative to the tip.
+    Signature: suppresses CP1's lateral dilation and reverses the block's rotation (paper section 5.2).
+    """
+
+    name = "end_friction"
+    parameters = {"phi_deg": Parameter(8.0, 0.0, 40.0, "deg", "tip/aft-face friction angle phi_EF")}
+
+    def apply(self, model: Model) -> Model:
+        return replace(model, specimen=replace(model.specimen, tip_friction_deg=self["phi_deg"]),
+                       loading=replace(model.loading, end_friction=True))
+
+
+@register
+class RateFriction(Effect):
+    """Rate-dependent contact friction: ``mu = tan(phi) (1 + a ln(1 + |v|/v0))`` at every contact.
+
+    ``a > 0`` strengthens with speed, ``a < 0`` weakens (the paper's section 5.1 suspects rate effects
+    near 1 m/s). Signature: grows with speed, so it bends fast (high-load) traces more than slow ones and
+    delays arrival.
+    """
+
+    name = "rate_friction"
+    parameters = {"a": Parameter(0.0, -0.3, 1.0, "-", "rate sensitivity"),
+                  "v0_m_s": Parameter(0.05, 1e-4, 10.0, "m/s", "reference slip speed")}
+
+    def apply(self, model: Model) -> Model:
+        return replace(model, rate_a=self["a"], rate_v0_m_s=self["v0_m_s"])
+
+
+@register
+class TipOffset(Effect):
+    """The load tip's line lies ``offset_m`` off the aft-face centreline, along +e3 (misalignment).
+
+    Signature: a moment about the vertical from the first instant, so the block turns and CP paths bend
+    even at high load.
+    """
+
+    name = "tip_offset"
+    parameters = {"offset_m": Parameter(0.0, -0.05, 0.05, "m", "lateral offset of the tip line (+e3)")}
+
+    def apply(self, model: Model) -> Model:
+        return replace(model, loading=replace(model.loading, tip_offset_m=self["offset_m"]))
+
+
+@register
+class ActuatorRise(Effect):
+    """The actuator force rises to its command as ``1 - exp(-t/tau)`` instead of stepping.
+
+    Signature: mainly in time (late arrival at each travel), slightly in path at low load.
+    """
+
+    name = "actuator_rise"
+    parameters = {"tau_s": Parameter(0.0, 0.0, 2.0, "s", "first-order rise time constant")}
+
+    def apply(self, model: Model) -> Model:
+        return replace(model, loading=replace(model.loading, rise_time_s=self["tau_s"]))
+
+
+@register
+class ContactFriction(Effect):
+    """The three contact friction angles differ from the specimen's values.
+
+    Signature: changes how the three points share resistance, so the block turns differently; affects
+    every load level.
+    """
+
+    name = "contact_friction"
+    parameters = {f"phi{i}_deg": Parameter(d, 0.0, 44.0, "deg", f"friction angle CP{i}/FP{i}")
+                  for i, d in ((1, 17.0), (2, 14.0), (3, 11.0))}
+
+    def apply(self, model: Model) -> Model:
+        phis = tuple(self[f"phi{i}_deg"] for i in (1, 2, 3))
+        return replace(model, specimen=replace(model.specimen, friction_deg=phis))
+
+
+@register
+class PlaneTilt(Effect):
+    """A foundation plane's dip or dip direction differs from the drawing (machining error).
+
+    Parameters are changes added to the drawing's dip and dip direction of each plane; for FP1 (dip 0 on
+    the drawing) ``dip1_deg`` tilts it toward ``dip_dir1_deg``. The block is re-seated on the actual
+    planes (the smallest rigid motion that puts each contact point back on its plane).
+    Signature: steady lateral drift of the contact point on the tilted plane, at every load.
+    """
+
+    name = "plane_tilt"
+    parameters = {**{f"dip{i}_deg": Parameter(0.0, -3.0, 3.0, "deg", f"change of FP{i}'s dip") for i in (1, 2, 3)},
+                  **{f"dip_dir{i}_deg": Parameter(0.0, -30.0, 30.0, "deg", f"change of FP{i}'s dip direction")
+                     for i in (1, 2, 3)}}
+
+    def apply(self, model: Model) -> Model:
+        planes = []
+        for i, plane in enumerate(model.foundation.planes, start=1):
+            dip = plane.dip_deg + self[f"dip{i}_deg"]
+            direction = plane.dip_direction_deg + self[f"dip_dir{i}_deg"]
+            if dip < 0:  # a negative dip is the same plane dipping the other way
+                dip, direction = -dip, direction + 180.0
+            planes.append(Plane(dip, direction))
+        return replace(model, foundation=Foundation(tuple(planes)))

@@ -1,0 +1,984 @@
+"""The one right-hand side of the physics, compiled with numba, and what steps it.
+
+Formulation: Newton-Euler for the rigid block with three Lagrange multipliers, the normal reactions
+``N_i`` that hold contact point ``P_i`` on plane ``i`` (the paper's lambda_1..3, eq. 17-20). The paper's
+other three multipliers (rigid-frame constraints, eq. 7) are implicit: the block is a rigid body with six
+coordinates. Friction ``S_i = -N_i mu_i v_i/|v_i|`` (eq. 21) is proportional to ``N_i``, so at each instant
+the three ``N_i`` solve a 3x3 linear system (the analogue of eq. 39). ``docs/physics.md`` derives why this
+equals the paper's 9-coordinate Lagrangian; ``triplanar/reference.py`` implements that form independently
+and the tests compare the two.
+
+State ``y`` (``N_STATE`` floats): mass-centre position ``r``, unit quaternion ``q`` (w, x, y, z; body to
+world, body axes = the paper's g1, g2, g3), velocity ``v``, angular velocity ``omega`` (world axes), actuator
+force ``F_T``, lateral tip offset ``u``, then energy integrals: work of the load, dissipation at CP1..3,
+dissipation at the tip, work of user forces. Parameters ``p`` (``N_PARAM`` floats) are packed by
+:func:`triplanar.model.Model.kernel_params`; their layout is the ``P_*`` constants below.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, objmode
+
+# -- state layout ----------------------------------------------------------------------------
+S_R, S_Q, S_V, S_W, S_F, S_U = 0, 3, 7, 10, 13, 14
+S_WLOAD, S_DC, S_DTIP, S_WOTHER = 15, 16, 19, 20
+N_STATE = 21
+
+# -- parameter layout ------------------------------------------------------------------------
+P_MASS, P_G = 0, 1
+P_IB = 2          # 9: inertia about the mass centre, body axes
+P_IBINV = 11      # 9: its inverse
+P_C = 20          # 9: contact points relative to the mass centre, body axes (row i = CP i+1)
+P_N = 29          # 9: plane normals (row i = FP i+1)
+P_TANPHI = 38     # 3: tan(phi_i) at the contacts
+P_TANEF = 41      # tan(phi_EF) at the tip; 0 = no end friction (case B)
+P_CASE = 42       # 0: actuator along e1 at the tip line (cases A/B); 1: hydrostatic along g1 at P_CL (case C)
+P_FCMD = 43       # commanded thrust F_T (N)
+P_TAU = 44        # actuator rise time constant (s); 0 = force equals the command
+P_PCL = 45        # 3: P_CL relative to the mass centre, body axes
+P_TIP0 = 48       # 3: P0_CL, the tip line's point at zero offset (world); the line runs along e1
+P_UDOT = 51       # lateral tip velocity du/dt (m/s)
+P_RATE_A = 52     # rate friction: mu = tan(phi) (1 + a ln(1 + |v|/v0))
+P_RATE_V0 = 53
+P_EXTF = 54       # 3: extra force at the mass centre (world), user effects
+P_EXTM = 57       # 3: extra moment about the mass centre (world)
+P_D0 = 60         # 12: friction directions to use at zero slip (rows: CP1..3, tip)
+P_USER = 72       # 1: call the user effects' Python wrench (slow path) before each evaluation
+P_STUCK = 73      # index of the contact point that sticks (0-2), or -1: all three slide
+P_TIP_STUCK = 74  # 1: the aft face sticks to the tip (static end friction), 0: it slips
+N_PARAM = 75
+
+# -- aux outputs of dynamics() ----------------------------------------------------------------
+A_N = 0           # 3 normal reactions
+A_PL = 3          # 3 instantaneous load point (world)
+A_ACC = 6         # 12 slip accelerations at CP1..3 and the tip (used to find incipient motion)
+A_SLIP = 18       # 3 slip velocity of the aft face relative to the tip
+A_FT = 21         # thrust in use
+A_SPEED = 22      # 3 contact-point speeds
+A_STICK = 25      # stuck contact: |S| - mu N (> 0: friction cannot hold it any more); -1 otherwise
+A_TIP_STICK = 26  # stuck tip: |F_EF| - F_T (e1.g1) tan(phi_EF); -1 otherwise
+N_AUX = 27
+
+ZERO_SPEED = 1e-12  # m/s: below this a friction direction falls back to the incipient one (P_D0)
+
+# -- status codes returned by integrate() ------------------------------------------------------
+ST_RUNNING, ST_TRAVEL, ST_LIFT_OFF, ST_MC_OUTSIDE, ST_LEFT_PLANE = 0, 1, 2, 3, 4
+ST_SLOW, ST_TIME_LIMIT, ST_BUFFER_FULL, ST_STEP_FAILED, ST_STOPPED, ST_RELEASE = 5, 6, 7, 8, 9, 10
+# Events: 0 travel, 1-3 lift-off, 4 mass centre, 5-10 left plane, 11 all slow, 12-14 CP i stopped,
+# 15 stuck contact released, 16 tip slip stopped, 17 stuck tip released
+EV_SLOW, EV_STOP, EV_RELEASE, EV_TIP_STOP, EV_TIP_RELEASE = 11, 12, 15, 16, 17
+N_EVENTS = 18
+
+
+@njit(cache=True, inline="always")
+def _cross(a0, a1, a2, b0, b1, b2):
+    return a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+
+
+@njit(cache=True)
+def quat_to_matrix(q: np.ndarray, out: np.ndarray) -> None:
+    w, x, y, z = q[0], q[1], q[2], q[3]
+    s = 2.0 / (w * w + x * x + y * y + z * z)
+    out[0, 0] = 1 - s * (y * y + z * z); out[0, 1] = s * (x * y - w * z); out[0, 2] = s * (x * z + w * y)
+    out[1, 0] = s * (x * y + w * z); out[1, 1] = 1 - s * (x * x + z * z); out[1, 2] = s * (y * z - w * x)
+    out[2, 0] = s * (x * z - w * y); out[2, 1] = s * (y * z + w * x); out[2, 2] = 1 - s * (x * x + y * y)
+
+
+@njit(cache=True)
+def _solve3(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:
+    """Cramer's rule for a 3x3 system; False when singular."""
+    c00 = a[1, 1] * a[2, 2] - a[1, 2] * a[2, 1]
+    c01 = a[1, 2] * a[2, 0] - a[1, 0] * a[2, 2]
+    c02 = a[1, 0] * a[2, 1] - a[1, 1] * a[2, 0]
+    det = a[0, 0] * c00 + a[0, 1] * c01 + a[0, 2] * c02
+    if det == 0.0 or not math.isfinite(det):
+        return False
+    inv = 1.0 / det
+    out[0] = (b[0] * c00 + a[0, 1] * (a[1, 2] * b[2] - b[1] * a[2, 2]) + a[0, 2] * (b[1] * a[2, 1] - a[1, 1] * b[2])) * inv
+    out[1] = (a[0, 0] * (b[1] * a[2, 2] - a[1, 2] * b[2]) + b[0] * c01 + a[0, 2] * (a[1, 0] * b[2] - b[1] * a[2, 0])) * inv
+    out[2] = (a[0, 0] * (a[1, 1] * b[2] - b[1] * a[2, 1]) + a[0, 1] * (b[1] * a[2, 0] - a[1, 0] * b[2]) + b[0] * c02) * inv
+    return True
+
+
+@njit(cache=True)
+def _solve_small(a: np.ndarray, b: np.ndarray, n: int, out: np.ndarray) -> bool:
+    """Solve the leading n x n system (n <= 7) by Gaussian elimination with partial pivoting; False if singular."""
+    if n == 3:
+        return _solve3(a[:3, :3], b[:3], out)
+    m = a[:n, :n].copy()
+    r = b[:n].copy()
+    for c in range(n):
+        piv = c
+        for i in range(c + 1, n):
+            if abs(m[i, c]) > abs(m[piv, c]):
+                piv = i
+        if m[piv, c] == 0.0 or not math.isfinite(m[piv, c]):
+            return False
+        if piv != c:
+            for k in range(n):
+                m[c, k], m[piv, k] = m[piv, k], m[c, k]
+            r[c], r[piv] = r[piv], r[c]
+        for i in range(c + 1, n):
+            f = m[i, c] / m[c, c]
+            for k in range(c, n):
+                m[i, k] -= f * m[c, k]
+            r[i] -= f * r[c]
+    for i in range(n - 1, -1, -1):
+        s = r[i]
+        for k in range(i + 1, n):
+            s -= m[i, k] * out[k]
+        out[i] = s / m[i, i]
+    return True
+
+
+@njit(cache=True)
+def _tangent_basis(p: np.ndarray, j: int, t1: np.ndarray, t2: np.ndarray) -> None:
+    """Orthonormal t1, t2 spanning plane j (t2 = n x t1)."""
+    n0, n1, n2 = p[P_N + 3 * j], p[P_N + 3 * j + 1], p[P_N + 3 * j + 2]
+    if abs(n0) < 0.9:
+        a0, a1, a2 = _cross(n0, n1, n2, 1.0, 0.0, 0.0)
+    else:
+        a0, a1, a2 = _cross(n0, n1, n2, 0.0, 0.0, 1.0)
+    nn = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+    t1[0], t1[1], t1[2] = a0 / nn, a1 / nn, a2 / nn
+    b0, b1, b2 = _cross(n0, n1, n2, t1[0], t1[1], t1[2])
+    t2[0], t2[1], t2[2] = b0, b1, b2
+
+
+@njit(cache=True)
+def _rotate(R: np.ndarray, p: np.ndarray, k: int, out: np.ndarray) -> None:
+    for i in range(3):
+        out[i] = R[i, 0] * p[k] + R[i, 1] * p[k + 1] + R[i, 2] * p[k + 2]
+
+
+@njit(cache=True)
+def _world_inverse_inertia(R: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """R I_b^-1 R^T."""
+    for i in range(3):
+        for j in range(3):
+            s = 0.0
+            for k in range(3):
+                for m in range(3):
+                    s += R[i, k] * p[P_IBINV + 3 * k + m] * R[j, m]
+            out[i, j] = s
+
+
+@njit(cache=True)
+def _world_inertia_times(R: np.ndarray, p: np.ndarray, w: np.ndarray, out: np.ndarray) -> None:
+    """(R I_b R^T) w."""
+    wb = np.empty(3)
+    for k in range(3):
+        wb[k] = R[0, k] * w[0] + R[1, k] * w[1] + R[2, k] * w[2]
+    for i in range(3):
+        s = 0.0
+        for k in range(3):
+            for m in range(3):
+                s += R[i, k] * p[P_IB + 3 * k + m] * wb[m]
+        out[i] = s
+
+
+@njit(cache=True)
+def load_arm(y: np.ndarray, p: np.ndarray, R: np.ndarray, out: np.ndarray) -> None:
+    """Load point relative to the mass centre: ``P_L`` where the tip line (through P0_CL + u e3, along e1)
+    meets the aft face (plane through P_CL with normal g1), paper eq. 27-28; ``P_CL`` for case C."""
+    _rotate(R, p, P_PCL, out)
+    if p[P_CASE] == 0.0:
+        tx = p[P_TIP0] - y[S_R]
+        ty = p[P_TIP0 + 1] - y[S_R + 1]
+        tz = p[P_TIP0 + 2] + y[S_U] - y[S_R + 2]
+        s = ((out[0] - tx) * R[0, 0] + (out[1] - ty) * R[1, 0] + (out[2] - tz) * R[2, 0]) / R[0, 0]
+        out[0] = tx + s
+        out[1] = ty
+        out[2] = tz
+
+
+@njit(cache=True)
+def _face_rows(R: np.ndarray, w: np.ndarray, a: int, h: np.ndarray) -> tuple:
+    """Row of the tip-stick constraint for face axis g_a (a = 1, 2): the slip component
+    sigma_a = (v_B(P_L) - udot e3) . h_a with h_a = g_a - (g_a.e1 / g1.e1) g1, and dh_a/dt."""
+    g1x = R[0, 0]
+    ga0, ga1, ga2 = R[0, a], R[1, a], R[2, a]
+    r = ga0 / g1x
+    h[0] = ga0 - r * R[0, 0]; h[1] = ga1 - r * R[1, 0]; h[2] = ga2 - r * R[2, 0]
+    dg0, dg1, dg2 = _cross(w[0], w[1], w[2], ga0, ga1, ga2)
+    d10, d11, d12 = _cross(w[0], w[1], w[2], R[0, 0], R[1, 0], R[2, 0])
+    dr = (dg0 * g1x - ga0 * d10) / (g1x * g1x)
+    return (dg0 - dr * R[0, 0] - r * d10, dg1 - dr * R[1, 0] - r * d11, dg2 - dr * R[2, 0] - r * d12)
+
+
+@njit(cache=True)
+def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
+    """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
+
+    Forces (paper section 3.3-3.4, ``docs/physics.md``): weight ``-W e2`` at the mass centre; at each
+    contact ``N_i n_i - N_i mu_i v_i/|v_i|`` (eq. 19-21); cases A/B: thrust ``F_T e1`` at the load point
+    ``P_L`` where the tip line meets the aft face (eq. 27-30), and end friction of magnitude
+    ``F_T (e1.g1) tan(phi_EF)`` opposing the slip of the aft face relative to the tip (eq. 32-33 in
+    continuous time); case C: ``F_T g1`` at the body-fixed ``P_CL``; plus any user force and moment.
+
+    A contact (``P_STUCK``) or the tip (``P_TIP_STUCK``) that sticks is held by static friction instead:
+    its tangential force becomes an unknown and its slip acceleration a constraint row. The unknowns
+    (normal reactions, stuck tangential forces) solve one small linear system: the paper's eq. 39 with
+    the rigid-frame multipliers eliminated.
+    """
+    m = p[P_MASS]
+    R = np.empty((3, 3))
+    quat_to_matrix(y[S_Q:S_Q + 4], R)
+    v = y[S_V:S_V + 3]
+    w = y[S_W:S_W + 3]
+    tau = p[P_TAU]
+    F_T = p[P_FCMD] if tau <= 0.0 else y[S_F]
+    udot = p[P_UDOT]
+    actuator = p[P_CASE] == 0.0
+    g1x, g1y, g1z = R[0, 0], R[1, 0], R[2, 0]
+
+    # Points of action relative to the mass centre: rows 0-2 the contacts, row 3 the load point.
+    rho = np.empty((4, 3))
+    tmp = np.empty(3)
+    for j in range(3):
+        _rotate(R, p, P_C + 3 * j, tmp)
+        rho[j, 0] = tmp[0]; rho[j, 1] = tmp[1]; rho[j, 2] = tmp[2]
+    load_arm(y, p, R, tmp)
+    rho[3, 0] = tmp[0]; rho[3, 1] = tmp[1]; rho[3, 2] = tmp[2]
+    if actuator:
+        ld0, ld1, ld2 = 1.0, 0.0, 0.0
+    else:
+        ld0, ld1, ld2 = g1x, g1y, g1z
+    c0, c1, c2 = _cross(w[0], w[1], w[2], rho[3, 0], rho[3, 1], rho[3, 2])
+    vb0, vb1, vb2 = v[0] + c0, v[1] + c1, v[2] + c2  # material velocity at the load point
+
+    # Applied force and moment about the mass centre (world), and the power they deliver.
+    fx = np.empty(3)
+    mx = np.empty(3)
+    fx[0] = p[P_EXTF] + F_T * ld0
+    fx[1] = p[P_EXTF + 1] + F_T * ld1 - m * p[P_G]
+    fx[2] = p[P_EXTF + 2] + F_T * ld2
+    m0, m1, m2 = _cross(rho[3, 0], rho[3, 1], rho[3, 2], F_T * ld0, F_T * ld1, F_T * ld2)
+    mx[0] = p[P_EXTM] + m0; mx[1] = p[P_EXTM + 1] + m1; mx[2] = p[P_EXTM + 2] + m2
+    p_other = p[P_EXTF] * v[0] + p[P_EXTF + 1] * v[1] + p[P_EXTF + 2] * v[2] \
+        + p[P_EXTM] * w[0] + p[P_EXTM + 1] * w[1] + p[P_EXTM + 2] * w[2]
+    p_load = F_T * (ld0 * vb0 + ld1 * vb1 + ld2 * vb2)
+    p_tip = 0.0
+
+    # End friction. Slip of the face relative to the tip: the tip moves along e1 (whatever keeps contact)
+    # and laterally at udot, so the slip is (v_B - udot e3) projected along e1 onto the face.
+    tan_ef = p[P_TANEF] if actuator else 0.0
+    tip_stuck = tan_ef > 0.0 and p[P_TIP_STUCK] != 0.0
+    wv0, wv1, wv2 = vb0, vb1, vb2 - udot
+    kk = (wv0 * g1x + wv1 * g1y + wv2 * g1z) / g1x
+    s0, s1, s2 = wv0 - kk, wv1, wv2
+    slip_speed = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    aux[A_SLIP] = s0; aux[A_SLIP + 1] = s1; aux[A_SLIP + 2] = s2
+    tip_limit = F_T * g1x * tan_ef
+    if tan_ef > 0.0 and not tip_stuck:
+        if slip_speed > ZERO_SPEED:
+            d0, d1, d2 = s0 / slip_speed, s1 / slip_speed, s2 / slip_speed
+        else:
+            d0, d1, d2 = p[P_D0 + 9], p[P_D0 + 10], p[P_D0 + 11]
+        f0, f1, f2 = -tip_limit * d0, -tip_limit * d1, -tip_limit * d2
+        fx[0] += f0; fx[1] += f1; fx[2] += f2
+        m0, m1, m2 = _cross(rho[3, 0], rho[3, 1], rho[3, 2], f0, f1, f2)
+        mx[0] += m0; mx[1] += m1; mx[2] += m2
+        # The friction's work through the tip's own motion (v_B - slip) is delivered by the actuator.
+        p_load += f0 * (vb0 - s0) + f1 * (vb1 - s1) + f2 * (vb2 - s2)
+        p_tip = tip_limit * slip_speed
+
+    # Gyroscopic term: I dw/dt = M - w x (I w).
+    iw = np.empty(3)
+    _world_inertia_times(R, p, w, iw)
+    c0, c1, c2 = _cross(w[0], w[1], w[2], iw[0], iw[1], iw[2])
+    mx[0] -= c0; mx[1] -= c1; mx[2] -= c2
+    iinv = np.empty((3, 3))
+    _world_inverse_inertia(R, p, iinv)
+
+    # Unknowns u (force direction fu at point `at`) and rows r (constraint direction cr at point `at`,
+    # velocity-dependent acceleration `bias`): N_j along f_j = n_j - mu_j d_j (sliding, eq. 21) or n_j
+    # (stuck), two tangential forces at a stuck contact, two face forces at a stuck tip.
+    stuck = int(p[P_STUCK])
+    fu = np.empty((7, 3))
+    cr = np.empty((7, 3))
+    at = np.empty(7, np.int64)
+    bias = np.empty(7)
+    mu = np.empty(3)
+    speeds = np.empty(3)
+    for j in range(3):
+        c0, c1, c2 = _cross(w[0], w[1], w[2], rho[j, 0], rho[j, 1], rho[j, 2])
+        vj0, vj1, vj2 = v[0] + c0, v[1] + c1, v[2] + c2
+        sp = math.sqrt(vj0 * vj0 + vj1 * vj1 + vj2 * vj2)
+        speeds[j] = sp
+        if j == stuck:
+            d0, d1, d2 = 0.0, 0.0, 0.0
+        elif sp > ZERO_SPEED:
+            d0, d1, d2 = vj0 / sp, vj1 / sp, vj2 / sp
+        else:
+            d0, d1, d2 = p[P_D0 + 3 * j], p[P_D0 + 3 * j + 1], p[P_D0 + 3 * j + 2]
+        mu_j = p[P_TANPHI + j]
+        if p[P_RATE_A] != 0.0:
+            mu_j *= 1.0 + p[P_RATE_A] * math.log1p(sp / p[P_RATE_V0])
+        mu[j] = mu_j
+        for k in range(3):
+            cr[j, k] = p[P_N + 3 * j + k]
+        fu[j, 0] = cr[j, 0] - mu_j * d0
+        fu[j, 1] = cr[j, 1] - mu_j * d1
+        fu[j, 2] = cr[j, 2] - mu_j * d2
+        at[j] = j
+    nu = 3
+    i_stick = nu
+    if stuck >= 0:
+        _tangent_basis(p, stuck, cr[3], cr[4])
+        for r in (3, 4):
+            fu[r, 0] = cr[r, 0]; fu[r, 1] = cr[r, 1]; fu[r, 2] = cr[r, 2]
+            at[r] = stuck
+        nu = 5
+    i_tip = nu
+    if tip_stuck:
+        h = np.empty(3)
+        for a in (1, 2):
+            dh0, dh1, dh2 = _face_rows(R, w, a, h)
+            cr[nu, 0] = h[0]; cr[nu, 1] = h[1]; cr[nu, 2] = h[2]
+            fu[nu, 0] = R[0, a]; fu[nu, 1] = R[1, a]; fu[nu, 2] = R[2, a]
+            at[nu] = 3
+            bias[nu] = wv0 * dh0 + wv1 * dh1 + wv2 * dh2
+            nu += 1
+    for r in range(nu):
+        if r < i_tip:
+            bias[r] = 0.0
+        i = at[r]
+        c0, c1, c2 = _cross(w[0], w[1], w[2], rho[i, 0], rho[i, 1], rho[i, 2])
+        e0, e1, e2 = _cross(w[0], w[1], w[2], c0, c1, c2)
+        bias[r] += cr[r, 0] * e0 + cr[r, 1] * e1 + cr[r, 2] * e2
+
+    alpha0 = np.empty(3)
+    for k in range(3):
+        alpha0[k] = iinv[k, 0] * mx[0] + iinv[k, 1] * mx[1] + iinv[k, 2] * mx[2]
+    rxf = np.empty((7, 3))  # I^-1 (rho x f) of each unknown
+    for u in range(nu):
+        j = at[u]
+        a0, a1, a2 = _cross(rho[j, 0], rho[j, 1], rho[j, 2], fu[u, 0], fu[u, 1], fu[u, 2])
+        for k in range(3):
+            rxf[u, k] = iinv[k, 0] * a0 + iinv[k, 1] * a1 + iinv[k, 2] * a2
+    amat = np.empty((7, 7))
+    bvec = np.empty(7)
+    for r in range(nu):
+        i = at[r]
+        n0, n1, n2 = cr[r, 0], cr[r, 1], cr[r, 2]
+        rn0, rn1, rn2 = _cross(rho[i, 0], rho[i, 1], rho[i, 2], n0, n1, n2)
+        for u in range(nu):
+            amat[r, u] = (n0 * fu[u, 0] + n1 * fu[u, 1] + n2 * fu[u, 2]) / m \
+                + rn0 * rxf[u, 0] + rn1 * rxf[u, 1] + rn2 * rxf[u, 2]
+        bvec[r] = -bias[r] - (n0 * fx[0] + n1 * fx[1] + n2 * fx[2]) / m \
+            - (rn0 * alpha0[0] + rn1 * alpha0[1] + rn2 * alpha0[2])
+    x = np.empty(7)
+    if not _solve_small(amat, bvec, nu, x):
+        return False
+
+    acc = np.empty(3)
+    alpha = np.empty(3)
+    for k in range(3):
+        acc[k] = fx[k] / m
+        alpha[k] = alpha0[k]
+        for u in range(nu):
+            acc[k] += x[u] * fu[u, k] / m
+            alpha[k] += x[u] * rxf[u, k]
+    aux[A_STICK] = -1.0
+    if stuck >= 0:
+        aux[A_STICK] = math.sqrt(x[i_stick] ** 2 + x[i_stick + 1] ** 2) - mu[stuck] * x[stuck]
+    aux[A_TIP_STICK] = -1.0
+    if tip_stuck:
+        aux[A_TIP_STICK] = math.sqrt(x[i_tip] ** 2 + x[i_tip + 1] ** 2) - tip_limit
+        for k in range(3):  # the static end friction works through the tip's motion (no slip)
+            f = x[i_tip] * fu[i_tip, k] + x[i_tip + 1] * fu[i_tip + 1, k]
+            p_load += f * (vb0 if k == 0 else (vb1 if k == 1 else vb2))
+
+    for k in range(3):
+        dy[S_R + k] = v[k]
+        dy[S_V + k] = acc[k]
+        dy[S_W + k] = alpha[k]
+    qw, qx, qy, qz = y[S_Q], y[S_Q + 1], y[S_Q + 2], y[S_Q + 3]
+    dy[S_Q] = 0.5 * (-w[0] * qx - w[1] * qy - w[2] * qz)
+    dy[S_Q + 1] = 0.5 * (w[0] * qw + w[1] * qz - w[2] * qy)
+    dy[S_Q + 2] = 0.5 * (-w[0] * qz + w[1] * qw + w[2] * qx)
+    dy[S_Q + 3] = 0.5 * (w[0] * qy - w[1] * qx + w[2] * qw)
+    dy[S_F] = (p[P_FCMD] - y[S_F]) / tau if tau > 0.0 else 0.0
+    dy[S_U] = udot
+    dy[S_WLOAD] = p_load
+    for j in range(3):
+        dy[S_DC + j] = 0.0 if j == stuck else mu[j] * x[j] * speeds[j]
+    dy[S_DTIP] = p_tip
+    dy[S_WOTHER] = p_other
+
+    # Aux: reactions, speeds, and the slip accelerations of each site (for incipient motion).
+    for j in range(4):
+        c0, c1, c2 = _cross(alpha[0], alpha[1], alpha[2], rho[j, 0], rho[j, 1], rho[j, 2])
+        e0, e1, e2 = _cross(w[0], w[1], w[2], rho[j, 0], rho[j, 1], rho[j, 2])
+        e0, e1, e2 = _cross(w[0], w[1], w[2], e0, e1, e2)
+        a0, a1, a2 = acc[0] + c0 + e0, acc[1] + c1 + e1, acc[2] + c2 + e2
+        if j < 3:
+            aux[A_N + j] = x[j]
+            aux[A_SPEED + j] = speeds[j]
+            aux[A_ACC + 3 * j] = a0; aux[A_ACC + 3 * j + 1] = a1; aux[A_ACC + 3 * j + 2] = a2
+        else:
+            # d/dt of the slip when it is zero: (a_B - (a_B . g1 + wv . dg1/dt)/g1x e1) with the tip moving
+            # with the face (its e1-speed kk); evaluated where slip ~ 0, which is where it is used.
+            d10, d11, d12 = _cross(w[0], w[1], w[2], g1x, g1y, g1z)
+            k2 = (a0 * g1x + a1 * g1y + a2 * g1z + wv0 * d10 + wv1 * d11 + wv2 * d12 - kk * d10) / g1x
+            aux[A_ACC + 9] = a0 - k2; aux[A_ACC + 10] = a1; aux[A_ACC + 11] = a2
+    for i in range(3):
+        aux[A_PL + i] = y[S_R + i] + rho[3, i]
+    aux[A_FT] = F_T
+    return True
+
+
+# -- user effects (slow path) ----------------------------------------------------------------
+# User-written effects are Python objects; the compiled RHS reaches them through objmode. The callable
+# in USER_WRENCH[0] maps (t, y) to (force, moment) about the mass centre, world axes; simulate() sets it
+# for the duration of one run (so runs in one process must not overlap, as in a process pool).
+USER_WRENCH: list = [None]
+
+
+def _call_user_wrench(t: float, y: np.ndarray, p: np.ndarray) -> None:
+    force, moment = USER_WRENCH[0](t, y)
+    p[P_EXTF:P_EXTF + 3] = force
+    p[P_EXTM:P_EXTM + 3] = moment
+
+
+@njit(cache=True)
+def _user_wrench(t: float, y: np.ndarray, p: np.ndarray) -> None:
+    with objmode():
+        _call_user_wrench(t, y, p)
+
+
+@njit(cache=True)
+def rhs(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
+    """The right-hand side every integrator calls: user wrench (if any), then :func:`dynamics`."""
+    if p[P_USER] != 0.0:
+        _user_wrench(t, y, p)
+    return dynamics(t, y, p, dy, aux)
+
+
+# -- constraint projection ----------------------------------------------------------------------
+
+@njit(cache=True)
+def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarray, target: np.ndarray) -> int:
+    """Jacobian rows (d/dr, d/dtheta) of the constraints and their velocity targets: n_i . P_i (rows 0-2);
+    a stuck contact's two tangential velocities; a stuck tip's two slip components (velocity level only).
+    Returns the number of rows."""
+    R = np.empty((3, 3))
+    quat_to_matrix(y[S_Q:S_Q + 4], R)
+    rho = np.empty((4, 3))
+    tmp = np.empty(3)
+    for i in range(3):
+        _rotate(R, p, P_C + 3 * i, tmp)
+        rho[i] = tmp
+        for k in range(3):
+            jr[i, k] = p[P_N + 3 * i + k]
+        target[i] = 0.0
+    load_arm(y, p, R, tmp)
+    rho[3] = tmp
+    at = np.empty(7, np.int64)
+    at[0], at[1], at[2] = 0, 1, 2
+    rows = 3
+    stuck = int(p[P_STUCK])
+    if stuck >= 0:
+        _tangent_basis(p, stuck, jr[3], jr[4])
+        at[3], at[4] = stuck, stuck
+        target[3], target[4] = 0.0, 0.0
+        rows = 5
+    if p[P_TIP_STUCK] != 0.0 and p[P_TANEF] > 0.0 and p[P_CASE] == 0.0:
+        w = y[S_W:S_W + 3]
+        for a in (1, 2):
+            _face_rows(R, w, a, tmp)
+            jr[rows] = tmp
+            target[rows] = p[P_UDOT] * tmp[2]  # the slip is measured against the moving tip
+            at[rows] = 3
+            rows += 1
+    for i in range(rows):
+        c = at[i]
+        a, b, d = _cross(rho[c, 0], rho[c, 1], rho[c, 2], jr[i, 0], jr[i, 1], jr[i, 2])
+        jth[i, 0] = a; jth[i, 1] = b; jth[i, 2] = d
+    return rows
+
+
+@njit(cache=True)
+def _mass_weighted_correction(y, p, rows, jr, jth, resid, dr, dth) -> bool:
+    """Smallest kinetic-energy-weighted (dr, dtheta) with J (dr, dtheta) = -resid (first ``rows`` rows)."""
+    m = p[P_MASS]
+    R = np.empty((3, 3))
+    quat_to_matrix(y[S_Q:S_Q + 4], R)
+    iinv = np.empty((3, 3))
+    _world_inverse_inertia(R, p, iinv)
+    ijt = np.empty((7, 3))  # I^-1 (rho_i x n_i), row i
+    for i in range(rows):
+        for k in range(3):
+            ijt[i, k] = iinv[k, 0] * jth[i, 0] + iinv[k, 1] * jth[i, 1] + iinv[k, 2] * jth[i, 2]
+    kmat = np.empty((7, 7))
+    for i in range(rows):
+        for j in range(rows):
+            kmat[i, j] = (jr[i, 0] * jr[j, 0] + jr[i, 1] * jr[j, 1] + jr[i, 2] * jr[j, 2]) / m \
+                + jth[i, 0] * ijt[j, 0] + jth[i, 1] * ijt[j, 1] + jth[i, 2] * ijt[j, 2]
+    lam = np.empty(7)
+    if not _solve_small(kmat, resid, rows, lam):
+        return False
+    for k in range(3):
+        dr[k] = 0.0
+        dth[k] = 0.0
+        for i in range(rows):
+            dr[k] -= lam[i] * jr[i, k] / m
+            dth[k] -= lam[i] * ijt[i, k]
+    return True
+
+
+@njit(cache=True)
+def constraint_residual(y: np.ndarray, p: np.ndarray) -> float:
+    """Largest distance (m) of a contact point from its plane."""
+    cps = np.empty((3, 3))
+    contact_points(y, p, cps)
+    worst = 0.0
+    for i in range(3):
+        g = p[P_N + 3 * i] * cps[i, 0] + p[P_N + 3 * i + 1] * cps[i, 1] + p[P_N + 3 * i + 2] * cps[i, 2]
+        worst = max(worst, abs(g))
+    return worst
+
+
+@njit(cache=True)
+def project(y: np.ndarray, p: np.ndarray) -> bool:
+    """Put the contact points back on their planes and their velocities in the planes, in place.
+
+    Mass-weighted least-squares corrections (the correction of least kinetic energy), Gauss-Newton passes
+    until the residual is below 1e-13 m; a stuck contact's velocity is also set to zero. Normalises the
+    quaternion.
+    """
+    qn = math.sqrt(y[S_Q] ** 2 + y[S_Q + 1] ** 2 + y[S_Q + 2] ** 2 + y[S_Q + 3] ** 2)
+    for k in range(4):
+        y[S_Q + k] /= qn
+    jr = np.empty((7, 3))
+    jth = np.empty((7, 3))
+    resid = np.zeros(7)
+    target = np.empty(7)
+    dr = np.empty(3)
+    dth = np.empty(3)
+    cps = np.empty((3, 3))
+    for _ in range(6):
+        contact_points(y, p, cps)
+        worst = 0.0
+        for i in range(3):
+            g = p[P_N + 3 * i] * cps[i, 0] + p[P_N + 3 * i + 1] * cps[i, 1] + p[P_N + 3 * i + 2] * cps[i, 2]
+            resid[i] = g
+            worst = max(worst, abs(g))
+        if worst < 1e-13:
+            break
+        _constraint_rows(y, p, jr, jth, target)
+        if not _mass_weighted_correction(y, p, 3, jr, jth, resid, dr, dth):
+            return False
+        for k in range(3):
+            y[S_R + k] += dr[k]
+        # q <- exp(dth) q, to first order (the correction is tiny), then renormalise.
+        qw, qx, qy, qz = y[S_Q], y[S_Q + 1], y[S_Q + 2], y[S_Q + 3]
+        y[S_Q] = qw + 0.5 * (-dth[0] * qx - dth[1] * qy - dth[2] * qz)
+        y[S_Q + 1] = qx + 0.5 * (dth[0] * qw + dth[1] * qz - dth[2] * qy)
+        y[S_Q + 2] = qy + 0.5 * (-dth[0] * qz + dth[1] * qw + dth[2] * qx)
+        y[S_Q + 3] = qz + 0.5 * (dth[0] * qy - dth[1] * qx + dth[2] * qw)
+        qn = math.sqrt(y[S_Q] ** 2 + y[S_Q + 1] ** 2 + y[S_Q + 2] ** 2 + y[S_Q + 3] ** 2)
+        for k in range(4):
+            y[S_Q + k] /= qn
+    rows = _constraint_rows(y, p, jr, jth, target)
+    for i in range(rows):
+        resid[i] = jr[i, 0] * y[S_V] + jr[i, 1] * y[S_V + 1] + jr[i, 2] * y[S_V + 2] \
+            + jth[i, 0] * y[S_W] + jth[i, 1] * y[S_W + 1] + jth[i, 2] * y[S_W + 2] - target[i]
+    if not _mass_weighted_correction(y, p, rows, jr, jth, resid, dr, dth):
+        return False
+    for k in range(3):
+        y[S_V + k] += dr[k]
+        y[S_W + k] += dth[k]
+    return True
+
+
+# -- events ----------------------------------------------------------------------------------
+
+@njit(cache=True)
+def contact_points(y: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """World positions of CP1..CP3 into ``out`` (3, 3)."""
+    R = np.empty((3, 3))
+    quat_to_matrix(y[S_Q:S_Q + 4], R)
+    tmp = np.empty(3)
+    for i in range(3):
+        _rotate(R, p, P_C + 3 * i, tmp)
+        for k in range(3):
+            out[i, k] = y[S_R + k] + tmp[k]
+
+
+@njit(cache=True)
+def event_values(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float, slow_speed: float,
+                 out: np.ndarray) -> None:
+    """Event functions; an event has happened where its value is > 0 (``aux`` from dynamics at ``y``).
+
+    0: CP1 reached the travel target; 1-3: normal reaction of CP i is negative (lift-off); 4: the mass
+    centre's overhead projection left the contact triangle; 5-10: CP i is below another plane j by more
+    than 1e-9 m, i.e. crossed the line where the planes meet (the foundation is their upper envelope);
+    11: every contact point slower than ``slow_speed`` (a candidate arrest); 12-14: CP i slower than
+    ``slow_speed / 10`` (it stops: stick or reverse); 15: the stuck contact's friction would leave its cone;
+    16: the aft face's slip on the tip slower than ``slow_speed / 10``; 17: the stuck tip's friction would
+    leave its cone.
+    """
+    cp = np.empty((3, 3))
+    contact_points(y, p, cp)
+    out[0] = cp[0, 0] - x1_target
+    for i in range(3):
+        out[1 + i] = -aux[A_N + i]
+    # Barycentric coordinates of the mass centre in the overhead triangle.
+    ax, az = cp[0, 0], cp[0, 2]
+    bx, bz = cp[1, 0] - ax, cp[1, 2] - az
+    cx, cz = cp[2, 0] - ax, cp[2, 2] - az
+    px, pz = y[S_R] - ax, y[S_R + 2] - az
+    det = bx * cz - bz * cx
+    l1 = (px * cz - pz * cx) / det
+    l2 = (bx * pz - bz * px) / det
+    out[4] = -min(1.0 - l1 - l2, min(l1, l2))
+    k = 5
+    for i in range(3):
+        for j in range(3):
+            if i != j:
+                nj0, nj1, nj2 = p[P_N + 3 * j], p[P_N + 3 * j + 1], p[P_N + 3 * j + 2]
+                hj = -(nj0 * cp[i, 0] + nj2 * cp[i, 2]) / nj1
+                out[k] = hj - cp[i, 1] - 1e-9
+                k += 1
+    fastest = max(aux[A_SPEED], max(aux[A_SPEED + 1], aux[A_SPEED + 2]))
+    out[EV_SLOW] = slow_speed - fastest
+    for i in range(3):
+        out[EV_STOP + i] = 0.1 * slow_speed - aux[A_SPEED + i]
+    out[EV_RELEASE] = aux[A_STICK]
+    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0
+    slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
+    out[EV_TIP_STOP] = 0.1 * slow_speed - slip if rubs else -1.0
+    out[EV_TIP_RELEASE] = aux[A_TIP_STICK]
+
+
+# -- one step of each method -------------------------------------------------------------------
+# Dormand-Prince 5(4) coefficients (Hairer, Norsett & Wanner, Solving ODEs I, table 5.2).
+_C = np.array([0.0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1.0, 1.0])
+_A = np.array([
+    [0, 0, 0, 0, 0, 0],
+    [1 / 5, 0, 0, 0, 0, 0],
+    [3 / 40, 9 / 40, 0, 0, 0, 0],
+    [44 / 45, -56 / 15, 32 / 9, 0, 0, 0],
+    [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0, 0],
+    [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656, 0],
+    [35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84]])
+_E = np.array([71 / 57600, 0, -71 / 16695, 71 / 1920, -17253 / 339200, 22 / 525, -1 / 40])
+
+METHOD_EULER, METHOD_RK4, METHOD_DOPRI5 = 0, 1, 2
+
+
+@njit(cache=True)
+def step(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
+         err: np.ndarray, aux: np.ndarray) -> bool:
+    """One step of size ``h`` from (t, y) into ``y_new`` (not projected); ``err`` gets DOPRI5's estimate."""
+    n = y.shape[0]
+    if method == METHOD_EULER:  # the paper's eq. 40
+        k = np.empty(n)
+        if not rhs(t, y, p, k, aux):
+            return False
+        for i in range(n):
+            y_new[i] = y[i] + h * k[i]
+        return True
+    if method == METHOD_RK4:
+        k1 = np.empty(n); k2 = np.empty(n); k3 = np.empty(n); k4 = np.empty(n); tmp = np.empty(n)
+        if not rhs(t, y, p, k1, aux):
+            return False
+        for i in range(n):
+            tmp[i] = y[i] + 0.5 * h * k1[i]
+        if not rhs(t + 0.5 * h, tmp, p, k2, aux):
+            return False
+        for i in range(n):
+            tmp[i] = y[i] + 0.5 * h * k2[i]
+        if not rhs(t + 0.5 * h, tmp, p, k3, aux):
+            return False
+        for i in range(n):
+            tmp[i] = y[i] + h * k3[i]
+        if not rhs(t + h, tmp, p, k4, aux):
+            return False
+        for i in range(n):
+            y_new[i] = y[i] + h / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
+        return True
+    k = np.empty((7, n))
+    tmp = np.empty(n)
+    if not rhs(t, y, p, k[0], aux):
+        return False
+    for s in range(1, 7):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += _A[s, j] * k[j, i]
+            tmp[i] = y[i] + h * acc
+        if not rhs(t + _C[s] * h, tmp, p, k[s], aux):
+            return False
+    for i in range(n):
+        y_new[i] = tmp[i]  # stage 7 is the 5th-order solution (FSAL)
+        e = 0.0
+        for j in range(7):
+            e += _E[j] * k[j, i]
+        err[i] = h * e
+    return True
+
+
+@njit(cache=True)
+def _error_norm(y: np.ndarray, y_new: np.ndarray, err: np.ndarray, rtol: float, atol: float) -> float:
+    s = 0.0
+    for i in range(y.shape[0]):
+        sc = atol + rtol * max(abs(y[i]), abs(y_new[i]))
+        s += (err[i] / sc) ** 2
+    return math.sqrt(s / y.shape[0])
+
+
+@njit(cache=True)
+def _advance(method, t, y, h, p, y_new, err, aux) -> bool:
+    """A step followed by projection; then evaluate dynamics at the new state to fill ``aux``."""
+    if not step(method, t, y, h, p, y_new, err, aux):
+        return False
+    if not project(y_new, p):
+        return False
+    dummy = np.empty(y.shape[0])
+    if not rhs(t + h, y_new, p, dummy, aux):
+        return False
+    for i in range(y_new.shape[0]):
+        if not math.isfinite(y_new[i]):
+            return False
+    return True
+
+
+@njit(cache=True)
+def integrate(method: int, t0: float, y0: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
+              t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
+              out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray):
+    """Integrate from (t0, y0) until an event, ``t_max`` or the buffer is full.
+
+    Records every accepted step (row 0 = the start). ``h`` is the fixed step (Euler, RK4) or the first trial
+    step (DOPRI5). A terminal event is located to 1e-13 s by re-stepping from the last accepted state with
+    a shorter step (Illinois regula falsi on the step length), so the last row lies on the event.
+    ``armed`` (5 flags, updated in place): whether the all-slow event, each contact's and the tip's stop
+    event may fire; each arms once its speed has exceeded twice its threshold, so a start from rest does not count.
+    Returns (rows written, status code, event index or -1, last step size).
+    """
+    n = y0.shape[0]
+    y = y0.copy()
+    aux = np.empty(N_AUX)
+    dummy = np.empty(n)
+    if not rhs(t0, y, p, dummy, aux):
+        return 0, ST_STEP_FAILED, -1, h
+    ev_old = np.empty(N_EVENTS)
+    ev_new = np.empty(N_EVENTS)
+    event_values(y, p, aux, x1_target, slow_speed, ev_old)
+    out_t[0] = t0
+    out_y[0] = y
+    out_aux[0] = aux
+    rows = 1
+    t = t0
+    y_new = np.empty(n)
+    err = np.empty(n)
+    aux_new = np.empty(N_AUX)
+    for k in range(EV_SLOW):
+        if ev_old[k] > 0.0:
+            return rows, _status_of(k), k, h
+    while True:
+        if rows >= out_t.shape[0]:
+            return rows, ST_BUFFER_FULL, -1, h
+        if t >= t_max:
+            return rows, ST_TIME_LIMIT, -1, h
+        h_try = min(h, t_max - t)
+        if not _advance(method, t, y, h_try, p, y_new, err, aux_new):
+            if method == METHOD_DOPRI5 and h_try > 1e-12:
+                h = 0.25 * h_try
+                continue
+            return rows, ST_STEP_FAILED, -1, h
+        if method == METHOD_DOPRI5:
+            en = _error_norm(y, y_new, err, rtol, atol)
+            if en > 1.0:
+                h = h_try * max(0.2, 0.9 * en ** -0.2)
+                if h < 1e-12:
+                    return rows, ST_STEP_FAILED, -1, h
+                continue
+            h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
+        else:
+            h_next = h
+        event_values(y_new, p, aux_new, x1_target, slow_speed, ev_new)
+        hit = -1
+        for k in range(N_EVENTS):
+            if (k == EV_SLOW and not armed[0]) or (EV_STOP <= k < EV_RELEASE and not armed[k - EV_STOP + 1]) \
+                    or (k == EV_TIP_STOP and not armed[4]):
+                continue
+            if ev_new[k] > 0.0 and ev_old[k] <= 0.0:
+                hit = k
+                break
+        if hit >= 0:
+            h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
+                           y_new, err, aux_new)
+            if h_ev < 0.0:
+                return rows, ST_STEP_FAILED, -1, h
+            t = t + h_ev
+            out_t[rows] = t
+            out_y[rows] = y_new
+            out_aux[rows] = aux_new
+            return rows + 1, _status_of(hit), hit, h
+        t = t + h_try
+        for i in range(n):
+            y[i] = y_new[i]
+        for k in range(N_EVENTS):
+            ev_old[k] = ev_new[k]
+        if ev_new[EV_SLOW] < -slow_speed:
+            armed[0] = True  # arrest can only be detected once the block has really moved
+        for i in range(3):
+            if ev_new[EV_STOP + i] < -0.1 * slow_speed:
+                armed[i + 1] = True
+        if ev_new[EV_TIP_STOP] < -0.1 * slow_speed:
+            armed[4] = True
+        out_t[rows] = t
+        out_y[rows] = y
+        out_aux[rows] = aux_new
+        rows += 1
+        h = h_next
+
+
+@njit(cache=True)
+def _status_of(event: int) -> int:
+    if event == 0:
+        return ST_TRAVEL
+    if event <= 3:
+        return ST_LIFT_OFF
+    if event == 4:
+        return ST_MC_OUTSIDE
+    if event <= 10:
+        return ST_LEFT_PLANE
+    if event == EV_SLOW:
+        return ST_SLOW
+    if event < EV_RELEASE or event == EV_TIP_STOP:
+        return ST_STOPPED
+    return ST_RELEASE
+
+
+@njit(cache=True)
+def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux) -> float:
+    """Step length in (0, h] at which event ``which`` crosses zero; fills y_new/aux there. -1 on failure."""
+    ev = np.empty(N_EVENTS)
+    lo, hi = 0.0, h
+    f_lo, f_hi = g_lo, g_hi
+    side = 0
+    y_hi = y_new.copy()
+    aux_hi = aux.copy()
+    for _ in range(80):
+        if hi - lo < 1e-13:
+            break
+        mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
+        if not (lo < mid < hi):
+            mid = 0.5 * (lo + hi)
+        if not _advance(method, t, y, mid, p, y_new, err, aux):
+            return -1.0
+        event_values(y_new, p, aux, x1_target, slow_speed, ev)
+        g = ev[which]
+        if g > 0.0:
+            hi, f_hi = mid, g
+            y_hi[:] = y_new
+            aux_hi[:] = aux
+            if side == 1:
+                f_lo *= 0.5
+            side = 1
+        else:
+            lo, f_lo = mid, g
+            if side == -1:
+                f_hi *= 0.5
+            side = -1
+            if abs(g) < 1e-14:
+                hi = mid
+                y_hi[:] = y_new
+                aux_hi[:] = aux
+                break
+    y_new[:] = y_hi
+    aux[:] = aux_hi
+    return hi
+
+
+@njit(cache=True)
+def advance_fixed(method: int, t: float, y: np.ndarray, p: np.ndarray, dt: float, n_sub: int,
+                  x1_target: float, events: np.ndarray, aux: np.ndarray) -> bool:
+    """``n_sub`` fixed steps of ``dt/n_sub`` in place (the env's control interval); events at the end.
+
+    Does not locate events within the interval: the env reports them at control-step resolution.
+    """
+    n = y.shape[0]
+    y_new = np.empty(n)
+    err = np.empty(n)
+    h = dt / n_sub
+    for k in range(n_sub):
+        if not _advance(method, t + k * h, y, h, p, y_new, err, aux):
+            return False
+        y[:] = y_new
+    event_values(y, p, aux, x1_target, 0.0, events)
+    return True
+
+
+@njit(cache=True)
+def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, max_iter: int) -> tuple:
+    """Set ``p[P_D0:]`` to the directions in which the resting sliding sites begin to slip.
+
+    Friction at a site with zero slip must oppose its incipient slip, which depends on all the friction
+    directions: a fixed point (directions -> slip accelerations -> directions), damped if it oscillates.
+    Returns (converged, consistency): the smallest cosine between a resting site's direction and its
+    slip acceleration (1: friction exactly opposes the incipient motion everywhere).
+    """
+    aux = np.empty(N_AUX)
+    dy = np.empty(y.shape[0])
+    for k in range(12):
+        p[P_D0 + k] = 0.0
+    if not rhs(t, y, p, dy, aux):
+        return False, -1.0
+    resting = np.zeros(4, np.bool_)
+    stuck = int(p[P_STUCK])
+    for j in range(3):
+        resting[j] = j != stuck and aux[A_SPEED + j] <= ZERO_SPEED
+    slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
+    resting[3] = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0 and slip <= ZERO_SPEED
+    d = np.zeros(12)
+    new = np.zeros(12)
+    damping = 1.0
+    converged = False
+    for it in range(max_iter):
+        change = 0.0
+        for s in range(4):
+            if not resting[s]:
+                continue
+            a0, a1, a2 = aux[A_ACC + 3 * s], aux[A_ACC + 3 * s + 1], aux[A_ACC + 3 * s + 2]
+            norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+            if norm > 1e-12:
+                new[3 * s], new[3 * s + 1], new[3 * s + 2] = a0 / norm, a1 / norm, a2 / norm
+            for k in range(3):
+                change = max(change, abs(new[3 * s + k] - d[3 * s + k]))
+        if change < 1e-13:
+            converged = True
+            break
+        if it > 0 and it % 40 == 0:
+            damping *= 0.5
+        for s in range(4):
+            if not resting[s]:
+                continue
+            norm = 0.0
+            for k in range(3):
+                d[3 * s + k] = new[3 * s + k] if it == 0 else d[3 * s + k] + damping * (new[3 * s + k] - d[3 * s + k])
+                norm += d[3 * s + k] ** 2
+            norm = math.sqrt(norm)
+            for k in range(3):
+                if norm > 0.0:
+                    d[3 * s + k] /= norm
+                p[P_D0 + 3 * s + k] = d[3 * s + k]
+        if not rhs(t, y, p, dy, aux):
+            return False, -1.0
+    consistency = 1.0
+    for s in range(4):
+        if not resting[s]:
+            continue
+        a0, a1, a2 = aux[A_ACC + 3 * s], aux[A_ACC + 3 * s + 1], aux[A_ACC + 3 * s + 2]
+        norm = math.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        if norm > 1e-12:
+            consistency = min(consistency, (a0 * d[3 * s] + a1 * d[3 * s + 1] + a2 * d[3 * s + 2]) / norm)
+    return converged, consistency

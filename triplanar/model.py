@@ -1,0 +1,197 @@
+"""A complete model: specimen + foundation + loading + friction law + effects, packed for the kernel.
+
+Paper cases (section 4): ``A`` actuator with end friction, ``B`` actuator without it, ``C`` hydrostatic
+(frictionless, along g1 at the body-fixed ``P_CL``). Cases D-F are A/B with a scaled specimen
+(:mod:`triplanar.specimen`'s ``scale_size``, ``scale_mass``, ``scale_uniform``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Iterable, Literal
+
+import numpy as np
+
+from . import kernel as K
+from .effects import Effect
+from .specimen import GRAVITY, PLANE_TOLERANCE_M, Foundation, Specimen, SpecimenError, reference
+
+PAPER_CASES = ("A", "B", "C")
+
+
+@dataclass(frozen=True)
+class Loading:
+    """How the block is pushed.
+
+    Attributes (paper names in brackets):
+        force_N: commanded thrust [F_T].
+        kind: ``"actuator"`` - force ``F_T e1`` at the instantaneous load point ``P_L`` where the space-fixed
+            tip line meets the aft face (eq. 27-30); ``"hydrostatic"`` - force ``F_T g1`` at ``P_CL`` (case C).
+        end_friction: whether the tip rubs on the aft face with the specimen's ``tip_friction_deg``
+            [F_EF, eq. 32-33]; only meaningful for the actuator.
+        tip_offset_m: lateral (+e3) offset of the tip line from the aft-face centreline at rest.
+        rise_time_s: actuator force time constant (0: the force is the command from the start).
+    """
+
+    force_N: float
+    kind: Literal["actuator", "hydrostatic"] = "actuator"
+    end_friction: bool = True
+    tip_offset_m: float = 0.0
+    rise_time_s: float = 0.0
+
+
+@dataclass(frozen=True)
+class BlockState:
+    """What a user effect's ``wrench`` sees: the block's kinematics at one instant (world frame, SI)."""
+
+    t: float
+    position: np.ndarray        # mass centre
+    rotation: np.ndarray        # 3x3, columns g1, g2, g3
+    velocity: np.ndarray        # of the mass centre
+    omega: np.ndarray           # angular velocity
+    contact_points: np.ndarray  # (3, 3)
+    contact_velocities: np.ndarray
+    thrust_N: float
+
+
+@dataclass(frozen=True)
+class Model:
+    """Everything a simulation needs. Build with :func:`paper_model` or directly; add effects with
+    :meth:`with_effects`."""
+
+    loading: Loading
+    specimen: Specimen = field(default_factory=lambda: reference()[0])
+    foundation: Foundation = field(default_factory=lambda: reference()[1])
+    rate_a: float = 0.0
+    rate_v0_m_s: float = 0.05
+    effects: tuple[Effect, ...] = ()
+
+    def with_effects(self, effects: Iterable[Effect]) -> Model:
+        """This model with each effect applied in turn (and recorded in ``effects``)."""
+        model = self
+        for effect in effects:
+            model = replace(effect.apply(model), effects=model.effects + (effect,))
+        return model
+
+    @property
+    def force_effects(self) -> tuple[Effect, ...]:
+        return tuple(e for e in self.effects if e.has_wrench)
+
+    @property
+    def tan_phi_EF(self) -> float:
+        """End friction coefficient in use (0 when off or for the hydrostatic load)."""
+        if self.loading.kind != "actuator" or not self.loading.end_friction:
+            return 0.0
+        return math.tan(math.radians(self.specimen.tip_friction_deg))
+
+    def validate(self) -> None:
+        s, load = self.specimen, self.loading
+        if not (math.isfinite(load.force_N) and load.force_N >= 0):
+            raise SpecimenError("loading.force_N", f"must be finite and non-negative, got {load.force_N}")
+        if load.kind not in ("actuator", "hydrostatic"):
+            raise SpecimenError("loading.kind", f"must be 'actuator' or 'hydrostatic', got {load.kind!r}")
+        if not (math.isfinite(load.rise_time_s) and load.rise_time_s >= 0):
+            raise SpecimenError("loading.rise_time_s", f"must be >= 0, got {load.rise_time_s}")
+        if not math.isfinite(load.tip_offset_m):
+            raise SpecimenError("loading.tip_offset_m", "must be finite")
+        if self.rate_a != 0.0 and not self.rate_v0_m_s > 0:
+            raise SpecimenError("rate_v0_m_s", f"must be positive, got {self.rate_v0_m_s}")
+        # Tilted planes (plane_tilt) legitimately move the planes off the drawn contact points: the block is
+        # re-seated by initial_state(), so only then is a few millimetres allowed.
+        tilted = any(e.name == "plane_tilt" for e in self.effects)
+        s.validate(self.foundation, plane_tolerance_m=0.005 if tilted else PLANE_TOLERANCE_M)
+
+    # -- packing for the kernel --------------------------------------------------------------
+    def kernel_params(self) -> np.ndarray:
+        """The kernel's parameter vector (layout: ``kernel.P_*``)."""
+        s = self.specimen
+        p = np.zeros(K.N_PARAM)
+        g = s.body_axes                      # rest body frame, columns g1 g2 g3
+        com = s.mass_centre_world
+        p[K.P_MASS] = s.mass_kg
+        p[K.P_G] = GRAVITY
+        p[K.P_IB:K.P_IB + 9] = s.inertia_kg_m2.ravel()
+        p[K.P_IBINV:K.P_IBINV + 9] = np.linalg.inv(s.inertia_kg_m2).ravel()
+        p[K.P_C:K.P_C + 9] = ((s.contact_points_m - com) @ g).ravel()
+        p[K.P_N:K.P_N + 9] = self.foundation.normals.ravel()
+        p[K.P_TANPHI:K.P_TANPHI + 3] = np.tan(np.radians(s.friction_deg))
+        p[K.P_TANEF] = self.tan_phi_EF
+        p[K.P_CASE] = 0.0 if self.loading.kind == "actuator" else 1.0
+        p[K.P_FCMD] = self.loading.force_N
+        p[K.P_TAU] = self.loading.rise_time_s
+        p[K.P_PCL:K.P_PCL + 3] = (s.load_point_world - com) @ g
+        p[K.P_TIP0:K.P_TIP0 + 3] = s.load_point_world
+        p[K.P_RATE_A] = self.rate_a
+        p[K.P_RATE_V0] = self.rate_v0_m_s
+        p[K.P_USER] = 1.0 if self.force_effects else 0.0
+        p[K.P_STUCK] = -1.0
+        p[K.P_TIP_STUCK] = 0.0
+        return p
+
+    def initial_state(self, thrust_N: float | None = None) -> np.ndarray:
+        """The block at rest, seated on the planes; actuator force ``thrust_N`` (default: the command)."""
+        s = self.specimen
+        y = np.zeros(K.N_STATE)
+        y[K.S_R:K.S_R + 3] = s.mass_centre_world
+        y[K.S_Q:K.S_Q + 4] = quaternion_from_matrix(s.body_axes)
+        y[K.S_F] = self.loading.force_N if thrust_N is None else thrust_N
+        y[K.S_U] = self.loading.tip_offset_m
+        p = self.kernel_params()
+        if not K.project(y, p):
+            raise SpecimenError("foundation.planes", "the block cannot be seated on these planes")
+        return y
+
+    def block_state(self, t: float, y: np.ndarray) -> BlockState:
+        """Decode a kernel state for user code."""
+        rot = np.empty((3, 3))
+        K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], rot)
+        cps = np.empty((3, 3))
+        K.contact_points(y, self.kernel_params_cached, cps)
+        v, w = y[K.S_V:K.S_V + 3].copy(), y[K.S_W:K.S_W + 3].copy()
+        r = y[K.S_R:K.S_R + 3].copy()
+        cpv = v + np.cross(w, cps - r)
+        thrust = self.loading.force_N if self.loading.rise_time_s <= 0 else float(y[K.S_F])
+        return BlockState(t, r, rot, v, w, cps, cpv, thrust)
+
+    @property
+    def kernel_params_cached(self) -> np.ndarray:
+        cached = self.__dict__.get("_params")
+        if cached is None:
+            cached = self.kernel_params()
+            object.__setattr__(self, "_params", cached)
+        return cached
+
+
+def paper_model(case: str, force_N: float, specimen: Specimen | None = None, foundation: Foundation | None = None,
+                effects: Iterable[Effect] = ()) -> Model:
+    """The paper's case ``A`` (end friction), ``B`` (none) or ``C`` (hydrostatic) at ``force_N``."""
+    case = case.upper()
+    if case not in PAPER_CASES:
+        raise SpecimenError("case", f"must be one of {PAPER_CASES} (D-F are A/B with a scaled specimen), got {case!r}")
+    ref_specimen, ref_foundation = reference()
+    loading = Loading(force_N=float(force_N), kind="hydrostatic" if case == "C" else "actuator",
+                      end_friction=(case == "A"))
+    model = Model(loading, specimen or ref_specimen, foundation or ref_foundation)
+    model = model.with_effects(effects)
+    model.validate()
+    return model
+
+
+def quaternion_from_matrix(m: np.ndarray) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method)."""
+    tr = np.trace(m)
+    if tr > 0:
+        s = 2.0 * math.sqrt(tr + 1.0)
+        q = [0.25 * s, (m[2, 1] - m[1, 2]) / s, (m[0, 2] - m[2, 0]) / s, (m[1, 0] - m[0, 1]) / s]
+    else:
+        i = int(np.argmax(np.diag(m)))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        s = 2.0 * math.sqrt(1.0 + m[i, i] - m[j, j] - m[k, k])
+        q = [0.0] * 4
+        q[0] = (m[k, j] - m[j, k]) / s
+        q[1 + i] = 0.25 * s
+        q[1 + j] = (m[j, i] + m[i, j]) / s
+        q[1 + k] = (m[k, i] + m[i, k]) / s
+    q = np.array(q)
+    return q / np.linalg.norm(q)

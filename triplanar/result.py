@@ -1,0 +1,184 @@
+"""The result of one simulated test: what happened, the trajectory, the forces and the energy budget."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+
+from . import kernel as K
+from .measurement import MeasuredTest, write_measurements
+from .model import Model
+
+
+def rotation_matrices(quaternions: np.ndarray) -> np.ndarray:
+    """(n, 4) unit quaternions (w, x, y, z) to (n, 3, 3) rotation matrices (columns g1, g2, g3)."""
+    w, x, y, z = (quaternions[:, i] for i in range(4))
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
+        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
+        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1)], axis=1)
+
+
+@dataclass(frozen=True)
+class SimulationResult:
+    """A simulated test, ``solve_ivp``-style: ``status``, ``message``, ``success`` and the trajectory.
+
+    Rows are the integrator's accepted steps; ``t`` is time since the start of sliding (``t_start_s`` is
+    when sliding started after the actuator began to push: 0 unless the force rises). The last row is the
+    final state itself (for ``status == "travel"``, at exactly the travel target).
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    aux: np.ndarray
+    status: str
+    message: str
+    model: Model
+    method: str
+    t_start_s: float
+    travel_target_m: float
+    incipient_converged: bool
+    incipient_consistency: float
+
+    @property
+    def success(self) -> bool:
+        """False only when the integration itself failed; every physical ending is a success."""
+        return self.status != "failed"
+
+    # -- kinematics ------------------------------------------------------------------------
+    @cached_property
+    def rotation(self) -> np.ndarray:
+        """(n, 3, 3) body frame [g1 g2 g3] in world coordinates."""
+        q = self.y[:, K.S_Q:K.S_Q + 4]
+        return rotation_matrices(q / np.linalg.norm(q, axis=1, keepdims=True))
+
+    @cached_property
+    def _body_cps(self) -> np.ndarray:
+        return self.model.kernel_params()[K.P_C:K.P_C + 9].reshape(3, 3)
+
+    @property
+    def mass_centre(self) -> np.ndarray:
+        return self.y[:, K.S_R:K.S_R + 3]
+
+    @cached_property
+    def contact_points(self) -> np.ndarray:
+        """(n, 3, 3): sample, CP1..CP3, coordinate x1..x3 (the paper's q1..q9)."""
+        return self.mass_centre[:, None, :] + np.einsum("nij,cj->nci", self.rotation, self._body_cps)
+
+    @cached_property
+    def contact_velocities(self) -> np.ndarray:
+        arms = self.contact_points - self.mass_centre[:, None, :]
+        omega = self.y[:, K.S_W:K.S_W + 3]
+        return self.y[:, None, K.S_V:K.S_V + 3] + np.cross(omega[:, None, :], arms)
+
+    @property
+    def normal_reactions(self) -> np.ndarray:
+        """(n, 3) normal reactions N1..N3 (N), the paper's lambda_1..3."""
+        return self.aux[:, K.A_N:K.A_N + 3]
+
+    @property
+    def load_point(self) -> np.ndarray:
+        """(n, 3) instantaneous load point P_L (world); P_CL for the hydrostatic load."""
+        return self.aux[:, K.A_PL:K.A_PL + 3]
+
+    @cached_property
+    def load_point_on_face(self) -> np.ndarray:
+        """(n, 2) where the load acts on the aft face: (height along g2, lateral along g3) from CP1.
+
+        At rest this is (A, -B); the paper's k2, k3 (eq. 28) are the change from there.
+        """
+        rel = self.load_point - self.contact_points[:, 0, :]
+        return np.stack([np.einsum("ni,ni->n", rel, self.rotation[:, :, 1]),
+                         np.einsum("ni,ni->n", rel, self.rotation[:, :, 2])], axis=1)
+
+    @property
+    def thrust(self) -> np.ndarray:
+        return self.aux[:, K.A_FT]
+
+    @property
+    def travel(self) -> np.ndarray:
+        """CP1's displacement along e1 since rest (m): the paper's Delta q1."""
+        return self.contact_points[:, 0, 0] - self.contact_points[0, 0, 0]
+
+    @cached_property
+    def rotation_deg(self) -> np.ndarray:
+        """Turn of the block about the vertical, degrees, positive counter-clockwise in the paper's overhead
+        plots (x1 right, x3 up): positive when the front drifts toward +e3 faster than the rear."""
+        g1 = self.rotation[:, :, 0]
+        g1_0 = self.rotation[0, :, 0]
+        return np.degrees(np.arctan2(g1[:, 2], g1[:, 0]) - np.arctan2(g1_0[2], g1_0[0]))
+
+    # -- energy ----------------------------------------------------------------------------
+    @cached_property
+    def energy(self) -> dict[str, np.ndarray]:
+        """Energy terms (J) since rest. Balance: ``work_load + work_other = kinetic + potential +
+        dissipated_contacts.sum(1) + dissipated_tip``; ``residual`` is the difference."""
+        m = self.model.specimen.mass_kg
+        v = self.y[:, K.S_V:K.S_V + 3]
+        omega = self.y[:, K.S_W:K.S_W + 3]
+        inertia = self.model.specimen.inertia_kg_m2
+        w_body = np.einsum("nji,nj->ni", self.rotation, omega)
+        kinetic = 0.5 * m * np.einsum("ni,ni->n", v, v) + 0.5 * np.einsum("ni,ij,nj->n", w_body, inertia, w_body)
+        potential = m * self.model.kernel_params()[K.P_G] * (self.mass_centre[:, 1] - self.mass_centre[0, 1])
+        out = {"work_load": self.y[:, K.S_WLOAD], "work_other": self.y[:, K.S_WOTHER], "kinetic": kinetic,
+               "potential": potential, "dissipated_contacts": self.y[:, K.S_DC:K.S_DC + 3],
+               "dissipated_tip": self.y[:, K.S_DTIP]}
+        out["residual"] = out["work_load"] + out["work_other"] - kinetic - potential \
+            - out["dissipated_contacts"].sum(axis=1) - out["dissipated_tip"]
+        return out
+
+    # -- paths by distance -----------------------------------------------------------------
+    def time_at_travel(self, travel: np.ndarray) -> np.ndarray:
+        """Times at which CP1 has travelled ``travel`` (m): cubic Hermite in time, Newton-refined."""
+        travel = np.asarray(travel, dtype=float)
+        s, x1v = self.travel, self.contact_velocities[:, 0, 0]
+        if travel.size and (travel.min() < 0 or travel.max() > s[-1] + 1e-12):
+            raise ValueError(f"travel must lie within [0, {s[-1]:.6g}] m, the simulated range")
+        t = np.interp(travel, s, self.t)
+        for _ in range(3):
+            pos, vel = self._hermite(t, s, x1v)
+            t = np.clip(t - (pos - travel) / np.maximum(vel, 1e-9), self.t[0], self.t[-1])
+        return t
+
+    def _hermite(self, t_query: np.ndarray, values: np.ndarray, slopes: np.ndarray):
+        """Cubic Hermite interpolation of per-row ``values`` with time derivatives ``slopes``."""
+        i = np.clip(np.searchsorted(self.t, t_query, side="right") - 1, 0, len(self.t) - 2)
+        h = self.t[i + 1] - self.t[i]
+        u = ((t_query - self.t[i]) / h).reshape(-1, *([1] * (values.ndim - 1)))
+        hh = h.reshape(u.shape)
+        h00, h10, h01, h11 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
+        pos = h00 * values[i] + h10 * hh * slopes[i] + h01 * values[i + 1] + h11 * hh * slopes[i + 1]
+        dh00, dh10, dh01, dh11 = 6 * u**2 - 6 * u, 3 * u**2 - 4 * u + 1, -6 * u**2 + 6 * u, 3 * u**2 - 2 * u
+        vel = (dh00 * values[i] + dh10 * hh * slopes[i] + dh01 * values[i + 1] + dh11 * hh * slopes[i + 1]) / hh
+        return pos, vel
+
+    def resample_by_travel(self, travel: np.ndarray) -> np.ndarray:
+        """(m, 3, 3) contact-point positions where CP1 has travelled ``travel`` (m)."""
+        t = self.time_at_travel(travel)
+        pos, _ = self._hermite(t, self.contact_points, self.contact_velocities)
+        return pos
+
+    # -- reporting -------------------------------------------------------------------------
+    def summary(self) -> dict[str, object]:
+        """The figures a laboratory reads off a test."""
+        cps = self.contact_points
+        speeds = np.linalg.norm(self.contact_velocities, axis=2)
+        return {"status": self.status, "message": self.message, "force_N": self.model.loading.force_N,
+                "duration_s": float(self.t[-1]), "travel_m": float(self.travel[-1]),
+                "peak_speed_m_s": float(speeds.max()),
+                "lateral_dilation_m": (cps[-1, :, 2] - cps[0, :, 2]).tolist(),
+                "rotation_deg": float(self.rotation_deg[-1]),
+                "max_constraint_residual_m": float(np.abs(np.einsum(
+                    "ci,nci->nc", self.model.foundation.normals, cps)).max())}
+
+    def to_measured(self, test_id: str) -> MeasuredTest:
+        """This trajectory as a measured test (every accepted step a sample, time since sliding began)."""
+        return MeasuredTest(test_id=test_id, shear_force_N=self.model.loading.force_N,
+                            positions=self.contact_points.copy(), t_s=self.t.copy())
+
+    def write_csv(self, path: str | Path, test_id: str = "model") -> None:
+        """Write the trace in the measurement format (``shared/design/measurement-format.md``)."""
+        write_measurements(path, [self.to_measured(test_id)])

@@ -1,0 +1,306 @@
+"""Specimen (the top block) and foundation (three planes): data, validation, TOML files, scaling.
+
+Frame and conventions are those of ``shared/design/reference-specimen.md``: ``e1`` forward (push
+direction), ``e2`` up, ``e3 = e1 x e2`` lateral (right when facing ``e1``); the three foundation planes
+contain the origin. Units are SI inside; angles are degrees only in these dataclasses' ``*_deg`` fields.
+
+Names follow the paper (Galic, Glaser & Goodman 2008): the body frame ``g1, g2, g3`` (section 3.1), the
+mass centre ``C`` relative to CP1 in that frame (eq. 24), and the load point ``P_CL = P1 + A g2 - B g3``
+(eq. 27).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, replace
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+GRAVITY = 9.81  # m/s^2 along -e2; 5.4 kg then weighs 52.97 N, the paper's "53 N".
+PLANE_TOLERANCE_M = 1e-9  # a contact point this close to its plane counts as on it
+
+
+class SpecimenError(ValueError):
+    """A specimen or foundation value that cannot describe a physical test; names the field."""
+
+    def __init__(self, field_name: str, problem: str, source: str | None = None):
+        self.field = field_name
+        where = f"{source}: " if source else ""
+        super().__init__(f"{where}{field_name}: {problem}")
+
+
+@dataclass(frozen=True)
+class Plane:
+    """A foundation plane through the origin, given by dip and dip direction (degrees).
+
+    ``dip_direction_deg`` is the downhill direction seen from above, clockwise from ``e1``: the
+    horizontal unit vector ``cos(a) e1 + sin(a) e3``.
+    """
+
+    dip_deg: float
+    dip_direction_deg: float = 0.0
+
+    @property
+    def normal(self) -> np.ndarray:
+        """Upward unit normal ``(sin d cos a, cos d, sin d sin a)``."""
+        d, a = math.radians(self.dip_deg), math.radians(self.dip_direction_deg)
+        return np.array([math.sin(d) * math.cos(a), math.cos(d), math.sin(d) * math.sin(a)])
+
+    def height(self, x1: np.ndarray | float, x3: np.ndarray | float) -> np.ndarray | float:
+        """Elevation ``x2`` of the plane above the horizontal point ``(x1, x3)``."""
+        n = self.normal
+        return -(n[0] * np.asarray(x1) + n[2] * np.asarray(x3)) / n[1]
+
+
+@dataclass(frozen=True)
+class Foundation:
+    """The three foundation planes FP1, FP2, FP3; contact point CPi slides on FPi."""
+
+    planes: tuple[Plane, Plane, Plane]
+
+    @property
+    def normals(self) -> np.ndarray:
+        """(3, 3) array whose row i is the upward unit normal of FP(i+1)."""
+        return np.array([p.normal for p in self.planes])
+
+    def validate(self, source: str | None = None) -> None:
+        if len(self.planes) != 3:
+            raise SpecimenError("foundation.planes", f"needs exactly 3 planes, got {len(self.planes)}", source)
+        for i, p in enumerate(self.planes):
+            for name in ("dip_deg", "dip_direction_deg"):
+                value = getattr(p, name)
+                if not math.isfinite(value):
+                    raise SpecimenError(f"foundation.planes[{i}].{name}", f"must be finite, got {value}", source)
+            if not 0.0 <= p.dip_deg < 90.0:
+                raise SpecimenError(f"foundation.planes[{i}].dip_deg", f"must lie in [0, 90), got {p.dip_deg}", source)
+        if abs(np.linalg.det(self.normals)) < 1e-9:
+            raise SpecimenError("foundation.planes", "the three normals must be independent (paper section 2)", source)
+
+
+@dataclass(frozen=True)
+class Specimen:
+    """The top block, as the paper's model needs it.
+
+    Attributes (paper names in brackets):
+        contact_points_m: rest positions of CP1, CP2, CP3 in the foundation frame, shape (3, 3).
+        mass_kg: block mass; its weight ``W = mass_kg * GRAVITY`` acts at the mass centre.
+        mass_centre_m: mass centre relative to CP1 in the body frame (g1, g2, g3) [C, eq. 24].
+        inertia_kg_m2: inertia tensor about the mass centre, axes (g1, g2, g3) [I, enters M_jl].
+        load_point_A_m, load_point_B_m: aft-face load point ``P_CL = P1 + A g2 - B g3`` [eq. 27].
+        friction_deg: residual friction angle at CP1/FP1, CP2/FP2, CP3/FP3 [phi_a, eq. 19].
+        tip_friction_deg: friction angle between load tip and aft face [phi_EF, eq. 32].
+    """
+
+    contact_points_m: np.ndarray
+    mass_kg: float
+    mass_centre_m: np.ndarray
+    inertia_kg_m2: np.ndarray
+    load_point_A_m: float
+    load_point_B_m: float
+    friction_deg: tuple[float, float, float]
+    tip_friction_deg: float
+    name: str = "custom"
+
+    def __post_init__(self) -> None:
+        # Freeze array copies so a Specimen is a value: nobody can mutate one another holds.
+        for name in ("contact_points_m", "mass_centre_m", "inertia_kg_m2"):
+            arr = np.array(getattr(self, name), dtype=float)
+            arr.setflags(write=False)
+            object.__setattr__(self, name, arr)
+        object.__setattr__(self, "friction_deg", tuple(float(x) for x in self.friction_deg))
+
+    # -- derived geometry -------------------------------------------------------------------
+    @property
+    def body_axes(self) -> np.ndarray:
+        """Rest body frame as columns ``[g1 g2 g3]`` (paper section 3.1), world coordinates."""
+        p1, p2, p3 = self.contact_points_m
+        g1 = (p2 - p1) / np.linalg.norm(p2 - p1)
+        g2 = np.cross(p2 - p1, p3 - p1)
+        g2 /= np.linalg.norm(g2)
+        return np.column_stack([g1, g2, np.cross(g1, g2)])
+
+    @property
+    def mass_centre_world(self) -> np.ndarray:
+        """Mass centre at rest, foundation frame."""
+        return self.contact_points_m[0] + self.body_axes @ self.mass_centre_m
+
+    @property
+    def load_point_world(self) -> np.ndarray:
+        """``P0_CL``: the aft-face load point at rest, foundation frame (eq. 27)."""
+        g = self.body_axes
+        return self.contact_points_m[0] + self.load_point_A_m * g[:, 1] - self.load_point_B_m * g[:, 2]
+
+    @property
+    def weight_N(self) -> float:
+        return self.mass_kg * GRAVITY
+
+    # -- validation -------------------------------------------------------------------------
+    def validate(self, foundation: Foundation, source: str | None = None,
+                 plane_tolerance_m: float = PLANE_TOLERANCE_M) -> None:
+        """Raise :class:`SpecimenError` naming the first field that cannot be right."""
+        self._check_finite(source)
+        foundation.validate(source)
+        if self.contact_points_m.shape != (3, 3):
+            raise SpecimenError("contact_points_m", f"must be 3 points of 3 coordinates, got shape "
+                                f"{self.contact_points_m.shape}", source)
+        if self.mass_kg <= 0:
+            raise SpecimenError("mass_kg", f"must be positive, got {self.mass_kg}", source)
+        self._check_inertia(source)
+        for i, phi in enumerate(self.friction_deg):
+            if not 0.0 <= phi < 45.0:
+                raise SpecimenError(f"friction_deg[{i}]", f"must lie in [0, 45), got {phi}", source)
+        if not 0.0 <= self.tip_friction_deg < 45.0:
+            raise SpecimenError("tip_friction_deg", f"must lie in [0, 45), got {self.tip_friction_deg}", source)
+        p = self.contact_points_m
+        if np.linalg.norm(np.cross(p[1] - p[0], p[2] - p[0])) < 1e-9:
+            raise SpecimenError("contact_points_m", "the three contact points are collinear", source)
+        for i, (n, point) in enumerate(zip(foundation.normals, p)):
+            off = float(n @ point)
+            if abs(off) > plane_tolerance_m:
+                raise SpecimenError(f"contact_points_m[{i}]", f"CP{i + 1} lies {off:.3e} m off its plane FP{i + 1}"
+                                    f" (must be within {plane_tolerance_m:g} m)", source)
+        bary = barycentric_horizontal(self.mass_centre_world, p)
+        if bary.min() <= 0.0:
+            raise SpecimenError("mass_centre_m", "the mass centre does not project inside the contact triangle "
+                                f"(barycentric coordinates {np.round(bary, 4).tolist()})", source)
+        if self.load_point_B_m < 0 or self.load_point_A_m < 0:
+            raise SpecimenError("load_point_A_m" if self.load_point_A_m < 0 else "load_point_B_m",
+                                "must not be negative", source)
+
+    def _check_finite(self, source: str | None) -> None:
+        values = {"contact_points_m": self.contact_points_m, "mass_kg": self.mass_kg,
+                  "mass_centre_m": self.mass_centre_m, "inertia_kg_m2": self.inertia_kg_m2,
+                  "load_point_A_m": self.load_point_A_m, "load_point_B_m": self.load_point_B_m,
+                  "friction_deg": self.friction_deg, "tip_friction_deg": self.tip_friction_deg}
+        for name, value in values.items():
+            if not np.all(np.isfinite(np.asarray(value, dtype=float))):
+                raise SpecimenError(name, "contains NaN or infinity", source)
+
+    def _check_inertia(self, source: str | None) -> None:
+        inertia = self.inertia_kg_m2
+        if inertia.shape != (3, 3):
+            raise SpecimenError("inertia_kg_m2", f"must be 3x3, got shape {inertia.shape}", source)
+        if not np.allclose(inertia, inertia.T, rtol=0, atol=1e-12 * max(1.0, np.abs(inertia).max())):
+            raise SpecimenError("inertia_kg_m2", "must be symmetric", source)
+        principal = np.linalg.eigvalsh(inertia)
+        if principal.min() <= 0:
+            raise SpecimenError("inertia_kg_m2", f"must be positive definite (principal moments "
+                                f"{principal.tolist()})", source)
+        a, b, c = principal
+        if a + b < c * (1 - 1e-12):
+            raise SpecimenError("inertia_kg_m2", f"principal moments {principal.tolist()} violate the triangle "
+                                "inequality I1 + I2 >= I3 (no real mass distribution has them)", source)
+
+
+def barycentric_horizontal(point: np.ndarray, triangle: np.ndarray) -> np.ndarray:
+    """Barycentric coordinates of ``point``'s overhead projection in the overhead triangle (x1, x3)."""
+    a, b, c = (np.array([v[0], v[2]]) for v in triangle)
+    x = np.array([point[0], point[2]])
+    m = np.column_stack([b - a, c - a])
+    l1, l2 = np.linalg.solve(m, x - a)
+    return np.array([1.0 - l1 - l2, l1, l2])
+
+
+# -- files ------------------------------------------------------------------------------------
+
+def reference() -> tuple[Specimen, Foundation]:
+    """The reference specimen and foundation of ``reference-specimen.md`` (read from the shipped TOML)."""
+    text = resources.files("triplanar").joinpath("data/reference.toml").read_text(encoding="utf-8")
+    return parse_toml(tomllib.loads(text), source="triplanar/data/reference.toml")
+
+
+def load_toml(path: str | Path) -> tuple[Specimen, Foundation]:
+    """Read a specimen/foundation TOML file (format: ``triplanar/data/reference.toml``) and validate it."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except tomllib.TOMLDecodeError as err:
+        raise SpecimenError("(file)", f"not valid TOML: {err}", str(path)) from None
+    return parse_toml(data, source=str(path))
+
+
+_SPECIMEN_KEYS = {"name", "mass_kg", "contact_points_m", "mass_centre_m", "inertia_kg_m2", "load_point_A_m",
+                  "load_point_B_m", "friction_deg", "tip_friction_deg"}
+
+
+def parse_toml(data: dict, source: str | None = None) -> tuple[Specimen, Foundation]:
+    """Build and validate (specimen, foundation) from parsed TOML (every key is required)."""
+    spec_table = data.get("specimen", {})
+    unknown = set(spec_table) - _SPECIMEN_KEYS
+    if unknown:
+        raise SpecimenError(f"specimen.{sorted(unknown)[0]}", f"unknown key (known: {sorted(_SPECIMEN_KEYS)})", source)
+    kwargs = {}
+    for key, value in spec_table.items():
+        try:
+            kwargs[key] = value if key == "name" else np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise SpecimenError(f"specimen.{key}", f"must be numeric, got {value!r}", source) from None
+        if key in ("mass_kg", "load_point_A_m", "load_point_B_m", "tip_friction_deg"):
+            if kwargs[key].shape != ():
+                raise SpecimenError(f"specimen.{key}", "must be a single number", source)
+            kwargs[key] = float(kwargs[key])
+    for key, shape in (("contact_points_m", (3, 3)), ("mass_centre_m", (3,)), ("inertia_kg_m2", (3, 3)),
+                       ("friction_deg", (3,))):
+        if key in kwargs and kwargs[key].shape != shape:
+            raise SpecimenError(f"specimen.{key}", f"must have shape {shape}, got {kwargs[key].shape}", source)
+    missing = sorted(_SPECIMEN_KEYS - {"name"} - set(kwargs))
+    if missing:
+        raise SpecimenError(f"specimen.{missing[0]}", f"missing (required: {sorted(_SPECIMEN_KEYS - {'name'})})", source)
+    specimen = Specimen(**kwargs)
+    planes_data = data.get("foundation", {}).get("planes")
+    if planes_data is None:
+        raise SpecimenError("foundation.planes", "missing: give the three planes' dip_deg and dip_direction_deg", source)
+    if len(planes_data) != 3:
+        raise SpecimenError("foundation.planes", f"needs exactly 3 planes, got {len(planes_data)}", source)
+    planes = []
+    for i, entry in enumerate(planes_data):
+        try:
+            planes.append(Plane(float(entry["dip_deg"]), float(entry.get("dip_direction_deg", 0.0))))
+        except (KeyError, TypeError, ValueError) as err:
+            raise SpecimenError(f"foundation.planes[{i}]", f"needs numeric dip_deg and dip_direction_deg "
+                                f"({err})", source) from None
+    foundation = Foundation(tuple(planes))
+    specimen.validate(foundation, source)
+    return specimen, foundation
+
+
+def to_toml(specimen: Specimen, foundation: Foundation) -> str:
+    """TOML text that :func:`load_toml` reads back to the same specimen and foundation."""
+    def arr(a: np.ndarray) -> str:
+        return repr(np.asarray(a).tolist())
+    planes = ",\n".join(f"    {{ dip_deg = {p.dip_deg!r}, dip_direction_deg = {p.dip_direction_deg!r} }}"
+                        for p in foundation.planes)
+    return (f"[specimen]\nname = {specimen.name!r}\nmass_kg = {specimen.mass_kg!r}\n"
+            f"contact_points_m = {arr(specimen.contact_points_m)}\nmass_centre_m = {arr(specimen.mass_centre_m)}\n"
+            f"inertia_kg_m2 = {arr(specimen.inertia_kg_m2)}\nload_point_A_m = {specimen.load_point_A_m!r}\n"
+            f"load_point_B_m = {specimen.load_point_B_m!r}\nfriction_deg = {list(specimen.friction_deg)!r}\n"
+            f"tip_friction_deg = {specimen.tip_friction_deg!r}\n\n[foundation]\nplanes = [\n{planes},\n]\n")
+
+
+# -- scaling (paper cases D, E, F) --------------------------------------------------------------
+
+def scale_size(specimen: Specimen, c: float) -> Specimen:
+    """Case D: every length x c at the same mass, so the inertia scales by c**2 (paper section 5.4)."""
+    return _scaled(specimen, length=c, mass=1.0, inertia=c ** 2, label=f"size x{c:g}")
+
+
+def scale_mass(specimen: Specimen, d: float) -> Specimen:
+    """Case E: mass x d at the same size, so the inertia scales by d (paper section 5.4)."""
+    return _scaled(specimen, length=1.0, mass=d, inertia=d, label=f"mass x{d:g}")
+
+
+def scale_uniform(specimen: Specimen, c: float) -> Specimen:
+    """Case F: lengths x c at equal density: mass x c**3, inertia x c**5 (paper section 5.5)."""
+    return _scaled(specimen, length=c, mass=c ** 3, inertia=c ** 5, label=f"uniform x{c:g}")
+
+
+def _scaled(s: Specimen, *, length: float, mass: float, inertia: float, label: str) -> Specimen:
+    for name, value in (("length", length), ("mass", mass)):
+        if not (math.isfinite(value) and value > 0):
+            raise SpecimenError(f"scale ({name})", f"must be a positive finite factor, got {value}")
+    return replace(s, contact_points_m=s.contact_points_m * length, mass_centre_m=s.mass_centre_m * length,
+                   load_point_A_m=s.load_point_A_m * length, load_point_B_m=s.load_point_B_m * length,
+                   mass_kg=s.mass_kg * mass, inertia_kg_m2=s.inertia_kg_m2 * inertia, name=f"{s.name}, {label}")

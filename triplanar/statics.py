@@ -1,0 +1,158 @@
+"""Starting and stopping: does friction hold the block, and which way does it start to move?
+
+Coulomb friction at rest is a range, not a value, so neither question is answered by the right-hand
+side alone:
+
+* :func:`holds` asks whether *some* static equilibrium exists: normal reactions ``N_i >= 0`` and friction
+  forces inside their cones (``|S_i| <= N_i tan(phi_i)`` at each contact, ``|F_EF| <= F_T (e1.g1)
+  tan(phi_EF)`` at the tip) that balance the weight and the load, forces and moments. The cones are
+  replaced by inscribed 64-gons, a linear program: "holds" is then certain, and a load that the exact
+  circles would hold is at most 0.12 % of the friction force away from being called so.
+* :func:`incipient_directions` finds, for a block that cannot hold, the directions in which the contact
+  points and the aft face start to slip: friction must oppose the incipient slip accelerations, a fixed
+  point of the right-hand side.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import linprog
+
+from . import kernel as K
+from .model import Model
+
+POLYGON_SIDES = 64
+
+
+def _tangent_basis(n: np.ndarray) -> np.ndarray:
+    """Two orthonormal vectors spanning the plane with unit normal ``n``."""
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
+    t1 = np.cross(n, a)
+    t1 /= np.linalg.norm(t1)
+    return np.array([t1, np.cross(n, t1)])
+
+
+def holds(model: Model, y: np.ndarray, thrust_N: float | None = None, t: float = 0.0) -> bool:
+    """True when a static equilibrium with friction inside its cones exists at pose ``y``.
+
+    ``y``'s velocities are ignored (the block is taken at rest); ``thrust_N`` defaults to the command.
+    """
+    p = model.kernel_params().copy()
+    y = y.copy()
+    y[K.S_V:K.S_V + 6] = 0.0
+    thrust = model.loading.force_N if thrust_N is None else thrust_N
+    p[K.P_FCMD], p[K.P_TAU], y[K.S_F] = thrust, 0.0, thrust
+    if model.force_effects:
+        state = model.block_state(t, y)
+        extra = [e.wrench(t, state) for e in model.force_effects]
+        p[K.P_EXTF:K.P_EXTF + 3] = sum(f for f, _ in extra)
+        p[K.P_EXTM:K.P_EXTM + 3] = sum(m for _, m in extra)
+    # Applied wrench with all friction off: the kernel's own load (one source of truth for P_L).
+    p_frictionless = p.copy()
+    p_frictionless[K.P_TANEF] = 0.0
+    rot = np.empty((3, 3))
+    K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], rot)
+    r = y[K.S_R:K.S_R + 3]
+    aux = np.empty(K.N_AUX)
+    K.dynamics(t, y, p_frictionless, np.empty(K.N_STATE), aux)
+    load_point = aux[K.A_PL:K.A_PL + 3]
+    g1 = rot[:, 0]
+    force_dir = np.array([1.0, 0.0, 0.0]) if model.loading.kind == "actuator" else g1
+    applied_f = thrust * force_dir + p[K.P_EXTF:K.P_EXTF + 3] - np.array([0.0, p[K.P_MASS] * p[K.P_G], 0.0])
+    applied_m = np.cross(load_point - r, thrust * force_dir) + p[K.P_EXTM:K.P_EXTM + 3]
+
+    cps = np.empty((3, 3))
+    K.contact_points(y, p, cps)
+    normals = model.foundation.normals
+    tan_phi = p[K.P_TANPHI:K.P_TANPHI + 3]
+    # Columns: N1..N3, then two tangential components per contact, then two at the tip (if it rubs).
+    columns = []
+    for i in range(3):
+        columns.append((normals[i], cps[i]))
+    for i in range(3):
+        for t_vec in _tangent_basis(normals[i]):
+            columns.append((t_vec, cps[i]))
+    tip_friction = p[K.P_TANEF] * thrust * g1[0]
+    if tip_friction > 0:
+        for t_vec in (rot[:, 1], rot[:, 2]):
+            columns.append((t_vec, load_point))
+    a_eq = np.array([np.concatenate([f, np.cross(x - r, f)]) for f, x in columns]).T
+    b_eq = -np.concatenate([applied_f, applied_m])
+    n_var = len(columns)
+    angles = 2 * math.pi * (np.arange(POLYGON_SIDES) + 0.5) / POLYGON_SIDES
+    inset = math.cos(math.pi / POLYGON_SIDES)
+    rows, rhs = [], []
+    for i in range(3):
+        for ang in angles:  # edge k of the inscribed polygon: S . u_k <= mu N cos(pi/K)
+            row = np.zeros(n_var)
+            row[3 + 2 * i], row[4 + 2 * i] = math.cos(ang), math.sin(ang)
+            row[i] = -tan_phi[i] * inset
+            rows.append(row)
+            rhs.append(0.0)
+    if tip_friction > 0:
+        for ang in angles:
+            row = np.zeros(n_var)
+            row[9], row[10] = math.cos(ang), math.sin(ang)
+            rows.append(row)
+            rhs.append(tip_friction * inset)
+    bounds = [(0, None)] * 3 + [(None, None)] * (n_var - 3)
+    res = linprog(np.zeros(n_var), A_ub=np.array(rows), b_ub=np.array(rhs), A_eq=a_eq, b_eq=b_eq,
+                  bounds=bounds, method="highs")
+    return bool(res.status == 0)
+
+
+def sliding_threshold(model: Model, y: np.ndarray | None = None, upper_N: float | None = None,
+                      tol_N: float = 1e-3) -> float:
+    """Smallest thrust (N) at which the block at rest cannot hold (bisection on :func:`holds`).
+
+    Returns ``inf`` if it still holds at ``upper_N`` (default: 5 x the weight).
+    """
+    y = model.initial_state() if y is None else y
+    hi = upper_N if upper_N is not None else 5.0 * model.specimen.weight_N
+    if holds(model, y, hi):
+        return math.inf
+    lo = 0.0
+    while hi - lo > tol_N:
+        mid = 0.5 * (lo + hi)
+        if holds(model, y, mid):
+            lo = mid
+        else:
+            hi = mid
+    return hi
+
+
+def incipient_directions(p: np.ndarray, y: np.ndarray, t: float = 0.0, max_iter: int = 400) -> tuple[bool, float]:
+    """Set ``p[P_D0:]`` to the directions in which resting sliding sites begin to slip (see
+    :func:`triplanar.kernel.incipient_directions`); returns (converged, consistency)."""
+    converged, consistency = K.incipient_directions(t, y, p, max_iter)
+    return bool(converged), float(consistency)
+
+
+def start_motion(p: np.ndarray, y: np.ndarray, t: float = 0.0) -> tuple[bool, float]:
+    """Choose how a block that cannot hold starts to move, and set ``p`` for it.
+
+    Tries, in order: all contacts sliding with the tip stuck (if it rubs), all sliding, then one contact
+    stuck (a pivot) with the tip stuck or sliding. A mode is accepted when its friction opposes every
+    resting site's incipient slip and every stuck site's friction lies inside its cone. Returns
+    (accepted, consistency) of the chosen mode; if none is consistent, the most consistent is used.
+    """
+    rubs = p[K.P_TANEF] > 0 and p[K.P_CASE] == 0
+    tip_modes = (1.0, 0.0) if rubs else (0.0,)
+    modes = [(-1.0, tip) for tip in tip_modes] + [(float(k), tip) for k in range(3) for tip in tip_modes]
+    aux = np.empty(K.N_AUX)
+    best = None
+    for stuck, tip in modes:
+        p[K.P_STUCK], p[K.P_TIP_STUCK] = stuck, tip
+        converged, consistency = incipient_directions(p, y, t)
+        K.rhs(t, y, p, np.empty(K.N_STATE), aux)
+        holds_stuck = aux[K.A_STICK] <= 0.0 and aux[K.A_TIP_STICK] <= 0.0
+        score = consistency if holds_stuck else -2.0
+        if holds_stuck and consistency > 0.9999:
+            return True, consistency
+        if best is None or score > best[0]:
+            best = (score, stuck, tip)
+    p[K.P_STUCK], p[K.P_TIP_STUCK] = best[1], best[2]
+    _, consistency = incipient_directions(p, y, t)
+    return False, consistency
