@@ -750,59 +750,63 @@ def _advance(method, t, y, h, p, y_new, err, aux) -> bool:
 
 
 @njit(cache=True)
-def integrate(method: int, t0: float, y0: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
+def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
               t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
-              out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray):
-    """Integrate from (t0, y0) until an event, ``t_max`` or the buffer is full.
+              out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool):
+    """Integrate from (t0, y) until a terminal event, ``t_max`` or a full buffer; ``y`` ends as the final state.
 
-    Records every accepted step (row 0 = the start). ``h`` is the fixed step (Euler, RK4) or the first trial
-    step (DOPRI5). A terminal event is located to 1e-13 s by re-stepping from the last accepted state with
-    a shorter step (Illinois regula falsi on the step length), so the last row lies on the event.
+    ``h`` is the fixed step (Euler, RK4) or the first trial step (DOPRI5). Events are located to 1e-13 s
+    by re-stepping from the last accepted state with a shorter step (Illinois regula falsi on the step),
+    so a terminal event's row lies on the event. A contact or the tip that stops slipping, or whose static
+    friction gives way, is handled here (:func:`apply_mode_event`); the run returns to the caller for the
+    rest: terminal events, and ``ST_SLOW`` (a possible arrest: the caller decides with the statics LP).
     ``armed`` (5 flags, updated in place): whether the all-slow event, each contact's and the tip's stop
-    event may fire; each arms once its speed has exceeded twice its threshold, so a start from rest does not count.
-    Returns (rows written, status code, event index or -1, last step size).
+    event may fire; each arms once its speed has exceeded twice its threshold, so a start from rest does
+    not count. With ``record`` every accepted step is written to the ``out_*`` buffers (row 0 = start).
+    Returns (rows written, status code, event index or -1, last step size, final time).
     """
-    n = y0.shape[0]
-    y = y0.copy()
+    n = y.shape[0]
     aux = np.empty(N_AUX)
     dummy = np.empty(n)
     if not rhs(t0, y, p, dummy, aux):
-        return 0, ST_STEP_FAILED, -1, h
+        return 0, ST_STEP_FAILED, -1, h, t0
     ev_old = np.empty(N_EVENTS)
     ev_new = np.empty(N_EVENTS)
     event_values(y, p, aux, x1_target, slow_speed, ev_old)
-    out_t[0] = t0
-    out_y[0] = y
-    out_aux[0] = aux
-    rows = 1
+    rows = 0
+    if record:
+        out_t[0] = t0
+        out_y[0] = y
+        out_aux[0] = aux
+        rows = 1
     t = t0
     y_new = np.empty(n)
     err = np.empty(n)
     aux_new = np.empty(N_AUX)
     for k in range(EV_SLOW):
         if ev_old[k] > 0.0:
-            return rows, _status_of(k), k, h
+            return rows, _status_of(k), k, h, t
+    fixed = method != METHOD_DOPRI5
     while True:
-        if rows >= out_t.shape[0]:
-            return rows, ST_BUFFER_FULL, -1, h
-        if t >= t_max:
-            return rows, ST_TIME_LIMIT, -1, h
+        if record and rows >= out_t.shape[0]:
+            return rows, ST_BUFFER_FULL, -1, h, t
+        if t_max - t <= 1e-9 * h:
+            return rows, ST_TIME_LIMIT, -1, h, t
         h_try = min(h, t_max - t)
         if not _advance(method, t, y, h_try, p, y_new, err, aux_new):
-            if method == METHOD_DOPRI5 and h_try > 1e-12:
+            if not fixed and h_try > 1e-12:
                 h = 0.25 * h_try
                 continue
-            return rows, ST_STEP_FAILED, -1, h
-        if method == METHOD_DOPRI5:
+            return rows, ST_STEP_FAILED, -1, h, t
+        h_next = h
+        if not fixed:
             en = _error_norm(y, y_new, err, rtol, atol)
             if en > 1.0:
                 h = h_try * max(0.2, 0.9 * en ** -0.2)
                 if h < 1e-12:
-                    return rows, ST_STEP_FAILED, -1, h
+                    return rows, ST_STEP_FAILED, -1, h, t
                 continue
             h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
-        else:
-            h_next = h
         event_values(y_new, p, aux_new, x1_target, slow_speed, ev_new)
         hit = -1
         for k in range(N_EVENTS):
@@ -816,29 +820,84 @@ def integrate(method: int, t0: float, y0: np.ndarray, p: np.ndarray, h: float, r
             h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
                            y_new, err, aux_new)
             if h_ev < 0.0:
-                return rows, ST_STEP_FAILED, -1, h
-            t = t + h_ev
-            out_t[rows] = t
-            out_y[rows] = y_new
-            out_aux[rows] = aux_new
-            return rows + 1, _status_of(hit), hit, h
+                return rows, ST_STEP_FAILED, -1, h, t
+            h_try = h_ev
         t = t + h_try
         for i in range(n):
             y[i] = y_new[i]
-        for k in range(N_EVENTS):
-            ev_old[k] = ev_new[k]
-        if ev_new[EV_SLOW] < -slow_speed:
+        status = ST_RUNNING if hit < 0 else _status_of(hit)
+        second_stop = status == ST_STOPPED and hit != EV_TIP_STOP and p[P_STUCK] >= 0.0
+        if status == ST_STOPPED and not second_stop or status == ST_RELEASE:
+            apply_mode_event(hit, t, y, p)
+            if hit == EV_TIP_STOP:
+                armed[4] = False
+            elif hit < EV_RELEASE:
+                armed[hit - EV_STOP + 1] = False
+            if not rhs(t, y, p, dummy, aux_new):
+                return rows, ST_STEP_FAILED, -1, h, t
+            status = ST_RUNNING
+        elif second_stop:
+            status = ST_SLOW
+        event_values(y, p, aux_new, x1_target, slow_speed, ev_old)
+        if ev_old[EV_SLOW] < -slow_speed:
             armed[0] = True  # arrest can only be detected once the block has really moved
         for i in range(3):
-            if ev_new[EV_STOP + i] < -0.1 * slow_speed:
+            if ev_old[EV_STOP + i] < -0.1 * slow_speed:
                 armed[i + 1] = True
-        if ev_new[EV_TIP_STOP] < -0.1 * slow_speed:
+        if ev_old[EV_TIP_STOP] < -0.1 * slow_speed:
             armed[4] = True
-        out_t[rows] = t
-        out_y[rows] = y
-        out_aux[rows] = aux_new
-        rows += 1
+        if record:
+            out_t[rows] = t
+            out_y[rows] = y
+            out_aux[rows] = aux_new
+            rows += 1
+        if status != ST_RUNNING:
+            return rows, status, hit, h, t
         h = h_next
+
+
+@njit(cache=True)
+def kinetic_energy(y: np.ndarray, p: np.ndarray) -> float:
+    R = np.empty((3, 3))
+    quat_to_matrix(y[S_Q:S_Q + 4], R)
+    iw = np.empty(3)
+    _world_inertia_times(R, p, y[S_W:S_W + 3], iw)
+    ke = 0.0
+    for k in range(3):
+        ke += 0.5 * p[P_MASS] * y[S_V + k] ** 2 + 0.5 * y[S_W + k] * iw[k]
+    return ke
+
+
+@njit(cache=True)
+def apply_mode_event(event: int, t: float, y: np.ndarray, p: np.ndarray) -> None:
+    """A contact or the tip stopped slipping (it sticks if static friction can hold it, else slips anew
+    from rest where the load drives it), or a stuck one's friction gave way (it slips).
+
+    A stopping site's last ~1e-6 m/s is removed by the velocity projection (the correction of least
+    kinetic energy); that kinetic energy is booked as dissipation at the site, so the balance stays exact.
+    """
+    if event == EV_RELEASE:
+        p[P_STUCK] = -1.0
+    elif event == EV_TIP_RELEASE:
+        p[P_TIP_STUCK] = 0.0
+    else:
+        tip = event == EV_TIP_STOP
+        before = kinetic_energy(y, p)
+        if tip:
+            p[P_TIP_STUCK] = 1.0
+        else:
+            p[P_STUCK] = float(event - EV_STOP)
+        project(y, p)
+        y[S_DTIP if tip else S_DC + event - EV_STOP] += before - kinetic_energy(y, p)
+        aux = np.empty(N_AUX)
+        rhs(t, y, p, np.empty(y.shape[0]), aux)
+        if aux[A_TIP_STICK if tip else A_STICK] <= 0.0:
+            return
+        if tip:
+            p[P_TIP_STUCK] = 0.0
+        else:
+            p[P_STUCK] = -1.0
+    incipient_directions(t, y, p, 400)
 
 
 @njit(cache=True)
@@ -897,25 +956,6 @@ def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new,
     y_new[:] = y_hi
     aux[:] = aux_hi
     return hi
-
-
-@njit(cache=True)
-def advance_fixed(method: int, t: float, y: np.ndarray, p: np.ndarray, dt: float, n_sub: int,
-                  x1_target: float, events: np.ndarray, aux: np.ndarray) -> bool:
-    """``n_sub`` fixed steps of ``dt/n_sub`` in place (the env's control interval); events at the end.
-
-    Does not locate events within the interval: the env reports them at control-step resolution.
-    """
-    n = y.shape[0]
-    y_new = np.empty(n)
-    err = np.empty(n)
-    h = dt / n_sub
-    for k in range(n_sub):
-        if not _advance(method, t + k * h, y, h, p, y_new, err, aux):
-            return False
-        y[:] = y_new
-    event_values(y, p, aux, x1_target, 0.0, events)
-    return True
 
 
 @njit(cache=True)

@@ -76,24 +76,22 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-9, atol: 
     with _user_effects(model):
         converged, consistency = start_motion(p, y0)
         t_chunks, y_chunks, a_chunks = [], [], []
-        t, y = 0.0, y0
+        t, y = 0.0, y0.copy()
         x1_target = _cp1_x1(y0, p) + travel_m
         armed = np.zeros(5, dtype=np.bool_)
         rows = min(max_rows, 4096 if method == "dopri5" else int(t_max_s / h) + 8)
         while True:
             out_t, out_y = np.empty(rows), np.empty((rows, K.N_STATE))
             out_aux = np.empty((rows, K.N_AUX))
-            n, code, event, h = K.integrate(METHODS[method], t, y, p, h, rtol, atol, t_max_s, x1_target,
-                                            SLOW_SPEED_M_S, armed, out_t, out_y, out_aux)
+            n, code, event, h, t = K.integrate(METHODS[method], t, y, p, h, rtol, atol, t_max_s, x1_target,
+                                               SLOW_SPEED_M_S, armed, out_t, out_y, out_aux, True)
             skip = 1 if t_chunks else 0  # each chunk starts with the previous chunk's last row
             t_chunks.append(out_t[skip:n]); y_chunks.append(out_y[skip:n]); a_chunks.append(out_aux[skip:n])
-            t, y = float(out_t[n - 1]), out_y[n - 1].copy()
             if code == K.ST_BUFFER_FULL and sum(len(c) for c in t_chunks) < max_rows:
                 rows = min(2 * rows, max_rows)
                 continue
-            second_stop = code == K.ST_STOPPED and event != K.EV_TIP_STOP and p[K.P_STUCK] >= 0
-            if code == K.ST_SLOW or second_stop:
-                # Everything slow, or a second contact stops while one sticks: can friction hold it all?
+            if code == K.ST_SLOW:
+                # Every contact slow, or a second one stops while one sticks: can friction hold it all?
                 if holds(model, y, _thrust(model, y), t):
                     status, message = "arrested", (f"arrested at t = {t:.4f} s: the contact points came to rest "
                                                    "and friction can hold the block")
@@ -101,59 +99,18 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-9, atol: 
                 start_motion(p, y, t)
                 armed[:] = False
                 continue
-            if code == K.ST_STOPPED:
-                site = 3 if event == K.EV_TIP_STOP else event - K.EV_STOP
-                _stop_site(p, y, site, t)
-                armed[site + 1 if site < 3 else 4] = False
-                continue
-            if code == K.ST_RELEASE:  # static friction gives way: it slips where the load drives it
-                if event == K.EV_RELEASE:
-                    p[K.P_STUCK] = -1.0
-                else:
-                    p[K.P_TIP_STUCK] = 0.0
-                incipient_directions(p, y, t)
-                continue
             if code == K.ST_BUFFER_FULL:
                 status, message = "failed", f"more than max_rows = {max_rows} steps; raise max_rows or dt"
                 break
             status = _STATUS[code]
             message = _message(status, event, t, travel_m)
             break
-        y_chunks[-1][-1] = y  # the final state as the driver left it
 
     result = SimulationResult(t=np.concatenate(t_chunks), y=np.concatenate(y_chunks),
                               aux=np.concatenate(a_chunks), status=status, message=message, model=model,
                               method=method, t_start_s=t_start, travel_target_m=travel_m,
                               incipient_converged=converged, incipient_consistency=consistency)
     return result
-
-
-def _stop_site(p: np.ndarray, y: np.ndarray, site: int, t: float) -> None:
-    """Contact ``site`` (0-2) or the tip (3) has (all but) stopped slipping: it sticks if static friction
-    can hold it, else slips anew from rest in the direction the load drives it.
-
-    Its last ~1e-6 m/s is removed by the velocity projection (the least-kinetic-energy correction); the
-    kinetic energy this takes is booked as dissipation at that site, so the energy balance stays exact.
-    """
-    kinetic_before = _kinetic(y, p)
-    slot, margin = (K.P_STUCK, K.A_STICK) if site < 3 else (K.P_TIP_STUCK, K.A_TIP_STICK)
-    p[slot] = float(site) if site < 3 else 1.0
-    K.project(y, p)
-    y[K.S_DC + site if site < 3 else K.S_DTIP] += kinetic_before - _kinetic(y, p)
-    aux = np.empty(K.N_AUX)
-    K.rhs(t, y, p, np.empty(K.N_STATE), aux)
-    if aux[margin] > 0.0:  # friction cannot hold it: it reverses, starting from rest
-        p[slot] = -1.0 if site < 3 else 0.0
-        incipient_directions(p, y, t)
-
-
-def _kinetic(y: np.ndarray, p: np.ndarray) -> float:
-    rot = np.empty((3, 3))
-    K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], rot)
-    w_body = rot.T @ y[K.S_W:K.S_W + 3]
-    inertia = p[K.P_IB:K.P_IB + 9].reshape(3, 3)
-    v = y[K.S_V:K.S_V + 3]
-    return 0.5 * p[K.P_MASS] * float(v @ v) + 0.5 * float(w_body @ inertia @ w_body)
 
 
 def _held(model: Model, y0: np.ndarray, method: str, message: str) -> SimulationResult:

@@ -1,0 +1,43 @@
+"""``triplanar`` command line: one subcommand per module in :mod:`triplanar.commands`.
+
+A command module defines ``NAME``, ``HELP``, ``add_arguments(parser)`` and ``run(args) -> int``. Listing
+it in ``COMMANDS`` is all it takes to appear here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+COMMANDS = ("simulate", "lab_data", "paper", "compare", "diagnose", "fit", "train", "study", "demo")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="triplanar", description="Tri-planar shear model of Galic, Glaser & "
+                                     "Goodman (2008): simulate, reproduce the paper, compare with measurements.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for module_name in COMMANDS:
+        try:
+            module = importlib.import_module(f"triplanar.commands.{module_name}")
+        except ModuleNotFoundError as err:
+            if err.name == f"triplanar.commands.{module_name}":
+                continue  # not written yet
+            raise
+        cmd = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
+        module.add_arguments(cmd)
+        cmd.set_defaults(handler=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return int(args.handler(args) or 0)
+    except (ValueError, OSError) as err:  # bad input: say what and where, no traceback
+        print(f"triplanar {args.command}: error: {err}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
