@@ -60,9 +60,18 @@ A_FT = 21         # thrust in use
 A_SPEED = 22      # 3 contact-point speeds
 A_STICK = 25      # stuck contact: |S| - mu N (> 0: friction cannot hold it any more); -1 otherwise
 A_TIP_STICK = 26  # stuck tip: |F_EF| - F_T (e1.g1) tan(phi_EF); -1 otherwise
-N_AUX = 27
+A_STICK_F = 27    # 3 static friction force on the block at the stuck contact
+A_TIP_F = 30      # 3 static end friction force on the block at a stuck tip
+N_AUX = 33
 
-ZERO_SPEED = 1e-12  # m/s: below this a friction direction falls back to the incipient one (P_D0)
+ZERO_SPEED = 1e-9  # m/s: a site slower than this (integration noise) is at rest: its direction is P_D0
+# Below SLIP_BLEND a sliding site's friction direction blends from the incipient direction d0 (at rest) to
+# the slip direction: d = v/SLIP_BLEND + (1 - |v|/SLIP_BLEND) d0. Pure v/|v| makes the slip direction's
+# relaxation rate mu N K/|v| (K: contact compliance) unbounded as |v| -> 0, i.e. infinitely stiff just
+# after a stick ends. Sticking and holding are decided exactly elsewhere (stick modes, statics), so this
+# creates no creep; it shifts a path by about a (SLIP_BLEND/a)^2 ~ 1e-10 m, and the dissipated power is
+# computed as f.v, so the energy balance stays exact.
+SLIP_BLEND = 1e-5
 
 # -- status codes returned by integrate() ------------------------------------------------------
 ST_RUNNING, ST_TRAVEL, ST_LIFT_OFF, ST_MC_OUTSIDE, ST_LEFT_PLANE = 0, 1, 2, 3, 4
@@ -180,6 +189,15 @@ def _world_inertia_times(R: np.ndarray, p: np.ndarray, w: np.ndarray, out: np.nd
         out[i] = s
 
 
+@njit(cache=True, inline="always")
+def _friction_direction(v0, v1, v2, speed, p, k):
+    """Unit slip direction, blended with the incipient direction p[k:k+3] below SLIP_BLEND."""
+    if speed >= SLIP_BLEND:
+        return v0 / speed, v1 / speed, v2 / speed
+    f = 1.0 - speed / SLIP_BLEND
+    return v0 / SLIP_BLEND + f * p[k], v1 / SLIP_BLEND + f * p[k + 1], v2 / SLIP_BLEND + f * p[k + 2]
+
+
 @njit(cache=True)
 def load_arm(y: np.ndarray, p: np.ndarray, R: np.ndarray, out: np.ndarray) -> None:
     """Load point relative to the mass centre: ``P_L`` where the tip line (through P0_CL + u e3, along e1)
@@ -274,17 +292,14 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     aux[A_SLIP] = s0; aux[A_SLIP + 1] = s1; aux[A_SLIP + 2] = s2
     tip_limit = F_T * g1x * tan_ef
     if tan_ef > 0.0 and not tip_stuck:
-        if slip_speed > ZERO_SPEED:
-            d0, d1, d2 = s0 / slip_speed, s1 / slip_speed, s2 / slip_speed
-        else:
-            d0, d1, d2 = p[P_D0 + 9], p[P_D0 + 10], p[P_D0 + 11]
+        d0, d1, d2 = _friction_direction(s0, s1, s2, slip_speed, p, P_D0 + 9)
         f0, f1, f2 = -tip_limit * d0, -tip_limit * d1, -tip_limit * d2
         fx[0] += f0; fx[1] += f1; fx[2] += f2
         m0, m1, m2 = _cross(rho[3, 0], rho[3, 1], rho[3, 2], f0, f1, f2)
         mx[0] += m0; mx[1] += m1; mx[2] += m2
         # The friction's work through the tip's own motion (v_B - slip) is delivered by the actuator.
         p_load += f0 * (vb0 - s0) + f1 * (vb1 - s1) + f2 * (vb2 - s2)
-        p_tip = tip_limit * slip_speed
+        p_tip = tip_limit * (d0 * s0 + d1 * s1 + d2 * s2)
 
     # Gyroscopic term: I dw/dt = M - w x (I w).
     iw = np.empty(3)
@@ -304,6 +319,7 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     bias = np.empty(7)
     mu = np.empty(3)
     speeds = np.empty(3)
+    power_dir = np.empty(3)  # d_j . v_j: dissipated power per unit friction force
     for j in range(3):
         c0, c1, c2 = _cross(w[0], w[1], w[2], rho[j, 0], rho[j, 1], rho[j, 2])
         vj0, vj1, vj2 = v[0] + c0, v[1] + c1, v[2] + c2
@@ -311,10 +327,9 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
         speeds[j] = sp
         if j == stuck:
             d0, d1, d2 = 0.0, 0.0, 0.0
-        elif sp > ZERO_SPEED:
-            d0, d1, d2 = vj0 / sp, vj1 / sp, vj2 / sp
         else:
-            d0, d1, d2 = p[P_D0 + 3 * j], p[P_D0 + 3 * j + 1], p[P_D0 + 3 * j + 2]
+            d0, d1, d2 = _friction_direction(vj0, vj1, vj2, sp, p, P_D0 + 3 * j)
+        power_dir[j] = d0 * vj0 + d1 * vj1 + d2 * vj2
         mu_j = p[P_TANPHI + j]
         if p[P_RATE_A] != 0.0:
             mu_j *= 1.0 + p[P_RATE_A] * math.log1p(sp / p[P_RATE_V0])
@@ -384,13 +399,19 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
             acc[k] += x[u] * fu[u, k] / m
             alpha[k] += x[u] * rxf[u, k]
     aux[A_STICK] = -1.0
+    aux[A_TIP_STICK] = -1.0
+    for k in range(3):
+        aux[A_STICK_F + k] = 0.0
+        aux[A_TIP_F + k] = 0.0
     if stuck >= 0:
         aux[A_STICK] = math.sqrt(x[i_stick] ** 2 + x[i_stick + 1] ** 2) - mu[stuck] * x[stuck]
-    aux[A_TIP_STICK] = -1.0
+        for k in range(3):
+            aux[A_STICK_F + k] = x[i_stick] * fu[i_stick, k] + x[i_stick + 1] * fu[i_stick + 1, k]
     if tip_stuck:
         aux[A_TIP_STICK] = math.sqrt(x[i_tip] ** 2 + x[i_tip + 1] ** 2) - tip_limit
         for k in range(3):  # the static end friction works through the tip's motion (no slip)
             f = x[i_tip] * fu[i_tip, k] + x[i_tip + 1] * fu[i_tip + 1, k]
+            aux[A_TIP_F + k] = f
             p_load += f * (vb0 if k == 0 else (vb1 if k == 1 else vb2))
 
     for k in range(3):
@@ -406,7 +427,7 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     dy[S_U] = udot
     dy[S_WLOAD] = p_load
     for j in range(3):
-        dy[S_DC + j] = 0.0 if j == stuck else mu[j] * x[j] * speeds[j]
+        dy[S_DC + j] = 0.0 if j == stuck else mu[j] * x[j] * power_dir[j]
     dy[S_DTIP] = p_tip
     dy[S_WOTHER] = p_other
 
@@ -876,10 +897,23 @@ def apply_mode_event(event: int, t: float, y: np.ndarray, p: np.ndarray) -> None
     A stopping site's last ~1e-6 m/s is removed by the velocity projection (the correction of least
     kinetic energy); that kinetic energy is booked as dissipation at the site, so the balance stays exact.
     """
-    if event == EV_RELEASE:
-        p[P_STUCK] = -1.0
-    elif event == EV_TIP_RELEASE:
-        p[P_TIP_STUCK] = 0.0
+    if event == EV_RELEASE or event == EV_TIP_RELEASE:
+        # Static friction reached its cone: the site slips opposite to the friction force it had, which is
+        # the continuous continuation (the slip acceleration starts from zero along that direction).
+        aux = np.empty(N_AUX)
+        rhs(t, y, p, np.empty(y.shape[0]), aux)
+        tip = event == EV_TIP_RELEASE
+        site = 3 if tip else int(p[P_STUCK])
+        base = A_TIP_F if tip else A_STICK_F
+        norm = math.sqrt(aux[base] ** 2 + aux[base + 1] ** 2 + aux[base + 2] ** 2)
+        if tip:
+            p[P_TIP_STUCK] = 0.0
+        else:
+            p[P_STUCK] = -1.0
+        if norm > 0.0:
+            for k in range(3):
+                p[P_D0 + 3 * site + k] = -aux[base + k] / norm
+            return
     else:
         tip = event == EV_TIP_STOP
         before = kinetic_energy(y, p)
