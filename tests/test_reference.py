@@ -1,27 +1,15 @@
-"""Tests of the natural-coordinate Lagrangian reference (triplanar/reference.py).
+"""Tests of the natural-coordinate Lagrangian reference (triplanar/natural_coordinates.py).
 
 The checks are independent of the module's internals: forces, frames, momenta and energies are
 recomputed here with plain rigid-body (Newton-Euler) formulas.
 """
 from __future__ import annotations
 
-import importlib.util
-import pathlib
-import sys
 
 import numpy as np
 import pytest
 
-try:
-    from triplanar.reference import ReferenceModel, reference_accelerations, reference_simulate
-except ImportError:  # package __init__ not there yet: load the file directly
-    _path = pathlib.Path(__file__).resolve().parents[1] / "triplanar" / "reference.py"
-    _spec = importlib.util.spec_from_file_location("_triplanar_reference", _path)
-    _mod = importlib.util.module_from_spec(_spec)
-    sys.modules[_spec.name] = _mod
-    _spec.loader.exec_module(_mod)
-    ReferenceModel, reference_accelerations, reference_simulate = (
-        _mod.ReferenceModel, _mod.reference_accelerations, _mod.reference_simulate)
+from triplanar.natural_coordinates import ReferenceModel, reference_accelerations, reference_simulate
 
 G = 9.81
 E1, E2, E3 = np.eye(3)

@@ -5,7 +5,7 @@ Formulation: Newton-Euler for the rigid block with three Lagrange multipliers, t
 other three multipliers (rigid-frame constraints, eq. 7) are implicit: the block is a rigid body with six
 coordinates. Friction ``S_i = -N_i mu_i v_i/|v_i|`` (eq. 21) is proportional to ``N_i``, so at each instant
 the three ``N_i`` solve a 3x3 linear system (the analogue of eq. 39). ``docs/physics.md`` derives why this
-equals the paper's 9-coordinate Lagrangian; ``triplanar/reference.py`` implements that form independently
+equals the paper's 9-coordinate Lagrangian; ``triplanar/natural_coordinates.py`` implements that form independently
 and the tests compare the two.
 
 State ``y`` (``N_STATE`` floats): mass-centre position ``r``, unit quaternion ``q`` (w, x, y, z; body to

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import Iterable, Literal
 
 import numpy as np
@@ -137,7 +138,7 @@ class Model:
         y[K.S_Q:K.S_Q + 4] = quaternion_from_matrix(s.body_axes)
         y[K.S_F] = self.loading.force_N if thrust_N is None else thrust_N
         y[K.S_U] = self.loading.tip_offset_m
-        p = self.kernel_params()
+        p = self.kernel_params_cached
         if not K.project(y, p):
             raise SpecimenError("foundation.planes", "the block cannot be seated on these planes")
         return y
@@ -154,13 +155,12 @@ class Model:
         thrust = self.loading.force_N if self.loading.rise_time_s <= 0 else float(y[K.S_F])
         return BlockState(t, r, rot, v, w, cps, cpv, thrust)
 
-    @property
+    @cached_property
     def kernel_params_cached(self) -> np.ndarray:
-        cached = self.__dict__.get("_params")
-        if cached is None:
-            cached = self.kernel_params()
-            object.__setattr__(self, "_params", cached)
-        return cached
+        """:meth:`kernel_params`, computed once; read-only (copy it before changing anything)."""
+        params = self.kernel_params()
+        params.setflags(write=False)
+        return params
 
 
 def paper_model(case: str, force_N: float, specimen: Specimen | None = None, foundation: Foundation | None = None,

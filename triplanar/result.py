@@ -57,7 +57,7 @@ class SimulationResult:
 
     @cached_property
     def _body_cps(self) -> np.ndarray:
-        return self.model.kernel_params()[K.P_C:K.P_C + 9].reshape(3, 3)
+        return self.model.kernel_params_cached[K.P_C:K.P_C + 9].reshape(3, 3)
 
     @property
     def mass_centre(self) -> np.ndarray:
@@ -122,7 +122,7 @@ class SimulationResult:
         inertia = self.model.specimen.inertia_kg_m2
         w_body = np.einsum("nji,nj->ni", self.rotation, omega)
         kinetic = 0.5 * m * np.einsum("ni,ni->n", v, v) + 0.5 * np.einsum("ni,ij,nj->n", w_body, inertia, w_body)
-        potential = m * self.model.kernel_params()[K.P_G] * (self.mass_centre[:, 1] - self.mass_centre[0, 1])
+        potential = m * self.model.kernel_params_cached[K.P_G] * (self.mass_centre[:, 1] - self.mass_centre[0, 1])
         out = {"work_load": self.y[:, K.S_WLOAD], "work_other": self.y[:, K.S_WOTHER], "kinetic": kinetic,
                "potential": potential, "dissipated_contacts": self.y[:, K.S_DC:K.S_DC + 3],
                "dissipated_tip": self.y[:, K.S_DTIP]}

@@ -55,7 +55,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-9, atol: 
         raise ValueError(f"dt must be a positive number, got {dt}")
     model.validate()
     h = dt if dt is not None else DEFAULT_DT[method]
-    p = model.kernel_params()
+    p = model.kernel_params_cached.copy()
 
     # With a rising actuator force, sliding starts when the force first overcomes friction.
     t_start, thrust0 = 0.0, model.loading.force_N
@@ -115,8 +115,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-9, atol: 
 
 def _held(model: Model, y0: np.ndarray, method: str, message: str) -> SimulationResult:
     aux = np.zeros(K.N_AUX)
-    p = model.kernel_params()
-    K.dynamics(0.0, y0, p, np.empty(K.N_STATE), aux)
+    K.dynamics(0.0, y0, model.kernel_params_cached.copy(), np.empty(K.N_STATE), aux)
     return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), aux=aux[None, :], status="held", message=message,
                             model=model, method=method, t_start_s=math.inf, travel_target_m=0.0,
                             incipient_converged=True, incipient_consistency=1.0)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, replace
+from functools import cached_property
 from importlib import resources
 from pathlib import Path
 
@@ -76,8 +77,6 @@ class Foundation:
                     raise SpecimenError(f"foundation.planes[{i}].{name}", f"must be finite, got {value}", source)
             if not 0.0 <= p.dip_deg < 90.0:
                 raise SpecimenError(f"foundation.planes[{i}].dip_deg", f"must lie in [0, 90), got {p.dip_deg}", source)
-        if abs(np.linalg.det(self.normals)) < 1e-9:
-            raise SpecimenError("foundation.planes", "the three normals must be independent (paper section 2)", source)
 
 
 @dataclass(frozen=True)
@@ -113,7 +112,7 @@ class Specimen:
         object.__setattr__(self, "friction_deg", tuple(float(x) for x in self.friction_deg))
 
     # -- derived geometry -------------------------------------------------------------------
-    @property
+    @cached_property
     def body_axes(self) -> np.ndarray:
         """Rest body frame as columns ``[g1 g2 g3]`` (paper section 3.1), world coordinates."""
         p1, p2, p3 = self.contact_points_m
@@ -122,12 +121,12 @@ class Specimen:
         g2 /= np.linalg.norm(g2)
         return np.column_stack([g1, g2, np.cross(g1, g2)])
 
-    @property
+    @cached_property
     def mass_centre_world(self) -> np.ndarray:
         """Mass centre at rest, foundation frame."""
         return self.contact_points_m[0] + self.body_axes @ self.mass_centre_m
 
-    @property
+    @cached_property
     def load_point_world(self) -> np.ndarray:
         """``P0_CL``: the aft-face load point at rest, foundation frame (eq. 27)."""
         g = self.body_axes
@@ -166,9 +165,6 @@ class Specimen:
         if bary.min() <= 0.0:
             raise SpecimenError("mass_centre_m", "the mass centre does not project inside the contact triangle "
                                 f"(barycentric coordinates {np.round(bary, 4).tolist()})", source)
-        if self.load_point_B_m < 0 or self.load_point_A_m < 0:
-            raise SpecimenError("load_point_A_m" if self.load_point_A_m < 0 else "load_point_B_m",
-                                "must not be negative", source)
 
     def _check_finite(self, source: str | None) -> None:
         values = {"contact_points_m": self.contact_points_m, "mass_kg": self.mass_kg,
@@ -278,6 +274,22 @@ def to_toml(specimen: Specimen, foundation: Foundation) -> str:
             f"inertia_kg_m2 = {arr(specimen.inertia_kg_m2)}\nload_point_A_m = {specimen.load_point_A_m!r}\n"
             f"load_point_B_m = {specimen.load_point_B_m!r}\nfriction_deg = {list(specimen.friction_deg)!r}\n"
             f"tip_friction_deg = {specimen.tip_friction_deg!r}\n\n[foundation]\nplanes = [\n{planes},\n]\n")
+
+
+def mirrored(specimen: Specimen, foundation: Foundation) -> tuple[Specimen, Foundation]:
+    """The mirror image in x3 (x3 -> -x3) of specimen and foundation, for symmetry checks.
+
+    Mirroring flips the handedness of the contact triangle, so the paper's g2 = (P2-P1)x(P3-P1)/|...| points
+    down and g3 = g1 x g2 flips too: in that frame the mass centre is (C1, -C2, C3) and the load point has
+    A -> -A (A and B are coordinates along g2 and -g3, not lengths). Dip directions a -> -a.
+    """
+    flip = np.array([1.0, 1.0, -1.0])
+    frame = np.array([1.0, -1.0, -1.0])  # the mirrored block's (g1, g2, g3) in the original's terms
+    planes = tuple(Plane(p.dip_deg, (-p.dip_direction_deg) % 360.0) for p in foundation.planes)
+    return replace(specimen, contact_points_m=specimen.contact_points_m * flip,
+                   mass_centre_m=specimen.mass_centre_m * np.array([1.0, -1.0, 1.0]),
+                   inertia_kg_m2=frame[:, None] * specimen.inertia_kg_m2 * frame[None, :],
+                   load_point_A_m=-specimen.load_point_A_m, name=f"{specimen.name}, mirrored"), Foundation(planes)
 
 
 # -- scaling (paper cases D, E, F) --------------------------------------------------------------

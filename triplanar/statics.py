@@ -24,6 +24,8 @@ from . import kernel as K
 from .model import Model
 
 POLYGON_SIDES = 64
+_ANGLES = 2 * math.pi * (np.arange(POLYGON_SIDES) + 0.5) / POLYGON_SIDES
+_INSET = math.cos(math.pi / POLYGON_SIDES)
 
 
 def _tangent_basis(n: np.ndarray) -> np.ndarray:
@@ -39,7 +41,7 @@ def holds(model: Model, y: np.ndarray, thrust_N: float | None = None, t: float =
 
     ``y``'s velocities are ignored (the block is taken at rest); ``thrust_N`` defaults to the command.
     """
-    p = model.kernel_params().copy()
+    p = model.kernel_params_cached.copy()
     y = y.copy()
     y[K.S_V:K.S_V + 6] = 0.0
     thrust = model.loading.force_N if thrust_N is None else thrust_N
@@ -68,37 +70,31 @@ def holds(model: Model, y: np.ndarray, thrust_N: float | None = None, t: float =
     normals = model.foundation.normals
     tan_phi = p[K.P_TANPHI:K.P_TANPHI + 3]
     # Columns: N1..N3, then two tangential components per contact, then two at the tip (if it rubs).
-    columns = []
-    for i in range(3):
-        columns.append((normals[i], cps[i]))
-    for i in range(3):
-        for t_vec in _tangent_basis(normals[i]):
-            columns.append((t_vec, cps[i]))
+    tangents = [_tangent_basis(n) for n in normals]
+    directions = [*normals, *(t for pair in tangents for t in pair)]
+    points = [*cps, *np.repeat(cps, 2, axis=0)]
     tip_friction = p[K.P_TANEF] * thrust * g1[0]
     if tip_friction > 0:
-        for t_vec in (rot[:, 1], rot[:, 2]):
-            columns.append((t_vec, load_point))
-    a_eq = np.array([np.concatenate([f, np.cross(x - r, f)]) for f, x in columns]).T
+        directions += [rot[:, 1], rot[:, 2]]
+        points += [load_point, load_point]
+    directions, points = np.array(directions), np.array(points)
+    a_eq = np.vstack([directions.T, np.cross(points - r, directions).T])
     b_eq = -np.concatenate([applied_f, applied_m])
-    n_var = len(columns)
-    angles = 2 * math.pi * (np.arange(POLYGON_SIDES) + 0.5) / POLYGON_SIDES
-    inset = math.cos(math.pi / POLYGON_SIDES)
-    rows, rhs = [], []
+    n_var = len(directions)
+    # Edge k of the inscribed polygon: S . u_k <= mu N cos(pi/K) (contacts); |F_EF| bounded likewise.
+    cos_a, sin_a = np.cos(_ANGLES), np.sin(_ANGLES)
+    sites = 4 if tip_friction > 0 else 3
+    a_ub = np.zeros((sites * POLYGON_SIDES, n_var))
+    b_ub = np.zeros(sites * POLYGON_SIDES)
     for i in range(3):
-        for ang in angles:  # edge k of the inscribed polygon: S . u_k <= mu N cos(pi/K)
-            row = np.zeros(n_var)
-            row[3 + 2 * i], row[4 + 2 * i] = math.cos(ang), math.sin(ang)
-            row[i] = -tan_phi[i] * inset
-            rows.append(row)
-            rhs.append(0.0)
+        block = slice(i * POLYGON_SIDES, (i + 1) * POLYGON_SIDES)
+        a_ub[block, 3 + 2 * i], a_ub[block, 4 + 2 * i] = cos_a, sin_a
+        a_ub[block, i] = -tan_phi[i] * _INSET
     if tip_friction > 0:
-        for ang in angles:
-            row = np.zeros(n_var)
-            row[9], row[10] = math.cos(ang), math.sin(ang)
-            rows.append(row)
-            rhs.append(tip_friction * inset)
+        a_ub[3 * POLYGON_SIDES:, 9], a_ub[3 * POLYGON_SIDES:, 10] = cos_a, sin_a
+        b_ub[3 * POLYGON_SIDES:] = tip_friction * _INSET
     bounds = [(0, None)] * 3 + [(None, None)] * (n_var - 3)
-    res = linprog(np.zeros(n_var), A_ub=np.array(rows), b_ub=np.array(rhs), A_eq=a_eq, b_eq=b_eq,
+    res = linprog(np.zeros(n_var), A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=b_eq,
                   bounds=bounds, method="highs")
     return bool(res.status == 0)
 

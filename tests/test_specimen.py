@@ -1,0 +1,150 @@
+"""Specimen/foundation files and validation; effects' interface; the result's CSV and resampling."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from triplanar import (EFFECTS, EffectError, Foundation, Plane, SpecimenError, load_toml, make_effect, paper_model,
+                       read_measurements, reference, simulate)
+from triplanar.specimen import to_toml
+
+SPECIMEN, FOUNDATION = reference()
+
+
+def test_reference_values_are_the_design_notes() -> None:
+    assert SPECIMEN.mass_kg == 5.4
+    assert SPECIMEN.friction_deg == (17.0, 14.0, 11.0) and SPECIMEN.tip_friction_deg == 8.0
+    assert np.allclose(SPECIMEN.mass_centre_world, [-0.025, 0.022, 0.12])
+    assert np.allclose(SPECIMEN.load_point_world, [-0.14, 0.015, 0.12])
+    assert np.allclose(SPECIMEN.body_axes, np.eye(3))
+    assert np.allclose(FOUNDATION.normals[2], [-0.2962, 0.9397, 0.1710], atol=1e-4)
+
+
+def test_toml_round_trip(tmp_path: Path) -> None:
+    path = tmp_path / "s.toml"
+    path.write_text(to_toml(SPECIMEN, FOUNDATION))
+    specimen, foundation = load_toml(path)
+    assert np.array_equal(specimen.inertia_kg_m2, SPECIMEN.inertia_kg_m2)
+    assert specimen.friction_deg == SPECIMEN.friction_deg and foundation == FOUNDATION
+
+
+def _write(tmp_path: Path, text: str) -> Path:
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    return path
+
+
+@pytest.mark.parametrize("change, field", [
+    (("mass_kg = 5.4", "mass_kg = -1.0"), "mass_kg"),
+    (("mass_kg = 5.4", "mass_kg = 0.0"), "mass_kg"),
+    (("[[0.04139, 0.0, 0.0]", "[[0.04139, 0.001, 0.0]"), "inertia_kg_m2"),                  # not symmetric
+    (("[0.0, 0.0, 0.01101]]", "[0.0, 0.0, -0.01101]]"), "inertia_kg_m2"),                  # not positive
+    (("[0.0, 0.0, 0.01101]]", "[0.0, 0.0, 0.2]]"), "inertia_kg_m2"),                       # triangle inequality
+    (("[0.0, 0.0, 0.24], [0.0, 0.0, 0.0]]", "[0.0, 0.01, 0.24], [0.0, 0.0, 0.0]]"), "contact_points_m[1]"),
+    (("mass_centre_m = [0.115", "mass_centre_m = [0.215"), "mass_centre_m"),              # outside the triangle
+    (("friction_deg = [17.0", "friction_deg = [45.0"), "friction_deg[0]"),
+    (("friction_deg = [17.0", "friction_deg = [-1.0"), "friction_deg[0]"),
+    (("tip_friction_deg = 8.0", "tip_friction_deg = 50.0"), "tip_friction_deg"),
+    (("mass_kg = 5.4", "mass_kg = nan"), "mass_kg"),
+    (("load_point_A_m = 0.015", "load_point_A_m = inf"), "load_point_A_m"),
+    (("dip_deg = 9.5", "dip_deg = 95.0"), "foundation.planes[1].dip_deg"),
+    (("mass_kg = 5.4", "mass_kg = 'heavy'"), "specimen.mass_kg"),
+    (("mass_kg = 5.4\n", ""), "specimen.mass_kg"),                                         # missing
+    (("mass_kg = 5.4", "mass_kg = 5.4\ncolour = 'red'"), "specimen.colour"),              # unknown key
+])
+def test_each_validation_rule_names_its_field(tmp_path: Path, change: tuple[str, str], field: str) -> None:
+    text = to_toml(SPECIMEN, FOUNDATION)
+    assert change[0] in text, change[0]
+    path = _write(tmp_path, text.replace(change[0], change[1], 1))
+    with pytest.raises(SpecimenError) as err:
+        load_toml(path)
+    assert err.value.field == field
+    assert str(path) in str(err.value) and field in str(err.value)
+
+
+def test_bad_toml_syntax_names_the_file(tmp_path: Path) -> None:
+    path = _write(tmp_path, "[specimen\nmass_kg = 1")
+    with pytest.raises(SpecimenError, match="bad.toml"):
+        load_toml(path)
+
+
+def test_bad_simulation_arguments() -> None:
+    with pytest.raises(SpecimenError, match="loading.force_N"):
+        paper_model("A", float("nan"))
+    with pytest.raises(SpecimenError, match="case"):
+        paper_model("Z", 30.0)
+    with pytest.raises(ValueError, match="method"):
+        simulate(paper_model("A", 30.0), method="magic")
+    with pytest.raises(ValueError, match="travel_m"):
+        simulate(paper_model("A", 30.0), travel_m=-1.0)
+
+
+def test_effects_interface() -> None:
+    assert {"end_friction", "rate_friction", "tip_offset", "actuator_rise", "contact_friction",
+            "plane_tilt"} <= set(EFFECTS)
+    effect = make_effect("end_friction:phi_deg=5")
+    model = paper_model("B", 30.0, effects=[effect])
+    assert model.tan_phi_EF == pytest.approx(np.tan(np.radians(5.0)))
+    with pytest.raises(EffectError, match="known effects: .*end_friction"):
+        make_effect("no_such_effect")
+    with pytest.raises(EffectError, match="has no parameter 'phi'"):
+        make_effect("end_friction:phi=3")
+    with pytest.raises(EffectError, match="outside"):
+        make_effect("tip_offset:offset_m=1.0")
+    with pytest.raises(EffectError, match="not a number"):
+        make_effect("tip_offset:offset_m=abc")
+
+
+def test_end_friction_effect_turns_case_b_into_case_a() -> None:
+    a = simulate(paper_model("A", 32.5))
+    b_plus = simulate(paper_model("B", 32.5, effects=[make_effect("end_friction:phi_deg=8")]))
+    assert np.array_equal(a.contact_points[-1], b_plus.contact_points[-1])
+
+
+def test_plane_tilt_reseats_the_block_and_changes_the_path() -> None:
+    base = simulate(paper_model("B", 40.0))
+    tilted = simulate(paper_model("B", 40.0, effects=[make_effect("plane_tilt:dip_dir2_deg=5")]))
+    assert tilted.status == "travel"
+    assert tilted.summary()["max_constraint_residual_m"] < 1e-9
+    start_shift = np.abs(tilted.contact_points[0] - base.contact_points[0]).max()
+    assert 0 < start_shift < 0.005
+    assert np.abs(tilted.contact_points[-1] - base.contact_points[-1]).max() > 1e-3
+
+
+def test_written_trace_ends_at_the_travel_target(tmp_path: Path) -> None:
+    result = simulate(paper_model("A", 32.5))
+    path = tmp_path / "trace.csv"
+    result.write_csv(path, test_id="A-32.5")
+    (test,) = read_measurements(path, rest_positions=SPECIMEN.contact_points_m)
+    assert test.shear_force_N == 32.5
+    assert test.travel[-1] == pytest.approx(0.08, abs=1e-12)
+    assert np.array_equal(test.positions, result.contact_points)
+
+
+def test_resampling_by_travel_matches_the_trajectory() -> None:
+    result = simulate(paper_model("A", 40.0))
+    # At the integrator's own rows resampling must return the rows themselves.
+    rows = np.arange(5, len(result.t), 7)
+    assert np.abs(result.resample_by_travel(result.travel[rows]) - result.contact_points[rows]).max() < 1e-9
+    with pytest.raises(ValueError, match="travel"):
+        result.resample_by_travel(np.array([0.2]))
+
+
+def test_result_reports_the_load_point_on_the_face() -> None:
+    result = simulate(paper_model("A", 32.5))
+    assert np.allclose(result.load_point_on_face[0], [SPECIMEN.load_point_A_m, -SPECIMEN.load_point_B_m])
+    # The block climbs while the tip stays at its height: the load point slides down the face.
+    assert result.load_point_on_face[-1, 0] < SPECIMEN.load_point_A_m - 1e-3
+    hydro = simulate(paper_model("C", 32.5))
+    assert np.allclose(hydro.load_point_on_face, hydro.load_point_on_face[0], atol=1e-12)
+
+
+def test_validation_of_plane_count() -> None:
+    with pytest.raises(SpecimenError, match="exactly 3"):
+        Foundation((Plane(0.0), Plane(1.0))).validate()
+    # CP3 sits at the origin, on every plane; CP2 is off FP2 once FP2 dips another way.
+    with pytest.raises(SpecimenError, match="contact_points_m\\[1\\]"):
+        SPECIMEN.validate(Foundation((Plane(0.0), Plane(9.5, 170.0), Plane(20.0, 150.0))))
