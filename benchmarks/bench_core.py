@@ -26,7 +26,7 @@ def _median_time(fn, repeats: int) -> float:
 
 
 def bench_traces(repeats: int = 20) -> None:
-    print("case A, one 8 cm trace (simulate with default tolerances, rtol=1e-9)")
+    print("case A, one 8 cm trace (simulate with default tolerances, rtol=1e-8)")
     print(f"{'F_T (N)':>8} {'median ms':>10} {'LP ms':>7} {'steps':>6} {'max error vs tight (m)':>23}")
     totals, lps = [], []
     for force in PAPER_LOADS_N:

@@ -30,7 +30,7 @@ _STATUS = {K.ST_TRAVEL: "travel", K.ST_LIFT_OFF: "lift_off", K.ST_MC_OUTSIDE: "m
            K.ST_LEFT_PLANE: "left_plane", K.ST_TIME_LIMIT: "time_limit", K.ST_STEP_FAILED: "failed"}
 
 
-def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-9, atol: float = 1e-12,
+def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-11,
              dt: float | None = None, travel_m: float = 0.08, t_max_s: float = 5.0,
              max_rows: int = 2_000_000) -> SimulationResult:
     """Run one test of ``model`` until CP1 has moved ``travel_m`` along e1, or something stops it.
