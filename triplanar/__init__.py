@@ -15,6 +15,12 @@ from .simulate import simulate, with_force
 from .specimen import (Foundation, Plane, Specimen, SpecimenError, load_toml, reference, scale_mass, scale_size,
                        scale_uniform)
 
+try:
+    from importlib.metadata import version as _version
+    __version__ = _version("triplanar-shear")
+except Exception:  # not installed (run from a source tree)
+    __version__ = "0.1.0"
+
 PAPER_LOADS_N = (27.8, 30.3, 32.5, 35.0, 37.5, 40.0, 42.5, 45.0, 47.5, 49.6, 51.6, 55.6)
 
 __all__ = ["Effect", "EffectError", "Parameter", "EFFECTS", "make_effect", "register", "MeasuredTest",

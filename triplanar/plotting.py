@@ -43,7 +43,7 @@ def overhead_axes(ax: plt.Axes, foundation: Foundation, title: str | None = None
     """Prepare an overhead panel: intersection lines, labels, equal scaling."""
     for seg in intersection_lines(foundation):
         ax.plot(seg[:, 0], seg[:, 1], color="0.85", lw=0.8, zorder=0)
-    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_aspect("equal", adjustable="box")
     ax.set_xlabel("x1 (m)")
     ax.set_ylabel("x3 (m)")
     if title:

@@ -1,0 +1,313 @@
+"""A stand-in laboratory: measured traces made the way the paper's laboratory made them.
+
+The paper's measurements (Galic, Glaser & Goodman 2008, section 5.1, Fig. 11: 50 constant-force tests at
+12 loads, four repeats each, manually terminated, tracked by laser rangefinders) are not public. This
+module makes a substitute dataset in the measured-trace format (``shared/design/measurement-format.md``):
+
+* the laboratory's "true" physics is :func:`triplanar.paper_model` (``case``, default ``"B"``) with a set
+  of effects (default: the steel load tip's end friction at 8 degrees, which makes it the paper's case A);
+  the effects may include ones a user's model lacks;
+* repeat-to-repeat scatter: every friction angle of the model (the three contact angles, and the tip
+  angle when end friction is on) is drawn per test from a normal distribution with standard deviation
+  ``scatter_deg`` about its nominal value (clipped to [0, 44] degrees);
+* sampling at ``rate_hz`` in time from the start of sliding (``t_s = k / rate_hz``), positions taken from
+  the simulated trajectory by cubic Hermite interpolation in time (the integrator's positions and
+  velocities at the bracketing steps: accurate to the integrator's own tolerance);
+* laser-rangefinder noise: independent Gaussian noise, standard deviation ``noise_m``, on every
+  coordinate (x1, x2, x3) of every contact point of every sample;
+* manual termination: each test stops when CP1 has moved a travel drawn uniformly from ``stop_range_m``
+  (the last sample is the last one at or before that instant).
+
+Possible range. A contact point cannot leave the foundation block, whose plan is 30 cm (along e1) by
+45 cm (along e3) (paper section 2). Its position relative to the contact points is not given in the
+paper; here (:func:`foundation_plan_box`) its rear edge is 1 cm behind CP1's rest position and it is
+centred laterally on the contact points' rest span: for the reference specimen x1 in [-0.15, 0.15] m and
+x3 in [-0.105, 0.345] m. For another specimen the block is assumed scaled with it (x1 sizes by the
+contact points' rest span along e1 over the reference's 0.14 m, x3 sizes by their span along e3 over
+0.24 m). A test whose noise-free trajectory would carry a contact point off that plan is cut at the last
+sample still on it (the laboratory would have to stop there); the truth records this. With 0.2 mm noise
+and centimetres of margin the noisy samples stay on it too (the tests check every sample).
+
+Determinism: every test draws from its own ``numpy`` Generator seeded by ``(seed, load in mN, repeat)``,
+so a test is the same whichever other loads are generated with it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import secrets
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from . import PAPER_LOADS_N
+from .effects import ContactFriction, Effect, EndFriction
+from .measurement import MeasuredTest, write_measurements
+from .model import Model, paper_model
+from .result import SimulationResult
+from .simulate import simulate
+from .specimen import Foundation, Specimen, reference, to_toml
+
+#: Plan dimensions of the foundation block, metres: along e1, along e3 (paper section 2, Fig. 4).
+FOUNDATION_PLAN_M = (0.30, 0.45)
+#: Distance from CP1's rest position back to the foundation block's rear edge (assumption, see module doc).
+FOUNDATION_REAR_MARGIN_M = 0.01
+#: The reference specimen's contact-point spans at rest (L12 along e1, L23 along e3), m.
+REFERENCE_SPAN_M = (0.14, 0.24)
+#: Friction angles stay within the bounds of :class:`triplanar.effects.ContactFriction`.
+FRICTION_BOUNDS_DEG = (0.0, 44.0)
+
+TRUTH_FORMAT = "triplanar-lab-truth/1"
+
+
+def default_effects() -> tuple[Effect, ...]:
+    """The laboratory's default physics beyond case B: the steel tip's end friction, 8 degrees."""
+    return (EndFriction(phi_deg=8.0),)
+
+
+def package_version() -> str:
+    """This package's version (installed metadata, else ``pyproject.toml``, else ``"unknown"``)."""
+    try:
+        from importlib.metadata import PackageNotFoundError, version
+        try:
+            return version("triplanar-shear")
+        except PackageNotFoundError:
+            pass
+    except ImportError:  # pragma: no cover
+        pass
+    pyproject = Path(__file__).resolve().parents[1] / "pyproject.toml"
+    try:
+        import tomllib
+        return str(tomllib.loads(pyproject.read_text(encoding="utf-8"))["project"]["version"])
+    except (OSError, KeyError, ValueError):
+        return "unknown"
+
+
+@dataclass(frozen=True)
+class PlanBox:
+    """An axis-aligned rectangle in plan (x1, x3), metres."""
+
+    x1_min: float
+    x1_max: float
+    x3_min: float
+    x3_max: float
+
+    def contains(self, positions: np.ndarray) -> np.ndarray:
+        """For (..., 3) points: whether each lies on the plan (bounds included)."""
+        x1, x3 = positions[..., 0], positions[..., 2]
+        return (x1 >= self.x1_min) & (x1 <= self.x1_max) & (x3 >= self.x3_min) & (x3 <= self.x3_max)
+
+    def as_dict(self) -> dict[str, float]:
+        return {"x1_min_m": self.x1_min, "x1_max_m": self.x1_max, "x3_min_m": self.x3_min, "x3_max_m": self.x3_max}
+
+
+def foundation_plan_box(specimen: Specimen) -> PlanBox:
+    """The foundation block's plan for ``specimen`` (module doc: 30 cm x 45 cm for the reference, rear edge
+    1 cm behind CP1 at rest, centred laterally on the contact points' rest span; scaled with the specimen's
+    contact-point spans for another specimen)."""
+    cps = specimen.contact_points_m
+    span1 = float(np.ptp(cps[:, 0])) / REFERENCE_SPAN_M[0]
+    span3 = float(np.ptp(cps[:, 2])) / REFERENCE_SPAN_M[1]
+    rear = float(cps[:, 0].min()) - FOUNDATION_REAR_MARGIN_M * span1
+    mid3 = 0.5 * float(cps[:, 2].min() + cps[:, 2].max())
+    length, width = FOUNDATION_PLAN_M[0] * span1, FOUNDATION_PLAN_M[1] * span3
+    return PlanBox(rear, rear + length, mid3 - width / 2, mid3 + width / 2)
+
+
+def hermite_in_time(result: SimulationResult, t_query: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) contact-point positions at times ``t_query`` (within the simulated span), by cubic Hermite
+    interpolation of the integrator's positions and velocities at the bracketing steps."""
+    t = result.t
+    pos, vel = result.contact_points, result.contact_velocities
+    keep = np.append(np.diff(t) > 0, True)  # a repeated time (event row) keeps its last row
+    t, pos, vel = t[keep], pos[keep], vel[keep]
+    t_query = np.asarray(t_query, dtype=float)
+    if t_query.size and (t_query.min() < t[0] - 1e-15 or t_query.max() > t[-1] + 1e-12):
+        raise ValueError(f"times must lie within [{t[0]:g}, {t[-1]:g}] s, the simulated span")
+    if len(t) == 1:
+        return np.repeat(pos[:1], len(t_query), axis=0)
+    i = np.clip(np.searchsorted(t, t_query, side="right") - 1, 0, len(t) - 2)
+    h = (t[i + 1] - t[i])[:, None, None]
+    u = np.clip((t_query - t[i])[:, None, None] / h, 0.0, 1.0)
+    h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
+    h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
+    return h00 * pos[i] + h10 * h * vel[i] + h01 * pos[i + 1] + h11 * h * vel[i + 1]
+
+
+def _friction_angles(model: Model) -> list[float]:
+    """The model's friction angles that scatter: three contacts, plus the tip when end friction acts."""
+    angles = list(model.specimen.friction_deg)
+    if model.tan_phi_EF > 0:
+        angles.append(model.specimen.tip_friction_deg)
+    return angles
+
+
+def _with_angles(model: Model, angles: Sequence[float]) -> Model:
+    extra: list[Effect] = [ContactFriction(phi1_deg=angles[0], phi2_deg=angles[1], phi3_deg=angles[2])]
+    if len(angles) > 3:
+        extra.append(EndFriction(phi_deg=angles[3]))
+    return model.with_effects(extra)
+
+
+def _effect_record(effect: Effect) -> dict[str, object]:
+    return {"name": effect.name, "parameters": dict(effect.values), "spec": repr(effect)}
+
+
+def _check_arguments(loads: Sequence[float], repeats: int, noise_m: float, rate_hz: float, scatter_deg: float,
+                     stop_range_m: tuple[float, float]) -> None:
+    if not loads:
+        raise ValueError("loads: give at least one shear force")
+    for f in loads:
+        if not (math.isfinite(f) and f > 0):
+            raise ValueError(f"loads: every shear force must be a positive number of newtons, got {f}")
+    if len({round(float(f) * 1000) for f in loads}) != len(loads):
+        raise ValueError(f"loads: each shear force may appear once (to 1 mN), got {list(loads)}")
+    if not (isinstance(repeats, (int, np.integer)) and repeats >= 1):
+        raise ValueError(f"repeats must be a positive integer, got {repeats!r}")
+    if not (math.isfinite(noise_m) and noise_m >= 0):
+        raise ValueError(f"noise_m must be >= 0 m, got {noise_m}")
+    if not (math.isfinite(rate_hz) and rate_hz > 0):
+        raise ValueError(f"rate_hz must be > 0, got {rate_hz}")
+    if not (math.isfinite(scatter_deg) and scatter_deg >= 0):
+        raise ValueError(f"scatter_deg must be >= 0 degrees, got {scatter_deg}")
+    lo, hi = stop_range_m
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+        raise ValueError(f"stop_range_m must be (low, high) with 0 < low <= high metres, got {stop_range_m}")
+
+
+def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
+                      effects: Iterable[Effect] | None = None, noise_m: float = 2e-4, rate_hz: float = 200.0,
+                      scatter_deg: float = 0.2, stop_range_m: tuple[float, float] = (0.05, 0.08), seed: int = 0,
+                      specimen: Specimen | None = None, foundation: Foundation | None = None,
+                      case: str = "B") -> tuple[list[MeasuredTest], dict]:
+    """Simulate a laboratory campaign of constant-force shear tests (paper section 5.1).
+
+    Args:
+        loads: commanded shear forces, N (default: the paper's 12 levels).
+        repeats: tests per load (paper: four).
+        effects: the laboratory's physics added to ``case`` (``None``: end friction at 8 degrees).
+        noise_m: standard deviation of the rangefinder noise on every coordinate, m.
+        rate_hz: sampling rate, Hz (samples at ``k / rate_hz`` s after sliding starts).
+        scatter_deg: standard deviation of each friction angle between repeats, degrees.
+        stop_range_m: each test stops at a CP1 travel drawn uniformly from this range, m.
+        seed: the dataset's seed.
+        specimen, foundation: default the reference specimen.
+        case: the paper case the effects are added to (``"B"``: actuator without end friction).
+
+    Returns ``(tests, truth)``: the tests in load order then repeat order (ids ``F27.8N-r1``...), and a
+    JSON-ready dict with everything used (effects, per-test friction angles and stop travel, noise, rate,
+    seed, package version, the specimen as TOML, what happened in each test). A test that never slides or yields fewer than 3
+    samples is left out of ``tests`` and listed in ``truth["skipped"]``.
+    """
+    loads = [float(f) for f in loads]
+    _check_arguments(loads, repeats, noise_m, rate_hz, scatter_deg, tuple(stop_range_m))
+    effects = default_effects() if effects is None else tuple(effects)
+    ref_specimen, ref_foundation = reference()
+    base_specimen, base_foundation = specimen or ref_specimen, foundation or ref_foundation
+    tests: list[MeasuredTest] = []
+    records: list[dict] = []
+    skipped: list[dict] = []
+    box: PlanBox | None = None
+    for force in loads:
+        nominal = paper_model(case, force, specimen=specimen, foundation=foundation, effects=effects)
+        box = box or foundation_plan_box(nominal.specimen)
+        nominal_angles = _friction_angles(nominal)
+        for repeat in range(1, repeats + 1):
+            test_id = f"F{force:g}N-r{repeat}"
+            rng = np.random.default_rng(np.random.SeedSequence([int(seed), int(round(force * 1000)), repeat]))
+            angles = np.clip(np.asarray(nominal_angles) + rng.normal(0.0, scatter_deg, len(nominal_angles)),
+                             *FRICTION_BOUNDS_DEG)
+            stop = float(rng.uniform(stop_range_m[0], stop_range_m[1]))
+            model = _with_angles(nominal, angles.tolist())
+            result = simulate(model, travel_m=stop)
+            record = {"test_id": test_id, "shear_force_N": force, "repeat": repeat,
+                      "friction_deg": [float(a) for a in angles[:3]],
+                      "tip_friction_deg": float(angles[3]) if len(angles) > 3 else None,
+                      "stop_travel_m": stop, "status": result.status, "message": result.message}
+            if result.status == "held":
+                skipped.append({**record, "reason": "the block never slid"})
+                continue
+            t_s = np.arange(0, int(math.floor(result.t[-1] * rate_hz + 1e-9)) + 1) / rate_hz
+            clean = hermite_in_time(result, t_s)
+            noisy = clean + rng.normal(0.0, noise_m, clean.shape)
+            on_plan = (box.contains(clean) & box.contains(noisy)).all(axis=1)
+            cut = int(np.argmin(on_plan)) if not on_plan.all() else len(t_s)
+            record["cut_at_foundation_edge"] = cut < len(t_s)
+            t_s, clean, noisy = t_s[:cut], clean[:cut], noisy[:cut]
+            if len(t_s) < 3:
+                skipped.append({**record, "reason": f"only {len(t_s)} sample(s) at {rate_hz:g} Hz on the "
+                                "foundation block"})
+                continue
+            tests.append(MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=t_s))
+            record.update(n_samples=len(t_s), duration_s=float(t_s[-1]),
+                          final_travel_m=float(clean[-1, 0, 0] - clean[0, 0, 0]))
+            records.append(record)
+    truth = {
+        "format": TRUTH_FORMAT,
+        "package_version": package_version(),
+        "case": case.upper(),
+        "effects": [_effect_record(e) for e in effects],
+        "specimen": base_specimen.name,
+        "specimen_toml": to_toml(base_specimen, base_foundation),
+        "loads_N": loads, "repeats": int(repeats), "seed": int(seed),
+        "noise_m": float(noise_m), "rate_hz": float(rate_hz), "scatter_deg": float(scatter_deg),
+        "stop_range_m": [float(stop_range_m[0]), float(stop_range_m[1])],
+        "scatter_applies_to": "each friction angle (CP1..CP3, and the tip when end friction acts), "
+                              "normal with sd scatter_deg about its nominal value, clipped to [0, 44] deg",
+        "noise_applies_to": "x1, x2 and x3 of every contact point of every sample, independent Gaussian",
+        "foundation_plan_m": box.as_dict() if box else None,
+        "tests": records,
+        "skipped": skipped,
+    }
+    return tests, truth
+
+
+def write_lab_data(path: str | os.PathLike[str], tests: Sequence[MeasuredTest], truth: dict,
+                   truth_path: str | os.PathLike[str] | None = None) -> tuple[Path, Path]:
+    """Write ``tests`` as a measured-trace CSV at ``path`` and ``truth`` as JSON beside it (default
+    ``<path>.truth.json``). Both are written to temporary files first and moved into place only when both
+    are complete; the JSON gains ``data_file`` and ``data_sha256`` (the CSV's SHA-256) so the two can be
+    matched later. Returns the two paths."""
+    path = Path(path)
+    truth_file = Path(truth_path) if truth_path is not None else path.with_name(path.name + ".truth.json")
+    if path.resolve() == truth_file.resolve():
+        raise ValueError(f"the truth file must differ from the data file ({path})")
+    token = secrets.token_hex(6)
+    tmp_csv = path.with_name(f".{path.name}.{token}.tmp")
+    tmp_json = truth_file.with_name(f".{truth_file.name}.{token}.tmp")
+    backup: bytes | None = None
+    try:
+        write_measurements(tmp_csv, tests)
+        digest = hashlib.sha256(tmp_csv.read_bytes()).hexdigest()
+        record = {**truth, "data_file": path.name, "data_sha256": digest}
+        with open(tmp_json, "w", encoding="utf-8") as fh:
+            json.dump(record, fh, indent=1, sort_keys=False)
+            fh.write("\n")
+            fh.flush()
+            os.fsync(fh.fileno())
+        backup = truth_file.read_bytes() if truth_file.exists() else None
+        os.replace(tmp_json, truth_file)
+        try:
+            os.replace(tmp_csv, path)
+        except BaseException:
+            # The CSV could not be moved into place: put the old truth file back (or remove the new one).
+            if backup is None:
+                truth_file.unlink(missing_ok=True)
+            else:
+                truth_file.write_bytes(backup)
+            raise
+    finally:
+        tmp_csv.unlink(missing_ok=True)
+        tmp_json.unlink(missing_ok=True)
+    return path, truth_file
+
+
+def read_truth(path: str | os.PathLike[str]) -> dict:
+    """Read a truth JSON written by :func:`write_lab_data`."""
+    with open(path, encoding="utf-8") as fh:
+        return json.load(fh)
