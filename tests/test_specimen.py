@@ -7,6 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from dataclasses import replace
+
 from triplanar import (EFFECTS, EffectError, Foundation, Plane, SpecimenError, load_toml, make_effect, paper_model,
                        read_measurements, reference, simulate)
 from triplanar.specimen import to_toml
@@ -148,3 +150,38 @@ def test_validation_of_plane_count() -> None:
     # CP3 sits at the origin, on every plane; CP2 is off FP2 once FP2 dips another way.
     with pytest.raises(SpecimenError, match="contact_points_m\\[1\\]"):
         SPECIMEN.validate(Foundation((Plane(0.0), Plane(9.5, 170.0), Plane(20.0, 150.0))))
+
+
+def test_contact_friction_leaves_unset_angles_alone() -> None:
+    specimen = replace(SPECIMEN, friction_deg=(20.0, 15.0, 12.0))
+    model = paper_model("B", 40.0, specimen=specimen, effects=[make_effect("contact_friction:phi1_deg=16")])
+    assert model.specimen.friction_deg == (16.0, 15.0, 12.0)
+    rebuilt = EFFECTS["contact_friction"](**make_effect("contact_friction:phi1_deg=16").values)  # as pools do
+    assert rebuilt.apply(model).specimen.friction_deg == (16.0, 15.0, 12.0)
+
+
+@pytest.mark.parametrize("tilt", ["dip1_deg=0.5", "dip1_deg=-1", "dip1_deg=1,dip_dir1_deg=90", "dip_dir2_deg=5"])
+def test_small_tilts_of_every_kind_run(tilt: str) -> None:
+    result = simulate(paper_model("B", 40.0, effects=[make_effect(f"plane_tilt:{tilt}")]))
+    assert result.status == "travel", result.message
+
+
+def test_a_tilt_that_puts_a_point_under_another_plane_is_refused_at_rest() -> None:
+    result = simulate(paper_model("B", 40.0, effects=[make_effect("plane_tilt:dip_dir2_deg=-5")]))
+    assert result.status == "left_plane" and result.t[-1] == 0.0
+    assert "starts under FP1" in result.message
+
+
+def test_actuator_rise_starts_at_the_threshold_and_handles_fast_rises() -> None:
+    from triplanar.statics import sliding_threshold
+    base = paper_model("A", 40.0)
+    threshold = sliding_threshold(base)
+    for tau in (1e-6, 0.1):
+        result = simulate(paper_model("A", 40.0, effects=[make_effect(f"actuator_rise:tau_s={tau}")]))
+        assert result.status == "travel"
+        assert result.thrust[0] == pytest.approx(threshold, rel=1e-9)
+        assert result.t_start_s == pytest.approx(-tau * np.log1p(-threshold / 40.0), rel=1e-12)
+        assert np.all(np.diff(result.thrust) >= 0) and result.thrust[-1] <= 40.0
+    fast = simulate(paper_model("A", 40.0, effects=[make_effect("actuator_rise:tau_s=1e-6")]))
+    step = simulate(base)
+    assert abs(fast.t[-1] - step.t[-1]) < 1e-4

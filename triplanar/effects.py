@@ -42,7 +42,8 @@ class EffectError(ValueError):
 
 @dataclass(frozen=True)
 class Parameter:
-    """One named parameter of an effect: its default, physical bounds, unit and meaning."""
+    """One named parameter of an effect: its default, physical bounds, unit and meaning. A default of NaN
+    means "unset": the effect then leaves the model's own value."""
 
     default: float
     lower: float
@@ -65,6 +66,9 @@ class Effect:
         self.values: dict[str, float] = {}
         for key, spec in self.parameters.items():
             value = float(values.get(key, spec.default))
+            if math.isnan(value) and math.isnan(spec.default):
+                self.values[key] = value  # unset: the effect leaves the model's own value
+                continue
             if not math.isfinite(value) or not spec.lower <= value <= spec.upper:
                 raise EffectError(f"effect {self.name!r}: {key} = {value} is outside [{spec.lower}, {spec.upper}] "
                                   f"{spec.unit}")
@@ -74,14 +78,14 @@ class Effect:
         return self.values[key]
 
     def __repr__(self) -> str:
-        inner = ",".join(f"{k}={v:g}" for k, v in self.values.items())
+        inner = ",".join(f"{k}={v:g}" for k, v in self.values.items() if not math.isnan(v))
         return f"{self.name}:{inner}" if inner else self.name
 
     def __eq__(self, other: object) -> bool:
-        return type(self) is type(other) and self.values == other.values  # type: ignore[attr-defined]
+        return type(self) is type(other) and repr(self) == repr(other)
 
     def __hash__(self) -> int:
-        return hash((type(self), tuple(sorted(self.values.items()))))
+        return hash((type(self), repr(self)))
 
     def apply(self, model: Model) -> Model:
         """The model with this effect's parameter changes. Default: unchanged."""
@@ -198,11 +202,12 @@ class ContactFriction(Effect):
     """
 
     name = "contact_friction"
-    parameters = {f"phi{i}_deg": Parameter(d, 0.0, 44.0, "deg", f"friction angle CP{i}/FP{i}")
-                  for i, d in ((1, 17.0), (2, 14.0), (3, 11.0))}
+    parameters = {f"phi{i}_deg": Parameter(math.nan, 0.0, 44.0, "deg", f"friction angle CP{i}/FP{i} (unset: the "
+                                           "specimen's)") for i in (1, 2, 3)}
 
     def apply(self, model: Model) -> Model:
-        phis = tuple(self[f"phi{i}_deg"] for i in (1, 2, 3))
+        phis = tuple(model.specimen.friction_deg[i - 1] if math.isnan(self[f"phi{i}_deg"]) else self[f"phi{i}_deg"]
+                     for i in (1, 2, 3))
         return replace(model, specimen=replace(model.specimen, friction_deg=phis))
 
 
@@ -217,9 +222,15 @@ class PlaneTilt(Effect):
     """
 
     name = "plane_tilt"
-    parameters = {**{f"dip{i}_deg": Parameter(0.0, -3.0, 3.0, "deg", f"change of FP{i}'s dip") for i in (1, 2, 3)},
-                  **{f"dip_dir{i}_deg": Parameter(0.0, -30.0, 30.0, "deg", f"change of FP{i}'s dip direction")
-                     for i in (1, 2, 3)}}
+    # Bounds keep the re-seating of the reference block under 5 mm (the measurement format's tolerance):
+    # only FP1's dip and FP1/FP2's dip directions move a resting contact point (CP3 sits at the origin,
+    # CP2 on FP2's strike line).
+    parameters = {"dip1_deg": Parameter(0.0, -1.0, 1.0, "deg", "change of FP1's dip (drawing: 0)"),
+                  "dip2_deg": Parameter(0.0, -3.0, 3.0, "deg", "change of FP2's dip"),
+                  "dip3_deg": Parameter(0.0, -3.0, 3.0, "deg", "change of FP3's dip"),
+                  "dip_dir1_deg": Parameter(0.0, -180.0, 180.0, "deg", "direction FP1 tilts toward (with dip1)"),
+                  "dip_dir2_deg": Parameter(0.0, -5.0, 5.0, "deg", "change of FP2's dip direction"),
+                  "dip_dir3_deg": Parameter(0.0, -30.0, 30.0, "deg", "change of FP3's dip direction")}
 
     def apply(self, model: Model) -> Model:
         planes = []

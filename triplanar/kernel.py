@@ -49,7 +49,9 @@ P_D0 = 60         # 12: friction directions to use at zero slip (rows: CP1..3, t
 P_USER = 72       # 1: call the user effects' Python wrench (slow path) before each evaluation
 P_STUCK = 73      # index of the contact point that sticks (0-2), or -1: all three slide
 P_TIP_STUCK = 74  # 1: the aft face sticks to the tip (static end friction), 0: it slips
-N_PARAM = 75
+P_F0 = 75         # actuator force when sliding starts (t = 0); with P_TAU > 0 it rises from there to P_FCMD
+P_LEFT0 = 76      # 6: how far each CP starts across another plane's line (re-seated tilted planes), m
+N_PARAM = 82
 
 # -- aux outputs of dynamics() ----------------------------------------------------------------
 A_N = 0           # 3 normal reactions
@@ -72,6 +74,7 @@ ZERO_SPEED = 1e-9  # m/s: a site slower than this (integration noise) is at rest
 # creates no creep; it shifts a path by about a (SLIP_BLEND/a)^2 ~ 1e-10 m, and the dissipated power is
 # computed as f.v, so the energy balance stays exact.
 SLIP_BLEND = 1e-5
+LEFT_PLANE_TOL = 1e-6  # m: how far below another plane a contact point must be to have crossed onto it
 
 # -- status codes returned by integrate() ------------------------------------------------------
 ST_RUNNING, ST_TRAVEL, ST_LIFT_OFF, ST_MC_OUTSIDE, ST_LEFT_PLANE = 0, 1, 2, 3, 4
@@ -189,6 +192,16 @@ def _world_inertia_times(R: np.ndarray, p: np.ndarray, w: np.ndarray, out: np.nd
         out[i] = s
 
 
+@njit(cache=True)
+def thrust(t: float, p: np.ndarray) -> float:
+    """Actuator force F_T at time t since sliding began: the command, or with a rise time constant tau
+    ``F_cmd - (F_cmd - F0) exp(-t/tau)`` in closed form (a stiff ODE for small tau otherwise)."""
+    tau = p[P_TAU]
+    if tau <= 0.0:
+        return p[P_FCMD]
+    return p[P_FCMD] - (p[P_FCMD] - p[P_F0]) * math.exp(-t / tau)
+
+
 @njit(cache=True, inline="always")
 def _friction_direction(v0, v1, v2, speed, p, k):
     """Unit slip direction, blended with the incipient direction p[k:k+3] below SLIP_BLEND."""
@@ -248,7 +261,7 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     v = y[S_V:S_V + 3]
     w = y[S_W:S_W + 3]
     tau = p[P_TAU]
-    F_T = p[P_FCMD] if tau <= 0.0 else y[S_F]
+    F_T = thrust(t, p)
     udot = p[P_UDOT]
     actuator = p[P_CASE] == 0.0
     g1x, g1y, g1z = R[0, 0], R[1, 0], R[2, 0]
@@ -423,7 +436,7 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     dy[S_Q + 1] = 0.5 * (w[0] * qw + w[1] * qz - w[2] * qy)
     dy[S_Q + 2] = 0.5 * (-w[0] * qz + w[1] * qw + w[2] * qx)
     dy[S_Q + 3] = 0.5 * (w[0] * qy - w[1] * qx + w[2] * qw)
-    dy[S_F] = (p[P_FCMD] - y[S_F]) / tau if tau > 0.0 else 0.0
+    dy[S_F] = (p[P_FCMD] - F_T) / tau if tau > 0.0 else 0.0  # the record of F_T; nothing feeds back
     dy[S_U] = udot
     dy[S_WLOAD] = p_load
     for j in range(3):
@@ -638,7 +651,8 @@ def event_values(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float
 
     0: CP1 reached the travel target; 1-3: normal reaction of CP i is negative (lift-off); 4: the mass
     centre's overhead projection left the contact triangle; 5-10: CP i is below another plane j by more
-    than 1e-9 m, i.e. crossed the line where the planes meet (the foundation is their upper envelope);
+    than 1e-6 m, i.e. crossed the line where the planes meet (the foundation is their upper envelope);
+    a point re-seated a hair across a line (tilted planes, ``P_LEFT0``) must go 1 um deeper than it started;
     11: every contact point slower than ``slow_speed`` (a candidate arrest); 12-14: CP i slower than
     ``slow_speed / 10`` (it stops: stick or reverse); 15: the stuck contact's friction would leave its cone;
     16: the aft face's slip on the tip slower than ``slow_speed / 10``; 17: the stuck tip's friction would
@@ -664,7 +678,7 @@ def event_values(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float
             if i != j:
                 nj0, nj1, nj2 = p[P_N + 3 * j], p[P_N + 3 * j + 1], p[P_N + 3 * j + 2]
                 hj = -(nj0 * cp[i, 0] + nj2 * cp[i, 2]) / nj1
-                out[k] = hj - cp[i, 1] - 1e-9
+                out[k] = hj - cp[i, 1] - LEFT_PLANE_TOL - p[P_LEFT0 + k - 5]
                 k += 1
     fastest = max(aux[A_SPEED], max(aux[A_SPEED + 1], aux[A_SPEED + 2]))
     out[EV_SLOW] = slow_speed - fastest
@@ -747,14 +761,18 @@ def step(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: n
 
 @njit(cache=True)
 def _error_norm(y: np.ndarray, y_new: np.ndarray, err: np.ndarray, rtol: float, atol: float) -> float:
-    """RMS error over the dynamic state (pose, velocities, force, offset). The energy integrals are left out:
-    they are quadratures that feed nothing back, and including them (they scale with mass and force) would
-    make similar systems (paper cases D-F) take different steps."""
+    """RMS error over the dynamic state (pose, velocities) and the tip offset. The force record and the
+    energy integrals are left out: they are quadratures that feed nothing back, and including them (they
+    scale with mass and force) would make similar systems (paper cases D-F) take different steps."""
     s = 0.0
+    n = 0
     for i in range(S_WLOAD):
+        if i == S_F:
+            continue
         sc = atol + rtol * max(abs(y[i]), abs(y_new[i]))
         s += (err[i] / sc) ** 2
-    return math.sqrt(s / S_WLOAD)
+        n += 1
+    return math.sqrt(s / n)
 
 
 @njit(cache=True)

@@ -19,6 +19,7 @@ from .effects import Effect
 from .specimen import GRAVITY, PLANE_TOLERANCE_M, Foundation, Specimen, SpecimenError, reference
 
 PAPER_CASES = ("A", "B", "C")
+SEAT_TOLERANCE_M = 1e-4  # how far a re-seated contact point may start across a line where planes meet
 
 
 @dataclass(frozen=True)
@@ -128,16 +129,30 @@ class Model:
         p[K.P_USER] = 1.0 if self.force_effects else 0.0
         p[K.P_STUCK] = -1.0
         p[K.P_TIP_STUCK] = 0.0
+        # Re-seated on tilted planes, a contact point that rests on a line where two planes meet may start
+        # a hair across it; the plane-crossing events count only what lies beyond that start, up to
+        # SEAT_TOLERANCE_M. Deeper than that the tilted planes put the point under another plane (it would
+        # rest on that one): the run ends at t = 0 with ``left_plane``, honestly.
+        y = self._unseated_state(self.loading.force_N)
+        if K.project(y, p):
+            aux, events = np.empty(K.N_AUX), np.empty(K.N_EVENTS)
+            K.dynamics(0.0, y, p, np.empty(K.N_STATE), aux)
+            K.event_values(y, p, aux, 0.0, 0.0, events)
+            p[K.P_LEFT0:K.P_LEFT0 + 6] = np.clip(events[5:11] + K.LEFT_PLANE_TOL, 0.0, SEAT_TOLERANCE_M)
         return p
 
-    def initial_state(self, thrust_N: float | None = None) -> np.ndarray:
-        """The block at rest, seated on the planes; actuator force ``thrust_N`` (default: the command)."""
+    def _unseated_state(self, thrust_N: float) -> np.ndarray:
         s = self.specimen
         y = np.zeros(K.N_STATE)
         y[K.S_R:K.S_R + 3] = s.mass_centre_world
         y[K.S_Q:K.S_Q + 4] = quaternion_from_matrix(s.body_axes)
-        y[K.S_F] = self.loading.force_N if thrust_N is None else thrust_N
+        y[K.S_F] = thrust_N
         y[K.S_U] = self.loading.tip_offset_m
+        return y
+
+    def initial_state(self, thrust_N: float | None = None) -> np.ndarray:
+        """The block at rest, seated on the planes; actuator force ``thrust_N`` (default: the command)."""
+        y = self._unseated_state(self.loading.force_N if thrust_N is None else thrust_N)
         p = self.kernel_params_cached
         if not K.project(y, p):
             raise SpecimenError("foundation.planes", "the block cannot be seated on these planes")

@@ -62,14 +62,16 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
     y0 = model.initial_state()
     if model.loading.rise_time_s > 0:
         threshold = sliding_threshold(model, y0, upper_N=model.loading.force_N)
+        if math.isnan(threshold):
+            threshold = 0.0  # it cannot even hold without thrust: it slides as soon as the actuator starts
         if math.isinf(threshold):
             return _held(model, y0, method, "the commanded force never overcomes friction (static equilibrium "
                          f"exists at {model.loading.force_N:g} N)")
         thrust0 = threshold
-        t_start = -model.loading.rise_time_s * math.log1p(-threshold / model.loading.force_N) \
-            if threshold < model.loading.force_N else 0.0
+        t_start = -model.loading.rise_time_s * math.log1p(-threshold / model.loading.force_N)
+        p[K.P_F0] = thrust0
         y0 = model.initial_state(thrust_N=thrust0)
-    if holds(model, y0, thrust0):
+    elif holds(model, y0, thrust0):  # (a rising force starts at the threshold: it slides by construction)
         return _held(model, y0, method, f"friction holds the block at {thrust0:g} N: a static equilibrium exists, "
                      "so it never starts to slide")
 
@@ -92,7 +94,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
                 continue
             if code == K.ST_SLOW:
                 # Every contact slow, or a second one stops while one sticks: can friction hold it all?
-                if holds(model, y, _thrust(model, y), t):
+                if holds(model, y, K.thrust(t, p), t):
                     status, message = "arrested", (f"arrested at t = {t:.4f} s: the contact points came to rest "
                                                    "and friction can hold the block")
                     break
@@ -132,6 +134,9 @@ def _message(status: str, event: int, t: float, travel_m: float) -> str:
     if status == "left_plane":
         pairs = [(i, j) for i in range(3) for j in range(3) if i != j]
         i, j = pairs[event - 5]
+        if t == 0.0:
+            return (f"CP{i + 1} starts under FP{j + 1}: the (tilted) planes put it more than 0.1 mm across the line "
+                    f"where FP{i + 1} and FP{j + 1} meet, so it cannot rest on FP{i + 1}")
         return f"CP{i + 1} crossed onto FP{j + 1} (left its plane over the line where the planes meet) {at}"
     if status == "time_limit":
         return f"time limit reached {at} before the travel target"
@@ -142,10 +147,6 @@ def _cp1_x1(y: np.ndarray, p: np.ndarray) -> float:
     cps = np.empty((3, 3))
     K.contact_points(y, p, cps)
     return float(cps[0, 0])
-
-
-def _thrust(model: Model, y: np.ndarray) -> float:
-    return model.loading.force_N if model.loading.rise_time_s <= 0 else float(y[K.S_F])
 
 
 class _user_effects:

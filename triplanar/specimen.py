@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import dataclass, replace
-from functools import cached_property
+from functools import cached_property, lru_cache
 from importlib import resources
 from pathlib import Path
 
@@ -202,8 +202,10 @@ def barycentric_horizontal(point: np.ndarray, triangle: np.ndarray) -> np.ndarra
 
 # -- files ------------------------------------------------------------------------------------
 
+@lru_cache(maxsize=1)
 def reference() -> tuple[Specimen, Foundation]:
-    """The reference specimen and foundation of ``reference-specimen.md`` (read from the shipped TOML)."""
+    """The reference specimen and foundation of ``reference-specimen.md`` (read once from the shipped TOML;
+    both are immutable values)."""
     text = resources.files("triplanar").joinpath("data/reference.toml").read_text(encoding="utf-8")
     return parse_toml(tomllib.loads(text), source="triplanar/data/reference.toml")
 

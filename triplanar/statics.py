@@ -36,87 +36,99 @@ def _tangent_basis(n: np.ndarray) -> np.ndarray:
     return np.array([t1, np.cross(n, t1)])
 
 
+def _equilibrium_lp(model: Model, y: np.ndarray, t: float) -> dict:
+    """The static-equilibrium LP at pose ``y`` with the thrust F_T as its last variable.
+
+    Variables: N1..N3, two tangential friction components per contact, two at the tip (if it rubs), F_T.
+    Equalities: force and moment balance about the mass centre. Inequalities: inscribed 64-gons of the
+    friction cones; the tip's bound F_T (e1.g1) tan(phi_EF) is linear in F_T, so it stays an LP.
+    """
+    p = model.kernel_params_cached.copy()
+    y = y.copy()
+    y[K.S_V:K.S_V + 6] = 0.0
+    extra_f, extra_m = np.zeros(3), np.zeros(3)
+    if model.force_effects:
+        state = model.block_state(t, y)
+        for effect in model.force_effects:
+            f, m = effect.wrench(t, state)
+            extra_f += f
+            extra_m += m
+    rot = np.empty((3, 3))
+    K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], rot)
+    r = y[K.S_R:K.S_R + 3]
+    load_point = r + _load_arm(y, p, rot)
+    g1 = rot[:, 0]
+    force_dir = np.array([1.0, 0.0, 0.0]) if model.loading.kind == "actuator" else g1
+    cps = np.empty((3, 3))
+    K.contact_points(y, p, cps)
+    normals = model.foundation.normals
+    tan_phi = p[K.P_TANPHI:K.P_TANPHI + 3]
+    tangents = [_tangent_basis(n) for n in normals]
+    directions = [*normals, *(t_ for pair in tangents for t_ in pair)]
+    points = [*cps, *np.repeat(cps, 2, axis=0)]
+    tip_coefficient = p[K.P_TANEF] * g1[0]  # the tip's friction bound per newton of thrust
+    rubs = tip_coefficient > 0
+    if rubs:
+        directions += [rot[:, 1], rot[:, 2]]
+        points += [load_point, load_point]
+    directions += [force_dir]
+    points += [load_point]
+    directions, points = np.array(directions), np.array(points)
+    a_eq = np.vstack([directions.T, np.cross(points - r, directions).T])
+    weight = np.array([0.0, p[K.P_MASS] * p[K.P_G], 0.0])
+    b_eq = -np.concatenate([extra_f - weight, extra_m])
+    n_var = len(directions)
+    cos_a, sin_a = np.cos(_ANGLES), np.sin(_ANGLES)
+    a_ub = np.zeros(((4 if rubs else 3) * POLYGON_SIDES, n_var))
+    for i in range(3):
+        block = slice(i * POLYGON_SIDES, (i + 1) * POLYGON_SIDES)
+        a_ub[block, 3 + 2 * i], a_ub[block, 4 + 2 * i] = cos_a, sin_a
+        a_ub[block, i] = -tan_phi[i] * _INSET
+    if rubs:
+        a_ub[3 * POLYGON_SIDES:, 9], a_ub[3 * POLYGON_SIDES:, 10] = cos_a, sin_a
+        a_ub[3 * POLYGON_SIDES:, -1] = -tip_coefficient * _INSET
+    bounds = [(0, None)] * 3 + [(None, None)] * (n_var - 4)
+    return {"A_eq": a_eq, "b_eq": b_eq, "A_ub": a_ub, "b_ub": np.zeros(len(a_ub)), "bounds": bounds,
+            "n_var": n_var}
+
+
+def _load_arm(y: np.ndarray, p: np.ndarray, rot: np.ndarray) -> np.ndarray:
+    arm = np.empty(3)
+    K.load_arm(y, p, rot, arm)
+    return arm
+
+
 def holds(model: Model, y: np.ndarray, thrust_N: float | None = None, t: float = 0.0) -> bool:
     """True when a static equilibrium with friction inside its cones exists at pose ``y``.
 
     ``y``'s velocities are ignored (the block is taken at rest); ``thrust_N`` defaults to the command.
     """
-    p = model.kernel_params_cached.copy()
-    y = y.copy()
-    y[K.S_V:K.S_V + 6] = 0.0
-    thrust = model.loading.force_N if thrust_N is None else thrust_N
-    p[K.P_FCMD], p[K.P_TAU], y[K.S_F] = thrust, 0.0, thrust
-    if model.force_effects:
-        state = model.block_state(t, y)
-        extra = [e.wrench(t, state) for e in model.force_effects]
-        p[K.P_EXTF:K.P_EXTF + 3] = sum(f for f, _ in extra)
-        p[K.P_EXTM:K.P_EXTM + 3] = sum(m for _, m in extra)
-    # Applied wrench with all friction off: the kernel's own load (one source of truth for P_L).
-    p_frictionless = p.copy()
-    p_frictionless[K.P_TANEF] = 0.0
-    rot = np.empty((3, 3))
-    K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], rot)
-    r = y[K.S_R:K.S_R + 3]
-    aux = np.empty(K.N_AUX)
-    K.dynamics(t, y, p_frictionless, np.empty(K.N_STATE), aux)
-    load_point = aux[K.A_PL:K.A_PL + 3]
-    g1 = rot[:, 0]
-    force_dir = np.array([1.0, 0.0, 0.0]) if model.loading.kind == "actuator" else g1
-    applied_f = thrust * force_dir + p[K.P_EXTF:K.P_EXTF + 3] - np.array([0.0, p[K.P_MASS] * p[K.P_G], 0.0])
-    applied_m = np.cross(load_point - r, thrust * force_dir) + p[K.P_EXTM:K.P_EXTM + 3]
-
-    cps = np.empty((3, 3))
-    K.contact_points(y, p, cps)
-    normals = model.foundation.normals
-    tan_phi = p[K.P_TANPHI:K.P_TANPHI + 3]
-    # Columns: N1..N3, then two tangential components per contact, then two at the tip (if it rubs).
-    tangents = [_tangent_basis(n) for n in normals]
-    directions = [*normals, *(t for pair in tangents for t in pair)]
-    points = [*cps, *np.repeat(cps, 2, axis=0)]
-    tip_friction = p[K.P_TANEF] * thrust * g1[0]
-    if tip_friction > 0:
-        directions += [rot[:, 1], rot[:, 2]]
-        points += [load_point, load_point]
-    directions, points = np.array(directions), np.array(points)
-    a_eq = np.vstack([directions.T, np.cross(points - r, directions).T])
-    b_eq = -np.concatenate([applied_f, applied_m])
-    n_var = len(directions)
-    # Edge k of the inscribed polygon: S . u_k <= mu N cos(pi/K) (contacts); |F_EF| bounded likewise.
-    cos_a, sin_a = np.cos(_ANGLES), np.sin(_ANGLES)
-    sites = 4 if tip_friction > 0 else 3
-    a_ub = np.zeros((sites * POLYGON_SIDES, n_var))
-    b_ub = np.zeros(sites * POLYGON_SIDES)
-    for i in range(3):
-        block = slice(i * POLYGON_SIDES, (i + 1) * POLYGON_SIDES)
-        a_ub[block, 3 + 2 * i], a_ub[block, 4 + 2 * i] = cos_a, sin_a
-        a_ub[block, i] = -tan_phi[i] * _INSET
-    if tip_friction > 0:
-        a_ub[3 * POLYGON_SIDES:, 9], a_ub[3 * POLYGON_SIDES:, 10] = cos_a, sin_a
-        b_ub[3 * POLYGON_SIDES:] = tip_friction * _INSET
-    bounds = [(0, None)] * 3 + [(None, None)] * (n_var - 3)
-    res = linprog(np.zeros(n_var), A_ub=a_ub, b_ub=b_ub, A_eq=a_eq, b_eq=b_eq,
-                  bounds=bounds, method="highs")
+    thrust = model.loading.force_N if thrust_N is None else float(thrust_N)
+    lp = _equilibrium_lp(model, y, t)
+    res = linprog(np.zeros(lp["n_var"]), A_ub=lp["A_ub"], b_ub=lp["b_ub"], A_eq=lp["A_eq"], b_eq=lp["b_eq"],
+                  bounds=lp["bounds"] + [(thrust, thrust)], method="highs")
     return bool(res.status == 0)
 
 
 def sliding_threshold(model: Model, y: np.ndarray | None = None, upper_N: float | None = None,
-                      tol_N: float = 1e-3) -> float:
-    """Smallest thrust (N) at which the block at rest cannot hold (bisection on :func:`holds`).
+                      t: float = 0.0) -> float:
+    """The largest thrust (N) that friction can hold at pose ``y`` (default: rest): one LP, maximising F_T.
 
-    Returns ``inf`` if it still holds at ``upper_N`` (default: 5 x the weight).
+    The set of thrusts that can be held is an interval (the LP's feasible set is convex), so any larger
+    thrust slides. Returns ``inf`` if it still holds at ``upper_N`` (default: 5 x the weight), and ``nan``
+    if not even zero thrust can be held (the block slides under its own weight).
     """
     y = model.initial_state() if y is None else y
-    hi = upper_N if upper_N is not None else 5.0 * model.specimen.weight_N
-    if holds(model, y, hi):
-        return math.inf
-    lo = 0.0
-    while hi - lo > tol_N:
-        mid = 0.5 * (lo + hi)
-        if holds(model, y, mid):
-            lo = mid
-        else:
-            hi = mid
-    return hi
+    upper = upper_N if upper_N is not None else 5.0 * model.specimen.weight_N
+    lp = _equilibrium_lp(model, y, t)
+    cost = np.zeros(lp["n_var"])
+    cost[-1] = -1.0
+    res = linprog(cost, A_ub=lp["A_ub"], b_ub=lp["b_ub"], A_eq=lp["A_eq"], b_eq=lp["b_eq"],
+                  bounds=lp["bounds"] + [(0.0, upper)], method="highs")
+    if res.status != 0:
+        return math.nan
+    threshold = float(res.x[-1])
+    return math.inf if threshold >= upper * (1 - 1e-12) else threshold
 
 
 def incipient_directions(p: np.ndarray, y: np.ndarray, t: float = 0.0, max_iter: int = 400) -> tuple[bool, float]:

@@ -1,0 +1,32 @@
+"""``triplanar compare DATA.csv``: how far is the model from the measured traces, and where does it fail."""
+
+from __future__ import annotations
+
+import argparse
+
+NAME = "compare"
+HELP = ("simulate every measured test with your model (default: case B, no end friction) and report the "
+        "discrepancy: table, summary, overhead plots, residual plots, error map")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..workbench.cli_common import add_data_arguments
+    add_data_arguments(parser, "out/compare")
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..workbench.cli_common import model_and_tests, out_dir
+    from ..workbench.compare import compare
+    from ..workbench.report import plot_error_map, plot_overhead, plot_residuals
+    spec, tests = model_and_tests(args)
+    out = out_dir(args)
+    cmp = compare(tests, spec)
+    cmp.write_csv(out / "compare.csv")
+    summary = cmp.summary()
+    (out / "summary.txt").write_text(summary + "\n", encoding="utf-8")
+    plot_overhead(cmp, out / "overhead.png")
+    plot_residuals(cmp, out / "residuals.png")
+    plot_error_map(cmp, out / "error_map.png")
+    print(summary)
+    print(f"\nwrote {out / 'compare.csv'}, summary.txt, overhead.png, residuals.png, error_map.png")
+    return 0

@@ -1,0 +1,76 @@
+"""``triplanar fit DATA.csv --add NAME``: add effects, fit their parameters, watch the error fall."""
+
+from __future__ import annotations
+
+import argparse
+
+NAME = "fit"
+HELP = ("add effects to your model and fit their parameters (--add NAME, repeatable), or let forward "
+        "selection add effects until the error stops falling (--forward); plots the error after each addition")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..workbench.cli_common import add_data_arguments, add_worker_arguments
+    add_data_arguments(parser, "out/fit")
+    parser.add_argument("--add", action="append", default=[], metavar="NAME",
+                        help="effect to add and fit (repeatable; fitted jointly, in the order given)")
+    parser.add_argument("--forward", action="store_true",
+                        help="forward selection: diagnose, add the named effect, repeat until the error stops falling "
+                             "(after the --add effects, if any)")
+    parser.add_argument("--max-effects", type=int, default=3, metavar="N",
+                        help="forward selection: most effects to add")
+    parser.add_argument("--json", metavar="FIT.json", help="also write the JSON result here (always DIR/fit.json)")
+    add_worker_arguments(parser)
+
+
+def run(args: argparse.Namespace) -> int:
+    from ..effects import EffectError
+    from ..workbench.cli_common import check_effect_names, executor_for, model_and_tests, out_dir
+    from ..workbench.compare import compare
+    from ..workbench.fit import EffectFit
+    from ..workbench.report import plot_error_fall, plot_overhead, write_json
+    from ..workbench.select import ForwardSelection
+    if not args.add and not args.forward:
+        raise EffectError("nothing to fit: give --add NAME (repeatable) and/or --forward")
+    spec, tests = model_and_tests(args)
+    add = check_effect_names(args.add)
+    out = out_dir(args)
+    steps: list[dict] = []
+    values: dict[str, dict[str, float]] = {}
+    with executor_for(args) as ex:
+        current = spec
+        for i in range(len(add)):
+            fit = EffectFit(add[:i + 1], spec, values, ex).fit(tests)
+            if not steps:
+                steps.append({"added": None, "effects": {}, "param_stderr": {}, "error_mm": fit.baseline_error_mm_,
+                              "error_by_load_mm": {f"{k:g}": v for k, v in fit.baseline_by_load_.items()}})
+            values = fit.params_
+            current = fit.spec_
+            steps.append({"added": add[i], "effects": fit.params_, "param_stderr": fit.stderr_,
+                          "at_bound": list(fit.at_bound_), "error_mm": fit.error_mm_,
+                          "error_by_load_mm": {f"{k:g}": v for k, v in fit.error_by_load_.items()}})
+        stop = None
+        if args.forward:
+            sel = ForwardSelection(max_effects=args.max_effects, executor=ex, progress=not args.no_progress)
+            sel.fit(tests, spec, initial=values or None)
+            more = sel.report_["steps"]
+            steps = steps or more[:1]
+            steps += more[1:]
+            current, stop = sel.spec_, sel.stop_reason_
+    result = {"model": spec.describe(), "fitted_model": current.describe(), "steps": steps, "stop_reason": stop}
+    write_json(result, out / "fit.json")
+    if args.json:
+        write_json(result, args.json)
+    plot_error_fall(steps, out / "error_fall.png")
+    plot_overhead(compare(tests, current), out / "overhead.png", f"measured (black) vs {current.describe()} (grey)")
+    print(f"model: {spec.describe()}")
+    for s in steps:
+        what = "model as given" if s["added"] is None else f"+ {s['added']}"
+        errs = s["param_stderr"]
+        params = "; ".join(f"{e}: " + ", ".join(f"{k} = {v:.4g} +- {errs.get(e, {}).get(k, float('nan')):.2g}"
+                                                  for k, v in ps.items()) for e, ps in s["effects"].items())
+        print(f"  {what:24s} RMS discrepancy {s['error_mm']:8.3f} mm   {params}")
+    if stop:
+        print(f"forward selection stopped: {stop}")
+    print(f"\nwrote {out / 'fit.json'}{', ' + args.json if args.json else ''}, error_fall.png, overhead.png")
+    return 0

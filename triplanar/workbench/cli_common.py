@@ -1,0 +1,93 @@
+"""Shared plumbing of the ``compare``, ``diagnose`` and ``fit`` commands."""
+
+from __future__ import annotations
+
+import argparse
+from concurrent.futures import ProcessPoolExecutor
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+from ..commands import add_model_arguments, load_specimen, parse_effects
+from ..effects import REGISTRY, EffectError
+from ..measurement import MeasuredTest
+from .compare import load_tests
+from .executor import DEFAULT_WORKERS, Executor, SerialExecutor
+from .spec import ModelSpec
+
+
+def add_data_arguments(parser: argparse.ArgumentParser, default_out: str) -> None:
+    parser.add_argument("data", metavar="DATA.csv", help="measured traces (shared/design/measurement-format.md)")
+    add_model_arguments(parser)
+    parser.add_argument("--plugin", action="append", default=[], metavar="MODULE",
+                        help="import this module (a name on the Python path, or a .py file) first, so that the "
+                             "effects it registers can be used with --effect and become candidates (repeatable)")
+    parser.add_argument("--out", metavar="DIR", default=default_out, help=f"output directory (default {default_out})")
+
+
+def import_plugins(plugins: list[str]) -> None:
+    """Import user modules that register effects (``--plugin``)."""
+    import importlib
+    import importlib.util
+    import sys
+    for plugin in plugins:
+        path = Path(plugin)
+        if plugin.endswith(".py"):
+            if not path.is_file():
+                raise OSError(f"--plugin {plugin}: no such file")
+            name = f"triplanar_plugin_{path.stem}"
+            spec = importlib.util.spec_from_file_location(name, path)
+            module = importlib.util.module_from_spec(spec)
+            sys.modules[name] = module
+            spec.loader.exec_module(module)
+        else:
+            try:
+                importlib.import_module(plugin)
+            except ModuleNotFoundError as err:
+                raise OSError(f"--plugin {plugin}: {err}") from None
+
+
+def add_worker_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--workers", type=int, default=DEFAULT_WORKERS, metavar="N",
+                        help=f"processes for the sweep (default {DEFAULT_WORKERS}; 1: in this process)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+
+def model_and_tests(args: argparse.Namespace) -> tuple[ModelSpec, list[MeasuredTest]]:
+    """The user's model (case B + ``--effect``s, ``--specimen``) and the validated tests."""
+    import_plugins(args.plugin)
+    effects = parse_effects(args.effect)
+    specimen, foundation = load_specimen(args.specimen)
+    if args.specimen:
+        spec = ModelSpec.from_effects(effects, specimen, foundation)
+    else:
+        spec = ModelSpec.from_effects(effects)
+    spec.build(30.0)  # an inconsistent model (e.g. an effect the specimen check refuses) fails here
+    tests = load_tests(args.data, specimen)
+    return spec, tests
+
+
+def check_effect_names(names: list[str]) -> list[str]:
+    for name in names:
+        if name not in REGISTRY:
+            raise EffectError(f"unknown effect {name!r}; known effects: {', '.join(sorted(REGISTRY))}")
+    return names
+
+
+@contextmanager
+def executor_for(args: argparse.Namespace) -> Iterator[Executor]:
+    workers = max(1, int(args.workers))
+    if workers == 1:
+        yield SerialExecutor()
+        return
+    pool = ProcessPoolExecutor(max_workers=workers)
+    try:
+        yield pool
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def out_dir(args: argparse.Namespace) -> Path:
+    path = Path(args.out)
+    path.mkdir(parents=True, exist_ok=True)
+    return path

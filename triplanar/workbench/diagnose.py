@@ -1,0 +1,308 @@
+"""Which effect is the model missing? Try each candidate, fit it, cross-validate by load level, rank.
+
+For every candidate effect (:mod:`triplanar.workbench.candidates`) the :class:`Diagnoser` fits its
+parameters with the effect added to the user's model, once per cross-validation fold (trained on the other
+load levels, scored on the fold's levels) and once on all tests (the reported estimate). Folds are load
+levels, interleaved (fold k holds levels k, k+K, k+2K, ... of the sorted loads), so a candidate is judged on
+loads it was not fitted to: an effect that only memorises does not win. Candidates are ranked by
+cross-validated RMS discrepancy (``cv_error_mm``).
+
+Every (candidate, fold) fit is an independent :class:`~triplanar.workbench.fit.FitTask`, mapped with
+:func:`~triplanar.workbench.fit.run_fit` over the executor: the sweep parallelises across processes (or a
+cluster) without change.
+
+Deciding (the thresholds are attributes of :class:`Diagnoser`):
+
+* ``repeat_scatter_mm``: the discrepancy a perfect model would still show (repeats' spread about their mean
+  path, :func:`~triplanar.workbench.discrepancy.repeat_scatter_mm`).
+* Nothing to explain: baseline error below ``quiet_factor`` x scatter -> ``missing_effect`` null,
+  confidence ``"none"``.
+* A candidate *explains* the data when its improvement (fraction of the baseline error removed, cross-
+  validated) is at least ``min_improvement`` and none of its parameters ends at the edge of its plausible
+  range. The best explaining candidate is named; otherwise null / ``"none"``.
+* Confidence ``"high"`` when, in addition, its improvement is at least ``high_improvement``, its cross-
+  validated error is within ``explained_factor`` x scatter (what is left looks like repeat scatter), and the
+  runner-up's cross-validated error is at least ``margin`` x the winner's (the data tell them apart).
+  Otherwise ``"low"``.
+* ``param_stderr``: the larger of the cluster-robust sandwich error of the full fit and the delete-a-fold
+  jackknife over the cross-validation fits (which also sees a parameter drifting with load).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from ..measurement import MeasuredTest
+from .candidates import Candidate, resolve
+from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
+from .executor import ExecutorLike, run_tasks
+from .fit import (FitOutcome, FitTask, discrepancies, errors_by_load, evaluate_spec, overall_error,
+                  run_fit)
+from .spec import ModelSpec, spec_with_values
+
+
+def load_folds(forces: Sequence[float], k: int) -> list[list[float]]:
+    """Interleaved folds of the sorted load levels (at most one fold per level)."""
+    levels = sorted(set(float(f) for f in forces))
+    k = max(1, min(k, len(levels)))
+    return [levels[i::k] for i in range(k)]
+
+
+@dataclass
+class CandidateResult:
+    """One candidate's line of the report."""
+
+    effect: str
+    params: dict[str, float]
+    param_stderr: dict[str, float]
+    cv_error_mm: float
+    fit_error_mm: float
+    improvement: float
+    plausible: bool
+    at_bound: list[str]
+    cv_error_by_load: dict[float, float] = field(default_factory=dict)
+    fold_params: list[dict[str, float]] = field(default_factory=list)
+    seconds: float = 0.0
+    nfev: int = 0
+    all_values: dict[str, dict[str, float]] = field(default_factory=dict)
+    all_stderr: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    def as_json(self) -> dict[str, Any]:
+        return {"effect": self.effect, "params": self.params, "param_stderr": self.param_stderr,
+                "cv_error_mm": self.cv_error_mm, "improvement": self.improvement,
+                "fit_error_mm": self.fit_error_mm, "plausible": self.plausible, "at_bound": self.at_bound,
+                "cv_error_by_load_mm": {f"{k:g}": v for k, v in self.cv_error_by_load.items()},
+                "fold_params": self.fold_params, "fit_seconds": round(self.seconds, 3), "nfev": self.nfev,
+                **({"refitted": {k: v for k, v in self.all_values.items() if k != self.effect}}
+                   if len(self.all_values) > 1 else {})}
+
+
+def _jackknife(folds: list[dict[str, float]]) -> dict[str, float]:
+    k = len(folds)
+    if k < 2:
+        return {}
+    out = {}
+    for name in folds[0]:
+        values = np.array([f[name] for f in folds])
+        out[name] = float(math.sqrt((k - 1) / k * np.sum((values - values.mean()) ** 2)))
+    return out
+
+
+@dataclass(frozen=True)
+class CandidateTask:
+    """Everything one candidate's cross-validated fit needs (picklable: the unit of a diagnose sweep)."""
+
+    base: ModelSpec
+    candidate: Candidate
+    tests: tuple[MeasuredTest, ...]
+    folds: tuple[tuple[float, ...], ...]
+    max_nfev: int = 30
+    refit: tuple[Candidate, ...] = ()
+    warm: Mapping[str, Mapping[str, float]] | None = None
+
+
+def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
+    """Fit one candidate (jointly with the ``refit`` effects, warm-started at ``warm``) on all tests, then on
+    each fold's training levels, scoring the fold's held-out levels; returns ``{"all": ..., "fold0": ...}``.
+    Pure: the unit a diagnose sweep maps.
+
+    The full fit starts from the candidate's grid scan (or its neutral start); each fold's fit starts from
+    the full fit's optimum (a warm start: it converges in a few iterations; the fold's optimum itself depends
+    only on its training levels). All fits share one evaluation cache (folds split by load level, so a
+    level's tests are the same in every fit)."""
+    cache: dict = {}
+    cands = (task.candidate, *task.refit)
+    tests = list(task.tests)
+    out: dict[str, FitOutcome] = {}
+    out["all"] = run_fit(FitTask(task.base, cands, tuple(tests), (), None, task.max_nfev, "all", task.warm),
+                         map, cache)
+    for i, fold in enumerate(task.folds):
+        held = tuple(t for t in tests if t.shear_force_N in fold)
+        train = tuple(t for t in tests if t.shear_force_N not in fold) or held  # one level only: in sample
+        out[f"fold{i}"] = run_fit(FitTask(task.base, cands, train, held, out["all"].vector, task.max_nfev,
+                                          f"fold{i}"), map, cache)
+    return out
+
+
+class Diagnoser:
+    """Find the effect a model lacks (scikit-learn style: configure, ``fit(tests)``, read attributes).
+
+    Args:
+        candidates: effect names or :class:`Candidate` recipes (default: every registered effect, minus
+            those already in the model).
+        folds: cross-validation folds over load levels (default 3; fewer if there are fewer levels).
+        executor: ``None`` (2-process pool), ``"serial"``, or any object with ``map`` (e.g. a Ray pool).
+        progress: show a progress bar (tqdm, on stderr).
+        max_nfev: least-squares evaluations per fit.
+
+    Fitted attributes: ``report_`` (the JSON report), ``candidates_`` (list of :class:`CandidateResult`,
+    best first), ``missing_effect_``, ``confidence_``, ``reason_``, ``baseline_error_mm_``,
+    ``repeat_scatter_mm_``, ``baseline_`` (per-test discrepancies), ``seconds_``.
+    """
+
+    min_improvement = 0.3
+    high_improvement = 0.5
+    explained_factor = 2.0
+    quiet_factor = 1.5
+    margin = 1.25
+
+    def __init__(self, candidates: Sequence[str | Candidate] | None = None, folds: int = 3,
+                 executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30):
+        self.candidates = candidates
+        self.folds = folds
+        self.executor = executor
+        self.progress = progress
+        self.max_nfev = max_nfev
+
+    def fit(self, tests: Sequence[MeasuredTest], base: ModelSpec | None = None,
+            refit: Mapping[str, Mapping[str, float]] | None = None) -> Diagnoser:
+        """Diagnose ``tests`` against ``base`` (default: case B, reference specimen).
+
+        ``refit``: effects already added to the model, ``{name: {param: value}}``; they are part of the
+        model being diagnosed, and their parameters are re-estimated jointly with each candidate's (what
+        forward selection does)."""
+        began = time.perf_counter()
+        base = base or ModelSpec()
+        tests = list(tests)
+        if not tests:
+            raise ValueError("diagnose needs at least one measured test")
+        friction = base.specimen.friction_deg if base.specimen is not None else (17.0, 14.0, 11.0)
+        refit = {k: dict(v) for k, v in (refit or {}).items()}
+        refit_cands = tuple(resolve(list(refit), friction_deg=friction))
+        cands = resolve(self.candidates, exclude=(*base.effect_names, *refit), friction_deg=friction)
+        if not cands:
+            raise ValueError("no candidate effects to try (all are already in the model)")
+        self.user_base_ = base
+        self.refit_ = refit
+        for name, values in refit.items():
+            base = spec_with_values(base, name, values)
+        self.base_ = base
+        self.baseline_: list[TestDiscrepancy] = discrepancies(evaluate_spec(base, tests))
+        self.baseline_error_mm_ = overall_error(self.baseline_)
+        self.baseline_by_load_ = errors_by_load(self.baseline_)
+        self.repeat_scatter_mm_ = repeat_scatter_mm(tests)
+        folds = load_folds([t.shear_force_N for t in tests], self.folds)
+        self.folds_ = folds
+        tasks = [CandidateTask(self.user_base_, c, tuple(tests), tuple(tuple(f) for f in folds), self.max_nfev,
+                               refit_cands, refit) for c in cands]
+        # Slowest first (slow simulations, many parameters), so that the pool stays balanced.
+        tasks.sort(key=lambda t: (t.candidate.effect != "actuator_rise", -len(t.candidate.free)))
+        outcomes = run_tasks(run_candidate, tasks, self.executor, self.progress, desc="diagnose")
+        by_label = {f"{t.candidate.effect}/{k}": v for t, out in zip(tasks, outcomes) for k, v in out.items()}
+        results = [self._assemble(c, by_label, len(folds)) for c in cands]
+        results.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))
+        self.candidates_ = results
+        self.outcomes_ = by_label
+        self._decide()
+        self.seconds_ = time.perf_counter() - began
+        self.report_ = self._report()
+        return self
+
+    def _assemble(self, cand: Candidate, by_label: dict[str, FitOutcome], k: int) -> CandidateResult:
+        full = by_label[f"{cand.effect}/all"]
+        held: dict[str, tuple[float, float]] = {}
+        fold_params = []
+        for i in range(k):
+            out = by_label[f"{cand.effect}/fold{i}"]
+            held.update(out.held_out_errors)
+            fold_params.append({p: out.values[cand.effect][p] for p in cand.free})
+        cv = rms([e for _, e in held.values()])
+        by_load: dict[float, list[float]] = {}
+        for force, err in held.values():
+            by_load.setdefault(force, []).append(err)
+        params = {p: full.values[cand.effect][p] for p in cand.free}
+        sandwich = full.stderr.get(cand.effect, {})
+        jack = _jackknife(fold_params) if k > 1 else {}
+        stderr = {p: float(max(sandwich.get(p, 0.0), jack.get(p, 0.0))) for p in cand.free}
+        base = self.baseline_error_mm_
+        improvement = 1.0 - cv / base if base > 0 and math.isfinite(cv) else 0.0
+        implausible = [a.split(".", 1)[1] for a in full.at_bound if a.split(".", 1)[0] == cand.effect]
+        seconds = full.seconds + sum(by_label[f"{cand.effect}/fold{i}"].seconds for i in range(k))
+        nfev = full.nfev + sum(by_label[f"{cand.effect}/fold{i}"].nfev for i in range(k))
+        return CandidateResult(cand.effect, params, stderr, cv, full.train_error_mm, improvement,
+                               not implausible, implausible,
+                               {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
+                               full.values, full.stderr)
+
+    def _decide(self) -> None:
+        scatter = self.repeat_scatter_mm_
+        base = self.baseline_error_mm_
+        self.missing_effect_, self.confidence_ = None, "none"
+        if math.isfinite(scatter) and base <= self.quiet_factor * scatter:
+            self.reason_ = (f"the model already matches the data to within the repeats' own scatter (error "
+                            f"{base:.2f} mm, scatter {scatter:.2f} mm): nothing is missing")
+            return
+        explaining = [c for c in self.candidates_ if c.plausible and c.improvement >= self.min_improvement]
+        if not explaining:
+            best = self.candidates_[0] if self.candidates_ else None
+            detail = (f"; the best, {best.effect}, removes {best.improvement:.0%} of the error"
+                      f"{'' if best.plausible else ' with an implausible ' + ', '.join(best.at_bound)}"
+                      if best else "")
+            self.reason_ = (f"no candidate explains the discrepancy (none removes at least "
+                            f"{self.min_improvement:.0%} of it with plausible parameters){detail}")
+            return
+        best = explaining[0]
+        self.missing_effect_ = best.effect
+        others = [c for c in self.candidates_ if c is not best]
+        runner = others[0] if others else None
+        explained = (not math.isfinite(scatter)) or best.cv_error_mm <= self.explained_factor * scatter
+        separated = runner is None or not math.isfinite(runner.cv_error_mm) or \
+            runner.cv_error_mm >= self.margin * best.cv_error_mm
+        high = best.improvement >= self.high_improvement and explained and separated
+        self.confidence_ = "high" if high else "low"
+        why = [f"{best.effect} removes {best.improvement:.0%} of the error on held-out loads"]
+        if math.isfinite(scatter):
+            why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {scatter:.2f} mm")
+        if runner is not None:
+            why.append(f"runner-up {runner.effect} leaves {runner.cv_error_mm:.2f} mm")
+        if not high:
+            lacks = []
+            if best.improvement < self.high_improvement:
+                lacks.append(f"it removes less than {self.high_improvement:.0%}")
+            if not explained:
+                lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
+            if not separated:
+                lacks.append("the runner-up explains the data almost as well")
+            why.append("low confidence: " + "; ".join(lacks))
+        self.reason_ = "; ".join(why)
+
+    def _report(self) -> dict[str, Any]:
+        return {"baseline_error_mm": self.baseline_error_mm_,
+                "candidates": [c.as_json() for c in self.candidates_],
+                "missing_effect": self.missing_effect_,
+                "confidence": self.confidence_,
+                "reason": self.reason_,
+                "repeat_scatter_mm": None if not math.isfinite(self.repeat_scatter_mm_) else self.repeat_scatter_mm_,
+                "baseline_error_by_load_mm": {f"{k:g}": v for k, v in self.baseline_by_load_.items()},
+                "model": self.base_.describe(),
+                "folds_N": [[float(f) for f in fold] for fold in self.folds_],
+                "cross_validated": len(self.folds_) > 1,
+                "n_tests": len(self.baseline_),
+                "seconds": round(self.seconds_, 2)}
+
+    # -- using the result -----------------------------------------------------------------------------
+    def best_spec(self) -> ModelSpec:
+        """The model with the named missing effect (and any refitted ones) at their fitted values (the
+        model itself if none is named)."""
+        if self.missing_effect_ is None:
+            return self.base_
+        best = next(c for c in self.candidates_ if c.effect == self.missing_effect_)
+        spec = self.user_base_
+        for name, values in best.all_values.items():
+            if name != best.effect:
+                spec = spec_with_values(spec, name, values)
+        return spec_with_values(spec, best.effect, best.all_values[best.effect])
+
+    def score(self, tests: Sequence[MeasuredTest]) -> float:
+        """Fraction of the model's RMS discrepancy on ``tests`` removed by adding the named effect (0 when
+        none is named). Higher is better, as in scikit-learn."""
+        if self.missing_effect_ is None:
+            return 0.0
+        base = overall_error(discrepancies(evaluate_spec(self.base_, tests)))
+        new = overall_error(discrepancies(evaluate_spec(self.best_spec(), tests)))
+        return 1.0 - new / base if base > 0 else 0.0

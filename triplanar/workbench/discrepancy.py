@@ -1,0 +1,266 @@
+"""How far a model is from one measured test.
+
+Paths are compared at equal CP1 travel (``MeasuredTest.travel``: CP1's x1 minus its first x1): the model is
+resampled at every measured travel (:meth:`SimulationResult.resample_by_travel`), and the horizontal
+(x1, x3) distance between measured and modelled positions is taken for each contact point. Timing, when
+the file has ``t_s``, is compared at equal time: CP1's modelled travel at each measured instant minus the
+measured travel (the *travel lag*, in mm; it is the arrival-time error times the speed, and unlike a time
+difference it stays well-conditioned at the start, where the block barely moves).
+
+One number summarises a test, the **RMS discrepancy** (mm)::
+
+    error_mm = sqrt( (sum over CP of mean_i |d_cp,i|^2  +  mean_i lag_i^2) / (3 + has_time) )
+
+where ``d_cp,i`` is the position difference at equal travel: horizontal (x1, x3), plus vertical (x2) where
+the file has it. The table reports the horizontal distance (what the paper's overhead plots show); the
+vertical difference counts in the error because it is what tells a tilted foundation plane from changed
+friction (a plane's dip sets how fast its contact point climbs; friction does not).
+
+and :attr:`TestDiscrepancy.residuals` is a vector whose sum of squares is ``error_mm ** 2``: the quantity
+the fits minimise (summed over tests, so every test weighs the same whatever its sample count).
+
+A model run that ends before the measured travel (held, arrested, left a plane, lifted off) is compared
+as far as it went: its last position stands in for the rest of the measured path, so the error is large
+and finite, and the run's ``status`` is kept with the numbers.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..measurement import MeasuredTest
+from ..result import SimulationResult
+
+MM = 1e3
+
+
+@dataclass(frozen=True, eq=False)
+class TestDiscrepancy:
+    """Discrepancy between one measured test and the model at its force (lengths in mm).
+
+    Attributes:
+        test_id, force_N: the measured test.
+        status, message: how the model run ended (``travel`` when it covered the measured travel).
+        mean_mm, max_mm: (3,) mean and max horizontal distance per contact point at equal travel.
+        dilation_error_mm: (3,) measured minus modelled lateral (x3) dilation of each contact point at the
+            end of the measured travel (each relative to its own start).
+        rotation_error_deg: measured minus modelled turn about the vertical at the end of the measured travel
+            (angle of CP1->CP2 seen from above, positive counter-clockwise in the paper's overhead view).
+        arrival_error_s: modelled minus measured time to reach the final measured travel (``nan`` without
+            ``t_s`` or when the model never gets there).
+        lag_rms_mm: RMS travel lag (``nan`` without ``t_s``).
+        coverage: fraction of the measured travel the model reached.
+        error_mm: the RMS discrepancy (module doc).
+        travel_m: (n,) measured travel; lateral_mm: (n, 3) signed x3 error (measured minus model) per sample.
+        residuals: the fit residual vector (sum of squares = error_mm ** 2).
+        vertical_rms_mm: (3,) RMS vertical (x2) difference per contact point where the file has x2 (else nan).
+    """
+
+    __test__ = False  # not a pytest test class despite the name
+
+    test_id: str
+    force_N: float
+    status: str
+    message: str
+    mean_mm: np.ndarray
+    max_mm: np.ndarray
+    dilation_error_mm: np.ndarray
+    rotation_error_deg: float
+    arrival_error_s: float
+    lag_rms_mm: float
+    coverage: float
+    error_mm: float
+    travel_m: np.ndarray
+    lateral_mm: np.ndarray
+    residuals: np.ndarray
+    vertical_rms_mm: np.ndarray
+
+    @property
+    def has_time(self) -> bool:
+        return math.isfinite(self.lag_rms_mm)
+
+
+def heading_deg(horizontal: np.ndarray) -> np.ndarray:
+    """Angle (deg) of CP1 -> CP2 seen from above, atan2(x3, x1), for (..., 3, 2) horizontal positions."""
+    d = horizontal[..., 1, :] - horizontal[..., 0, :]
+    return np.degrees(np.arctan2(d[..., 1], d[..., 0]))
+
+
+def _ran(result: SimulationResult) -> bool:
+    return result.status != "held" and len(result.t) >= 2 and result.travel[-1] > 0
+
+
+def model_at_travel(result: SimulationResult, travel: np.ndarray) -> np.ndarray:
+    """(m, 3, 3) model positions at CP1 travels ``travel``; beyond the run's reach, its last position."""
+    travel = np.asarray(travel, dtype=float)
+    if not _ran(result):
+        return np.repeat(result.contact_points[-1:], len(travel), axis=0)
+    reach = float(np.max(result.travel))
+    return result.resample_by_travel(np.clip(travel, 0.0, reach))
+
+
+def model_travel_at_time(result: SimulationResult, t: np.ndarray) -> np.ndarray:
+    """CP1's modelled travel (m) at times ``t`` since sliding began (cubic Hermite between steps). After the
+    run's end: extrapolated at the final speed when it ended at its travel target (the block still moves),
+    otherwise held at the final travel."""
+    t = np.asarray(t, dtype=float)
+    if not _ran(result):
+        return np.zeros_like(t)
+    tt, s, v = result.t, result.travel, result.contact_velocities[:, 0, 0]
+    keep = np.append(np.diff(tt) > 0, True)
+    tt, s, v = tt[keep], s[keep], v[keep]
+    if len(tt) < 2:
+        return np.full_like(t, s[-1])
+    tq = np.clip(t, tt[0], tt[-1])
+    i = np.clip(np.searchsorted(tt, tq, side="right") - 1, 0, len(tt) - 2)
+    h = tt[i + 1] - tt[i]
+    u = (tq - tt[i]) / h
+    out = ((2 * u**3 - 3 * u**2 + 1) * s[i] + (u**3 - 2 * u**2 + u) * h * v[i]
+           + (-2 * u**3 + 3 * u**2) * s[i + 1] + (u**3 - u**2) * h * v[i + 1])
+    beyond = t > tt[-1]
+    if beyond.any():
+        speed = max(float(v[-1]), 0.0) if result.status == "travel" else 0.0
+        out[beyond] = s[-1] + speed * (t[beyond] - tt[-1])
+    return out
+
+
+def discrepancy(test: MeasuredTest, result: SimulationResult | NoRun) -> TestDiscrepancy:
+    """Compare one measured test with a model run at its force."""
+    return discrepancy_group([test], result)[0]
+
+
+def discrepancy_group(tests: list[MeasuredTest] | tuple[MeasuredTest, ...],
+                      result: SimulationResult | NoRun, arrival_time: bool = True) -> list[TestDiscrepancy]:
+    """Compare several measured tests at one force with the model run at that force (one resampling of
+    the run for all of them: the fits call this for every parameter vector)."""
+    travels = [np.maximum(t.travel, 0.0) for t in tests]
+    ends = [int(np.argmax(s)) for s in travels]
+    model_all = model_at_travel(result, np.concatenate(travels))
+    reach = float(np.max(result.travel)) if _ran(result) else 0.0
+    s_end = np.array([s[e] for s, e in zip(travels, ends)])
+    timed = [t.t_s is not None for t in tests]
+    arrival = np.full(len(tests), math.nan)
+    ok = np.array(timed) & (s_end <= reach)
+    if arrival_time and _ran(result) and ok.any():
+        arrival[ok] = result.time_at_travel(s_end[ok]) - np.array([t.t_s[e] for t, e, k in zip(tests, ends, ok) if k])
+    out, start = [], 0
+    for test, travel, end, arr in zip(tests, travels, ends, arrival):
+        n = len(travel)
+        model = model_all[start:start + n]
+        start += n
+        out.append(_compare(test, result, travel, end, model, reach, float(arr)))
+    return out
+
+
+def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.ndarray, end: int,
+             model3: np.ndarray, reach: float, arrival: float) -> TestDiscrepancy:
+    n = len(travel)
+    measured = test.horizontal                                  # (n, 3, 2)
+    model = model3[:, :, ::2]
+    d = (measured - model) * MM
+    dist = np.hypot(d[..., 0], d[..., 1])                      # (n, 3)
+    dv = (test.positions[:, :, 1] - model3[:, :, 1]) * MM      # (n, 3) vertical, NaN where not measured
+    has_v = np.isfinite(dv)
+    dv = np.where(has_v, dv, 0.0)
+    s_end = float(travel[end])
+    rest = result.contact_points[0][:, ::2]
+    dilation = (measured[end, :, 1] - measured[0, :, 1]) - (model[end, :, 1] - rest[:, 1])
+    rotation = (heading_deg(measured[end]) - heading_deg(measured[0])) - (heading_deg(model[end]) - heading_deg(rest))
+    coverage = 1.0 if s_end <= 0 else min(1.0, reach / s_end)
+    groups = 3
+    lag = None
+    if test.t_s is not None:
+        groups = 4
+        lag = (model_travel_at_time(result, test.t_s) - travel) * MM
+    sq = (float(np.sum(dist**2)) + float(np.sum(dv**2))) / n + (float(np.sum(lag**2)) / n if lag is not None else 0.0)
+    error = math.sqrt(sq / groups)
+    scale = 1.0 / math.sqrt(n * groups)
+    parts = [d.reshape(n, 6) * scale, dv * scale]
+    if lag is not None:
+        parts.append(lag[:, None] * scale)
+    residuals = np.concatenate([p.ravel() for p in parts])
+    counts = has_v.sum(axis=0)
+    vertical = np.where(counts > 0, np.sqrt(np.sum(dv**2, axis=0) / np.maximum(counts, 1)), math.nan)
+    return TestDiscrepancy(
+        test_id=test.test_id, force_N=float(test.shear_force_N), status=result.status, message=result.message,
+        mean_mm=dist.mean(axis=0), max_mm=dist.max(axis=0), dilation_error_mm=dilation * MM,
+        rotation_error_deg=float(rotation), arrival_error_s=arrival,
+        lag_rms_mm=float(np.sqrt(np.mean(lag**2))) if lag is not None else math.nan,
+        coverage=coverage, error_mm=error, travel_m=travel, lateral_mm=d[..., 1], residuals=residuals,
+        vertical_rms_mm=vertical)
+
+
+@dataclass(frozen=True)
+class NoRun:
+    """Stands in for a model run that could not be made (e.g. parameters the specimen check refuses): the
+    block stays at its rest positions, so the discrepancy is the whole measured motion."""
+
+    rest_positions: np.ndarray
+    message: str
+    status: str = "invalid"
+
+    @property
+    def contact_points(self) -> np.ndarray:
+        return np.asarray(self.rest_positions, dtype=float)[None]
+
+    @property
+    def t(self) -> np.ndarray:
+        return np.zeros(1)
+
+    @property
+    def travel(self) -> np.ndarray:
+        return np.zeros(1)
+
+
+def rms(values: np.ndarray | list[float]) -> float:
+    """Root mean square (``nan`` for no values)."""
+    values = np.asarray(values, dtype=float)
+    return float(np.sqrt(np.mean(values**2))) if values.size else math.nan
+
+
+def _interp_or_nan(grid: np.ndarray, s: np.ndarray, values: np.ndarray) -> np.ndarray:
+    ok = np.isfinite(values)
+    if ok.sum() < 2:
+        return np.full_like(grid, math.nan)
+    return np.interp(grid, s[ok], values[ok])
+
+
+def repeat_scatter_mm(tests: list[MeasuredTest], grid_points: int = 40) -> float:
+    """The RMS discrepancy a perfect model would still show: how far repeats at one force stray from their
+    common mean path, in the units of ``error_mm`` (``nan`` when no force has two repeats).
+
+    Each repeat is resampled at common travels (and, with time, its travel at common times); the deviation
+    from the repeats' mean is scaled by sqrt(k / (k - 1)) to estimate the deviation from the true path.
+    """
+    from .spec import group_by_force
+    squares: list[float] = []
+    for group in group_by_force(tests).values():
+        k = len(group)
+        if k < 2:
+            continue
+        reach = min(float(np.max(t.travel)) for t in group)
+        grid = np.linspace(0.0, reach, grid_points)
+        paths = []
+        for t in group:
+            s = np.maximum.accumulate(np.maximum(t.travel, 0.0))
+            s = s + np.arange(len(s)) * 1e-12                   # strictly increasing for interpolation
+            paths.append(np.stack([[_interp_or_nan(grid, s, t.positions[:, c, a]) for a in (0, 1, 2)]
+                                   for c in range(3)]))
+        paths = np.array(paths) * MM                          # (k, 3, 3, m)
+        dev = paths - paths.mean(axis=0)
+        dev = np.where(np.isfinite(dev), dev, 0.0)            # x2 not measured: it does not count
+        per_cp = np.sum(dev**2, axis=2).mean(axis=2) * k / (k - 1)  # (k, 3)
+        groups = 3
+        total = per_cp.sum(axis=1)
+        if all(t.t_s is not None for t in group):
+            groups = 4
+            t_end = min(float(t.t_s[-1]) for t in group)
+            tg = np.linspace(0.0, t_end, grid_points)
+            s_t = np.array([np.interp(tg, t.t_s, t.travel) for t in group]) * MM
+            lag = np.mean((s_t - s_t.mean(axis=0)) ** 2, axis=1) * k / (k - 1)
+            total = total + lag
+        squares.extend((total / groups).tolist())
+    return float(np.sqrt(np.mean(squares))) if squares else math.nan

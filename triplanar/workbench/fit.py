@@ -1,0 +1,346 @@
+"""Fitting effects' parameters to measured tests: bounded least squares on the RMS discrepancy.
+
+The objective is the sum over tests of ``error_mm ** 2`` (:mod:`triplanar.workbench.discrepancy`): every
+test weighs the same. Parameters are scaled to [0, 1] over their fit range and fitted with
+``scipy.optimize.least_squares`` (trust-region reflective, finite-difference Jacobian); a one-parameter
+fit first scans a coarse grid so that it does not polish a local minimum near its start.
+
+Uncertainty (``stderr``): the cluster-robust sandwich ``(J'J)^-1 (sum_t J_t' r_t r_t' J_t) (J'J)^-1`` with
+one cluster per test (samples of one trace are strongly correlated; tests are the independent units),
+with the small-sample factor n/(n-p).
+
+:func:`run_fit` is the pure unit of work of a sweep (a :class:`FitTask` in, a :class:`FitOutcome` out);
+:class:`EffectFit` is the estimator a user calls (``fit``, ``score``, ``predict``).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable, Iterable, Mapping, Sequence
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..effects import Effect, EffectError
+from ..measurement import MeasuredTest
+from ..result import SimulationResult
+from .candidates import Candidate, resolve
+from .discrepancy import NoRun, TestDiscrepancy, discrepancy_group, rms
+from .executor import ExecutorLike, executor_scope
+from .spec import EvalResult, EvalTask, ModelSpec, evaluate, group_by_force, spec_with_values, tasks_for
+
+#: A free parameter at most this fraction of its range from a bound is "at the bound" (implausible).
+AT_BOUND = 0.01
+#: Finite-difference step, as a fraction of each parameter's fit range.
+DIFF_STEP = 2e-3
+
+
+# -- evaluating a model on tests --------------------------------------------------------------------
+
+def safe_evaluate(task: EvalTask) -> EvalResult:
+    """:func:`evaluate`, but a model the core refuses (e.g. a plane tilt that moves a contact point too far
+    off its plane) counts as a block that never moves, with the reason in ``message``."""
+    try:
+        return evaluate(task)
+    except (ValueError, ArithmeticError) as err:
+        rest = NoRun(task.spec.rest_positions, f"model refused: {err}")
+        found = tuple(discrepancy_group(task.tests, rest))
+        return EvalResult(task.force_N, "invalid", rest.message, found)
+
+
+def evaluate_spec(spec: ModelSpec, tests: Sequence[MeasuredTest], mapper: Callable = map,
+                  keep_result: bool = False) -> list[EvalResult]:
+    """Evaluate ``spec`` on ``tests`` (one simulation per force), through ``mapper`` (``map`` or an
+    executor's ``map``)."""
+    return list(mapper(safe_evaluate, tasks_for(spec, tests, keep_result)))
+
+
+def discrepancies(results: Iterable[EvalResult]) -> list[TestDiscrepancy]:
+    """Flatten evaluation results into per-test discrepancies."""
+    return [d for r in results for d in r.discrepancies]
+
+
+def overall_error(found: Iterable[TestDiscrepancy]) -> float:
+    """The dataset's RMS discrepancy: root mean square of the tests' ``error_mm``."""
+    return rms([d.error_mm for d in found])
+
+
+def errors_by_load(found: Iterable[TestDiscrepancy]) -> dict[float, float]:
+    """RMS discrepancy per load level."""
+    groups: dict[float, list[float]] = {}
+    for d in found:
+        groups.setdefault(d.force_N, []).append(d.error_mm)
+    return {f: rms(v) for f, v in sorted(groups.items())}
+
+
+# -- the fitting problem -----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class FitTask:
+    """Fit ``candidates`` (jointly) added to ``base`` on ``train``; then score ``held_out``."""
+
+    base: ModelSpec
+    candidates: tuple[Candidate, ...]
+    train: tuple[MeasuredTest, ...]
+    held_out: tuple[MeasuredTest, ...] = ()
+    start: tuple[float, ...] | None = None
+    max_nfev: int = 30
+    label: str = ""
+    warm: Mapping[str, Mapping[str, float]] | None = None
+
+
+@dataclass(frozen=True)
+class FitOutcome:
+    """The result of one fit. ``values``/``stderr``: ``{effect: {param: value}}``; ``train_errors`` and
+    ``held_out_errors``: ``{test_id: (force_N, error_mm)}``."""
+
+    label: str
+    effects: tuple[str, ...]
+    values: dict[str, dict[str, float]]
+    stderr: dict[str, dict[str, float]]
+    at_bound: tuple[str, ...]
+    train_error_mm: float
+    train_errors: dict[str, tuple[float, float]]
+    held_out_errors: dict[str, tuple[float, float]]
+    nfev: int
+    seconds: float
+    message: str
+    vector: tuple[float, ...] = field(default=(), repr=False)
+
+    @property
+    def held_out_error_mm(self) -> float:
+        return rms([e for _, e in self.held_out_errors.values()])
+
+
+class Problem:
+    """Scaling, packing and the residual function of a joint fit of several candidates.
+
+    Evaluations are cached per (parameter vector, load level) in ``cache``, which several problems over
+    the same tests may share (the cross-validation folds of one candidate share their grid scan and first
+    Jacobian this way: folds split by load level, so a level's tests are the same in every problem).
+    """
+
+    def __init__(self, base: ModelSpec, candidates: Sequence[Candidate], tests: Sequence[MeasuredTest],
+                 mapper: Callable = map, cache: dict | None = None):
+        self.base, self.candidates, self.tests, self.mapper = base, list(candidates), list(tests), mapper
+        self.names = [(c.effect, p) for c in self.candidates for p in c.free]
+        self.lo = np.array([c.bounds[p][0] for c in self.candidates for p in c.free], dtype=float)
+        self.hi = np.array([c.bounds[p][1] for c in self.candidates for p in c.free], dtype=float)
+        self.cache: dict[tuple, tuple[TestDiscrepancy, ...]] = {} if cache is None else cache
+        self.nfev = 0
+
+    @property
+    def n(self) -> int:
+        return len(self.names)
+
+    def natural(self, u: np.ndarray) -> np.ndarray:
+        return self.lo + np.clip(u, 0.0, 1.0) * (self.hi - self.lo)
+
+    def scaled(self, x: np.ndarray) -> np.ndarray:
+        return np.clip((np.asarray(x, dtype=float) - self.lo) / (self.hi - self.lo), 0.0, 1.0)
+
+    def start(self, warm: Mapping[str, Mapping[str, float]] | None = None) -> np.ndarray:
+        """Scaled start: ``warm[effect][param]`` where given, else each candidate's neutral start."""
+        warm = warm or {}
+        return self.scaled([float(warm.get(c.effect, {}).get(p, c.start_values()[p]))
+                            for c in self.candidates for p in c.free])
+
+    def values(self, x: np.ndarray) -> dict[str, dict[str, float]]:
+        out: dict[str, dict[str, float]] = {}
+        i = 0
+        for c in self.candidates:
+            free = {p: float(x[i + k]) for k, p in enumerate(c.free)}
+            out[c.effect] = c.values(free)
+            i += len(c.free)
+        return out
+
+    def spec(self, x: np.ndarray) -> ModelSpec:
+        spec = self.base
+        for name, values in self.values(x).items():
+            spec = spec_with_values(spec, name, values)
+        return spec
+
+    def evaluate(self, u: np.ndarray,
+                 tests: Sequence[MeasuredTest] | None = None) -> tuple[np.ndarray, list[TestDiscrepancy]]:
+        """Residuals and per-test discrepancies at scaled parameters ``u`` on ``tests`` (default: the
+        problem's own)."""
+        u = np.asarray(u, dtype=float)
+        groups = group_by_force(self.tests if tests is None else tests)
+        key = tuple(np.round(u, 12))
+        missing = [f for f in groups if (key, f, len(groups[f])) not in self.cache]
+        if missing:
+            spec = self.spec(self.natural(u))
+            tasks = [EvalTask(spec, f, groups[f], report=False) for f in missing]
+            for f, result in zip(missing, self.mapper(safe_evaluate, tasks)):
+                self.cache[(key, f, len(groups[f]))] = result.discrepancies
+        found = [d for f in groups for d in self.cache[(key, f, len(groups[f]))]]
+        if tests is None:
+            self.nfev += 1
+        residuals = np.concatenate([d.residuals for d in found]) if found else np.zeros(0)
+        return residuals, found
+
+    def residuals(self, u: np.ndarray) -> np.ndarray:
+        return self.evaluate(u)[0]
+
+
+def grid_start(problem: Problem, candidate: Candidate, u0: np.ndarray | None = None) -> np.ndarray:
+    """Scan the first candidate's coarse grid over its single parameter (the others held at ``u0``, default
+    the neutral start); return the best point (scaled), the start value included."""
+    u0 = problem.start() if u0 is None else np.asarray(u0, dtype=float)
+    values = candidate.grid_values() + [candidate.start_values()[candidate.free[0]]]
+    scaled = np.clip((np.array(values) - problem.lo[0]) / (problem.hi[0] - problem.lo[0]), 0.0, 1.0)
+    grid = sorted({float(v) for v in scaled.round(12)})
+    points = [np.concatenate([[g], u0[1:]]) for g in grid]
+    costs = [float(np.sum(problem.residuals(u) ** 2)) for u in points]
+    return points[int(np.argmin(costs))]
+
+
+def sandwich_stderr(problem: Problem, u: np.ndarray, jac: np.ndarray) -> np.ndarray:
+    """Cluster-robust (one cluster per test) standard errors in natural units."""
+    r, found = problem.evaluate(u)
+    scale = problem.hi - problem.lo
+    jn = jac / scale[None, :]                         # d r / d x (natural units)
+    bread = jn.T @ jn
+    try:
+        inv = np.linalg.pinv(bread)
+    except np.linalg.LinAlgError:
+        return np.full(problem.n, math.inf)
+    meat = np.zeros_like(bread)
+    start = 0
+    for d in found:
+        stop = start + len(d.residuals)
+        g = jn[start:stop].T @ r[start:stop]
+        meat += np.outer(g, g)
+        start = stop
+    n_tests, p = len(found), problem.n
+    factor = n_tests / (n_tests - p) if n_tests > p else math.inf
+    cov = inv @ meat @ inv * factor
+    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+
+def solve(problem: Problem, start: np.ndarray | None = None, max_nfev: int = 30,
+          warm: Mapping[str, Mapping[str, float]] | None = None):
+    """Bounded least squares from ``start`` (natural units); else from the warm/neutral start, with the
+    first candidate's parameter taken from the best point of its grid scan when it has one. Returns
+    (u, jac, message)."""
+    if start is not None:
+        u0 = problem.scaled(start)
+    else:
+        u0 = problem.start(warm)
+        if problem.candidates[0].grid_values():
+            u0 = grid_start(problem, problem.candidates[0], u0)
+    res = least_squares(problem.residuals, u0, bounds=(0.0, 1.0), method="trf", diff_step=DIFF_STEP,
+                        x_scale=1.0, max_nfev=max_nfev, ftol=1e-4, xtol=1e-3, gtol=1e-8)
+    return res.x, res.jac, res.message
+
+
+def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None) -> FitOutcome:
+    """Fit the task's candidates on its training tests and score its held-out tests (pure; picklable).
+    ``cache``: evaluations shared with other fits over the same tests (see :class:`Problem`)."""
+    began = time.perf_counter()
+    problem = Problem(task.base, task.candidates, task.train, mapper, cache)
+    u, jac, message = solve(problem, task.start, task.max_nfev, task.warm)
+    neutral = problem.start()
+    u = np.where(np.abs(u - neutral) < 1e-6, neutral, u)  # the solver's strictly-feasible nudge off a bound
+    x = problem.natural(u)
+    stderr = sandwich_stderr(problem, u, jac)
+    _, found = problem.evaluate(u)
+    held: dict[str, tuple[float, float]] = {}
+    if task.held_out:
+        _, out = problem.evaluate(u, task.held_out)
+        held = {d.test_id: (d.force_N, d.error_mm) for d in out}
+    values = problem.values(x)
+    errs: dict[str, dict[str, float]] = {}
+    for (effect, param), se in zip(problem.names, stderr):
+        errs.setdefault(effect, {})[param] = float(se)
+    # At a bound and not at the neutral start (a parameter resting at "no effect", e.g. phi = 0, is not
+    # implausible; it just does nothing).
+    at_bound = tuple(f"{e}.{p}" for (e, p), ui, u0 in zip(problem.names, u, neutral)
+                     if (ui <= AT_BOUND or ui >= 1 - AT_BOUND) and abs(ui - u0) > AT_BOUND)
+    return FitOutcome(task.label, tuple(c.effect for c in task.candidates), values, errs, at_bound,
+                      overall_error(found), {d.test_id: (d.force_N, d.error_mm) for d in found}, held,
+                      problem.nfev, time.perf_counter() - began, str(message), tuple(float(v) for v in x))
+
+
+# -- the estimator -----------------------------------------------------------------------------------
+
+class EffectFit:
+    """Add effects to a model and fit their parameters (scikit-learn style).
+
+    >>> fit = EffectFit(["end_friction"]).fit(tests)          # doctest: +SKIP
+    >>> fit.params_, fit.stderr_, fit.error_mm_, fit.score(other_tests)
+
+    Args:
+        add: effect names or :class:`~triplanar.workbench.candidates.Candidate` recipes, fitted jointly.
+        base: the user's model (default: case B, reference specimen).
+        start: optional ``{effect: {param: value}}`` start values (warm start).
+        executor: runs the per-force simulations of each evaluation (``None``: 2-process pool).
+        max_nfev: least-squares evaluations allowed.
+
+    Fitted attributes: ``params_``, ``stderr_``, ``at_bound_``, ``spec_`` (base plus the fitted effects),
+    ``effects_`` (Effect objects), ``baseline_error_mm_``, ``error_mm_``, ``baseline_by_load_``,
+    ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``.
+    """
+
+    def __init__(self, add: Sequence[str | Candidate], base: ModelSpec | None = None,
+                 start: Mapping[str, Mapping[str, float]] | None = None, executor: ExecutorLike = None,
+                 max_nfev: int = 40):
+        self.add = list(add)
+        self.base = base or ModelSpec()
+        self.start = start
+        self.executor = executor
+        self.max_nfev = max_nfev
+
+    def _candidates(self) -> list[Candidate]:
+        friction = (self.base.specimen.friction_deg if self.base.specimen is not None else (17.0, 14.0, 11.0))
+        cands = resolve(self.add, friction_deg=friction)
+        names = [c.effect for c in cands]
+        duplicate = {n for n in names if names.count(n) > 1} | (set(names) & set(self.base.effect_names))
+        if duplicate:
+            raise EffectError(f"effect {sorted(duplicate)[0]!r} is already in the model; add each effect once")
+        if not cands:
+            raise EffectError("nothing to add: give at least one effect name")
+        return cands
+
+    def fit(self, tests: Sequence[MeasuredTest]) -> EffectFit:
+        cands = self._candidates()
+        tests = list(tests)
+        with executor_scope(self.executor, len(group_by_force(tests))) as ex:
+            mapper = ex.map
+            self.baseline_ = discrepancies(evaluate_spec(self.base, tests, mapper))
+            start = None
+            if self.start:
+                start = tuple(float(self.start.get(c.effect, {}).get(p, c.start_values()[p]))
+                              for c in cands for p in c.free)
+            task = FitTask(self.base, tuple(cands), tuple(tests), (), start, self.max_nfev, "fit")
+            self.outcome_ = run_fit(task, mapper)
+            self.spec_ = self.base
+            for name, values in self.outcome_.values.items():
+                self.spec_ = spec_with_values(self.spec_, name, values)
+            self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
+        self.params_ = self.outcome_.values
+        self.stderr_ = self.outcome_.stderr
+        self.at_bound_ = self.outcome_.at_bound
+        self.effects_: list[Effect] = self.spec_.build_effects()[len(self.base.effects):]
+        self.baseline_error_mm_ = overall_error(self.baseline_)
+        self.error_mm_ = overall_error(self.discrepancies_)
+        self.baseline_by_load_ = errors_by_load(self.baseline_)
+        self.error_by_load_ = errors_by_load(self.discrepancies_)
+        return self
+
+    def error_mm(self, tests: Sequence[MeasuredTest]) -> float:
+        """RMS discrepancy of the fitted model on ``tests``."""
+        return overall_error(discrepancies(evaluate_spec(self.spec_, tests)))
+
+    def score(self, tests: Sequence[MeasuredTest]) -> float:
+        """Fraction of the base model's RMS discrepancy on ``tests`` that the fitted effects remove
+        (1: perfect, 0: no better, negative: worse). Higher is better, as in scikit-learn."""
+        base = overall_error(discrepancies(evaluate_spec(self.base, tests)))
+        return 1.0 - self.error_mm(tests) / base if base > 0 else 0.0
+
+    def predict(self, force_N: float, travel_m: float = 0.08) -> SimulationResult:
+        """Simulate the fitted model at ``force_N``."""
+        from ..simulate import simulate
+        return simulate(self.spec_.build(force_N), travel_m=travel_m)

@@ -1,0 +1,181 @@
+"""Figures of the workbench, in the paper's style (:mod:`triplanar.plotting`: measured black, model grey).
+
+* :func:`plot_overhead`: one overhead panel per load level, every repeat measured (black) and the model (grey).
+* :func:`plot_residuals`: each contact point's lateral error against travel, one line per test, coloured by
+  load (the "see where it fails" plot).
+* :func:`plot_error_map`: mean horizontal distance by load level x contact point.
+* :func:`plot_candidates`: diagnose's ranking (cross-validated error of each candidate against the baseline).
+* :func:`plot_error_fall`: the error after each addition, overall and per load level ("watch it fall").
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from ..plotting import MEASURED, MODEL, overhead_axes, panel_grid, plot_traces, save_figure
+from ..specimen import reference
+from .compare import Comparison
+
+
+def _load_colours(loads: Sequence[float]):
+    import matplotlib.pyplot as plt
+    cmap = plt.get_cmap("viridis")
+    lo, hi = min(loads), max(loads)
+    return (lambda f: cmap(0.0 if hi == lo else (f - lo) / (hi - lo))), cmap, lo, hi
+
+
+def plot_overhead(cmp: Comparison, path: str | Path, title: str | None = None) -> Path:
+    """One panel per load level: measured traces (black, all repeats) and the model (grey)."""
+    foundation = cmp.spec.foundation or reference()[1]
+    loads = sorted(cmp.runs)
+    fig, axes = panel_grid(len(loads), ncols=min(4, len(loads)))
+    points = [t.horizontal.reshape(-1, 2) for t in cmp.tests]
+    for ax, f in zip(axes, loads):
+        overhead_axes(ax, foundation, f"{f:g} N")
+        run = cmp.runs[f].result
+        for test in cmp.tests:
+            if test.shear_force_N == f:
+                plot_traces(ax, test.positions, color=MEASURED, lw=0.7, marker_start=False)
+        if run is not None and len(run.t) > 1:
+            reach = max(float(np.max(t.travel)) for t in cmp.tests if t.shear_force_N == f)
+            keep = run.travel <= reach + 1e-9
+            plot_traces(ax, run.contact_points[keep], color=MODEL, lw=1.6)
+            points.append(run.contact_points[keep][:, :, ::2].reshape(-1, 2))
+        elif run is not None:
+            plot_traces(ax, run.contact_points, color=MODEL, lw=1.6)
+    # Zoom on the traces (the intersection lines would otherwise set the scale), same window in every panel.
+    allp = np.concatenate(points)
+    lo, hi = allp.min(axis=0) - 0.02, allp.max(axis=0) + 0.02
+    ncols = min(4, len(loads))
+    nrows = int(np.ceil(len(loads) / ncols))
+    for i, ax in enumerate(axes):
+        ax.set_aspect("equal", adjustable="box")
+        ax.set_xlim(lo[0], hi[0])
+        ax.set_ylim(lo[1], hi[1])
+        if i % ncols:
+            ax.set_ylabel("")
+        if i < len(loads) - ncols:
+            ax.set_xlabel("")
+    aspect = (hi[1] - lo[1]) / (hi[0] - lo[0])
+    fig.set_size_inches(3.0 * ncols, nrows * (2.4 * aspect + 0.55) + 0.3)
+    fig.subplots_adjust(hspace=0.35, wspace=0.25)
+    axes[0].plot([], [], color=MEASURED, label="measured")
+    axes[0].plot([], [], color=MODEL, label="model")
+    axes[0].legend(fontsize=7, loc="center")
+    fig.suptitle(title or f"measured (black) vs {cmp.spec.describe()} (grey)", fontsize=10)
+    return save_figure(fig, path)
+
+
+def plot_residuals(cmp: Comparison, path: str | Path) -> Path:
+    """Lateral (x3) error, measured minus model, against CP1 travel: one panel per contact point."""
+    import matplotlib.pyplot as plt
+    loads = sorted(cmp.runs)
+    colour, cmap, lo, hi = _load_colours(loads)
+    fig, axes = plt.subplots(1, 3, figsize=(12, 3.6), sharey=True)
+    for cp, ax in enumerate(axes):
+        for d in cmp.discrepancies:
+            ax.plot(d.travel_m * 100, d.lateral_mm[:, cp], color=colour(d.force_N), lw=0.8)
+        ax.axhline(0.0, color="0.7", lw=0.6)
+        ax.set_title(f"CP{cp + 1}", fontsize=9)
+        ax.set_xlabel("CP1 travel (cm)")
+    axes[0].set_ylabel("lateral error, measured - model (mm)")
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(lo, hi))
+    fig.colorbar(sm, ax=list(axes), label="shear load (N)", shrink=0.85)
+    fig.suptitle(f"where {cmp.spec.describe()} fails: lateral error along the travel", fontsize=10)
+    return save_figure(fig, path)
+
+
+def plot_error_map(cmp: Comparison, path: str | Path) -> Path:
+    """Mean horizontal distance (mm) by load level (rows) and contact point (columns), annotated."""
+    import matplotlib.pyplot as plt
+    loads, grid = cmp.cp_by_load()
+    fig, ax = plt.subplots(figsize=(4.2, 0.35 * len(loads) + 1.6))
+    im = ax.imshow(grid, cmap="Greys", aspect="auto", vmin=0.0)
+    ax.set_xticks(range(3), [f"CP{i + 1}" for i in range(3)])
+    ax.set_yticks(range(len(loads)), [f"{f:g} N" for f in loads])
+    vmax = float(grid.max()) if grid.size else 1.0
+    for i in range(len(loads)):
+        for j in range(3):
+            ax.text(j, i, f"{grid[i, j]:.1f}", ha="center", va="center", fontsize=7,
+                    color="white" if grid[i, j] > 0.6 * vmax else "black")
+    fig.colorbar(im, ax=ax, label="mean distance (mm)")
+    ax.set_title("error by load x contact point", fontsize=9)
+    return save_figure(fig, path)
+
+
+def plot_candidates(report: dict, path: str | Path) -> Path:
+    """Diagnose's ranking: cross-validated RMS discrepancy per candidate, the baseline as a line."""
+    import matplotlib.pyplot as plt
+    cands = report["candidates"]
+    names = [c["effect"] for c in cands]
+    values = [c["cv_error_mm"] for c in cands]
+    fig, ax = plt.subplots(figsize=(6, 0.45 * len(cands) + 1.4))
+    colours = ["black" if c["effect"] == report.get("missing_effect") else "0.65" for c in cands]
+    ax.barh(range(len(cands)), values, color=colours)
+    ax.set_yticks(range(len(cands)), names)
+    ax.invert_yaxis()
+    ax.axvline(report["baseline_error_mm"], color="tab:red", lw=1, label="model as given")
+    if report.get("repeat_scatter_mm"):
+        ax.axvline(report["repeat_scatter_mm"], color="tab:blue", lw=1, ls="--", label="repeat scatter")
+    ax.set_xscale("log")
+    finite = [v for v in values + [report["baseline_error_mm"], report.get("repeat_scatter_mm") or math.inf]
+              if v and math.isfinite(v) and v > 0]
+    if finite:
+        ax.set_xlim(left=0.5 * min(finite))
+    ax.set_xlabel("cross-validated RMS discrepancy (mm)")
+    ax.legend(fontsize=7)
+    verdict = report.get("missing_effect") or "no candidate"
+    ax.set_title(f"diagnose: {verdict} (confidence {report.get('confidence')})", fontsize=9)
+    return save_figure(fig, path)
+
+
+def plot_error_fall(steps: Sequence[dict], path: str | Path) -> Path:
+    """The error after each addition: overall (black) and per load level (coloured)."""
+    import matplotlib.pyplot as plt
+    labels = ["model as given"] + [f"+ {s['added']}" for s in steps[1:]]
+    loads = sorted(float(k) for k in steps[0]["error_by_load_mm"])
+    colour, cmap, lo, hi = _load_colours(loads)
+    fig, ax = plt.subplots(figsize=(max(4.5, 1.6 * len(steps)), 3.8))
+    x = np.arange(len(steps))
+    for f in loads:
+        ax.plot(x, [s["error_by_load_mm"][f"{f:g}"] for s in steps], color=colour(f), lw=0.9, marker=".")
+    ax.plot(x, [s["error_mm"] for s in steps], color="black", lw=2.2, marker="o", label="all tests")
+    ax.set_xticks(x, labels, fontsize=8)
+    ax.set_yscale("log")
+    ax.set_ylabel("RMS discrepancy (mm)")
+    for xi, s in zip(x, steps):
+        ax.annotate(f"{s['error_mm']:.2f}", (xi, s["error_mm"]), textcoords="offset points", xytext=(6, 4), fontsize=8)
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(lo, hi))
+    fig.colorbar(sm, ax=ax, label="shear load (N)")
+    ax.legend(fontsize=8)
+    ax.set_title("watch the error fall", fontsize=10)
+    return save_figure(fig, path)
+
+
+def write_json(data: dict, path: str | Path) -> Path:
+    """Write JSON atomically (NaN/inf written as null)."""
+    import json
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(_clean(data), indent=1) + "\n", encoding="utf-8")
+    tmp.replace(path)
+    return path
+
+
+def _clean(value):
+    if isinstance(value, dict):
+        return {str(k): _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(float(value)) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.ndarray):
+        return _clean(value.tolist())
+    return value

@@ -1,0 +1,128 @@
+"""Forward selection: diagnose, add the named effect, refit everything added so far, repeat.
+
+Each round runs a :class:`~triplanar.workbench.diagnose.Diagnoser` on the current model (the user's model
+plus the effects added so far). Each candidate is fitted jointly with the effects already added (their
+parameters re-estimated, warm-started at their current values), so an early effect that absorbed part of a
+later one's signature is corrected when the later one arrives. The named effect is added with the joint
+fit's values. The loop stops when diagnose names nothing, when the addition removes less than
+``min_fall`` of the current error, when what is left is within the repeats' own scatter (as diagnose would
+conclude, without running it), or after ``max_effects`` additions. Every step records the error overall and
+per load level: the
+"watch the error fall" chart (:func:`triplanar.workbench.report.plot_error_fall`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+from ..measurement import MeasuredTest
+from .candidates import Candidate
+from .diagnose import Diagnoser
+from .executor import ExecutorLike
+from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
+from .spec import ModelSpec
+
+
+@dataclass
+class SelectionStep:
+    """The model after one addition (step 0: the user's model)."""
+
+    added: str | None
+    effects: dict[str, dict[str, float]]
+    stderr: dict[str, dict[str, float]]
+    error_mm: float
+    error_by_load: dict[float, float]
+    confidence: str | None = None
+    diagnosis: dict[str, Any] | None = field(default=None, repr=False)
+
+    def as_json(self) -> dict[str, Any]:
+        return {"added": self.added, "effects": self.effects, "param_stderr": self.stderr,
+                "error_mm": self.error_mm, "error_by_load_mm": {f"{k:g}": v for k, v in self.error_by_load.items()},
+                "confidence": self.confidence}
+
+
+class ForwardSelection:
+    """Add effects one at a time while the error keeps falling (scikit-learn style).
+
+    Args:
+        candidates: as for :class:`Diagnoser` (default: every registered effect).
+        max_effects: most effects to add.
+        min_fall: smallest fraction of the current error an addition must remove to be kept.
+        folds, executor, progress, max_nfev: passed to each :class:`Diagnoser` / :class:`EffectFit`.
+
+    Fitted attributes: ``steps_`` (list of :class:`SelectionStep`, step 0 the user's model),
+    ``added_`` (effect names in order), ``spec_`` (the final model), ``stop_reason_``.
+    """
+
+    def __init__(self, candidates: Sequence[str | Candidate] | None = None, max_effects: int = 3,
+                 min_fall: float = 0.1, folds: int = 3, executor: ExecutorLike = None, progress: bool = True,
+                 max_nfev: int = 30):
+        self.candidates = candidates
+        self.max_effects = max_effects
+        self.min_fall = min_fall
+        self.folds = folds
+        self.executor = executor
+        self.progress = progress
+        self.max_nfev = max_nfev
+
+    def fit(self, tests: Sequence[MeasuredTest], base: ModelSpec | None = None,
+            initial: Mapping[str, Mapping[str, float]] | None = None) -> ForwardSelection:
+        """Run the selection on ``tests`` from ``base`` (default case B). ``initial``: effects already added
+        (``{name: {param: value}}``, e.g. from :class:`EffectFit`); they are refitted with every addition."""
+        base = base or ModelSpec()
+        tests = list(tests)
+        values: dict[str, dict[str, float]] = {k: dict(v) for k, v in (initial or {}).items()}
+        added: list[str] = list(values)
+        diag = self._diagnoser().fit(tests, base, refit=values or None)
+        self.steps_ = [SelectionStep(None, dict(values), {}, diag.baseline_error_mm_, dict(diag.baseline_by_load_))]
+        self.diagnoses_ = [diag]
+        self.stop_reason_ = f"{self.max_effects} effect(s) added (max_effects)"
+        current = diag.base_
+        while True:
+            if diag.missing_effect_ is None:
+                self.stop_reason_ = f"diagnose names no further effect: {diag.reason_}"
+                break
+            name = diag.missing_effect_
+            best = next(c for c in diag.candidates_ if c.effect == name)
+            spec = diag.best_spec()              # the joint fit of everything added so far, on all tests
+            found = discrepancies(evaluate_spec(spec, tests))
+            error = overall_error(found)
+            previous = self.steps_[-1].error_mm
+            fall = 1.0 - error / previous if previous > 0 else 0.0
+            if not math.isfinite(fall) or fall < self.min_fall:
+                self.stop_reason_ = (f"adding {name} removes only {fall:.0%} of the remaining error "
+                                     f"(threshold {self.min_fall:.0%})")
+                break
+            added.append(name)
+            values = {k: dict(best.all_values[k]) for k in added}
+            current = spec
+            self.steps_.append(SelectionStep(name, values, {k: dict(best.all_stderr.get(k, {})) for k in added},
+                                             error, errors_by_load(found), diag.confidence_, diag.report_))
+            if len(added) - len(initial or {}) >= self.max_effects:
+                break
+            scatter = diag.repeat_scatter_mm_
+            if math.isfinite(scatter) and error <= Diagnoser.quiet_factor * scatter:
+                self.stop_reason_ = (f"the model now matches the data to within the repeats' own scatter (error "
+                                     f"{error:.2f} mm, scatter {scatter:.2f} mm): nothing is left to explain")
+                break
+            diag = self._diagnoser().fit(tests, base, refit=values)
+            self.diagnoses_.append(diag)
+        self.added_ = added
+        self.spec_ = current
+        return self
+
+    def _diagnoser(self) -> Diagnoser:
+        return Diagnoser(self.candidates, self.folds, self.executor, self.progress, self.max_nfev)
+
+    @property
+    def report_(self) -> dict[str, Any]:
+        return {"steps": [s.as_json() for s in self.steps_], "added": self.added_, "stop_reason": self.stop_reason_,
+                "model": self.spec_.describe()}
+
+    def score(self, tests: Sequence[MeasuredTest]) -> float:
+        """Fraction of the user's model's RMS discrepancy on ``tests`` that the selected effects remove."""
+        base = overall_error(discrepancies(evaluate_spec(self.diagnoses_[0].base_, tests)))
+        new = overall_error(discrepancies(evaluate_spec(self.spec_, tests)))
+        return 1.0 - new / base if base > 0 else 0.0

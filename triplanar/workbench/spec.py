@@ -1,0 +1,172 @@
+"""Picklable descriptions of a user's model and of one unit of work, and the pure function that does it.
+
+Everything a sweep needs is expressed as a *task* (plain data: a :class:`ModelSpec`, a force, the measured
+tests at that force) and a pure function (:func:`evaluate`) that turns a task into a result. Tasks are
+mapped over by any executor that has ``map(fn, iterable)`` (see :mod:`triplanar.workbench.executor`), so
+the same sweep runs in this process, in a local process pool or, later, on a Ray cluster.
+
+Effects travel by name and parameter values (``("end_friction", (("phi_deg", 8.0),))``) and are rebuilt
+from :data:`triplanar.EFFECTS` on the worker, so a user-registered effect needs only to be registered
+there too (with the default ``fork`` start method on Linux a pool inherits the parent's registry).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from functools import lru_cache
+from typing import Iterable, Mapping, Sequence
+
+import numpy as np
+
+from ..effects import REGISTRY, Effect, EffectError
+from ..measurement import MeasuredTest
+from ..model import Loading, Model, paper_model
+from ..result import SimulationResult
+from ..simulate import simulate
+from ..specimen import Foundation, Specimen, reference
+from .discrepancy import TestDiscrepancy, discrepancy_group
+
+EffectSpec = tuple[str, tuple[tuple[str, float], ...]]
+
+#: Simulation settings of the workbench. ``max_rows`` bounds a pathological run (a chattering stick-slip
+#: start) so that one bad parameter vector costs about a second instead of minutes. ``rtol = 1e-7`` moves
+#: the paths by less than 1e-4 mm from the core's default 1e-9 (far below a rangefinder's noise) and halves
+#: the integrator's steps.
+SIM_OPTIONS: dict[str, float] = {"max_rows": 60_000, "t_max_s": 5.0, "rtol": 1e-7, "atol": 1e-10}
+#: The model is simulated this much further than the longest measured travel at its load (m).
+TRAVEL_MARGIN_M = 0.005
+
+
+@lru_cache(maxsize=1)
+def _reference() -> tuple[Specimen, Foundation]:
+    return reference()
+
+
+def effect_spec(effect: Effect) -> EffectSpec:
+    """An effect as (name, ((param, value), ...)), the picklable form."""
+    return effect.name, tuple((k, float(v)) for k, v in effect.values.items())
+
+
+def build_effect(spec: EffectSpec) -> Effect:
+    name, values = spec
+    if name not in REGISTRY:
+        raise EffectError(f"unknown effect {name!r}; known effects: {', '.join(sorted(REGISTRY))}")
+    return REGISTRY[name](**dict(values))
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """The user's model without its force: a paper case, a specimen and foundation, and effects.
+
+    ``specimen``/``foundation`` ``None`` mean the reference specimen. Build the model at one force with
+    :meth:`build`; add effects with :meth:`with_effects`.
+    """
+
+    case: str = "B"
+    effects: tuple[EffectSpec, ...] = ()
+    specimen: Specimen | None = None
+    foundation: Foundation | None = None
+
+    @classmethod
+    def from_effects(cls, effects: Iterable[Effect] = (), specimen: Specimen | None = None,
+                     foundation: Foundation | None = None, case: str = "B") -> ModelSpec:
+        return cls(case=case.upper(), effects=tuple(effect_spec(e) for e in effects), specimen=specimen,
+                   foundation=foundation)
+
+    def with_effects(self, effects: Iterable[Effect | EffectSpec]) -> ModelSpec:
+        extra = tuple(e if isinstance(e, tuple) else effect_spec(e) for e in effects)
+        return replace(self, effects=self.effects + extra)
+
+    @property
+    def effect_names(self) -> tuple[str, ...]:
+        return tuple(name for name, _ in self.effects)
+
+    def build_effects(self) -> list[Effect]:
+        return [build_effect(s) for s in self.effects]
+
+    def build(self, force_N: float) -> Model:
+        """The model at ``force_N`` (what :func:`triplanar.paper_model` builds; validated)."""
+        if self.specimen is None and self.foundation is None and self.case in ("A", "B", "C"):
+            # paper_model would re-read the reference TOML on every call; the fits build thousands of models.
+            specimen, foundation = _reference()
+            model = Model(Loading(float(force_N), kind="hydrostatic" if self.case == "C" else "actuator",
+                                  end_friction=self.case == "A"), specimen, foundation)
+            model = model.with_effects(self.build_effects())
+            model.validate()
+            return model
+        return paper_model(self.case, force_N, specimen=self.specimen, foundation=self.foundation,
+                           effects=self.build_effects())
+
+    @property
+    def rest_positions(self) -> np.ndarray:
+        """(3, 3) contact points at rest of this model's specimen."""
+        return (self.specimen or _reference()[0]).contact_points_m
+
+    def describe(self) -> str:
+        base = {"A": "case A (end friction)", "B": "case B (bare actuator)", "C": "case C (hydrostatic)"}
+        parts = [base.get(self.case, f"case {self.case}")]
+        parts += [repr(build_effect(s)) for s in self.effects]
+        return " + ".join(parts)
+
+
+@dataclass(frozen=True)
+class EvalTask:
+    """One unit of work: simulate ``spec`` at ``force_N`` and compare with ``tests`` (all at that force)."""
+
+    spec: ModelSpec
+    force_N: float
+    tests: tuple[MeasuredTest, ...]
+    keep_result: bool = False
+    report: bool = True         # also what only reports need (arrival times, the threshold of a held model)
+
+
+@dataclass(frozen=True)
+class EvalResult:
+    """What :func:`evaluate` returns: per-test discrepancies, the run's status, optionally the run."""
+
+    force_N: float
+    status: str
+    message: str
+    discrepancies: tuple[TestDiscrepancy, ...]
+    threshold_N: float | None = None
+    result: SimulationResult | None = field(default=None, repr=False)
+
+
+def simulate_for(model: Model, tests: Sequence[MeasuredTest]) -> SimulationResult:
+    """Simulate ``model`` far enough to cover the longest measured travel of ``tests``."""
+    longest = max(float(np.max(t.travel)) for t in tests) if tests else 0.08
+    return simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **SIM_OPTIONS)
+
+
+def evaluate(task: EvalTask) -> EvalResult:
+    """The pure evaluation function: build, simulate, compare. Never raises for a physical outcome: a
+    model that holds the block, stops early or leaves a plane is reported in ``status`` and compared as far
+    as it went (its last position stands in for the rest of the measured path)."""
+    model = task.spec.build(task.force_N)
+    result = simulate_for(model, task.tests)
+    threshold = None
+    if result.status == "held" and task.report:
+        from ..statics import sliding_threshold
+        threshold = float(sliding_threshold(model))
+    found = tuple(discrepancy_group(task.tests, result, task.report))
+    return EvalResult(task.force_N, result.status, result.message, found, threshold,
+                      result if task.keep_result else None)
+
+
+def group_by_force(tests: Sequence[MeasuredTest]) -> dict[float, tuple[MeasuredTest, ...]]:
+    """Tests grouped by commanded force (in order of the forces)."""
+    groups: dict[float, list[MeasuredTest]] = {}
+    for test in tests:
+        groups.setdefault(float(test.shear_force_N), []).append(test)
+    return {f: tuple(groups[f]) for f in sorted(groups)}
+
+
+def tasks_for(spec: ModelSpec, tests: Sequence[MeasuredTest], keep_result: bool = False) -> list[EvalTask]:
+    return [EvalTask(spec, f, group, keep_result) for f, group in group_by_force(tests).items()]
+
+
+def spec_with_values(spec: ModelSpec, name: str, values: Mapping[str, float]) -> ModelSpec:
+    """``spec`` plus effect ``name`` with ``values`` (other parameters at their defaults)."""
+    clean = {k: float(v) for k, v in values.items() if math.isfinite(float(v))}
+    return spec.with_effects([(name, tuple(sorted(clean.items())))])
