@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 
@@ -45,6 +46,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"energy balance residual: {np.abs(result.energy['residual']).max():.2e} J; constraint residual: "
               f"{summary['max_constraint_residual_m']:.1e} m")
     if args.out:
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         result.write_csv(args.out, test_id=f"{args.case}-{args.force:g}")
         print(f"trace written to {args.out}")
     if args.plot:
