@@ -318,3 +318,21 @@ def test_kernel_matches_natural_coordinate_reference(case: str, effects: list[st
         assert np.allclose(aux[K.A_N:K.A_N + 3], ref_n, rtol=1e-9, atol=1e-9)
         checked += 1
     assert checked >= 3
+
+
+class _ThrustDrop(Effect):
+    """Test-only: a pull at the mass centre from t = 0.2 s that leaves less than the holding force."""
+    name = "thrust_drop_for_test"
+    parameters = {"force_N": Parameter(8.3, 0.0, 50.0, "N", "pull along -e1 after 0.2 s")}
+
+    def wrench(self, t, state):
+        return (np.array([-self["force_N"], 0.0, 0.0]) if t > 0.2 else np.zeros(3)), np.zeros(3)
+
+
+def test_a_sliding_block_whose_drive_drops_arrests_without_creep() -> None:
+    """Regression: a slowing contact used to keep a stale low-speed friction direction and creep at
+    micrometres per second for ever; it must decelerate, stop and be held."""
+    result = simulate(paper_model("A", 27.8, effects=[_ThrustDrop()]), t_max_s=3.0)
+    assert result.status == "arrested", result.message
+    assert result.t[-1] < 0.5
+    assert np.abs(result.energy["residual"]).max() < 1e-9

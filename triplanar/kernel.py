@@ -67,8 +67,9 @@ A_TIP_F = 30      # 3 static end friction force on the block at a stuck tip
 N_AUX = 33
 
 ZERO_SPEED = 1e-9  # m/s: a site slower than this (integration noise) is at rest: its direction is P_D0
-# Below SLIP_BLEND a sliding site's friction direction blends from the incipient direction d0 (at rest) to
-# the slip direction: d = v/SLIP_BLEND + (1 - |v|/SLIP_BLEND) d0. Pure v/|v| makes the slip direction's
+# Below SLIP_BLEND a sliding site's friction direction blends from d0 (the direction of incipient motion, or
+# of the site's slip at the last step while it was faster than SLIP_BLEND) to the slip direction:
+# d = v/SLIP_BLEND + (1 - |v|/SLIP_BLEND) d0. Pure v/|v| makes the slip direction's
 # relaxation rate mu N K/|v| (K: contact compliance) unbounded as |v| -> 0, i.e. infinitely stiff just
 # after a stick ends. Sticking and holding are decided exactly elsewhere (stick modes, statics), so this
 # creates no creep; it shifts a path by about a (SLIP_BLEND/a)^2 ~ 1e-10 m, and the dissipated power is
@@ -880,6 +881,7 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
             status = ST_RUNNING
         elif second_stop:
             status = ST_SLOW
+        _refresh_directions(y, p, aux_new)
         event_values(y, p, aux_new, x1_target, slow_speed, ev_old)
         if ev_old[EV_SLOW] < -slow_speed:
             armed[0] = True  # arrest can only be detected once the block has really moved
@@ -896,6 +898,29 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
         if status != ST_RUNNING:
             return rows, status, hit, h, t
         h = h_next
+
+
+@njit(cache=True)
+def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray) -> None:
+    """At a step boundary, each site sliding faster than SLIP_BLEND gets its current slip direction as d0
+    (P_D0), so the low-speed blend of a slowing site mixes with where it is going, not with a stale start."""
+    R = np.empty((3, 3))
+    quat_to_matrix(y[S_Q:S_Q + 4], R)
+    tmp = np.empty(3)
+    stuck = int(p[P_STUCK])
+    for j in range(3):
+        sp = aux[A_SPEED + j]
+        if j == stuck or sp < SLIP_BLEND:
+            continue
+        _rotate(R, p, P_C + 3 * j, tmp)
+        c0, c1, c2 = _cross(y[S_W], y[S_W + 1], y[S_W + 2], tmp[0], tmp[1], tmp[2])
+        p[P_D0 + 3 * j] = (y[S_V] + c0) / sp
+        p[P_D0 + 3 * j + 1] = (y[S_V + 1] + c1) / sp
+        p[P_D0 + 3 * j + 2] = (y[S_V + 2] + c2) / sp
+    slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
+    if p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0 and slip >= SLIP_BLEND:
+        for k in range(3):
+            p[P_D0 + 9 + k] = aux[A_SLIP + k] / slip
 
 
 @njit(cache=True)

@@ -1,0 +1,63 @@
+"""One function evaluates every controller: run it on TriPlanarShear-v0 at a load level, measure the mimicry."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from envs.triplanar_shear import ShearConfig, TriPlanarShearEnv, make_config
+
+from .controllers import Controller
+
+
+@dataclass(frozen=True)
+class EpisodeResult:
+    """One controlled test. ``mimicry_error_mm``: travel-averaged horizontal distance (mean over the contact points)
+    between the block and the hydrostatic reference at the same travel, over the travel reached."""
+
+    controller: str
+    load_N: float
+    seed: int | None
+    mimicry_error_mm: float
+    reason: str
+    success: bool
+    travel_m: float
+    episode_return: float
+    steps: int
+    duration_s: float
+    contact_points: np.ndarray  # (steps + 1, 3, 3), from the first observation
+    reference: np.ndarray       # (REFERENCE_POINTS, 3, 3)
+    actions: np.ndarray         # (steps, 2)
+    thrust_N: np.ndarray        # (steps,) thrust command of each period
+    offset_m: np.ndarray        # (steps,) tip offset at the end of each period
+
+
+def make_env(controller: Controller, load_N: float, env_kwargs: dict[str, Any] | None = None) -> TriPlanarShearEnv:
+    config = make_config(ShearConfig(load_N=load_N), **{**(env_kwargs or {}), **controller.env_overrides})
+    return TriPlanarShearEnv(config=config)
+
+
+def evaluate(controller: Controller, load_N: float, *, seed: int | None = 0,
+             env_kwargs: dict[str, Any] | None = None) -> EpisodeResult:
+    """Run ``controller`` for one episode at ``load_N`` (the env is deterministic for fixed friction; ``seed``
+    matters with friction noise in ``env_kwargs``)."""
+    env = make_env(controller, load_N, env_kwargs)
+    controller.setup(env.config)
+    obs, _ = env.reset(seed=seed)
+    cps, actions, thrust, offset, total = [env._contact_points()], [], [], [], 0.0
+    while True:
+        action = np.asarray(controller.act(obs), dtype=np.float32)
+        obs, reward, terminated, truncated, info = env.step(action)
+        actions.append(action)
+        thrust.append(info["thrust_N"])
+        offset.append(info["tip_offset_m"])
+        cps.append(env._contact_points())
+        total += reward
+        if terminated or truncated:
+            break
+    return EpisodeResult(controller.name, float(load_N), seed, info["mimicry_error_mm"], info["reason"],
+                         bool(info["is_success"]), info["travel_m"], total, len(actions), info["time_s"],
+                         np.array(cps), env.reference_path.copy(), np.array(actions), np.array(thrust),
+                         np.array(offset))

@@ -1,0 +1,215 @@
+"""Train PPO on TriPlanarShear-v0: ``python -m agents.train_ppo --out runs/ppo --seed 0`` (or ``triplanar train``).
+
+Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run directory ``OUT/seed_S`` holds:
+
+* ``checkpoints/ppo_<N>_steps.zip`` + ``ppo_vecnormalize_<N>_steps.pkl``: resumable checkpoints. Running the
+  same command again continues from the newest one (``--no-resume`` starts afresh);
+* ``tb/``: TensorBoard logs (``tensorboard --logdir OUT``), including ``mimicry/*`` from the evaluations;
+* ``eval/``: EvalCallback's ``evaluations.npz`` and ``best_model.zip`` (highest mean return over the 12 loads);
+* ``learning_curve.csv``: at every evaluation, timesteps, cumulative wall-clock seconds, and the deterministic
+  policy's mimicry error (mm) and outcome at each evaluation load;
+* ``final_model.zip`` + ``vecnormalize.pkl``: the policy at the end and its observation statistics;
+  ``done.json`` marks a finished run (running again with at most its timesteps returns it untouched).
+
+A resumed run continues the schedule and the logs; it is not bitwise identical to an uninterrupted run (the
+generators' states are not checkpointed).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import re
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable, Sequence
+
+import numpy as np
+import yaml
+
+from envs.triplanar_shear import ShearConfig, make_config
+
+DEFAULT_CONFIG = Path(__file__).with_name("ppo.yaml")
+_CHECKPOINT = re.compile(r"ppo_(\d+)_steps\.zip$")
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    run_dir: Path
+    model_path: Path
+    vecnormalize_path: Path
+    curve_path: Path
+    timesteps: int
+    wall_s: float
+
+
+def load_config(path: str | Path = DEFAULT_CONFIG, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    with open(path) as f:
+        config = yaml.safe_load(f)
+    for key, value in (overrides or {}).items():  # "ppo.learning_rate": 1e-4 style
+        node = config
+        *parents, leaf = key.split(".")
+        for parent in parents:
+            node = node.setdefault(parent, {})
+        node[leaf] = value
+    return config
+
+
+def env_config(config: dict[str, Any]) -> ShearConfig:
+    return make_config(ShearConfig(), **config.get("env", {}))
+
+
+def eval_loads(config: dict[str, Any]) -> list[float]:
+    return [float(f) for f in config.get("eval_loads", env_config(config).load_levels)]
+
+
+def make_vec_envs(config: dict[str, Any], seed: int):
+    """(training VecNormalize env, evaluation VecNormalize env: one env per evaluation load)."""
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize  # noqa: PLC0415
+
+    from envs.vector import ShearSB3VecEnv  # noqa: PLC0415
+    shear = env_config(config)
+    norm = config.get("normalize", {})
+    train = VecNormalize(VecMonitor(ShearSB3VecEnv(int(config.get("n_envs", 16)), shear, seed=seed)), **norm)
+    loads = eval_loads(config)
+    evaluation = ShearSB3VecEnv(len(loads), shear, seed=seed + 10_000, row_options=[{"load_N": f} for f in loads])
+    evaluation = VecNormalize(VecMonitor(evaluation), training=False, norm_reward=False,
+                              **{k: v for k, v in norm.items() if k not in ("norm_reward",)})
+    return train, evaluation
+
+
+def latest_checkpoint(run_dir: Path) -> tuple[int, Path, Path] | None:
+    found = []
+    for path in (run_dir / "checkpoints").glob("ppo_*_steps.zip"):
+        match = _CHECKPOINT.search(path.name)
+        stats = path.with_name(f"ppo_vecnormalize_{match.group(1)}_steps.pkl") if match else None
+        if match and stats.exists():
+            found.append((int(match.group(1)), path, stats))
+    return max(found) if found else None
+
+
+def _mimicry_callback(config: dict[str, Any], curve_path: Path, wall_offset: float, started: float):
+    """Callback run after each evaluation: the deterministic policy's mimicry error at every evaluation load."""
+    from stable_baselines3.common.callbacks import BaseCallback  # noqa: PLC0415
+
+    from .evaluation import evaluate  # noqa: PLC0415
+    from .ppo_controller import PPOController  # noqa: PLC0415
+    loads = eval_loads(config)
+    env_kwargs = config.get("env", {})
+
+    class MimicryCurve(BaseCallback):
+        def _on_step(self) -> bool:
+            controller = PPOController(self.model, self.model.get_vec_normalize_env())
+            results = [evaluate(controller, f, env_kwargs=env_kwargs) for f in loads]
+            errors = [r.mimicry_error_mm for r in results]
+            wall = wall_offset + time.perf_counter() - started
+            for f, r in zip(loads, results):
+                self.logger.record(f"mimicry/error_mm_{f:g}N", r.mimicry_error_mm)
+            self.logger.record("mimicry/mean_error_mm", float(np.mean(errors)))
+            self.logger.record("mimicry/success_rate", float(np.mean([r.success for r in results])))
+            new = not curve_path.exists()
+            with open(curve_path, "a", newline="") as f:
+                writer = csv.writer(f)
+                if new:
+                    writer.writerow(["timesteps", "wall_s"] + [f"error_mm_{f:g}N" for f in loads]
+                                    + [f"reason_{f:g}N" for f in loads])
+                writer.writerow([self.num_timesteps, f"{wall:.2f}"] + [f"{e:.4f}" for e in errors]
+                                + [r.reason for r in results])
+            return True
+
+    return MimicryCurve()
+
+
+def _wall_so_far(curve_path: Path) -> float:
+    if not curve_path.exists():
+        return 0.0
+    with open(curve_path) as f:
+        rows = list(csv.DictReader(f))
+    return float(rows[-1]["wall_s"]) if rows else 0.0
+
+
+def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str | Path = "runs/ppo", seed: int = 0,
+              total_timesteps: int | None = None, resume: bool = True, callbacks: Sequence[Any] = (),
+              verbose: int = 0) -> TrainResult:
+    """Train (or resume) one PPO run; see the module docstring for what it writes."""
+    import torch  # noqa: PLC0415
+    from stable_baselines3 import PPO  # noqa: PLC0415
+    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback  # noqa: PLC0415
+    from stable_baselines3.common.vec_env import VecNormalize  # noqa: PLC0415
+
+    config = load_config(config) if not isinstance(config, dict) else config
+    train_cfg = config.get("train", {})
+    torch.set_num_threads(int(train_cfg.get("torch_threads", 1)))
+    total = int(total_timesteps if total_timesteps is not None else train_cfg.get("total_timesteps", 400_000))
+    run_dir = Path(out_dir) / f"seed_{seed}"
+    run_dir.mkdir(parents=True, exist_ok=True)
+    curve_path = run_dir / "learning_curve.csv"
+    model_path, stats_path, done_path = run_dir / "final_model.zip", run_dir / "vecnormalize.pkl", run_dir / "done.json"
+    if resume and done_path.exists():
+        finished = json.loads(done_path.read_text())
+        if finished["timesteps"] >= total and model_path.exists() and stats_path.exists():
+            return TrainResult(run_dir, model_path, stats_path, curve_path, finished["timesteps"], finished["wall_s"])
+    done_path.unlink(missing_ok=True)
+    train_env, eval_env = make_vec_envs(config, seed)
+    checkpoint = latest_checkpoint(run_dir) if resume else None
+    if checkpoint is not None:
+        done, model_path, stats_path = checkpoint
+        train_env = VecNormalize.load(str(stats_path), train_env.venv)
+        model = PPO.load(str(model_path), env=train_env, device="cpu", tensorboard_log=str(run_dir / "tb"))
+        wall_offset = _wall_so_far(curve_path)
+    else:
+        if curve_path.exists():
+            curve_path.unlink()
+        ppo = dict(config.get("ppo", {}))
+        policy = ppo.pop("policy", "MlpPolicy")
+        model = PPO(policy, train_env, seed=seed, device="cpu", verbose=verbose, tensorboard_log=str(run_dir / "tb"),
+                    **ppo)
+        done, wall_offset = 0, 0.0
+    n_envs = train_env.num_envs
+    started = time.perf_counter()
+    evaluation = EvalCallback(eval_env, n_eval_episodes=eval_env.num_envs,
+                              eval_freq=max(1, int(train_cfg.get("eval_freq", 20_000)) // n_envs),
+                              best_model_save_path=str(run_dir / "eval"), log_path=str(run_dir / "eval"),
+                              deterministic=True, verbose=0,
+                              callback_after_eval=_mimicry_callback(config, curve_path, wall_offset, started))
+    checkpoints = CheckpointCallback(save_freq=max(1, int(train_cfg.get("checkpoint_freq", 50_000)) // n_envs),
+                                     save_path=str(run_dir / "checkpoints"), name_prefix="ppo",
+                                     save_vecnormalize=True)
+    remaining = max(0, total - done)
+    if remaining:
+        model.learn(total_timesteps=remaining, callback=CallbackList([checkpoints, evaluation, *callbacks]),
+                    reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
+    model.save(str(model_path))
+    model.get_vec_normalize_env().save(str(stats_path))
+    wall = wall_offset + time.perf_counter() - started
+    done_path.write_text(json.dumps({"timesteps": int(model.num_timesteps), "wall_s": wall, "seed": seed}))
+    return TrainResult(run_dir, model_path, stats_path, curve_path, int(model.num_timesteps), wall)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--config", default=str(DEFAULT_CONFIG), help="hyperparameter YAML (default agents/ppo.yaml)")
+    parser.add_argument("--out", default="runs/ppo", help="output directory; the run goes to OUT/seed_S")
+    parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
+    parser.add_argument("--timesteps", type=int, help="total environment steps (default: the YAML's)")
+    parser.add_argument("--no-resume", action="store_true", help="start afresh even if checkpoints exist")
+    parser.add_argument("--verbose", type=int, default=0)
+
+
+def run(args: argparse.Namespace) -> int:
+    for seed in args.seed or [0]:
+        result = train_ppo(args.config, args.out, seed, args.timesteps, resume=not args.no_resume,
+                           verbose=args.verbose)
+        print(f"seed {seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.model_path}")
+    return 0
+
+
+def main(argv: Iterable[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m agents.train_ppo", description=__doc__.splitlines()[0])
+    add_arguments(parser)
+    return run(parser.parse_args(None if argv is None else list(argv)))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,141 @@
+"""Throughput of TriPlanarShear-v0 (one core): ``PYTHONPATH=. python benchmarks/bench_env.py [--quick]``.
+
+Measures, best of ``--repeats`` runs (the machine is shared, so the best run is the least disturbed one):
+
+* the kernel floor: one 5 ms control period (``triplanar.kernel.integrate``, one RK4 step) in a compiled loop;
+* single-env ``step()`` (no wrappers, autoreset by hand): random actions, and the steel tip's constant action;
+* the vector env (``gym.make_vec``) at several sizes, random and constant actions;
+* PPO wall-clock to the tracking tip's mimicry error at 27.8 N, read from the study's learning curves
+  (``--runs``, default ``runs/ppo``) if they exist.
+
+Random actions make the block stop, stick and reverse often; each control period in which a slip reverses is
+redone with the kernel's adaptive integrator (see ``docs/environment.md``), and each arrest needs the statics LP,
+so random actions are the slow case. The fraction of such periods is printed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+from numba import njit
+
+import envs  # noqa: F401 (registers TriPlanarShear-v0)
+from envs.triplanar_shear import TriPlanarShearEnv
+from triplanar import kernel as K
+
+
+@njit  # not cached: a cached copy would keep an old kernel built in (numba caches per file)
+def _kernel_periods(y0, p, n, x1_target):
+    out_t = np.empty(1)
+    out_y = np.empty((1, K.N_STATE))
+    out_aux = np.empty((1, K.N_AUX))
+    armed = np.zeros(5, np.bool_)
+    y = y0.copy()
+    for i in range(n):
+        y[:] = y0
+        K.integrate(K.METHOD_RK4, 0.005, y, p, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed, out_t, out_y,
+                    out_aux, False)
+
+
+def best_of(repeats: int, fn) -> float:
+    return max(fn() for _ in range(repeats))
+
+
+def kernel_floor(n: int) -> float:
+    env = TriPlanarShearEnv(load_N=27.8)
+    env.reset(seed=0)
+    y, p = env._y.copy(), env._p.copy()
+    _kernel_periods(y, p, 10, 1.0)
+    t0 = time.perf_counter()
+    _kernel_periods(y, p, n, 1.0)
+    return n / (time.perf_counter() - t0)
+
+
+def single(n: int, policy: str, stats: dict) -> float:
+    env = TriPlanarShearEnv(load_N=27.8)
+    rng = np.random.default_rng(0)
+    actions = rng.uniform(-1, 1, (n, 2)).astype(np.float32) if policy == "random" else np.zeros((n, 2), np.float32)
+    env.reset(seed=0)
+    env.step(actions[0])  # compiled code loaded (or compiled) before timing
+    env.reset(seed=0)
+    adaptive = episodes = 0
+    t0 = time.perf_counter()
+    for i in range(n):
+        _, _, terminated, truncated, info = env.step(actions[i])
+        adaptive += info["adaptive_steps"] > 0
+        if terminated or truncated:
+            episodes += 1
+            env.reset()
+    rate = n / (time.perf_counter() - t0)
+    stats[f"single_{policy}"] = {"adaptive_fraction": adaptive / n, "mean_episode_steps": n / max(episodes, 1)}
+    return rate
+
+
+def vector(num_envs: int, steps: int, policy: str) -> float:
+    vec = gym.make_vec("TriPlanarShear-v0", num_envs=num_envs, load_N=27.8)
+    vec.reset(seed=0)
+    rng = np.random.default_rng(0)
+    shape = (steps + 1, num_envs, 2)
+    batches = rng.uniform(-1, 1, shape).astype(np.float32) if policy == "random" else np.zeros(shape, np.float32)
+    vec.step(batches[0])
+    t0 = time.perf_counter()
+    for i in range(1, steps + 1):
+        vec.step(batches[i])
+    return num_envs * steps / (time.perf_counter() - t0)
+
+
+def ppo_time_to_target(runs: Path, target_mm: float = 7.73, load: str = "27.8") -> list[dict]:
+    out = []
+    for curve in sorted(runs.glob("seed_*/learning_curve.csv")):
+        with open(curve) as f:
+            rows = list(csv.DictReader(f))
+        hit = next((r for r in rows if float(r[f"error_mm_{load}N"]) <= target_mm and r[f"reason_{load}N"] == "success"),
+                   None)
+        out.append({"run": curve.parent.name, "timesteps": int(hit["timesteps"]) if hit else None,
+                    "wall_s": float(hit["wall_s"]) if hit else None})
+    return out
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer steps (a smoke run)")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--runs", default="runs/ppo", help="PPO runs with learning_curve.csv")
+    parser.add_argument("--target-mm", type=float, default=None,
+                        help="tracking tip's error at 27.8 N (default: evaluated now)")
+    parser.add_argument("--json", help="also write the numbers here")
+    args = parser.parse_args()
+    scale = 0.1 if args.quick else 1.0
+    stats: dict = {}
+    results = {"kernel_floor_periods_per_s": best_of(args.repeats, lambda: kernel_floor(int(200_000 * scale)))}
+    work = {"random": 0.25, "constant": 1.0}  # random actions are ~10x slower per step: fewer of them
+    for policy in ("random", "constant"):
+        results[f"single_{policy}_steps_per_s"] = best_of(
+            args.repeats, lambda: single(int(100_000 * scale * work[policy]), policy, stats))
+    for num_envs in (1, 64, 1024, 4096):
+        for policy in ("random", "constant"):
+            steps = max(60, int(200_000 * scale * work[policy]) // num_envs)  # past the start transient
+            results[f"vector_{num_envs}_{policy}_env_steps_per_s"] = best_of(
+                args.repeats, lambda: vector(num_envs, steps, policy))
+    target = args.target_mm
+    if target is None:
+        from agents import TrackingTip, evaluate  # noqa: PLC0415
+        target = evaluate(TrackingTip(), 27.8).mimicry_error_mm
+    results["tracking_tip_error_27.8N_mm"] = target
+    results["ppo_time_to_tracking_tip"] = ppo_time_to_target(Path(args.runs), target)
+    results["stats"] = stats
+    for key, value in results.items():
+        print(f"{key}: {value if not isinstance(value, float) else f'{value:,.0f}' if value > 100 else f'{value:.3f}'}")
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, indent=2))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,738 @@
+"""``TriPlanarShear-v0``: drive the tri-planar shear test with a servo actuator and make it mimic hydrostatic loading.
+
+The physics is the compiled kernel of :mod:`triplanar.kernel` (the one right-hand side of the model of Galic,
+Glaser & Goodman 2008), stepped at a fixed RK4 step; this module maps actions into the kernel's parameters and
+reads observations, rewards and terminations out of its state, as Gymnasium's MuJoCo environments do.
+:mod:`envs.vector` runs the same compiled step over N environments.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import OrderedDict
+from dataclasses import dataclass, replace
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from numba import njit
+
+from triplanar import PAPER_LOADS_N, kernel as K
+from triplanar.model import Loading, Model, paper_model
+from triplanar.simulate import SLOW_SPEED_M_S, simulate
+from triplanar.specimen import Foundation, Specimen, reference
+from triplanar.statics import holds, start_motion
+
+# -- per-environment bookkeeping layout (float64 array ``st``) ----------------------------------
+ST_T, ST_STEP, ST_DPREV, ST_SPREV, ST_A0, ST_A1, ST_LOAD, ST_THRUST_MAX = 0, 1, 2, 3, 4, 5, 6, 7
+ST_X1_TARGET, ST_ERR_NUM, ST_ERR_DEN, ST_MAX_STEPS = 8, 9, 10, 11
+ST_CP_REST = 12   # 9: contact points at rest (world), row-major CP1..CP3
+N_ST = 21
+
+# -- configuration shared by all environments of a batch (float64 array ``cfg``) -------------------
+CF_DT, CF_H, CF_STAGE, CF_RANGE, CF_TRAVEL, CF_RATE, CF_FAIL, CF_WEIGHT, CF_SLOW, CF_ENERGY_TOL = range(10)
+N_CF = 10
+FALLBACK_RTOL, FALLBACK_ATOL = 1e-7, 1e-10  # DOPRI5 tolerances of the fallback (results agree with 1e-9, 1e-12 to 1e-4 mm)
+
+# -- info terms (float64 array ``inf``) -----------------------------------------------------------
+(IN_REWARD, IN_R_DIST, IN_R_RATE, IN_R_TERM, IN_DIST, IN_ERR, IN_TRAVEL, IN_THRUST, IN_OFFSET_CMD, IN_OFFSET,
+ IN_UDOT, IN_TIME, IN_LOAD, IN_TRUNC, IN_FALLBACK) = range(15)
+N_INFO = 15
+INFO_KEYS = ("reward_distance", "reward_action_rate", "reward_termination", "distance_mm", "mimicry_error_mm",
+             "travel_m", "thrust_N", "offset_command_m", "tip_offset_m", "stage_velocity_m_s", "time_s", "load_N",
+             "adaptive_steps")
+INFO_SLOTS = (IN_R_DIST, IN_R_RATE, IN_R_TERM, IN_DIST, IN_ERR, IN_TRAVEL, IN_THRUST, IN_OFFSET_CMD, IN_OFFSET,
+              IN_UDOT, IN_TIME, IN_LOAD, IN_FALLBACK)
+
+# -- step outcome codes ------------------------------------------------------------------------
+RUNNING, SUCCESS, LIFT_OFF, MC_OUTSIDE, LEFT_PLANE, ARREST, FAILED = 0, 1, 2, 3, 4, 5, 6
+NEEDS_STATICS = -1  # all contacts nearly stopped: the caller decides arrest with the statics LP
+REASONS = ("", "success", "lift_off", "mass_centre_outside", "left_plane", "arrest", "failed")
+TIME_LIMIT = "time_limit"
+
+# -- observation layout ------------------------------------------------------------------------
+OBS_POS, OBS_VEL, OBS_OFFSET, OBS_FACE, OBS_LOAD, OBS_REF, OBS_PREV, OBS_TIME = 0, 9, 18, 19, 21, 22, 31, 33
+OBS_DIM = 34
+OBS_HIGH = np.concatenate([np.full(9, 0.5), np.full(9, 5.0), [0.5], [0.5, 0.5], [1000.0], np.full(9, 0.5),
+                           [1.0, 1.0], [100.0]])
+REFERENCE_POINTS = 161  # hydrostatic reference sampled every travel_m / 160 (0.5 mm by default)
+
+
+@dataclass(frozen=True)
+class ShearConfig:
+    """Everything that defines the task (all are ``gym.make`` keyword arguments).
+
+    Loads: ``load_N`` fixes the load level; otherwise each reset draws it uniformly from ``load_range`` if given,
+    else from ``load_levels`` (the paper's 12). Friction noise draws each episode's contact friction angles
+    (``friction_noise_deg``, each of the three) and tip friction (``tip_friction_noise_deg``) uniformly within
+    +- the given half-width around the specimen's values.
+    """
+
+    load_N: float | None = None
+    load_levels: tuple[float, ...] = PAPER_LOADS_N
+    load_range: tuple[float, float] | None = None
+    control_hz: float = 200.0
+    substeps: int = 1
+    thrust_scale: float = 2.0
+    offset_range_m: float = 0.02
+    stage_speed_m_s: float = 0.5
+    tip_offset_m: float = 0.0
+    end_friction: bool = True
+    tip_friction_deg: float | None = None
+    friction_noise_deg: float = 0.0
+    tip_friction_noise_deg: float = 0.0
+    travel_m: float = 0.08
+    time_limit_s: float = 2.0
+    energy_tol_J: float = 1e-8
+    action_rate_coef: float = 0.005
+    failure_penalty_mm: float = 50.0
+    reward_weighting: str = "travel"
+    specimen: Specimen | None = None
+    foundation: Foundation | None = None
+
+    def validate(self) -> None:
+        positive = {"control_hz": self.control_hz, "thrust_scale": self.thrust_scale,
+                    "offset_range_m": self.offset_range_m, "stage_speed_m_s": self.stage_speed_m_s,
+                    "travel_m": self.travel_m, "time_limit_s": self.time_limit_s}
+        for name, value in positive.items():
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a positive number, got {value}")
+        if int(self.substeps) != self.substeps or self.substeps < 1:
+            raise ValueError(f"substeps must be a positive integer, got {self.substeps}")
+        for name in ("action_rate_coef", "failure_penalty_mm", "friction_noise_deg", "tip_friction_noise_deg",
+                     "energy_tol_J"):
+            if not (math.isfinite(getattr(self, name)) and getattr(self, name) >= 0):
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if abs(self.tip_offset_m) > self.offset_range_m:
+            raise ValueError(f"tip_offset_m {self.tip_offset_m} lies outside +-offset_range_m {self.offset_range_m}")
+        if self.reward_weighting not in ("travel", "step"):
+            raise ValueError(f"reward_weighting must be 'travel' or 'step', got {self.reward_weighting!r}")
+        if self.load_N is None and self.load_range is None and not self.load_levels:
+            raise ValueError("give load_N, load_range or a non-empty load_levels")
+        if self.load_range is not None and not 0 < self.load_range[0] <= self.load_range[1]:
+            raise ValueError(f"load_range must be (low, high) with 0 < low <= high, got {self.load_range}")
+
+    @property
+    def dt(self) -> float:
+        return 1.0 / self.control_hz
+
+    def base_specimen(self) -> tuple[Specimen, Foundation]:
+        ref_specimen, ref_foundation = reference()
+        specimen = self.specimen or ref_specimen
+        if self.tip_friction_deg is not None:
+            specimen = replace(specimen, tip_friction_deg=float(self.tip_friction_deg))
+        return specimen, self.foundation or ref_foundation
+
+    def packed(self) -> np.ndarray:
+        """The numeric configuration for the compiled step (layout ``CF_*``)."""
+        cfg = np.zeros(N_CF)
+        cfg[CF_DT], cfg[CF_H] = self.dt, self.dt / self.substeps
+        cfg[CF_STAGE], cfg[CF_RANGE], cfg[CF_TRAVEL] = self.stage_speed_m_s, self.offset_range_m, self.travel_m
+        cfg[CF_RATE], cfg[CF_FAIL] = self.action_rate_coef, self.failure_penalty_mm
+        cfg[CF_WEIGHT] = 0.0 if self.reward_weighting == "travel" else 1.0
+        cfg[CF_SLOW] = SLOW_SPEED_M_S
+        cfg[CF_ENERGY_TOL] = self.energy_tol_J
+        return cfg
+
+
+def make_config(config: ShearConfig | None = None, **kwargs: Any) -> ShearConfig:
+    config = replace(config or ShearConfig(), **kwargs)
+    if isinstance(config.load_levels, list):
+        config = replace(config, load_levels=tuple(config.load_levels))
+    config.validate()
+    return config
+
+
+# -- episode draws and their cached starting states ---------------------------------------------------
+
+@dataclass(frozen=True)
+class EpisodeDraw:
+    """What a reset draws: the load level and the friction angles of this episode."""
+
+    load_N: float
+    friction_deg: tuple[float, float, float]
+    tip_friction_deg: float
+
+
+def draw_episode(rng: np.random.Generator, config: ShearConfig, specimen: Specimen,
+                 options: dict[str, Any] | None) -> EpisodeDraw:
+    """The one place a reset consumes randomness (single and vector envs call it identically); ``specimen`` is
+    :meth:`ShearConfig.base_specimen`'s."""
+    if not options and config.load_N is not None and config.friction_noise_deg == 0 \
+            and config.tip_friction_noise_deg == 0:
+        return EpisodeDraw(float(config.load_N), specimen.friction_deg, specimen.tip_friction_deg)
+    options = dict(options or {})
+    unknown = set(options) - {"load_N", "load_range", "load_levels", "friction_noise_deg", "tip_friction_noise_deg"}
+    if unknown:
+        raise ValueError(f"unknown reset options {sorted(unknown)}")
+    load = options.get("load_N", config.load_N if "load_range" not in options and "load_levels" not in options
+                       else None)
+    load_range = options.get("load_range", config.load_range if "load_levels" not in options else None)
+    levels = tuple(options.get("load_levels", config.load_levels))
+    if load is None:
+        load = rng.uniform(*load_range) if load_range is not None else levels[int(rng.integers(len(levels)))]
+    friction = specimen.friction_deg
+    noise = float(options.get("friction_noise_deg", config.friction_noise_deg))
+    if noise > 0:
+        friction = tuple(float(f) for f in np.asarray(friction) + rng.uniform(-noise, noise, 3))
+    tip = specimen.tip_friction_deg
+    tip_noise = float(options.get("tip_friction_noise_deg", config.tip_friction_noise_deg))
+    if tip_noise > 0:
+        tip = max(0.0, tip + float(rng.uniform(-tip_noise, tip_noise)))
+    return EpisodeDraw(float(load), tuple(friction), float(tip))
+
+
+@dataclass
+class EpisodeStart:
+    """A cached starting state: the block after the first control period at the load level, and the
+    hydrostatic reference path (contact-point displacements from rest, ``REFERENCE_POINTS`` x 9, by travel)."""
+
+    key: tuple
+    model: Model
+    y: np.ndarray
+    p: np.ndarray
+    armed: np.ndarray
+    st: np.ndarray
+    reference: np.ndarray
+    reference_status: str
+    obs: np.ndarray
+    inf: np.ndarray
+
+
+class StartError(ValueError):
+    """The block cannot start: friction holds it at rest under the load level."""
+
+
+_STARTS: OrderedDict[tuple, EpisodeStart] = OrderedDict()
+_MAX_STARTS = 2048
+
+
+def specimen_key(specimen: Specimen, foundation: Foundation) -> tuple:
+    arrays = (specimen.contact_points_m, specimen.mass_centre_m, specimen.inertia_kg_m2, foundation.normals)
+    return tuple(float(v) for a in arrays for v in np.ravel(a)) + (
+        specimen.mass_kg, specimen.load_point_A_m, specimen.load_point_B_m)
+
+
+def episode_start(config: ShearConfig, draw: EpisodeDraw, specimen: Specimen, foundation: Foundation,
+                  base_key: tuple | None = None) -> EpisodeStart:
+    """The starting state for ``draw`` (computed once per distinct specimen, friction and load, then cached).
+
+    ``specimen`` and ``foundation`` are :meth:`ShearConfig.base_specimen`'s; ``base_key`` their
+    :func:`specimen_key` (pass it to save recomputing it)."""
+    base_key = base_key if base_key is not None else specimen_key(specimen, foundation)
+    key = (base_key, draw, config.end_friction, config.tip_offset_m, config.control_hz, config.substeps,
+           config.travel_m, config.thrust_scale, config.offset_range_m, config.stage_speed_m_s, config.time_limit_s)
+    entry = _STARTS.get(key)
+    if entry is not None:
+        _STARTS.move_to_end(key)
+        return entry
+    entry = _compute_start(key, config, draw, specimen, foundation)
+    _STARTS[key] = entry
+    if len(_STARTS) > _MAX_STARTS:
+        _STARTS.popitem(last=False)
+    return entry
+
+
+def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen: Specimen,
+                   foundation: Foundation) -> EpisodeStart:
+    specimen = replace(specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg)
+    model = Model(Loading(draw.load_N, "actuator", config.end_friction, config.tip_offset_m), specimen, foundation)
+    model.validate()
+    y, p = model.initial_state(), model.kernel_params()
+    if holds(model, y, draw.load_N):
+        raise StartError(f"friction holds the block at rest under {draw.load_N:g} N (friction {draw.friction_deg}, "
+                         f"tip {draw.tip_friction_deg:g} deg, offset {config.tip_offset_m:g} m): it cannot start")
+    start_motion(p, y)
+    reference_run = simulate(paper_model("C", draw.load_N, specimen, foundation), travel_m=config.travel_m)
+    cps0 = np.empty((3, 3))
+    K.contact_points(y, p, cps0)
+    grid = np.linspace(0.0, config.travel_m, REFERENCE_POINTS)
+    if reference_run.status == "held":
+        ref = np.zeros((REFERENCE_POINTS, 9))
+    else:  # a reference that stops short of the travel target holds its last position beyond it
+        end = reference_run.travel[-1]
+        if reference_run.status == "travel":
+            end = max(end, config.travel_m)  # the run ends at the target (to rounding: 0.0799999999999984)
+        reached = grid[grid <= end]
+        query = np.minimum(reached, reference_run.travel[-1])
+        path = reference_run.resample_by_travel(query) - reference_run.contact_points[0]
+        ref = np.concatenate([path, np.repeat(path[-1:], len(grid) - len(reached), axis=0)]).reshape(-1, 9)
+    st = np.zeros(N_ST)
+    st[ST_LOAD] = draw.load_N
+    st[ST_THRUST_MAX] = config.thrust_scale * draw.load_N
+    st[ST_X1_TARGET] = cps0[0, 0] + config.travel_m
+    st[ST_CP_REST:ST_CP_REST + 9] = cps0.ravel()
+    st[ST_MAX_STEPS] = round(config.time_limit_s * config.control_hz)
+    st[ST_A0] = 2.0 / config.thrust_scale - 1.0
+    st[ST_A1] = config.tip_offset_m / config.offset_range_m
+    armed = np.zeros(5, dtype=np.bool_)
+    cfg = config.packed()
+    obs, inf = np.empty(OBS_DIM), np.empty(N_INFO)
+    first = np.array([st[ST_A0], st[ST_A1]])
+    code = control_step(y, p, armed, st, ref, first, cfg, obs, inf)
+    if code != RUNNING:  # (not NEEDS_STATICS: arrest detection arms only once the block has moved)
+        raise StartError(f"the block's first {1e3 * config.dt:g} ms already ended the test: "
+                         f"{REASONS[code] if code > 0 else code} (specimen {specimen.name!r}, {draw.load_N:g} N)")
+    return EpisodeStart(key, model, y, p, armed, st, ref, reference_run.status, obs, inf)
+
+
+def resolve_statics(model: Model, y: np.ndarray, p: np.ndarray, armed: np.ndarray, st: np.ndarray) -> bool:
+    """All contacts nearly stopped: True if friction holds the block (an arrest, :func:`triplanar.statics.holds`,
+    exact LP at the current pose, thrust and tip offset); otherwise set how it moves on and return False."""
+    if holds(model, y, p[K.P_FCMD], st[ST_T]):
+        return True
+    start_motion(p, y, st[ST_T])
+    armed[:] = False
+    return False
+
+
+# -- the compiled control step (shared by the single and the vector env) -------------------------------
+
+@njit(cache=True)
+def _apply_action(y, p, st, action, cfg) -> None:
+    """Thrust and stage velocity for this control period; stuck sites that can no longer stick are released."""
+    a0 = min(max(action[0], -1.0), 1.0)
+    a1 = min(max(action[1], -1.0), 1.0)
+    thrust = 0.5 * (a0 + 1.0) * st[ST_THRUST_MAX]
+    u_cmd = a1 * cfg[CF_RANGE]
+    udot = min(max((u_cmd - y[K.S_U]) / cfg[CF_DT], -cfg[CF_STAGE]), cfg[CF_STAGE])
+    changed_udot = udot != p[K.P_UDOT]
+    p[K.P_FCMD] = thrust
+    p[K.P_UDOT] = udot
+    t = st[ST_T]
+    if p[K.P_TIP_STUCK] != 0.0 and changed_udot:
+        # A stage that changes speed cannot carry a stuck face along instantly: the face slips on the tip.
+        K.apply_mode_event(K.EV_TIP_RELEASE, t, y, p)
+    if p[K.P_STUCK] >= 0.0 or p[K.P_TIP_STUCK] != 0.0:
+        aux = np.empty(K.N_AUX)
+        dy = np.empty(K.N_STATE)
+        K.rhs(t, y, p, dy, aux)
+        if p[K.P_STUCK] >= 0.0 and aux[K.A_STICK] > 0.0:
+            K.apply_mode_event(K.EV_RELEASE, t, y, p)
+            K.rhs(t, y, p, dy, aux)
+        if p[K.P_TIP_STUCK] != 0.0 and aux[K.A_TIP_STICK] > 0.0:
+            K.apply_mode_event(K.EV_TIP_RELEASE, t, y, p)
+
+
+@njit(cache=True)
+def _energy_defect(y0, y1, p) -> float:
+    """Change over a step of the energy balance's residual: work in minus (kinetic + potential + dissipated)."""
+    work = y1[K.S_WLOAD] - y0[K.S_WLOAD] + y1[K.S_WOTHER] - y0[K.S_WOTHER]
+    dissipated = y1[K.S_DTIP] - y0[K.S_DTIP]
+    for j in range(3):
+        dissipated += y1[K.S_DC + j] - y0[K.S_DC + j]
+    potential = p[K.P_MASS] * p[K.P_G] * (y1[K.S_R + 1] - y0[K.S_R + 1])
+    return work - (K.kinetic_energy(y1, p) - K.kinetic_energy(y0, p)) - potential - dissipated
+
+
+@njit(cache=True)
+def _advance(y, p, armed, st, cfg, inf) -> int:
+    """Integrate to the end of the control period (or an event): fixed RK4 steps; if the energy balance shows
+    that a slip reversed inside a step (fixed steps locate only events whose sign differs at the step ends), the
+    period is redone with the kernel's adaptive DOPRI5, which locates every stop."""
+    t_end = (st[ST_STEP] + 1.0) * cfg[CF_DT]
+    out_t = np.empty(1)
+    out_y = np.empty((1, K.N_STATE))
+    out_aux = np.empty((1, K.N_AUX))
+    y0, p0, armed0, t0 = y.copy(), p.copy(), armed.copy(), st[ST_T]
+    rows, status, event, h, t = K.integrate(K.METHOD_RK4, t0, y, p, cfg[CF_H], 0.0, 0.0, t_end,
+                                            st[ST_X1_TARGET], cfg[CF_SLOW], armed, out_t, out_y, out_aux, False)
+    if cfg[CF_ENERGY_TOL] > 0.0 and abs(_energy_defect(y0, y, p)) > cfg[CF_ENERGY_TOL]:
+        y[:] = y0
+        p[:] = p0
+        armed[:] = armed0
+        rows, status, event, h, t = K.integrate(K.METHOD_DOPRI5, t0, y, p, cfg[CF_H], FALLBACK_RTOL,
+                                                FALLBACK_ATOL, t_end, st[ST_X1_TARGET], cfg[CF_SLOW], armed,
+                                                out_t, out_y, out_aux, False)
+        inf[IN_FALLBACK] += 1.0
+    st[ST_T] = t
+    if status == K.ST_TIME_LIMIT:
+        return RUNNING
+    if status == K.ST_SLOW:
+        return NEEDS_STATICS
+    if status == K.ST_TRAVEL:
+        return SUCCESS
+    if status == K.ST_LIFT_OFF:
+        return LIFT_OFF
+    if status == K.ST_MC_OUTSIDE:
+        return MC_OUTSIDE
+    if status == K.ST_LEFT_PLANE:
+        return LEFT_PLANE
+    return FAILED
+
+
+@njit(cache=True)
+def _finish(y, p, st, ref, action, cfg, code, obs, inf) -> None:
+    """Observation, reward terms and bookkeeping after a control period that ended with ``code``."""
+    st[ST_STEP] += 1.0
+    travel = cfg[CF_TRAVEL]
+    R = np.empty((3, 3))
+    K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], R)
+    cps = np.empty((3, 3))
+    K.contact_points(y, p, cps)
+    s = cps[0, 0] - st[ST_CP_REST]
+    # Hydrostatic reference at the same travel (linear in travel between samples).
+    n_ref = ref.shape[0]
+    x = min(max(s, 0.0), travel) / travel * (n_ref - 1)
+    k = min(int(x), n_ref - 2)
+    f = x - k
+    dist = 0.0
+    for i in range(3):
+        dx = 0.0
+        dz = 0.0
+        for c in range(3):
+            disp = cps[i, c] - st[ST_CP_REST + 3 * i + c]
+            r = (1.0 - f) * ref[k, 3 * i + c] + f * ref[k + 1, 3 * i + c]
+            obs[OBS_POS + 3 * i + c] = disp
+            obs[OBS_REF + 3 * i + c] = r
+            if c == 0:
+                dx = disp - r
+            elif c == 2:
+                dz = disp - r
+        dist += math.sqrt(dx * dx + dz * dz)
+    dist *= 1000.0 / 3.0  # mm, mean over the three contact points
+    for i in range(3):
+        ax = cps[i, 0] - y[K.S_R]
+        ay = cps[i, 1] - y[K.S_R + 1]
+        az = cps[i, 2] - y[K.S_R + 2]
+        w0, w1, w2 = y[K.S_W], y[K.S_W + 1], y[K.S_W + 2]
+        obs[OBS_VEL + 3 * i] = y[K.S_V] + w1 * az - w2 * ay
+        obs[OBS_VEL + 3 * i + 1] = y[K.S_V + 1] + w2 * ax - w0 * az
+        obs[OBS_VEL + 3 * i + 2] = y[K.S_V + 2] + w0 * ay - w1 * ax
+    # Load point on the aft face, relative to the centreline point P_CL, along g2 and g3.
+    arm = np.empty(3)
+    K.load_arm(y, p, R, arm)
+    pcl = np.empty(3)
+    for c in range(3):
+        pcl[c] = R[c, 0] * p[K.P_PCL] + R[c, 1] * p[K.P_PCL + 1] + R[c, 2] * p[K.P_PCL + 2]
+    for a in range(2):
+        obs[OBS_FACE + a] = (arm[0] - pcl[0]) * R[0, a + 1] + (arm[1] - pcl[1]) * R[1, a + 1] \
+            + (arm[2] - pcl[2]) * R[2, a + 1]
+    a0 = min(max(action[0], -1.0), 1.0)
+    a1 = min(max(action[1], -1.0), 1.0)
+    obs[OBS_OFFSET] = y[K.S_U]
+    obs[OBS_LOAD] = st[ST_LOAD]
+    obs[OBS_PREV] = a0
+    obs[OBS_PREV + 1] = a1
+    obs[OBS_TIME] = st[ST_T]
+    for j in range(OBS_DIM):
+        obs[j] = min(max(obs[j], -OBS_HIGH[j]), OBS_HIGH[j])
+
+    ds = abs(s - st[ST_SPREV])
+    if cfg[CF_WEIGHT] == 0.0:
+        r_dist = -0.5 * (dist + st[ST_DPREV]) * ds / travel
+    else:
+        r_dist = -dist
+    r_rate = -cfg[CF_RATE] * ((a0 - st[ST_A0]) ** 2 + (a1 - st[ST_A1]) ** 2)
+    truncated = code == RUNNING and st[ST_STEP] >= st[ST_MAX_STEPS]
+    r_term = 0.0
+    if (code > SUCCESS or truncated) and s < travel:
+        r_term = -cfg[CF_FAIL] * (1.0 - max(s, 0.0) / travel)
+    st[ST_ERR_NUM] += 0.5 * (dist + st[ST_DPREV]) * ds
+    st[ST_ERR_DEN] += ds
+    st[ST_DPREV] = dist
+    st[ST_SPREV] = s
+    st[ST_A0] = a0
+    st[ST_A1] = a1
+    inf[IN_R_DIST] = r_dist
+    inf[IN_R_RATE] = r_rate
+    inf[IN_R_TERM] = r_term
+    inf[IN_REWARD] = r_dist + r_rate + r_term
+    inf[IN_DIST] = dist
+    inf[IN_ERR] = st[ST_ERR_NUM] / st[ST_ERR_DEN] if st[ST_ERR_DEN] > 0.0 else dist
+    inf[IN_TRAVEL] = s
+    inf[IN_THRUST] = p[K.P_FCMD]
+    inf[IN_OFFSET_CMD] = a1 * cfg[CF_RANGE]
+    inf[IN_OFFSET] = y[K.S_U]
+    inf[IN_UDOT] = p[K.P_UDOT]
+    inf[IN_TIME] = st[ST_T]
+    inf[IN_LOAD] = st[ST_LOAD]
+    inf[IN_TRUNC] = 1.0 if truncated else 0.0
+
+
+@njit(cache=True)
+def control_step(y, p, armed, st, ref, action, cfg, obs, inf) -> int:
+    """One control period: apply ``action``, integrate, observe. Returns the outcome code; on NEEDS_STATICS the
+    period is unfinished (decide with :func:`resolve_statics`, then call :func:`resume`)."""
+    _apply_action(y, p, st, action, cfg)
+    inf[IN_FALLBACK] = 0.0
+    code = _advance(y, p, armed, st, cfg, inf)
+    if code != NEEDS_STATICS:
+        _finish(y, p, st, ref, action, cfg, code, obs, inf)
+    return code
+
+
+@njit(cache=True)
+def resume(y, p, armed, st, ref, action, cfg, arrested, obs, inf) -> int:
+    """Finish a control period interrupted by NEEDS_STATICS once the statics have been decided."""
+    code = ARREST if arrested else _advance(y, p, armed, st, cfg, inf)
+    if code != NEEDS_STATICS:
+        _finish(y, p, st, ref, action, cfg, code, obs, inf)
+    return code
+
+
+def observation_space() -> spaces.Box:
+    high = OBS_HIGH.astype(np.float32)
+    return spaces.Box(-high, high, dtype=np.float32)
+
+
+def action_space() -> spaces.Box:
+    return spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+
+
+_SLOTS = np.array(INFO_SLOTS)
+
+
+def info_dict(inf: np.ndarray, code: int) -> dict[str, Any]:
+    info: dict[str, Any] = dict(zip(INFO_KEYS, inf[_SLOTS].tolist()))
+    info["reason"] = REASONS[code] if code > 0 else (TIME_LIMIT if inf[IN_TRUNC] else "")
+    info["is_success"] = code == SUCCESS
+    return info
+
+
+class TriPlanarShearEnv(gym.Env):
+    """
+    ## Description
+
+    The tri-planar shear test of Galic, Glaser & Goodman (2008): an aluminium block rests on three foundation
+    planes and a linear thruster pushes its aft face along ``e1``. In the laboratory the steel load tip rubs on the
+    face (end friction, 8 degrees), which bends the block's sliding path away from the one hydrostatic (water)
+    pressure would produce: the paper's case C, a frictionless force normal to the aft face at a body-fixed point.
+    Here the actuator is a servo: the agent sets the thrust and moves the tip sideways on a rate-limited lateral
+    stage, and is rewarded for making the block slide as it would under hydrostatic loading at the same load level.
+    The physics is the project's compiled model (:mod:`triplanar.kernel`, stick-slip at the contacts and the tip),
+    stepped with fixed RK4 steps.
+
+    ## Action Space
+
+    ``Box(-1, 1, (2,), float32)``, clipped to [-1, 1]:
+
+    | Num | Action              | Physical value                                                        |
+    |-----|---------------------|-----------------------------------------------------------------------|
+    | 0   | thrust command      | ``F_T = (a0 + 1) / 2 * thrust_scale * load`` N (default 0 to 2 x load) |
+    | 1   | tip offset command  | ``u* = a1 * offset_range_m`` m from the aft-face centreline (default +-20 mm) |
+
+    The stage moves the tip toward ``u*`` at most ``stage_speed_m_s`` (0.5 m/s): each control period its velocity is
+    ``clip((u* - u) / dt, -v_max, v_max)``. The tip's lateral velocity enters the slip between tip and aft face, so
+    moving the tip makes end friction as it would on the bench. Thrust and stage velocity are held over the period.
+
+    ## Observation Space
+
+    ``Box(34,) float32`` (SI units; values are clipped to the bounds, which a physical episode never reaches):
+
+    | Num   | Observation                                                               | Bound |
+    |-------|---------------------------------------------------------------------------|-------|
+    | 0-8   | contact points CP1..CP3 displacement from rest (x1, x2, x3 each), m        | 0.5   |
+    | 9-17  | contact points CP1..CP3 velocity (x1, x2, x3 each), m/s                    | 5     |
+    | 18    | tip offset ``u`` (lateral, +e3, from the centreline at rest), m            | 0.5   |
+    | 19-20 | load point on the aft face relative to the centreline point P_CL, along g2 and g3, m | 0.5 |
+    | 21    | load level of the episode, N                                               | 1000  |
+    | 22-30 | hydrostatic reference (case C): CP1..CP3 displacement from rest at the block's current travel, m | 0.5 |
+    | 31-32 | previous action (the action-rate penalty depends on it)                    | 1     |
+    | 33    | time since the block started from rest, s                                  | 100   |
+
+    ## Rewards
+
+    With ``d`` the horizontal distance (mm) between each contact point and the reference at the same travel (CP1's
+    displacement along e1), averaged over the three contact points, ``s`` the travel, ``S = travel_m`` and ``a`` the
+    action, each step gives ``reward = r_distance + r_action_rate + r_termination`` with
+
+    * ``r_distance = -(d_prev + d) / 2 * |s - s_prev| / S`` (``reward_weighting="travel"``, default), so a full episode's
+      distance terms sum to minus the travel-averaged mimicry error in mm (trapezoid rule, as the paper compares
+      paths by travel, not time); with ``reward_weighting="step"``: ``-d`` every step;
+    * ``r_action_rate = -action_rate_coef * |a - a_prev|^2`` (default 0.005);
+    * ``r_termination = -failure_penalty_mm * (1 - s / S)`` when the episode ends in anything but success (default
+      50 mm: a failed test costs as if the untravelled rest of the path were 50 mm off).
+
+    Every term is in ``info`` (``reward_distance``, ``reward_action_rate``, ``reward_termination``) with
+    ``distance_mm``, ``mimicry_error_mm`` (travel-averaged ``d`` so far), ``travel_m``, ``thrust_N``,
+    ``offset_command_m``, ``tip_offset_m``, ``stage_velocity_m_s``, ``time_s``, ``load_N``, ``reason`` and
+    ``is_success``.
+
+    ## Starting State
+
+    Each reset draws the load level (``load_N`` fixed, else uniform from ``load_range``, else one of
+    ``load_levels``: the paper's 12, 27.8 to 55.6 N) and, if asked, the friction angles. The block rests on the planes
+    with the tip at ``tip_offset_m``; the actuator starts the test as the laboratory does, pushing at the load level
+    with the stage still, and the first control period (5 ms) runs so. The returned observation is the state after
+    it; the policy acts from then on. (Starting from rest costs an LP and a mode search, ~10 ms: doing it once per
+    load level and friction draw, cached, makes resets cost microseconds. The first period decides only whether the
+    load level can start the block, which the laboratory tests always do.)
+
+    ## Episode End
+
+    ``info["reason"]`` says which:
+
+    * terminated, ``success``: CP1 has travelled ``travel_m`` (8 cm) along e1 (located exactly within the period);
+    * terminated, ``lift_off``: a contact point's normal reaction reached zero;
+    * terminated, ``mass_centre_outside``: the mass centre left the contact triangle seen from above (tipping);
+    * terminated, ``left_plane``: a contact point crossed onto another plane (CP3 starts where all three meet);
+    * terminated, ``arrest``: every contact point came (nearly) to rest and friction holds the block under the
+      current command (statics LP, :func:`triplanar.statics.holds`);
+    * terminated, ``failed``: the integration failed (singular contact system; not seen in practice);
+    * truncated, ``time_limit``: ``time_limit_s`` (2 s) after the start.
+
+    ## Arguments
+
+    ``gym.make("TriPlanarShear-v0", **kwargs)`` with any :class:`ShearConfig` field: ``load_N``, ``load_levels``,
+    ``load_range``, ``control_hz`` (200), ``substeps`` (RK4 steps per control period, 1), ``thrust_scale`` (2),
+    ``offset_range_m`` (0.02), ``stage_speed_m_s`` (0.5), ``tip_offset_m`` (0), ``end_friction`` (True),
+    ``tip_friction_deg`` (the specimen's, 8), ``friction_noise_deg`` and ``tip_friction_noise_deg`` (0),
+    ``travel_m`` (0.08), ``time_limit_s`` (2), ``action_rate_coef``, ``failure_penalty_mm``, ``reward_weighting``,
+    ``specimen``/``foundation`` (default the reference specimen), and ``render_mode`` (``"rgb_array"``,
+    ``"human"``). ``reset(options=...)`` accepts ``load_N``, ``load_range``, ``load_levels``,
+    ``friction_noise_deg``, ``tip_friction_noise_deg`` for that episode.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}
+
+    def __init__(self, render_mode: str | None = None, config: ShearConfig | None = None, **kwargs: Any):
+        self.config = make_config(config, **kwargs)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        self.render_mode = render_mode
+        self.action_space = action_space()
+        self.observation_space = observation_space()
+        self._cfg = self.config.packed()
+        self._specimen, self._foundation = self.config.base_specimen()
+        self._base_key = specimen_key(self._specimen, self._foundation)
+        self._starts: dict[EpisodeDraw, EpisodeStart] = {}
+        self._obs = np.zeros(OBS_DIM)
+        self._inf = np.zeros(N_INFO)
+        self._action = np.zeros(2)
+        self._start: EpisodeStart | None = None
+        self._trace: list[np.ndarray] = []
+        self._renderer = None
+
+    # -- Gymnasium API ---------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        draw = draw_episode(self.np_random, self.config, self._specimen, options)
+        start = self._starts.get(draw)
+        if start is None:
+            start = episode_start(self.config, draw, self._specimen, self._foundation, self._base_key)
+            if len(self._starts) < 64:
+                self._starts[draw] = start
+        self._start = start
+        self._y, self._p, self._armed, self._st = start.y.copy(), start.p.copy(), start.armed.copy(), start.st.copy()
+        self._ref = start.reference
+        self._obs[:] = start.obs
+        self._inf[:] = start.inf
+        if self.render_mode is not None:
+            self._trace = [self._contact_points()]
+            if self.render_mode == "human":
+                self.render()
+        return self._obs.astype(np.float32), {"load_N": draw.load_N, "friction_deg": draw.friction_deg,
+                                              "tip_friction_deg": draw.tip_friction_deg, "time_s": self._st[ST_T]}
+
+    def step(self, action):
+        if self._start is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        self._action[:] = action
+        code = control_step(self._y, self._p, self._armed, self._st, self._ref, self._action, self._cfg,
+                            self._obs, self._inf)
+        while code == NEEDS_STATICS:
+            arrested = resolve_statics(self._start.model, self._y, self._p, self._armed, self._st)
+            code = resume(self._y, self._p, self._armed, self._st, self._ref, self._action, self._cfg, arrested,
+                          self._obs, self._inf)
+        if self.render_mode is not None:
+            self._trace.append(self._contact_points())
+            if self.render_mode == "human":
+                self.render()
+        return (self._obs.astype(np.float32), float(self._inf[IN_REWARD]), code > 0, bool(self._inf[IN_TRUNC]),
+                info_dict(self._inf, code))
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self._renderer is None:
+            self._renderer = Renderer(self._foundation, human=self.render_mode == "human")
+        rest = self._st[ST_CP_REST:ST_CP_REST + 9].reshape(3, 3)
+        return self._renderer.draw(np.array(self._trace), rest + self._ref.reshape(-1, 3, 3), self._tip_line(),
+                                   self._st[ST_LOAD], self._st[ST_T])
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # -- helpers ---------------------------------------------------------------------------------
+    def _contact_points(self) -> np.ndarray:
+        cps = np.empty((3, 3))
+        K.contact_points(self._y, self._p, cps)
+        return cps
+
+    def _tip_line(self) -> np.ndarray:
+        """Overhead (x1, x3) of the load point and the tip line's lateral position."""
+        aux = np.empty(K.N_AUX)
+        K.rhs(self._st[ST_T], self._y, self._p, np.empty(K.N_STATE), aux)
+        return aux[K.A_PL:K.A_PL + 3].copy()
+
+    @property
+    def state(self) -> np.ndarray:
+        """The kernel state (layout ``triplanar.kernel.S_*``), a copy."""
+        return self._y.copy()
+
+    @property
+    def model(self) -> Model:
+        """The episode's model (specimen with this episode's friction, actuator at the load level)."""
+        if self._start is None:
+            raise gym.error.ResetNeeded("call reset() first")
+        return self._start.model
+
+    @property
+    def reference_path(self) -> np.ndarray:
+        """The episode's hydrostatic reference: (REFERENCE_POINTS, 3, 3) contact points, sampled by travel."""
+        return self._st[ST_CP_REST:ST_CP_REST + 9].reshape(3, 3) + self._ref.reshape(-1, 3, 3)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
+
+
+class Renderer:
+    """Overhead view (x1 right, x3 up, as the paper's figures): the planes' intersection lines, the hydrostatic
+    reference path (grey), the traces so far (black), the contact triangle and the load tip (red)."""
+
+    def __init__(self, foundation: Foundation, human: bool = False):
+        import os  # noqa: PLC0415
+
+        from triplanar import plotting  # noqa: PLC0415 (matplotlib is imported only to render)
+        self._plotting = plotting
+        self._plt = plotting.plt
+        self.human = human
+        if human and (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            try:  # a window where there is a display; without one, frames are drawn off-screen
+                self._plt.switch_backend("TkAgg")
+                self._plt.ion()
+            except (ImportError, RuntimeError):
+                pass
+        self.fig, self.ax = self._plt.subplots(figsize=(5, 5), dpi=80)
+        self.foundation = foundation
+
+    def draw(self, trace: np.ndarray, reference: np.ndarray, load_point: np.ndarray, load_N: float,
+             t: float) -> np.ndarray | None:
+        ax = self.ax
+        ax.clear()
+        self._plotting.overhead_axes(ax, self.foundation, title=f"{load_N:g} N, t = {t:.3f} s")
+        self._plotting.plot_traces(ax, reference, color=self._plotting.MODEL, lw=1.0, label="hydrostatic (case C)")
+        self._plotting.plot_traces(ax, trace, color=self._plotting.MEASURED, lw=1.4, label="actuator")
+        tri = trace[-1][[0, 1, 2, 0]]
+        ax.plot(tri[:, 0], tri[:, 2], color="tab:blue", lw=0.8)
+        ax.plot([load_point[0] - 0.06, load_point[0]], [load_point[2], load_point[2]], color="tab:red", lw=2.5)
+        ax.plot(load_point[0], load_point[2], "o", color="tab:red", ms=4)
+        ax.set_xlim(-0.22, 0.14)
+        ax.set_ylim(-0.06, 0.32)
+        ax.legend(loc="lower right", fontsize=7)
+        self.fig.canvas.draw()
+        if self.human:
+            self._plt.pause(0.001)
+            return None
+        rgba = np.asarray(self.fig.canvas.buffer_rgba())
+        return rgba[..., :3].copy()
+
+    def close(self) -> None:
+        self._plt.close(self.fig)

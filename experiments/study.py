@@ -1,0 +1,157 @@
+"""The actuator design study: ``triplanar study --out DIR`` (or ``python -m experiments.study --out DIR``).
+
+Trains PPO (``agents.train_ppo``; finished or interrupted runs are resumed, not redone), evaluates every
+controller at the 12 load levels with :func:`agents.evaluation.evaluate`, and writes to DIR:
+
+* ``episodes.csv``: one row per controller, load level and seed (mimicry error, outcome, travel, steps, ...);
+* ``mimicry_table.csv``: mean mimicry error (mm) per controller and load level, PPO as mean and std over seeds;
+* ``traces_<controller>.png``: overhead traces against the hydrostatic reference at every load level;
+* ``errors_by_load.png``, ``actions_27.8N.png``, ``learning_curves.png``;
+* ``summary.json``; and the report (default ``docs/actuator-study.md``, see :mod:`experiments.report`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable, Sequence
+
+import numpy as np
+
+from agents import EpisodeResult, LowFrictionTip, MomentMatching, SteelTip, TrackingTip, evaluate
+from agents.train_ppo import DEFAULT_CONFIG, TrainResult, load_config, train_ppo
+from triplanar import PAPER_LOADS_N
+
+PPO_NAME = "PPO"
+
+
+def scripted_controllers() -> list:
+    """The four scripted controllers of the study, and the frictionless fixed tip (the paper's case B) as a
+    reference for what removing the end friction alone achieves."""
+    return [SteelTip(), LowFrictionTip(phi_deg=3.0), TrackingTip(), MomentMatching(),
+            LowFrictionTip(phi_deg=0.0, name="frictionless tip")]
+
+
+@dataclass
+class StudyResult:
+    out_dir: Path
+    loads: tuple[float, ...]
+    episodes: list[EpisodeResult]
+    ppo_runs: list[TrainResult]
+    curves: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)
+    timings: dict[str, float] = field(default_factory=dict)
+
+    def errors(self, controller: str) -> np.ndarray:
+        """(seeds, loads) mimicry errors of ``controller``."""
+        rows = [r for r in self.episodes if r.controller == controller]
+        seeds = sorted({r.seed for r in rows})
+        table = np.full((len(seeds), len(self.loads)), np.nan)
+        for r in rows:
+            table[seeds.index(r.seed), self.loads.index(r.load_N)] = r.mimicry_error_mm
+        return table
+
+    @property
+    def controllers(self) -> list[str]:
+        return list(dict.fromkeys(r.controller for r in self.episodes))
+
+
+def read_curve(path: Path) -> dict[str, np.ndarray]:
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    out = {key: np.array([float(r[key]) for r in rows]) for key in rows[0] if not key.startswith("reason")}
+    out.update({key: np.array([r[key] for r in rows]) for key in rows[0] if key.startswith("reason")})
+    return out
+
+
+def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: Sequence[int] = (0, 1, 2),
+              config: str | Path = DEFAULT_CONFIG, timesteps: int | None = None, train: bool = True,
+              loads: Iterable[float] = PAPER_LOADS_N, doc: str | Path | None = "docs/actuator-study.md",
+              log: Callable[[str], None] = print) -> StudyResult:
+    """Train (or resume) PPO for each seed, evaluate every controller at every load, write the outputs."""
+    from agents.ppo_controller import PPOController  # noqa: PLC0415
+
+    from . import plots, report  # noqa: PLC0415
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    loads = tuple(float(f) for f in loads)
+    ppo_config = load_config(config)
+    env_kwargs = ppo_config.get("env", {})
+    timings: dict[str, float] = {}
+    runs: list[TrainResult] = []
+    for seed in seeds:
+        started = time.perf_counter()
+        if train:
+            log(f"PPO seed {seed}: training (or resuming) in {ppo_dir}")
+            runs.append(train_ppo(ppo_config, ppo_dir, seed, timesteps))
+        else:
+            run_dir = Path(ppo_dir) / f"seed_{seed}"
+            info = json.loads((run_dir / "done.json").read_text())
+            runs.append(TrainResult(run_dir, run_dir / "final_model.zip", run_dir / "vecnormalize.pkl",
+                                    run_dir / "learning_curve.csv", info["timesteps"], info["wall_s"]))
+        timings[f"ppo_seed_{seed}_this_call_s"] = time.perf_counter() - started
+    started = time.perf_counter()
+    episodes: list[EpisodeResult] = []
+    for controller in scripted_controllers():
+        episodes += [evaluate(controller, f, seed=0, env_kwargs=env_kwargs) for f in loads]
+    for seed, run in zip(seeds, runs):
+        controller = PPOController.load(run.model_path, run.vecnormalize_path, name=PPO_NAME)
+        episodes += [evaluate(controller, f, seed=seed, env_kwargs=env_kwargs) for f in loads]
+    timings["evaluation_s"] = time.perf_counter() - started
+    result = StudyResult(out_dir, loads, episodes, runs,
+                         {seed: read_curve(run.curve_path) for seed, run in zip(seeds, runs)}, timings)
+    write_tables(result)
+    plots.write_all(result)
+    summary = report.summary(result)
+    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
+    if doc is not None:
+        report.write_markdown(result, summary, Path(doc))
+    log(f"study written to {out_dir}" + (f" and {doc}" if doc else ""))
+    return result
+
+
+def write_tables(result: StudyResult) -> None:
+    with open(result.out_dir / "episodes.csv", "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(["controller", "load_N", "seed", "mimicry_error_mm", "reason", "travel_m", "steps",
+                         "duration_s", "return"])
+        for r in result.episodes:
+            writer.writerow([r.controller, r.load_N, r.seed, f"{r.mimicry_error_mm:.4f}", r.reason,
+                             f"{r.travel_m:.5f}", r.steps, f"{r.duration_s:.4f}", f"{r.episode_return:.4f}"])
+    with open(result.out_dir / "mimicry_table.csv", "w", newline="") as f:
+        writer = csv.writer(f)
+        names = [c for c in result.controllers if c != PPO_NAME]
+        writer.writerow(["load_N"] + [f"{c} (mm)" for c in names] + ["PPO mean (mm)", "PPO std (mm)", "PPO seeds"])
+        ppo = result.errors(PPO_NAME)
+        for j, load in enumerate(result.loads):
+            writer.writerow([load] + [f"{result.errors(c)[0, j]:.3f}" for c in names]
+                            + [f"{ppo[:, j].mean():.3f}", f"{ppo[:, j].std():.3f}", ppo.shape[0]])
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--out", required=True, help="directory for tables and plots")
+    parser.add_argument("--ppo-dir", default="runs/ppo", help="PPO runs (trained here unless --skip-train)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="PPO seeds (default 0 1 2)")
+    parser.add_argument("--timesteps", type=int, help="PPO timesteps per seed (default: the YAML's)")
+    parser.add_argument("--config", default=str(DEFAULT_CONFIG), help="PPO hyperparameter YAML")
+    parser.add_argument("--doc", default="docs/actuator-study.md", help="report to write ('' for none)")
+    parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
+
+
+def run(args: argparse.Namespace) -> int:
+    run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, config=args.config, timesteps=args.timesteps,
+              train=not args.skip_train, doc=args.doc or None)
+    return 0
+
+
+def main(argv: Iterable[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m experiments.study", description=__doc__.splitlines()[0])
+    add_arguments(parser)
+    return run(parser.parse_args(None if argv is None else list(argv)))
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
