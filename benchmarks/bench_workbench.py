@@ -26,16 +26,9 @@ sys.path.insert(0, str(ROOT))
 
 from triplanar import make_effect  # noqa: E402
 from triplanar.workbench import Diagnoser, EffectFit, ModelSpec, compare, evaluate_spec, load_tests  # noqa: E402
+from triplanar.workbench.scenarios import HIDDEN_EFFECTS  # noqa: E402
 
-HIDDEN = {
-    "end_friction": ("end_friction:phi_deg=8", {"phi_deg": 8.0}),
-    "rate_friction": ("rate_friction:a=0.3", {"a": 0.3}),
-    "tip_offset": ("tip_offset:offset_m=-0.005", {"offset_m": -0.005}),
-    "actuator_rise": ("actuator_rise:tau_s=0.05", {"tau_s": 0.05}),
-    "contact_friction": ("contact_friction:phi1_deg=15,phi2_deg=17,phi3_deg=10",
-                         {"phi1_deg": 15.0, "phi2_deg": 17.0, "phi3_deg": 10.0}),
-    "plane_tilt": ("plane_tilt:dip2_deg=2.5", {"dip2_deg": 2.5}),
-}
+HIDDEN = HIDDEN_EFFECTS  # effect -> (data spec, parameters to recover within 15 %)
 
 
 def timed(fn):

@@ -19,6 +19,7 @@ import pytest
 from triplanar import Effect, Parameter, make_effect
 from triplanar.labdata import generate_lab_data
 from triplanar.workbench import Diagnoser, ForwardSelection
+from triplanar.workbench.scenarios import HIDDEN_EFFECTS
 
 LOADS = (27.8, 35.0, 45.0, 55.6)
 REPEATS = 2
@@ -26,16 +27,7 @@ SEED = 1
 FOLDS = 2
 WEAK = {("contact_friction", "phi1_deg")}    # see the module doc
 
-# effect -> (what the data were made with, the parameters the fit must recover within 15 %)
-HIDDEN = {
-    "end_friction": ("end_friction:phi_deg=8", {"phi_deg": 8.0}),
-    "rate_friction": ("rate_friction:a=0.3", {"a": 0.3}),
-    "tip_offset": ("tip_offset:offset_m=-0.005", {"offset_m": -0.005}),
-    "actuator_rise": ("actuator_rise:tau_s=0.05", {"tau_s": 0.05}),
-    "contact_friction": ("contact_friction:phi1_deg=15,phi2_deg=17,phi3_deg=10",
-                         {"phi1_deg": 15.0, "phi2_deg": 17.0, "phi3_deg": 10.0}),
-    "plane_tilt": ("plane_tilt:dip2_deg=2.5", {"dip2_deg": 2.5}),
-}
+HIDDEN = HIDDEN_EFFECTS  # effect -> (data spec, parameters to recover within 15 %)
 
 
 def lab(effects) -> list:

@@ -3,16 +3,13 @@
 from __future__ import annotations
 
 import argparse
-from concurrent.futures import ProcessPoolExecutor
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
 
 from ..commands import add_model_arguments, load_specimen, parse_effects
 from ..effects import REGISTRY, EffectError
 from ..measurement import MeasuredTest
 from .compare import load_tests
-from .executor import DEFAULT_WORKERS, Executor, SerialExecutor
+from .executor import DEFAULT_WORKERS, pool_scope
 from .spec import ModelSpec
 
 
@@ -74,17 +71,9 @@ def check_effect_names(names: list[str]) -> list[str]:
     return names
 
 
-@contextmanager
-def executor_for(args: argparse.Namespace) -> Iterator[Executor]:
-    workers = max(1, int(args.workers))
-    if workers == 1:
-        yield SerialExecutor()
-        return
-    pool = ProcessPoolExecutor(max_workers=workers)
-    try:
-        yield pool
-    finally:
-        pool.shutdown(wait=True, cancel_futures=True)
+def executor_for(args: argparse.Namespace):
+    """The ``--workers`` pool (in this process for 1), shut down on exit."""
+    return pool_scope(max(1, int(args.workers)))
 
 
 def out_dir(args: argparse.Namespace) -> Path:

@@ -36,18 +36,24 @@ ExecutorLike = Executor | str | None
 
 
 @contextmanager
+def pool_scope(workers: int) -> Iterator[Executor]:
+    """A process pool of ``workers`` (in this process when 1), shut down on exit."""
+    if workers <= 1:
+        yield SerialExecutor()
+        return
+    pool = ProcessPoolExecutor(max_workers=workers)
+    try:
+        yield pool
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+@contextmanager
 def executor_scope(executor: ExecutorLike, n_tasks: int = 2) -> Iterator[Executor]:
     """Yield an executor for ``executor``; a pool made here is shut down on exit."""
     if executor is None:
-        workers = max(1, min(DEFAULT_WORKERS, n_tasks, os.cpu_count() or 1))
-        if workers == 1:
-            yield SerialExecutor()
-            return
-        pool = ProcessPoolExecutor(max_workers=workers)
-        try:
+        with pool_scope(max(1, min(DEFAULT_WORKERS, n_tasks, os.cpu_count() or 1))) as pool:
             yield pool
-        finally:
-            pool.shutdown(wait=True, cancel_futures=True)
     elif isinstance(executor, str):
         if executor != "serial":
             raise ValueError(f"executor must be None, 'serial' or an object with map(fn, iterable), got {executor!r}")
