@@ -11,7 +11,7 @@ from .effects import Effect, EffectError, Parameter, REGISTRY as EFFECTS, make_e
 from .measurement import MeasuredTest, MeasurementError, read_measurements, write_measurements
 from .model import Loading, Model, paper_model
 from .result import SimulationResult
-from .simulate import simulate, with_force
+from .simulate import simulate
 from .specimen import (Foundation, Plane, Specimen, SpecimenError, load_toml, reference, scale_mass, scale_size,
                        scale_uniform)
 
@@ -25,5 +25,5 @@ PAPER_LOADS_N = (27.8, 30.3, 32.5, 35.0, 37.5, 40.0, 42.5, 45.0, 47.5, 49.6, 51.
 
 __all__ = ["Effect", "EffectError", "Parameter", "EFFECTS", "make_effect", "register", "MeasuredTest",
            "MeasurementError", "read_measurements", "write_measurements", "Loading", "Model", "paper_model",
-           "SimulationResult", "simulate", "with_force", "Foundation", "Plane", "Specimen", "SpecimenError",
+           "SimulationResult", "simulate", "Foundation", "Plane", "Specimen", "SpecimenError",
            "load_toml", "reference", "scale_mass", "scale_size", "scale_uniform", "PAPER_LOADS_N"]

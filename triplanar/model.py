@@ -69,6 +69,10 @@ class Model:
     rate_v0_m_s: float = 0.05
     effects: tuple[Effect, ...] = ()
 
+    def with_force(self, force_N: float) -> Model:
+        """The same model at another commanded force."""
+        return replace(self, loading=replace(self.loading, force_N=float(force_N)))
+
     def with_effects(self, effects: Iterable[Effect]) -> Model:
         """This model with each effect applied in turn (and recorded in ``effects``)."""
         model = self

@@ -13,14 +13,13 @@ Every method projects the contact points back onto their planes after each step 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
 from . import kernel as K
 from .model import Model
 from .result import SimulationResult
-from .statics import holds, incipient_directions, sliding_threshold, start_motion
+from .statics import holds, sliding_threshold, start_motion
 
 METHODS = {"euler": K.METHOD_EULER, "rk4": K.METHOD_RK4, "dopri5": K.METHOD_DOPRI5}
 DEFAULT_DT = {"euler": 1e-5, "rk4": 1e-3, "dopri5": 1e-4}
@@ -177,7 +176,3 @@ class _user_effects:
         if self.model.force_effects:
             K.USER_WRENCH[0] = self.previous
 
-
-def with_force(model: Model, force_N: float) -> Model:
-    """The same model at another commanded force."""
-    return replace(model, loading=replace(model.loading, force_N=float(force_N)))
