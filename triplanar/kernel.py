@@ -148,7 +148,7 @@ def _solve_small(a: np.ndarray, b: np.ndarray, n: int, out: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def _tangent_basis(p: np.ndarray, j: int, t1: np.ndarray, t2: np.ndarray) -> None:
+def tangent_basis(p: np.ndarray, j: int, t1: np.ndarray, t2: np.ndarray) -> None:
     """Orthonormal t1, t2 spanning plane j (t2 = n x t1)."""
     n0, n1, n2 = p[P_N + 3 * j], p[P_N + 3 * j + 1], p[P_N + 3 * j + 2]
     if abs(n0) < 0.9:
@@ -357,7 +357,7 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     nu = 3
     i_stick = nu
     if stuck >= 0:
-        _tangent_basis(p, stuck, cr[3], cr[4])
+        tangent_basis(p, stuck, cr[3], cr[4])
         for r in (3, 4):
             fu[r, 0] = cr[r, 0]; fu[r, 1] = cr[r, 1]; fu[r, 2] = cr[r, 2]
             at[r] = stuck
@@ -518,7 +518,7 @@ def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarr
     rows = 3
     stuck = int(p[P_STUCK])
     if stuck >= 0:
-        _tangent_basis(p, stuck, jr[3], jr[4])
+        tangent_basis(p, stuck, jr[3], jr[4])
         at[3], at[4] = stuck, stuck
         target[3], target[4] = 0.0, 0.0
         rows = 5

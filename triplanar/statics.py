@@ -28,14 +28,6 @@ _ANGLES = 2 * math.pi * (np.arange(POLYGON_SIDES) + 0.5) / POLYGON_SIDES
 _INSET = math.cos(math.pi / POLYGON_SIDES)
 
 
-def _tangent_basis(n: np.ndarray) -> np.ndarray:
-    """Two orthonormal vectors spanning the plane with unit normal ``n``."""
-    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 0.0, 1.0])
-    t1 = np.cross(n, a)
-    t1 /= np.linalg.norm(t1)
-    return np.array([t1, np.cross(n, t1)])
-
-
 def _equilibrium_lp(model: Model, y: np.ndarray, t: float) -> dict:
     """The static-equilibrium LP at pose ``y`` with the thrust F_T as its last variable.
 
@@ -63,7 +55,11 @@ def _equilibrium_lp(model: Model, y: np.ndarray, t: float) -> dict:
     K.contact_points(y, p, cps)
     normals = model.foundation.normals
     tan_phi = p[K.P_TANPHI:K.P_TANPHI + 3]
-    tangents = [_tangent_basis(n) for n in normals]
+    tangents = []
+    for i in range(3):  # the same plane bases the kernel uses for a stuck contact
+        t1, t2 = np.empty(3), np.empty(3)
+        K.tangent_basis(p, i, t1, t2)
+        tangents.append((t1, t2))
     directions = [*normals, *(t_ for pair in tangents for t_ in pair)]
     points = [*cps, *np.repeat(cps, 2, axis=0)]
     tip_coefficient = p[K.P_TANEF] * g1[0]  # the tip's friction bound per newton of thrust
