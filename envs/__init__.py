@@ -9,32 +9,21 @@
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 from gymnasium.envs.registration import register, registry
 
+from triplanar.compiled_cache import drop_if_stale
 
-def _drop_stale_compiled_code(cache: Path | None = None, kernel_file: Path | None = None) -> bool:
-    """numba keys its on-disk cache on each function's own source file only, so the env's compiled step would keep
-    an old kernel built in after ``triplanar/kernel.py`` changes. Drop that cache whenever the kernel differs
-    (returns True if it did)."""
-    if kernel_file is None:
-        from triplanar import kernel  # importing compiles nothing
-        kernel_file = Path(kernel.__file__)
-    digest = hashlib.sha256(Path(kernel_file).read_bytes()).hexdigest()
+
+def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | None = None) -> bool:
+    """The env's compiled step has the kernel and the equilibrium LP built in: drop its numba cache whenever they
+    change (:func:`triplanar.compiled_cache.drop_if_stale`; returns True if it did)."""
+    if sources is None:
+        from triplanar import equilibrium, kernel  # importing compiles nothing
+        sources = [Path(kernel.__file__), Path(equilibrium.__file__)]
     cache = cache if cache is not None else Path(__file__).parent / "__pycache__"
-    stamp = cache / "kernel.sha256"
-    try:
-        if stamp.exists() and stamp.read_text() == digest:
-            return False
-        for path in cache.glob("*.nb[ic]"):
-            path.unlink(missing_ok=True)
-        cache.mkdir(exist_ok=True)
-        stamp.write_text(digest)
-    except OSError:  # read-only install: numba then does not cache here either
-        pass
-    return True
+    return drop_if_stale(cache, "*.nb[ic]", sources, "kernel.sha256")
 
 
 _drop_stale_compiled_code()

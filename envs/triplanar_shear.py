@@ -18,7 +18,7 @@ import numpy as np
 from gymnasium import spaces
 from numba import njit
 
-from triplanar import PAPER_LOADS_N, kernel as K
+from triplanar import PAPER_LOADS_N, equilibrium as E, kernel as K
 from triplanar.model import Loading, Model, paper_model
 from triplanar.simulate import SLOW_SPEED_M_S, simulate
 from triplanar.specimen import Foundation, Specimen, reference
@@ -47,7 +47,6 @@ INFO_SLOTS = (IN_R_DIST, IN_R_RATE, IN_R_TERM, IN_DIST, IN_ERR, IN_TRAVEL, IN_TH
 
 # -- step outcome codes ------------------------------------------------------------------------
 RUNNING, SUCCESS, LIFT_OFF, MC_OUTSIDE, LEFT_PLANE, ARREST, FAILED = 0, 1, 2, 3, 4, 5, 6
-NEEDS_STATICS = -1  # all contacts nearly stopped: the caller decides arrest with the statics LP
 REASONS = ("", "success", "lift_off", "mass_centre_outside", "left_plane", "arrest", "failed")
 TIME_LIMIT = "time_limit"
 
@@ -270,27 +269,17 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
     cfg = config.packed()
     obs, inf = np.empty(OBS_DIM), np.empty(N_INFO)
     first = np.array([st[ST_A0], st[ST_A1]])
-    code = control_step(y, p, armed, st, ref, first, cfg, obs, inf)
-    if code != RUNNING:  # (not NEEDS_STATICS: arrest detection arms only once the block has moved)
+    code = control_step(y, p, armed, st, ref, first, cfg, obs, inf, K.new_workspace())
+    if code != RUNNING:
         raise StartError(f"the block's first {1e3 * config.dt:g} ms already ended the test: "
                          f"{REASONS[code] if code > 0 else code} (specimen {specimen.name!r}, {draw.load_N:g} N)")
     return EpisodeStart(key, model, y, p, armed, st, ref, reference_run.status, obs, inf)
 
 
-def resolve_statics(model: Model, y: np.ndarray, p: np.ndarray, armed: np.ndarray, st: np.ndarray) -> bool:
-    """All contacts nearly stopped: True if friction holds the block (an arrest, :func:`triplanar.statics.holds`,
-    exact LP at the current pose, thrust and tip offset); otherwise set how it moves on and return False."""
-    if holds(model, y, p[K.P_FCMD], st[ST_T]):
-        return True
-    start_motion(p, y, st[ST_T])
-    armed[:] = False
-    return False
-
-
 # -- the compiled control step (shared by the single and the vector env) -------------------------------
 
 @njit(cache=True)
-def _apply_action(y, p, st, action, cfg) -> None:
+def _apply_action(y, p, st, action, cfg, ws) -> None:
     """Thrust and stage velocity for this control period; stuck sites that can no longer stick are released."""
     a0 = min(max(action[0], -1.0), 1.0)
     a1 = min(max(action[1], -1.0), 1.0)
@@ -303,54 +292,70 @@ def _apply_action(y, p, st, action, cfg) -> None:
     t = st[ST_T]
     if p[K.P_TIP_STUCK] != 0.0 and changed_udot:
         # A stage that changes speed cannot carry a stuck face along instantly: the face slips on the tip.
-        K.apply_mode_event(K.EV_TIP_RELEASE, t, y, p)
+        K.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
     if p[K.P_STUCK] >= 0.0 or p[K.P_TIP_STUCK] != 0.0:
-        aux = np.empty(K.N_AUX)
-        dy = np.empty(K.N_STATE)
-        K.rhs(t, y, p, dy, aux)
+        aux = ws[K.W_AUX, :K.N_AUX]
+        dy = ws[K.W_DY, :K.N_STATE]
+        K.rhs_ws(t, y, p, dy, aux, ws)
         if p[K.P_STUCK] >= 0.0 and aux[K.A_STICK] > 0.0:
-            K.apply_mode_event(K.EV_RELEASE, t, y, p)
-            K.rhs(t, y, p, dy, aux)
+            K.apply_mode_event_ws(K.EV_RELEASE, t, y, p, ws)
+            K.rhs_ws(t, y, p, dy, aux, ws)
         if p[K.P_TIP_STUCK] != 0.0 and aux[K.A_TIP_STICK] > 0.0:
-            K.apply_mode_event(K.EV_TIP_RELEASE, t, y, p)
+            K.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
 
 
 @njit(cache=True)
-def _energy_defect(y0, y1, p) -> float:
+def _energy_defect(y0, y1, p, ws) -> float:
     """Change over a step of the energy balance's residual: work in minus (kinetic + potential + dissipated)."""
     work = y1[K.S_WLOAD] - y0[K.S_WLOAD] + y1[K.S_WOTHER] - y0[K.S_WOTHER]
     dissipated = y1[K.S_DTIP] - y0[K.S_DTIP]
     for j in range(3):
         dissipated += y1[K.S_DC + j] - y0[K.S_DC + j]
     potential = p[K.P_MASS] * p[K.P_G] * (y1[K.S_R + 1] - y0[K.S_R + 1])
-    return work - (K.kinetic_energy(y1, p) - K.kinetic_energy(y0, p)) - potential - dissipated
+    return work - (K.kinetic_energy_ws(y1, p, ws) - K.kinetic_energy_ws(y0, p, ws)) - potential - dissipated
 
 
 @njit(cache=True)
-def _advance(y, p, armed, st, cfg, inf) -> int:
-    """Integrate to the end of the control period (or an event): fixed RK4 steps; if the energy balance shows
-    that a slip reversed inside a step (fixed steps locate only events whose sign differs at the step ends), the
-    period is redone with the kernel's adaptive DOPRI5, which locates every stop."""
-    t_end = (st[ST_STEP] + 1.0) * cfg[CF_DT]
-    out_t = np.empty(1)
-    out_y = np.empty((1, K.N_STATE))
-    out_aux = np.empty((1, K.N_AUX))
+def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
+    """Fixed RK4 steps to ``t_end`` or an event (the kernel steps to each predicted stop of a slip); if the energy
+    balance still shows a defect (a slip that reversed unseen inside a step), the stretch is redone with the
+    kernel's adaptive DOPRI5, which locates every stop. Returns the kernel's status."""
+    out_t = ws[K.W_YHI, :1]  # (nothing is recorded)
+    out_y = ws[K.W_YHI:K.W_YHI + 1, :K.N_STATE]
+    out_aux = ws[K.W_AUXHI:K.W_AUXHI + 1, :K.N_AUX]
     y0, p0, armed0, t0 = y.copy(), p.copy(), armed.copy(), st[ST_T]
-    rows, status, event, h, t = K.integrate(K.METHOD_RK4, t0, y, p, cfg[CF_H], 0.0, 0.0, t_end,
-                                            st[ST_X1_TARGET], cfg[CF_SLOW], armed, out_t, out_y, out_aux, False)
-    if cfg[CF_ENERGY_TOL] > 0.0 and abs(_energy_defect(y0, y, p)) > cfg[CF_ENERGY_TOL]:
+    rows, status, event, h, t = K.integrate_ws(K.METHOD_RK4, t0, y, p, cfg[CF_H], 0.0, 0.0, t_end,
+                                               st[ST_X1_TARGET], cfg[CF_SLOW], armed, out_t, out_y, out_aux,
+                                               False, ws)
+    if cfg[CF_ENERGY_TOL] > 0.0 and abs(_energy_defect(y0, y, p, ws)) > cfg[CF_ENERGY_TOL]:
         y[:] = y0
         p[:] = p0
         armed[:] = armed0
-        rows, status, event, h, t = K.integrate(K.METHOD_DOPRI5, t0, y, p, cfg[CF_H], FALLBACK_RTOL,
-                                                FALLBACK_ATOL, t_end, st[ST_X1_TARGET], cfg[CF_SLOW], armed,
-                                                out_t, out_y, out_aux, False)
+        rows, status, event, h, t = K.integrate_ws(K.METHOD_DOPRI5, t0, y, p, cfg[CF_H], FALLBACK_RTOL,
+                                                   FALLBACK_ATOL, t_end, st[ST_X1_TARGET], cfg[CF_SLOW], armed,
+                                                   out_t, out_y, out_aux, False, ws)
         inf[IN_FALLBACK] += 1.0
     st[ST_T] = t
+    return status
+
+
+@njit(cache=True)
+def _advance(y, p, armed, st, cfg, inf, ws) -> int:
+    """Integrate to the end of the control period or an outcome. When every contact has nearly stopped, the
+    statics decide (:func:`triplanar.equilibrium.holds`, the exact LP at the current pose, thrust and tip offset):
+    friction holds the block (an arrest), or it moves on in the mode :func:`triplanar.kernel.start_motion_ws`
+    finds."""
+    t_end = (st[ST_STEP] + 1.0) * cfg[CF_DT]
+    while True:
+        status = _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws)
+        if status != K.ST_SLOW:
+            break
+        if E.holds(y, p, K.thrust(st[ST_T], p), p[K.P_EXTF:K.P_EXTF + 3], p[K.P_EXTM:K.P_EXTM + 3]):
+            return ARREST
+        K.start_motion_ws(st[ST_T], y, p, ws)
+        armed[:] = False
     if status == K.ST_TIME_LIMIT:
         return RUNNING
-    if status == K.ST_SLOW:
-        return NEEDS_STATICS
     if status == K.ST_TRAVEL:
         return SUCCESS
     if status == K.ST_LIFT_OFF:
@@ -363,14 +368,13 @@ def _advance(y, p, armed, st, cfg, inf) -> int:
 
 
 @njit(cache=True)
-def _finish(y, p, st, ref, action, cfg, code, obs, inf) -> None:
+def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
     """Observation, reward terms and bookkeeping after a control period that ended with ``code``."""
     st[ST_STEP] += 1.0
     travel = cfg[CF_TRAVEL]
-    R = np.empty((3, 3))
-    K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], R)
-    cps = np.empty((3, 3))
-    K.contact_points(y, p, cps)
+    cps = ws[K.W_CPS:K.W_CPS + 3, :3]
+    K.contact_points_ws(y, p, cps, ws)
+    R = ws[K.W_R:K.W_R + 3, :3]  # (contact_points_ws left the rotation there)
     s = cps[0, 0] - st[ST_CP_REST]
     # Hydrostatic reference at the same travel (linear in travel between samples).
     n_ref = ref.shape[0]
@@ -401,9 +405,9 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf) -> None:
         obs[OBS_VEL + 3 * i + 1] = y[K.S_V + 1] + w2 * ax - w0 * az
         obs[OBS_VEL + 3 * i + 2] = y[K.S_V + 2] + w0 * ay - w1 * ax
     # Load point on the aft face, relative to the centreline point P_CL, along g2 and g3.
-    arm = np.empty(3)
+    arm = ws[K.W_TMP, :3]
     K.load_arm(y, p, R, arm)
-    pcl = np.empty(3)
+    pcl = ws[K.W_FX, :3]
     for c in range(3):
         pcl[c] = R[c, 0] * p[K.P_PCL] + R[c, 1] * p[K.P_PCL + 1] + R[c, 2] * p[K.P_PCL + 2]
     for a in range(2):
@@ -452,23 +456,13 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf) -> None:
 
 
 @njit(cache=True)
-def control_step(y, p, armed, st, ref, action, cfg, obs, inf) -> int:
-    """One control period: apply ``action``, integrate, observe. Returns the outcome code; on NEEDS_STATICS the
-    period is unfinished (decide with :func:`resolve_statics`, then call :func:`resume`)."""
-    _apply_action(y, p, st, action, cfg)
+def control_step(y, p, armed, st, ref, action, cfg, obs, inf, ws) -> int:
+    """One control period: apply ``action``, integrate, observe; returns the outcome code. ``ws`` is a kernel
+    workspace (:func:`triplanar.kernel.new_workspace`), scratch only."""
+    _apply_action(y, p, st, action, cfg, ws)
     inf[IN_FALLBACK] = 0.0
-    code = _advance(y, p, armed, st, cfg, inf)
-    if code != NEEDS_STATICS:
-        _finish(y, p, st, ref, action, cfg, code, obs, inf)
-    return code
-
-
-@njit(cache=True)
-def resume(y, p, armed, st, ref, action, cfg, arrested, obs, inf) -> int:
-    """Finish a control period interrupted by NEEDS_STATICS once the statics have been decided."""
-    code = ARREST if arrested else _advance(y, p, armed, st, cfg, inf)
-    if code != NEEDS_STATICS:
-        _finish(y, p, st, ref, action, cfg, code, obs, inf)
+    code = _advance(y, p, armed, st, cfg, inf, ws)
+    _finish(y, p, st, ref, action, cfg, code, obs, inf, ws)
     return code
 
 
@@ -601,6 +595,7 @@ class TriPlanarShearEnv(gym.Env):
         self._obs = np.zeros(OBS_DIM)
         self._inf = np.zeros(N_INFO)
         self._action = np.zeros(2)
+        self._ws = K.new_workspace()
         self._start: EpisodeStart | None = None
         self._trace: list[np.ndarray] = []
         self._renderer = None
@@ -631,11 +626,7 @@ class TriPlanarShearEnv(gym.Env):
             raise gym.error.ResetNeeded("call reset() before step()")
         self._action[:] = action
         code = control_step(self._y, self._p, self._armed, self._st, self._ref, self._action, self._cfg,
-                            self._obs, self._inf)
-        while code == NEEDS_STATICS:
-            arrested = resolve_statics(self._start.model, self._y, self._p, self._armed, self._st)
-            code = resume(self._y, self._p, self._armed, self._st, self._ref, self._action, self._cfg, arrested,
-                          self._obs, self._inf)
+                            self._obs, self._inf, self._ws)
         if self.render_mode is not None:
             self._trace.append(self._contact_points())
             if self.render_mode == "human":

@@ -22,20 +22,18 @@ from gymnasium.vector.utils import batch_space
 from numba import njit
 from stable_baselines3.common.vec_env import VecEnv
 
+from triplanar import kernel as K
+
 from . import triplanar_shear as S
 
 
 @njit(cache=True)
-def _batch_step(Y, P, ARMED, ST, BANK_REF, KIDX, ACT, cfg, OBS, INF, CODES, active) -> int:
-    """Step every active row; returns how many need the statics decision (code NEEDS_STATICS)."""
-    pending = 0
+def _batch_step(Y, P, ARMED, ST, BANK_REF, KIDX, ACT, cfg, OBS, INF, CODES, active, ws) -> None:
+    """Step every active row (``ws``: one kernel workspace, scratch shared by the rows in turn)."""
     for i in range(Y.shape[0]):
-        if not active[i]:
-            continue
-        CODES[i] = S.control_step(Y[i], P[i], ARMED[i], ST[i], BANK_REF[KIDX[i]], ACT[i], cfg, OBS[i], INF[i])
-        if CODES[i] == S.NEEDS_STATICS:
-            pending += 1
-    return pending
+        if active[i]:
+            CODES[i] = S.control_step(Y[i], P[i], ARMED[i], ST[i], BANK_REF[KIDX[i]], ACT[i], cfg, OBS[i], INF[i],
+                                      ws)
 
 
 @njit(cache=True)
@@ -75,6 +73,7 @@ class ShearBatch:
         self.INF = np.zeros((n, S.N_INFO))
         self.ACT = np.zeros((n, 2))
         self.CODES = np.zeros(n, dtype=np.int64)
+        self.ws = K.new_workspace()  # kernel scratch, shared by the rows in turn
         self.KIDX = np.zeros(n, dtype=np.int64)
         self.rngs: list[np.random.Generator] = [seeding.np_random(None)[0] for _ in range(n)]
         self.draws: list[S.EpisodeDraw | None] = [None] * n
@@ -137,21 +136,9 @@ class ShearBatch:
     def step(self, actions: np.ndarray, active: np.ndarray) -> np.ndarray:
         """One control period for the active rows; returns the outcome codes (``> 0``: terminated)."""
         self.ACT[:] = actions
-        pending = _batch_step(self.Y, self.P, self.ARMED, self.ST, self.BREF, self.KIDX, self.ACT, self.cfg,
-                              self.OBS, self.INF, self.CODES, active)
-        if pending:
-            for i in np.flatnonzero(self.CODES == S.NEEDS_STATICS):
-                self.CODES[i] = self._resolve(i)
+        _batch_step(self.Y, self.P, self.ARMED, self.ST, self.BREF, self.KIDX, self.ACT, self.cfg, self.OBS,
+                    self.INF, self.CODES, active, self.ws)
         return self.CODES
-
-    def _resolve(self, i: int) -> int:
-        code = S.NEEDS_STATICS
-        y, p, armed, st = self.Y[i], self.P[i], self.ARMED[i], self.ST[i]
-        while code == S.NEEDS_STATICS:
-            arrested = S.resolve_statics(self.entry(i).model, y, p, armed, st)
-            code = S.resume(y, p, armed, st, self.BREF[self.KIDX[i]], self.ACT[i], self.cfg, arrested, self.OBS[i],
-                            self.INF[i])
-        return code
 
     def infos(self, rows: np.ndarray | slice = slice(None)) -> dict[str, np.ndarray]:
         """Info terms of ``rows`` as arrays (keys as the single env's info)."""

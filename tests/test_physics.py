@@ -14,7 +14,7 @@ from triplanar import (Effect, Foundation, Parameter, Plane, make_effect, paper_
 from triplanar import kernel as K
 from triplanar.natural_coordinates import ReferenceModel, reference_accelerations
 from triplanar.specimen import GRAVITY, mirrored
-from triplanar.statics import holds, sliding_threshold
+from triplanar.statics import holds, sliding_threshold, start_motion
 
 SPECIMEN, FOUNDATION = reference()
 
@@ -336,3 +336,32 @@ def test_a_sliding_block_whose_drive_drops_arrests_without_creep() -> None:
     assert result.status == "arrested", result.message
     assert result.t[-1] < 0.5
     assert np.abs(result.energy["residual"]).max() < 1e-9
+
+
+def test_fixed_steps_stop_where_a_slip_stops() -> None:
+    """The drive drops to 10 N while the block slides: friction stops it. A fixed RK4 step steps to each
+    predicted stop instead of stepping over it (where the slip would reverse and creep on), so even 5 ms steps
+    end in the all-slow state the statics decide, close to the adaptive solution, and converge with the step."""
+    model = paper_model("A", 40.0)
+    sliding = simulate(model, travel_m=0.01)
+    y0, p0 = sliding.y[-1].copy(), model.kernel_params().copy()
+    start_motion(p0, model.initial_state())
+    p0[K.P_FCMD] = 10.0
+
+    def stop(method: int, h: float) -> tuple[int, np.ndarray, float]:
+        y, p = y0.copy(), p0.copy()
+        _, status, _, _, t = K.integrate(method, sliding.t[-1], y, p, h, 1e-11, 1e-14, sliding.t[-1] + 1.0, 10.0,
+                                         1e-5, np.ones(5, np.bool_), np.empty(1), np.empty((1, K.N_STATE)),
+                                         np.empty((1, K.N_AUX)), False)
+        cps = np.empty((3, 3))
+        K.contact_points(y, p, cps)
+        return status, cps, t
+
+    status, exact, t_exact = stop(K.METHOD_DOPRI5, 1e-4)
+    assert status == K.ST_SLOW and holds(model, y0, 10.0)
+    errors = []
+    for h in (5e-3, 1e-3):
+        status, cps, t = stop(K.METHOD_RK4, h)
+        assert status == K.ST_SLOW and abs(t - t_exact) < 0.5 * h
+        errors.append(np.abs(cps - exact).max())
+    assert errors[0] < 2e-6 and errors[1] < errors[0] / 10  # m

@@ -85,6 +85,37 @@ ST_SLOW, ST_TIME_LIMIT, ST_BUFFER_FULL, ST_STEP_FAILED, ST_STOPPED, ST_RELEASE =
 EV_SLOW, EV_STOP, EV_RELEASE, EV_TIP_STOP, EV_TIP_RELEASE = 11, 12, 15, 16, 17
 N_EVENTS = 18
 
+# -- scratch memory ---------------------------------------------------------------------------
+# A right-hand-side evaluation needs ~20 small arrays; allocating them each time (~18 ns each) was half its
+# cost. Compiled loops (integrate, the envs) allocate one workspace, a single 2-D array whose rows are the
+# scratch arrays below, and pass it down: one array keeps calls cheap (a tuple of arrays costs a reference
+# count per member per call) and row slices are free views. The public functions without a workspace
+# argument allocate their own, for callers outside hot loops. Functions that never run nested inside one
+# another share rows (each rewrites what it reads).
+W_R = 0                 # 3x3 rotation matrix
+W_RHO = 3               # 4x3 points of action relative to the mass centre
+W_TMP, W_FX, W_MX, W_IW, W_H, W_ALPHA0, W_ACC, W_ALPHA, W_MU, W_SPEEDS, W_POWER, W_WB = range(7, 19)  # 3-vectors
+W_DR, W_DTH, W_TMP2 = 19, 20, 21
+W_IINV = 22             # 3x3 inverse inertia, world axes
+W_FU, W_CR, W_RXF, W_JR, W_JTH, W_IJT = 25, 32, 39, 46, 53, 60  # 7x3 each
+W_CPS = 67              # 3x3 contact points
+W_BIAS, W_B, W_X, W_RESID, W_TARGET, W_LAM, W_AT = range(70, 77)  # 7-vectors (W_AT: indices, as floats)
+W_MAT = 77              # 7x7 matrix
+W_STAGES = 84           # 8 state vectors: Runge-Kutta stages and the stage argument
+W_DY, W_YNEW, W_ERR, W_YHI = range(92, 96)  # state vectors
+W_AUX, W_AUXNEW, W_AUXHI, W_AUXMODE = range(96, 100)  # aux vectors
+W_EVOLD, W_EVNEW, W_EVLOC = range(100, 103)  # event-value vectors
+W_DIRS = 103            # 2 rows of 12: incipient directions and their update
+W_SITE_D, W_SITE_V = 105, 106  # 3-vectors: a stopping site's initial slip direction, and its slip velocity
+N_WS_ROWS = 107
+WS_WIDTH = max(N_STATE, N_AUX, N_EVENTS, 12)
+
+
+@njit(cache=True)
+def new_workspace() -> np.ndarray:
+    """Scratch memory for one thread of evaluation (see the note above)."""
+    return np.empty((N_WS_ROWS, WS_WIDTH))
+
 
 @njit(cache=True, inline="always")
 def _cross(a0, a1, a2, b0, b1, b2):
@@ -117,12 +148,11 @@ def _solve3(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> bool:
 
 
 @njit(cache=True)
-def _solve_small(a: np.ndarray, b: np.ndarray, n: int, out: np.ndarray) -> bool:
-    """Solve the leading n x n system (n <= 7) by Gaussian elimination with partial pivoting; False if singular."""
+def _solve_small(m: np.ndarray, r: np.ndarray, n: int, out: np.ndarray) -> bool:
+    """Solve the leading n x n system (n <= 7) by Gaussian elimination with partial pivoting, overwriting
+    ``m`` and ``r``; False if singular."""
     if n == 3:
-        return _solve3(a[:3, :3], b[:3], out)
-    m = a[:n, :n].copy()
-    r = b[:n].copy()
+        return _solve3(m, r, out)
     for c in range(n):
         piv = c
         for i in range(c + 1, n):
@@ -180,9 +210,8 @@ def _world_inverse_inertia(R: np.ndarray, p: np.ndarray, out: np.ndarray) -> Non
 
 
 @njit(cache=True)
-def _world_inertia_times(R: np.ndarray, p: np.ndarray, w: np.ndarray, out: np.ndarray) -> None:
-    """(R I_b R^T) w."""
-    wb = np.empty(3)
+def _world_inertia_times(R: np.ndarray, p: np.ndarray, w: np.ndarray, out: np.ndarray, wb: np.ndarray) -> None:
+    """(R I_b R^T) w; ``wb`` is scratch."""
     for k in range(3):
         wb[k] = R[0, k] * w[0] + R[1, k] * w[1] + R[2, k] * w[2]
     for i in range(3):
@@ -243,6 +272,12 @@ def _face_rows(R: np.ndarray, w: np.ndarray, a: int, h: np.ndarray) -> tuple:
 
 @njit(cache=True)
 def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
+    """:func:`dynamics_ws` with its own scratch memory."""
+    return dynamics_ws(t, y, p, dy, aux, new_workspace())
+
+
+@njit(cache=True)
+def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
 
     Forces (paper section 3.3-3.4, ``docs/physics.md``): weight ``-W e2`` at the mass centre; at each
@@ -257,7 +292,7 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     the rigid-frame multipliers eliminated.
     """
     m = p[P_MASS]
-    R = np.empty((3, 3))
+    R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
     v = y[S_V:S_V + 3]
     w = y[S_W:S_W + 3]
@@ -268,8 +303,8 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     g1x, g1y, g1z = R[0, 0], R[1, 0], R[2, 0]
 
     # Points of action relative to the mass centre: rows 0-2 the contacts, row 3 the load point.
-    rho = np.empty((4, 3))
-    tmp = np.empty(3)
+    rho = ws[W_RHO:W_RHO + 4, :3]
+    tmp = ws[W_TMP, :3]
     for j in range(3):
         _rotate(R, p, P_C + 3 * j, tmp)
         rho[j, 0] = tmp[0]; rho[j, 1] = tmp[1]; rho[j, 2] = tmp[2]
@@ -283,8 +318,8 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     vb0, vb1, vb2 = v[0] + c0, v[1] + c1, v[2] + c2  # material velocity at the load point
 
     # Applied force and moment about the mass centre (world), and the power they deliver.
-    fx = np.empty(3)
-    mx = np.empty(3)
+    fx = ws[W_FX, :3]
+    mx = ws[W_MX, :3]
     fx[0] = p[P_EXTF] + F_T * ld0
     fx[1] = p[P_EXTF + 1] + F_T * ld1 - m * p[P_G]
     fx[2] = p[P_EXTF + 2] + F_T * ld2
@@ -316,24 +351,24 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
         p_tip = tip_limit * (d0 * s0 + d1 * s1 + d2 * s2)
 
     # Gyroscopic term: I dw/dt = M - w x (I w).
-    iw = np.empty(3)
-    _world_inertia_times(R, p, w, iw)
+    iw = ws[W_IW, :3]
+    _world_inertia_times(R, p, w, iw, ws[W_WB, :3])
     c0, c1, c2 = _cross(w[0], w[1], w[2], iw[0], iw[1], iw[2])
     mx[0] -= c0; mx[1] -= c1; mx[2] -= c2
-    iinv = np.empty((3, 3))
+    iinv = ws[W_IINV:W_IINV + 3, :3]
     _world_inverse_inertia(R, p, iinv)
 
     # Unknowns u (force direction fu at point `at`) and rows r (constraint direction cr at point `at`,
     # velocity-dependent acceleration `bias`): N_j along f_j = n_j - mu_j d_j (sliding, eq. 21) or n_j
     # (stuck), two tangential forces at a stuck contact, two face forces at a stuck tip.
     stuck = int(p[P_STUCK])
-    fu = np.empty((7, 3))
-    cr = np.empty((7, 3))
-    at = np.empty(7, np.int64)
-    bias = np.empty(7)
-    mu = np.empty(3)
-    speeds = np.empty(3)
-    power_dir = np.empty(3)  # d_j . v_j: dissipated power per unit friction force
+    fu = ws[W_FU:W_FU + 7, :3]
+    cr = ws[W_CR:W_CR + 7, :3]
+    at = ws[W_AT, :7]
+    bias = ws[W_BIAS, :7]
+    mu = ws[W_MU, :3]
+    speeds = ws[W_SPEEDS, :3]
+    power_dir = ws[W_POWER, :3]  # d_j . v_j: dissipated power per unit friction force
     for j in range(3):
         c0, c1, c2 = _cross(w[0], w[1], w[2], rho[j, 0], rho[j, 1], rho[j, 2])
         vj0, vj1, vj2 = v[0] + c0, v[1] + c1, v[2] + c2
@@ -364,7 +399,7 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
         nu = 5
     i_tip = nu
     if tip_stuck:
-        h = np.empty(3)
+        h = ws[W_H, :3]
         for a in (1, 2):
             dh0, dh1, dh2 = _face_rows(R, w, a, h)
             cr[nu, 0] = h[0]; cr[nu, 1] = h[1]; cr[nu, 2] = h[2]
@@ -375,24 +410,24 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
     for r in range(nu):
         if r < i_tip:
             bias[r] = 0.0
-        i = at[r]
+        i = int(at[r])
         c0, c1, c2 = _cross(w[0], w[1], w[2], rho[i, 0], rho[i, 1], rho[i, 2])
         e0, e1, e2 = _cross(w[0], w[1], w[2], c0, c1, c2)
         bias[r] += cr[r, 0] * e0 + cr[r, 1] * e1 + cr[r, 2] * e2
 
-    alpha0 = np.empty(3)
+    alpha0 = ws[W_ALPHA0, :3]
     for k in range(3):
         alpha0[k] = iinv[k, 0] * mx[0] + iinv[k, 1] * mx[1] + iinv[k, 2] * mx[2]
-    rxf = np.empty((7, 3))  # I^-1 (rho x f) of each unknown
+    rxf = ws[W_RXF:W_RXF + 7, :3]  # I^-1 (rho x f) of each unknown
     for u in range(nu):
-        j = at[u]
+        j = int(at[u])
         a0, a1, a2 = _cross(rho[j, 0], rho[j, 1], rho[j, 2], fu[u, 0], fu[u, 1], fu[u, 2])
         for k in range(3):
             rxf[u, k] = iinv[k, 0] * a0 + iinv[k, 1] * a1 + iinv[k, 2] * a2
-    amat = np.empty((7, 7))
-    bvec = np.empty(7)
+    amat = ws[W_MAT:W_MAT + 7, :7]
+    bvec = ws[W_B, :7]
     for r in range(nu):
-        i = at[r]
+        i = int(at[r])
         n0, n1, n2 = cr[r, 0], cr[r, 1], cr[r, 2]
         rn0, rn1, rn2 = _cross(rho[i, 0], rho[i, 1], rho[i, 2], n0, n1, n2)
         for u in range(nu):
@@ -400,12 +435,12 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.nda
                 + rn0 * rxf[u, 0] + rn1 * rxf[u, 1] + rn2 * rxf[u, 2]
         bvec[r] = -bias[r] - (n0 * fx[0] + n1 * fx[1] + n2 * fx[2]) / m \
             - (rn0 * alpha0[0] + rn1 * alpha0[1] + rn2 * alpha0[2])
-    x = np.empty(7)
+    x = ws[W_X, :7]
     if not _solve_small(amat, bvec, nu, x):
         return False
 
-    acc = np.empty(3)
-    alpha = np.empty(3)
+    acc = ws[W_ACC, :3]
+    alpha = ws[W_ALPHA, :3]
     for k in range(3):
         acc[k] = fx[k] / m
         alpha[k] = alpha0[k]
@@ -488,23 +523,30 @@ def _user_wrench(t: float, y: np.ndarray, p: np.ndarray) -> None:
 
 @njit(cache=True)
 def rhs(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
+    """:func:`rhs_ws` with its own scratch memory."""
+    return rhs_ws(t, y, p, dy, aux, new_workspace())
+
+
+@njit(cache=True)
+def rhs_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """The right-hand side every integrator calls: user wrench (if any), then :func:`dynamics`."""
     if p[P_USER] != 0.0:
         _user_wrench(t, y, p)
-    return dynamics(t, y, p, dy, aux)
+    return dynamics_ws(t, y, p, dy, aux, ws)
 
 
 # -- constraint projection ----------------------------------------------------------------------
 
 @njit(cache=True)
-def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarray, target: np.ndarray) -> int:
+def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarray, target: np.ndarray,
+                     ws: np.ndarray) -> int:
     """Jacobian rows (d/dr, d/dtheta) of the constraints and their velocity targets: n_i . P_i (rows 0-2);
     a stuck contact's two tangential velocities; a stuck tip's two slip components (velocity level only).
     Returns the number of rows."""
-    R = np.empty((3, 3))
+    R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    rho = np.empty((4, 3))
-    tmp = np.empty(3)
+    rho = ws[W_RHO:W_RHO + 4, :3]
+    tmp = ws[W_TMP2, :3]
     for i in range(3):
         _rotate(R, p, P_C + 3 * i, tmp)
         rho[i] = tmp
@@ -513,7 +555,7 @@ def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarr
         target[i] = 0.0
     load_arm(y, p, R, tmp)
     rho[3] = tmp
-    at = np.empty(7, np.int64)
+    at = ws[W_AT, :7]
     at[0], at[1], at[2] = 0, 1, 2
     rows = 3
     stuck = int(p[P_STUCK])
@@ -531,30 +573,31 @@ def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarr
             at[rows] = 3
             rows += 1
     for i in range(rows):
-        c = at[i]
+        c = int(at[i])
         a, b, d = _cross(rho[c, 0], rho[c, 1], rho[c, 2], jr[i, 0], jr[i, 1], jr[i, 2])
         jth[i, 0] = a; jth[i, 1] = b; jth[i, 2] = d
     return rows
 
 
 @njit(cache=True)
-def _mass_weighted_correction(y, p, rows, jr, jth, resid, dr, dth) -> bool:
-    """Smallest kinetic-energy-weighted (dr, dtheta) with J (dr, dtheta) = -resid (first ``rows`` rows)."""
+def _mass_weighted_correction(y, p, rows, jr, jth, resid, dr, dth, ws: np.ndarray) -> bool:
+    """Smallest kinetic-energy-weighted (dr, dtheta) with J (dr, dtheta) = -resid (first ``rows`` rows);
+    overwrites ``resid``."""
     m = p[P_MASS]
-    R = np.empty((3, 3))
+    R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    iinv = np.empty((3, 3))
+    iinv = ws[W_IINV:W_IINV + 3, :3]
     _world_inverse_inertia(R, p, iinv)
-    ijt = np.empty((7, 3))  # I^-1 (rho_i x n_i), row i
+    ijt = ws[W_IJT:W_IJT + 7, :3]  # I^-1 (rho_i x n_i), row i
     for i in range(rows):
         for k in range(3):
             ijt[i, k] = iinv[k, 0] * jth[i, 0] + iinv[k, 1] * jth[i, 1] + iinv[k, 2] * jth[i, 2]
-    kmat = np.empty((7, 7))
+    kmat = ws[W_MAT:W_MAT + 7, :7]
     for i in range(rows):
         for j in range(rows):
             kmat[i, j] = (jr[i, 0] * jr[j, 0] + jr[i, 1] * jr[j, 1] + jr[i, 2] * jr[j, 2]) / m \
                 + jth[i, 0] * ijt[j, 0] + jth[i, 1] * ijt[j, 1] + jth[i, 2] * ijt[j, 2]
-    lam = np.empty(7)
+    lam = ws[W_LAM, :7]
     if not _solve_small(kmat, resid, rows, lam):
         return False
     for k in range(3):
@@ -580,6 +623,12 @@ def constraint_residual(y: np.ndarray, p: np.ndarray) -> float:
 
 @njit(cache=True)
 def project(y: np.ndarray, p: np.ndarray) -> bool:
+    """:func:`project_ws` with its own scratch memory."""
+    return project_ws(y, p, new_workspace())
+
+
+@njit(cache=True)
+def project_ws(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> bool:
     """Put the contact points back on their planes and their velocities in the planes, in place.
 
     Mass-weighted least-squares corrections (the correction of least kinetic energy), Gauss-Newton passes
@@ -589,15 +638,14 @@ def project(y: np.ndarray, p: np.ndarray) -> bool:
     qn = math.sqrt(y[S_Q] ** 2 + y[S_Q + 1] ** 2 + y[S_Q + 2] ** 2 + y[S_Q + 3] ** 2)
     for k in range(4):
         y[S_Q + k] /= qn
-    jr = np.empty((7, 3))
-    jth = np.empty((7, 3))
-    resid = np.zeros(7)
-    target = np.empty(7)
-    dr = np.empty(3)
-    dth = np.empty(3)
-    cps = np.empty((3, 3))
+    jr, jth = ws[W_JR:W_JR + 7, :3], ws[W_JTH:W_JTH + 7, :3]
+    resid = ws[W_RESID, :7]
+    target = ws[W_TARGET, :7]
+    dr = ws[W_DR, :3]
+    dth = ws[W_DTH, :3]
+    cps = ws[W_CPS:W_CPS + 3, :3]
     for _ in range(6):
-        contact_points(y, p, cps)
+        contact_points_ws(y, p, cps, ws)
         worst = 0.0
         for i in range(3):
             g = p[P_N + 3 * i] * cps[i, 0] + p[P_N + 3 * i + 1] * cps[i, 1] + p[P_N + 3 * i + 2] * cps[i, 2]
@@ -605,8 +653,8 @@ def project(y: np.ndarray, p: np.ndarray) -> bool:
             worst = max(worst, abs(g))
         if worst < 1e-13:
             break
-        _constraint_rows(y, p, jr, jth, target)
-        if not _mass_weighted_correction(y, p, 3, jr, jth, resid, dr, dth):
+        _constraint_rows(y, p, jr, jth, target, ws)
+        if not _mass_weighted_correction(y, p, 3, jr, jth, resid, dr, dth, ws):
             return False
         for k in range(3):
             y[S_R + k] += dr[k]
@@ -619,11 +667,11 @@ def project(y: np.ndarray, p: np.ndarray) -> bool:
         qn = math.sqrt(y[S_Q] ** 2 + y[S_Q + 1] ** 2 + y[S_Q + 2] ** 2 + y[S_Q + 3] ** 2)
         for k in range(4):
             y[S_Q + k] /= qn
-    rows = _constraint_rows(y, p, jr, jth, target)
+    rows = _constraint_rows(y, p, jr, jth, target, ws)
     for i in range(rows):
         resid[i] = jr[i, 0] * y[S_V] + jr[i, 1] * y[S_V + 1] + jr[i, 2] * y[S_V + 2] \
             + jth[i, 0] * y[S_W] + jth[i, 1] * y[S_W + 1] + jth[i, 2] * y[S_W + 2] - target[i]
-    if not _mass_weighted_correction(y, p, rows, jr, jth, resid, dr, dth):
+    if not _mass_weighted_correction(y, p, rows, jr, jth, resid, dr, dth, ws):
         return False
     for k in range(3):
         y[S_V + k] += dr[k]
@@ -636,9 +684,18 @@ def project(y: np.ndarray, p: np.ndarray) -> bool:
 @njit(cache=True)
 def contact_points(y: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """World positions of CP1..CP3 into ``out`` (3, 3)."""
-    R = np.empty((3, 3))
+    _contact_points(y, p, out, np.empty((3, 3)), np.empty(3))
+
+
+@njit(cache=True)
+def contact_points_ws(y: np.ndarray, p: np.ndarray, out: np.ndarray, ws: np.ndarray) -> None:
+    """:func:`contact_points` with scratch from a workspace."""
+    _contact_points(y, p, out, ws[W_R:W_R + 3, :3], ws[W_TMP2, :3])
+
+
+@njit(cache=True)
+def _contact_points(y: np.ndarray, p: np.ndarray, out: np.ndarray, R: np.ndarray, tmp: np.ndarray) -> None:
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    tmp = np.empty(3)
     for i in range(3):
         _rotate(R, p, P_C + 3 * i, tmp)
         for k in range(3):
@@ -648,6 +705,13 @@ def contact_points(y: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
 @njit(cache=True)
 def event_values(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float, slow_speed: float,
                  out: np.ndarray) -> None:
+    """:func:`event_values_ws` with its own scratch memory."""
+    event_values_ws(y, p, aux, x1_target, slow_speed, out, new_workspace())
+
+
+@njit(cache=True)
+def event_values_ws(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float, slow_speed: float,
+                    out: np.ndarray, ws: np.ndarray) -> None:
     """Event functions; an event has happened where its value is > 0 (``aux`` from dynamics at ``y``).
 
     0: CP1 reached the travel target; 1-3: normal reaction of CP i is negative (lift-off); 4: the mass
@@ -659,8 +723,8 @@ def event_values(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float
     16: the aft face's slip on the tip slower than ``slow_speed / 10``; 17: the stuck tip's friction would
     leave its cone.
     """
-    cp = np.empty((3, 3))
-    contact_points(y, p, cp)
+    cp = ws[W_CPS:W_CPS + 3, :3]
+    contact_points_ws(y, p, cp, ws)
     out[0] = cp[0, 0] - x1_target
     for i in range(3):
         out[1 + i] = -aux[A_N + i]
@@ -711,37 +775,43 @@ METHOD_EULER, METHOD_RK4, METHOD_DOPRI5 = 0, 1, 2
 @njit(cache=True)
 def step(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
          err: np.ndarray, aux: np.ndarray) -> bool:
+    """:func:`step_ws` with its own scratch memory."""
+    return step_ws(method, t, y, h, p, y_new, err, aux, new_workspace())
+
+
+@njit(cache=True)
+def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
+            err: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """One step of size ``h`` from (t, y) into ``y_new`` (not projected); ``err`` gets DOPRI5's estimate."""
     n = y.shape[0]
+    k = ws[W_STAGES:W_STAGES + 7, :N_STATE]
+    tmp = ws[W_STAGES + 7, :N_STATE]
     if method == METHOD_EULER:  # the paper's eq. 40
-        k = np.empty(n)
-        if not rhs(t, y, p, k, aux):
+        if not rhs_ws(t, y, p, k[0], aux, ws):
             return False
         for i in range(n):
-            y_new[i] = y[i] + h * k[i]
+            y_new[i] = y[i] + h * k[0, i]
         return True
     if method == METHOD_RK4:
-        k1 = np.empty(n); k2 = np.empty(n); k3 = np.empty(n); k4 = np.empty(n); tmp = np.empty(n)
-        if not rhs(t, y, p, k1, aux):
+        k1, k2, k3, k4 = k[0], k[1], k[2], k[3]
+        if not rhs_ws(t, y, p, k1, aux, ws):
             return False
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k1[i]
-        if not rhs(t + 0.5 * h, tmp, p, k2, aux):
+        if not rhs_ws(t + 0.5 * h, tmp, p, k2, aux, ws):
             return False
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k2[i]
-        if not rhs(t + 0.5 * h, tmp, p, k3, aux):
+        if not rhs_ws(t + 0.5 * h, tmp, p, k3, aux, ws):
             return False
         for i in range(n):
             tmp[i] = y[i] + h * k3[i]
-        if not rhs(t + h, tmp, p, k4, aux):
+        if not rhs_ws(t + h, tmp, p, k4, aux, ws):
             return False
         for i in range(n):
             y_new[i] = y[i] + h / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
         return True
-    k = np.empty((7, n))
-    tmp = np.empty(n)
-    if not rhs(t, y, p, k[0], aux):
+    if not rhs_ws(t, y, p, k[0], aux, ws):
         return False
     for s in range(1, 7):
         for i in range(n):
@@ -749,7 +819,7 @@ def step(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: n
             for j in range(s):
                 acc += _A[s, j] * k[j, i]
             tmp[i] = y[i] + h * acc
-        if not rhs(t + _C[s] * h, tmp, p, k[s], aux):
+        if not rhs_ws(t + _C[s] * h, tmp, p, k[s], aux, ws):
             return False
     for i in range(n):
         y_new[i] = tmp[i]  # stage 7 is the 5th-order solution (FSAL)
@@ -777,14 +847,13 @@ def _error_norm(y: np.ndarray, y_new: np.ndarray, err: np.ndarray, rtol: float, 
 
 
 @njit(cache=True)
-def _advance(method, t, y, h, p, y_new, err, aux) -> bool:
+def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
     """A step followed by projection; then evaluate dynamics at the new state to fill ``aux``."""
-    if not step(method, t, y, h, p, y_new, err, aux):
+    if not step_ws(method, t, y, h, p, y_new, err, aux, ws):
         return False
-    if not project(y_new, p):
+    if not project_ws(y_new, p, ws):
         return False
-    dummy = np.empty(y.shape[0])
-    if not rhs(t + h, y_new, p, dummy, aux):
+    if not rhs_ws(t + h, y_new, p, ws[W_DY, :N_STATE], aux, ws):
         return False
     for i in range(y_new.shape[0]):
         if not math.isfinite(y_new[i]):
@@ -796,6 +865,15 @@ def _advance(method, t, y, h, p, y_new, err, aux) -> bool:
 def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
               t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
               out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool):
+    """:func:`integrate_ws` with its own scratch memory."""
+    return integrate_ws(method, t0, y, p, h, rtol, atol, t_max, x1_target, slow_speed, armed, out_t, out_y,
+                        out_aux, record, new_workspace())
+
+
+@njit(cache=True)
+def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
+                 t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
+                 out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool, ws: np.ndarray):
     """Integrate from (t0, y) until a terminal event, ``t_max`` or a full buffer; ``y`` ends as the final state.
 
     ``h`` is the fixed step (Euler, RK4) or the first trial step (DOPRI5). Events are located to 1e-13 s
@@ -809,13 +887,13 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
     Returns (rows written, status code, event index or -1, last step size, final time).
     """
     n = y.shape[0]
-    aux = np.empty(N_AUX)
-    dummy = np.empty(n)
-    if not rhs(t0, y, p, dummy, aux):
+    aux = ws[W_AUX, :N_AUX]
+    dummy = ws[W_DY, :N_STATE]
+    if not rhs_ws(t0, y, p, dummy, aux, ws):
         return 0, ST_STEP_FAILED, -1, h, t0
-    ev_old = np.empty(N_EVENTS)
-    ev_new = np.empty(N_EVENTS)
-    event_values(y, p, aux, x1_target, slow_speed, ev_old)
+    ev_old = ws[W_EVOLD, :N_EVENTS]
+    ev_new = ws[W_EVNEW, :N_EVENTS]
+    event_values_ws(y, p, aux, x1_target, slow_speed, ev_old, ws)
     rows = 0
     if record:
         out_t[0] = t0
@@ -823,9 +901,9 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
         out_aux[0] = aux
         rows = 1
     t = t0
-    y_new = np.empty(n)
-    err = np.empty(n)
-    aux_new = np.empty(N_AUX)
+    y_new = ws[W_YNEW, :N_STATE]
+    err = ws[W_ERR, :N_STATE]
+    aux_new = ws[W_AUXNEW, :N_AUX]
     for k in range(EV_SLOW):
         if ev_old[k] > 0.0:
             return rows, _status_of(k), k, h, t
@@ -836,7 +914,16 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
         if t_max - t <= 1e-9 * h:
             return rows, ST_TIME_LIMIT, -1, h, t
         h_try = min(h, t_max - t)
-        if not _advance(method, t, y, h_try, p, y_new, err, aux_new):
+        site = -1
+        if fixed:
+            site, tau = _predicted_stop(y, p, aux, armed, slow_speed, ws)
+            if site < 0 or tau >= h_try:
+                site = -1
+        if site >= 0:
+            h_try = _step_to_stop(method, t, y, tau, h_try, p, site, slow_speed, y_new, err, aux_new, ws)
+            if h_try < 0.0:
+                return rows, ST_STEP_FAILED, -1, h, t
+        elif not _advance(method, t, y, h_try, p, y_new, err, aux_new, ws):
             if not fixed and h_try > 1e-12:
                 h = 0.25 * h_try
                 continue
@@ -850,7 +937,7 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
                     return rows, ST_STEP_FAILED, -1, h, t
                 continue
             h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
-        event_values(y_new, p, aux_new, x1_target, slow_speed, ev_new)
+        event_values_ws(y_new, p, aux_new, x1_target, slow_speed, ev_new, ws)
         hit = -1
         for k in range(N_EVENTS):
             if (k == EV_SLOW and not armed[0]) or (EV_STOP <= k < EV_RELEASE and not armed[k - EV_STOP + 1]) \
@@ -859,9 +946,10 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
             if ev_new[k] > 0.0 and ev_old[k] <= 0.0:
                 hit = k
                 break
-        if hit >= 0:
+        predicted = site >= 0 and hit == (EV_TIP_STOP if site == 3 else EV_STOP + site)
+        if hit >= 0 and not predicted:  # (a predicted stop is already where it happens)
             h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
-                           y_new, err, aux_new)
+                           y_new, err, aux_new, ws)
             if h_ev < 0.0:
                 return rows, ST_STEP_FAILED, -1, h, t
             h_try = h_ev
@@ -871,18 +959,19 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
         status = ST_RUNNING if hit < 0 else _status_of(hit)
         second_stop = status == ST_STOPPED and hit != EV_TIP_STOP and p[P_STUCK] >= 0.0
         if status == ST_STOPPED and not second_stop or status == ST_RELEASE:
-            apply_mode_event(hit, t, y, p)
+            apply_mode_event_ws(hit, t, y, p, ws)
             if hit == EV_TIP_STOP:
                 armed[4] = False
             elif hit < EV_RELEASE:
                 armed[hit - EV_STOP + 1] = False
-            if not rhs(t, y, p, dummy, aux_new):
+            if not rhs_ws(t, y, p, dummy, aux_new, ws):
                 return rows, ST_STEP_FAILED, -1, h, t
             status = ST_RUNNING
         elif second_stop:
             status = ST_SLOW
-        _refresh_directions(y, p, aux_new)
-        event_values(y, p, aux_new, x1_target, slow_speed, ev_old)
+        _refresh_directions(y, p, aux_new, ws)
+        event_values_ws(y, p, aux_new, x1_target, slow_speed, ev_old, ws)
+        aux[:] = aux_new
         if ev_old[EV_SLOW] < -slow_speed:
             armed[0] = True  # arrest can only be detected once the block has really moved
         for i in range(3):
@@ -901,12 +990,83 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rt
 
 
 @njit(cache=True)
-def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray) -> None:
+def _site_velocity(y: np.ndarray, p: np.ndarray, aux: np.ndarray, site: int, ws: np.ndarray,
+                   out: np.ndarray) -> None:
+    """Slip velocity of contact point ``site`` (0-2), or of the aft face on the tip (3, from ``aux``)."""
+    if site == 3:
+        for k in range(3):
+            out[k] = aux[A_SLIP + k]
+        return
+    R = ws[W_R:W_R + 3, :3]
+    quat_to_matrix(y[S_Q:S_Q + 4], R)
+    arm = ws[W_TMP2, :3]
+    _rotate(R, p, P_C + 3 * site, arm)
+    c0, c1, c2 = _cross(y[S_W], y[S_W + 1], y[S_W + 2], arm[0], arm[1], arm[2])
+    out[0], out[1], out[2] = y[S_V] + c0, y[S_V + 1] + c1, y[S_V + 2] + c2
+
+
+@njit(cache=True)
+def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.ndarray, slow_speed: float,
+                    ws: np.ndarray) -> tuple:
+    """The sliding site (contact 0-2 or the tip, 3) that friction will stop first, and when, extrapolating
+    its deceleration along its slip: ``|v| / (-a . v/|v|)``; (-1, inf) if none decelerates. Sets
+    ``ws[W_SITE_D]`` to that site's slip direction.
+
+    Why: a fixed step cannot see a slip that stops and would reverse inside it (friction's direction flips
+    with v/|v|, and the step ends with a spurious slip the other way); stepping to the stop instead lets the
+    stop event fire where it happens."""
+    best, best_tau = -1, math.inf
+    v = ws[W_SITE_V, :3]
+    stuck = int(p[P_STUCK])
+    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0
+    for site in range(4):
+        if site < 3 and (site == stuck or not armed[site + 1]) or site == 3 and not (rubs and armed[4]):
+            continue
+        _site_velocity(y, p, aux, site, ws, v)
+        speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
+        if speed <= 0.1 * slow_speed:
+            continue
+        decel = -(aux[A_ACC + 3 * site] * v[0] + aux[A_ACC + 3 * site + 1] * v[1]
+                  + aux[A_ACC + 3 * site + 2] * v[2]) / speed
+        if decel > 0.0 and speed / decel < best_tau:
+            best, best_tau = site, speed / decel
+            for k in range(3):
+                ws[W_SITE_D, k] = v[k] / speed
+    return best, best_tau
+
+
+@njit(cache=True)
+def _step_to_stop(method, t, y, h, h_max, p, site, slow_speed, y_new, err, aux_new, ws: np.ndarray) -> float:
+    """Step to where the slip of ``site`` along its initial direction d (``ws[W_SITE_D]``) reaches zero, from
+    the guess ``h`` (at most ``h_max``): the secant method on u(h) = v(t + h) . d, which (unlike the speed) is smooth through the
+    stop. Stops refining when |u| < slow_speed / 50, well inside the stop event's slow_speed / 10. Returns
+    the step taken (``y_new``, ``aux_new`` filled there), or -1 if a step failed."""
+    d = ws[W_SITE_D, :3]
+    v = ws[W_SITE_V, :3]
+    _site_velocity(y, p, ws[W_AUX, :N_AUX], site, ws, v)
+    h0, u0 = 0.0, v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
+    h1 = h
+    for it in range(6):
+        if not _advance(method, t, y, h1, p, y_new, err, aux_new, ws):
+            return -1.0
+        _site_velocity(y_new, p, aux_new, site, ws, v)
+        u1 = v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
+        if abs(u1) < 0.02 * slow_speed or u1 == u0 or it == 5:
+            break
+        h2 = h1 - u1 * (h1 - h0) / (u1 - u0)
+        if not 0.0 < h2 <= h_max:
+            break
+        h0, u0, h1 = h1, u1, h2
+    return h1
+
+
+@njit(cache=True)
+def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> None:
     """At a step boundary, each site sliding faster than SLIP_BLEND gets its current slip direction as d0
     (P_D0), so the low-speed blend of a slowing site mixes with where it is going, not with a stale start."""
-    R = np.empty((3, 3))
+    R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    tmp = np.empty(3)
+    tmp = ws[W_TMP2, :3]
     stuck = int(p[P_STUCK])
     for j in range(3):
         sp = aux[A_SPEED + j]
@@ -925,10 +1085,19 @@ def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray) -> None:
 
 @njit(cache=True)
 def kinetic_energy(y: np.ndarray, p: np.ndarray) -> float:
-    R = np.empty((3, 3))
+    return _kinetic_energy(y, p, np.empty((3, 3)), np.empty(3), np.empty(3))
+
+
+@njit(cache=True)
+def kinetic_energy_ws(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> float:
+    """:func:`kinetic_energy` with scratch from a workspace."""
+    return _kinetic_energy(y, p, ws[W_R:W_R + 3, :3], ws[W_IW, :3], ws[W_WB, :3])
+
+
+@njit(cache=True)
+def _kinetic_energy(y: np.ndarray, p: np.ndarray, R: np.ndarray, iw: np.ndarray, wb: np.ndarray) -> float:
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    iw = np.empty(3)
-    _world_inertia_times(R, p, y[S_W:S_W + 3], iw)
+    _world_inertia_times(R, p, y[S_W:S_W + 3], iw, wb)
     ke = 0.0
     for k in range(3):
         ke += 0.5 * p[P_MASS] * y[S_V + k] ** 2 + 0.5 * y[S_W + k] * iw[k]
@@ -937,6 +1106,12 @@ def kinetic_energy(y: np.ndarray, p: np.ndarray) -> float:
 
 @njit(cache=True)
 def apply_mode_event(event: int, t: float, y: np.ndarray, p: np.ndarray) -> None:
+    """:func:`apply_mode_event_ws` with its own scratch memory."""
+    apply_mode_event_ws(event, t, y, p, new_workspace())
+
+
+@njit(cache=True)
+def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> None:
     """A contact or the tip stopped slipping (it sticks if static friction can hold it, else slips anew
     from rest where the load drives it), or a stuck one's friction gave way (it slips).
 
@@ -946,8 +1121,8 @@ def apply_mode_event(event: int, t: float, y: np.ndarray, p: np.ndarray) -> None
     if event == EV_RELEASE or event == EV_TIP_RELEASE:
         # Static friction reached its cone: the site slips opposite to the friction force it had, which is
         # the continuous continuation (the slip acceleration starts from zero along that direction).
-        aux = np.empty(N_AUX)
-        rhs(t, y, p, np.empty(y.shape[0]), aux)
+        aux = ws[W_AUXMODE, :N_AUX]
+        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
         tip = event == EV_TIP_RELEASE
         site = 3 if tip else int(p[P_STUCK])
         base = A_TIP_F if tip else A_STICK_F
@@ -962,22 +1137,22 @@ def apply_mode_event(event: int, t: float, y: np.ndarray, p: np.ndarray) -> None
             return
     else:
         tip = event == EV_TIP_STOP
-        before = kinetic_energy(y, p)
+        before = kinetic_energy_ws(y, p, ws)
         if tip:
             p[P_TIP_STUCK] = 1.0
         else:
             p[P_STUCK] = float(event - EV_STOP)
-        project(y, p)
-        y[S_DTIP if tip else S_DC + event - EV_STOP] += before - kinetic_energy(y, p)
-        aux = np.empty(N_AUX)
-        rhs(t, y, p, np.empty(y.shape[0]), aux)
+        project_ws(y, p, ws)
+        y[S_DTIP if tip else S_DC + event - EV_STOP] += before - kinetic_energy_ws(y, p, ws)
+        aux = ws[W_AUXMODE, :N_AUX]
+        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
         if aux[A_TIP_STICK if tip else A_STICK] <= 0.0:
             return
         if tip:
             p[P_TIP_STUCK] = 0.0
         else:
             p[P_STUCK] = -1.0
-    incipient_directions(t, y, p, 400)
+    incipient_directions_ws(t, y, p, 400, ws)
 
 
 @njit(cache=True)
@@ -998,23 +1173,26 @@ def _status_of(event: int) -> int:
 
 
 @njit(cache=True)
-def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux) -> float:
+def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux,
+            ws: np.ndarray) -> float:
     """Step length in (0, h] at which event ``which`` crosses zero; fills y_new/aux there. -1 on failure."""
-    ev = np.empty(N_EVENTS)
+    ev = ws[W_EVLOC, :N_EVENTS]
     lo, hi = 0.0, h
     f_lo, f_hi = g_lo, g_hi
     side = 0
-    y_hi = y_new.copy()
-    aux_hi = aux.copy()
+    y_hi = ws[W_YHI, :N_STATE]
+    aux_hi = ws[W_AUXHI, :N_AUX]
+    y_hi[:] = y_new
+    aux_hi[:] = aux
     for _ in range(80):
         if hi - lo < 1e-13:
             break
         mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
         if not (lo < mid < hi):
             mid = 0.5 * (lo + hi)
-        if not _advance(method, t, y, mid, p, y_new, err, aux):
+        if not _advance(method, t, y, mid, p, y_new, err, aux, ws):
             return -1.0
-        event_values(y_new, p, aux, x1_target, slow_speed, ev)
+        event_values_ws(y_new, p, aux, x1_target, slow_speed, ev, ws)
         g = ev[which]
         if g > 0.0:
             hi, f_hi = mid, g
@@ -1040,6 +1218,12 @@ def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new,
 
 @njit(cache=True)
 def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, max_iter: int) -> tuple:
+    """:func:`incipient_directions_ws` with its own scratch memory."""
+    return incipient_directions_ws(t, y, p, max_iter, new_workspace())
+
+
+@njit(cache=True)
+def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, max_iter: int, ws: np.ndarray) -> tuple:
     """Set ``p[P_D0:]`` to the directions in which the resting sliding sites begin to slip.
 
     Friction at a site with zero slip must oppose its incipient slip, which depends on all the friction
@@ -1047,11 +1231,11 @@ def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, max_iter: int) 
     Returns (converged, consistency): the smallest cosine between a resting site's direction and its
     slip acceleration (1: friction exactly opposes the incipient motion everywhere).
     """
-    aux = np.empty(N_AUX)
-    dy = np.empty(y.shape[0])
+    aux = ws[W_AUXMODE, :N_AUX]
+    dy = ws[W_DY, :N_STATE]
     for k in range(12):
         p[P_D0 + k] = 0.0
-    if not rhs(t, y, p, dy, aux):
+    if not rhs_ws(t, y, p, dy, aux, ws):
         return False, -1.0
     resting = np.zeros(4, np.bool_)
     stuck = int(p[P_STUCK])
@@ -1059,8 +1243,10 @@ def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, max_iter: int) 
         resting[j] = j != stuck and aux[A_SPEED + j] <= ZERO_SPEED
     slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
     resting[3] = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0 and slip <= ZERO_SPEED
-    d = np.zeros(12)
-    new = np.zeros(12)
+    d = ws[W_DIRS, :12]
+    new = ws[W_DIRS + 1, :12]
+    d[:] = 0.0
+    new[:] = 0.0
     damping = 1.0
     converged = False
     for it in range(max_iter):
@@ -1091,7 +1277,7 @@ def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, max_iter: int) 
                 if norm > 0.0:
                     d[3 * s + k] /= norm
                 p[P_D0 + 3 * s + k] = d[3 * s + k]
-        if not rhs(t, y, p, dy, aux):
+        if not rhs_ws(t, y, p, dy, aux, ws):
             return False, -1.0
     consistency = 1.0
     for s in range(4):
@@ -1102,3 +1288,33 @@ def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, max_iter: int) 
         if norm > 1e-12:
             consistency = min(consistency, (a0 * d[3 * s] + a1 * d[3 * s + 1] + a2 * d[3 * s + 2]) / norm)
     return converged, consistency
+
+
+@njit(cache=True)
+def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> tuple:
+    """Choose how a block that cannot hold starts to move, and set ``p`` for it.
+
+    Tries, in order: all contacts sliding with the tip stuck (if it rubs), all sliding, then one contact
+    stuck (a pivot) with the tip stuck or sliding. A mode is accepted when its friction opposes every
+    resting site's incipient slip and every stuck site's friction lies inside its cone. Returns
+    (accepted, consistency) of the chosen mode; if none is consistent, the most consistent is used.
+    """
+    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0
+    n_tip = 2 if rubs else 1
+    aux = ws[W_AUXMODE, :N_AUX]
+    best_score, best_stuck, best_tip = -math.inf, -1.0, 0.0
+    for mode in range(4 * n_tip):
+        stuck = float(mode // n_tip - 1)  # -1 (all slide), then a pivot about CP1, CP2, CP3
+        tip = 1.0 if rubs and mode % n_tip == 0 else 0.0  # the tip stuck first, when it rubs
+        p[P_STUCK], p[P_TIP_STUCK] = stuck, tip
+        _, consistency = incipient_directions_ws(t, y, p, 400, ws)
+        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
+        holds_stuck = aux[A_STICK] <= 0.0 and aux[A_TIP_STICK] <= 0.0
+        score = consistency if holds_stuck else -2.0
+        if holds_stuck and consistency > 0.9999:
+            return True, consistency
+        if score > best_score:
+            best_score, best_stuck, best_tip = score, stuck, tip
+    p[P_STUCK], p[P_TIP_STUCK] = best_stuck, best_tip
+    _, consistency = incipient_directions_ws(t, y, p, 400, ws)
+    return False, consistency
