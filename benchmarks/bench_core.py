@@ -46,7 +46,8 @@ def bench_traces(repeats: int = 20) -> None:
 
 
 def bench_control_step(repeats: int = 2000) -> None:
-    print("\ncase A, one control step: 5 ms of physical time, RK4, 1 substep (kernel.integrate, record=False)")
+    print("\ncase A, one control step: 5 ms of physical time, RK4, 1 substep (kernel.integrate_ws from Python, "
+          "record=False, one workspace as the env keeps)")
     medians = []
     for force in PAPER_LOADS_N:
         model = paper_model("A", force)
@@ -54,13 +55,14 @@ def bench_control_step(repeats: int = 2000) -> None:
         start_motion(p, y0)
         armed = np.zeros(5, np.bool_)
         bufs = (np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)))
+        ws = K.new_workspace()
         x1_target = model.specimen.contact_points_m[0, 0] + 0.08
         y, t = y0.copy(), 0.0
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            _, status, _, _, t = K.integrate(K.METHOD_RK4, t, y, p, 0.005, 0.0, 0.0, t + 0.005, x1_target, 1e-5,
-                                             armed, *bufs, False)
+            _, status, _, _, t = K.integrate_ws(K.METHOD_RK4, t, y, p, 0.005, 0.0, 0.0, t + 0.005, x1_target,
+                                                1e-5, armed, *bufs, False, ws)
             times.append(time.perf_counter() - t0)
             if status != K.ST_TIME_LIMIT:  # travel reached: start the episode again
                 y, t = y0.copy(), 0.0

@@ -563,7 +563,7 @@ class TriPlanarShearEnv(gym.Env):
     * terminated, ``mass_centre_outside``: the mass centre left the contact triangle seen from above (tipping);
     * terminated, ``left_plane``: a contact point crossed onto another plane (CP3 starts where all three meet);
     * terminated, ``arrest``: every contact point came (nearly) to rest and friction holds the block under the
-      current command (statics LP, :func:`triplanar.statics.holds`);
+      current command (statics LP, :func:`triplanar.equilibrium.holds`, decided inside the compiled step);
     * terminated, ``failed``: the integration failed (singular contact system; not seen in practice);
     * truncated, ``time_limit``: ``time_limit_s`` (2 s) after the start.
 

@@ -776,26 +776,26 @@ METHOD_EULER, METHOD_RK4, METHOD_DOPRI5 = 0, 1, 2
 def step(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
          err: np.ndarray, aux: np.ndarray) -> bool:
     """:func:`step_ws` with its own scratch memory."""
-    return step_ws(method, t, y, h, p, y_new, err, aux, new_workspace())
+    return step_ws(method, t, y, h, p, y_new, err, aux, new_workspace(), False)
 
 
 @njit(cache=True)
 def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
-            err: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
-    """One step of size ``h`` from (t, y) into ``y_new`` (not projected); ``err`` gets DOPRI5's estimate."""
+            err: np.ndarray, aux: np.ndarray, ws: np.ndarray, k1_ready: bool) -> bool:
+    """One step of size ``h`` from (t, y) into ``y_new`` (not projected); ``err`` gets DOPRI5's estimate.
+    ``k1_ready``: the first stage f(t, y) is already in the workspace's first stage row (``W_STAGES``), which
+    the step otherwise fills (every method's first stage is f(t, y))."""
     n = y.shape[0]
     k = ws[W_STAGES:W_STAGES + 7, :N_STATE]
     tmp = ws[W_STAGES + 7, :N_STATE]
+    if not k1_ready and not rhs_ws(t, y, p, k[0], aux, ws):
+        return False
     if method == METHOD_EULER:  # the paper's eq. 40
-        if not rhs_ws(t, y, p, k[0], aux, ws):
-            return False
         for i in range(n):
             y_new[i] = y[i] + h * k[0, i]
         return True
     if method == METHOD_RK4:
         k1, k2, k3, k4 = k[0], k[1], k[2], k[3]
-        if not rhs_ws(t, y, p, k1, aux, ws):
-            return False
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k1[i]
         if not rhs_ws(t + 0.5 * h, tmp, p, k2, aux, ws):
@@ -811,8 +811,6 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new
         for i in range(n):
             y_new[i] = y[i] + h / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
         return True
-    if not rhs_ws(t, y, p, k[0], aux, ws):
-        return False
     for s in range(1, 7):
         for i in range(n):
             acc = 0.0
@@ -848,8 +846,9 @@ def _error_norm(y: np.ndarray, y_new: np.ndarray, err: np.ndarray, rtol: float, 
 
 @njit(cache=True)
 def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
-    """A step followed by projection; then evaluate dynamics at the new state to fill ``aux``."""
-    if not step_ws(method, t, y, h, p, y_new, err, aux, ws):
+    """A step followed by projection; then evaluate dynamics at the new state to fill ``aux`` (and f(y_new) in
+    ``ws[W_DY]``). The step's first stage f(t, y) must be in ``ws[W_STAGES]`` (see :func:`integrate_ws`)."""
+    if not step_ws(method, t, y, h, p, y_new, err, aux, ws, True):
         return False
     if not project_ws(y_new, p, ws):
         return False
@@ -889,7 +888,10 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     n = y.shape[0]
     aux = ws[W_AUX, :N_AUX]
     dummy = ws[W_DY, :N_STATE]
-    if not rhs_ws(t0, y, p, dummy, aux, ws):
+    # f(t, y) of the current state lives in the first stage row: every step from (t, y), including retries and
+    # event searches, starts with it, and the evaluation at a step's end (for aux) provides the next one.
+    k1 = ws[W_STAGES, :N_STATE]
+    if not rhs_ws(t0, y, p, k1, aux, ws):
         return 0, ST_STEP_FAILED, -1, h, t0
     ev_old = ws[W_EVOLD, :N_EVENTS]
     ev_new = ws[W_EVNEW, :N_EVENTS]
@@ -956,6 +958,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         t = t + h_try
         for i in range(n):
             y[i] = y_new[i]
+        dy_ready = hit < 0 or predicted  # (an event search leaves f of its last trial in dummy)
         status = ST_RUNNING if hit < 0 else _status_of(hit)
         second_stop = status == ST_STOPPED and hit != EV_TIP_STOP and p[P_STUCK] >= 0.0
         if status == ST_STOPPED and not second_stop or status == ST_RELEASE:
@@ -966,12 +969,22 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
                 armed[hit - EV_STOP + 1] = False
             if not rhs_ws(t, y, p, dummy, aux_new, ws):
                 return rows, ST_STEP_FAILED, -1, h, t
+            dy_ready = True
             status = ST_RUNNING
         elif second_stop:
             status = ST_SLOW
+        # (the new d0 enters neither the right-hand side nor the events: it is used only below SLIP_BLEND, where it
+        # is not refreshed, so f(t, y) and the event values stay valid)
         _refresh_directions(y, p, aux_new, ws)
-        event_values_ws(y, p, aux_new, x1_target, slow_speed, ev_old, ws)
+        if hit < 0:
+            ev_old[:] = ev_new
+        else:
+            event_values_ws(y, p, aux_new, x1_target, slow_speed, ev_old, ws)
         aux[:] = aux_new
+        if dy_ready:
+            k1[:] = dummy
+        elif not rhs_ws(t, y, p, k1, aux_new, ws):
+            return rows, ST_STEP_FAILED, -1, h, t
         if ev_old[EV_SLOW] < -slow_speed:
             armed[0] = True  # arrest can only be detected once the block has really moved
         for i in range(3):
