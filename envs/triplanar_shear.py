@@ -278,7 +278,7 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
 
 # -- the compiled control step (shared by the single and the vector env) -------------------------------
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _apply_action(y, p, st, action, cfg, ws) -> None:
     """Thrust and stage velocity for this control period; stuck sites that can no longer stick are released."""
     a0 = min(max(action[0], -1.0), 1.0)
@@ -304,7 +304,7 @@ def _apply_action(y, p, st, action, cfg, ws) -> None:
             K.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _energy_defect(y0, y1, p, ws) -> float:
     """Change over a step of the energy balance's residual: work in minus (kinetic + potential + dissipated)."""
     work = y1[K.S_WLOAD] - y0[K.S_WLOAD] + y1[K.S_WOTHER] - y0[K.S_WOTHER]
@@ -315,7 +315,7 @@ def _energy_defect(y0, y1, p, ws) -> float:
     return work - (K.kinetic_energy_ws(y1, p, ws) - K.kinetic_energy_ws(y0, p, ws)) - potential - dissipated
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
     """Fixed RK4 steps to ``t_end`` or an event (the kernel steps to each predicted stop of a slip); if the energy
     balance still shows a defect (a slip that reversed unseen inside a step), the stretch is redone with the
@@ -339,7 +339,7 @@ def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
     return status
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _advance(y, p, armed, st, cfg, inf, ws) -> int:
     """Integrate to the end of the control period or an outcome. When every contact has nearly stopped, the
     statics decide (:func:`triplanar.equilibrium.holds`, the exact LP at the current pose, thrust and tip offset):
@@ -367,7 +367,7 @@ def _advance(y, p, armed, st, cfg, inf, ws) -> int:
     return FAILED
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
     """Observation, reward terms and bookkeeping after a control period that ended with ``code``."""
     st[ST_STEP] += 1.0
@@ -455,7 +455,7 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
     inf[IN_TRUNC] = 1.0 if truncated else 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def control_step(y, p, armed, st, ref, action, cfg, obs, inf, ws) -> int:
     """One control period: apply ``action``, integrate, observe; returns the outcome code. ``ws`` is a kernel
     workspace (:func:`triplanar.kernel.new_workspace`), scratch only."""

@@ -27,7 +27,7 @@ from triplanar import kernel as K
 from . import triplanar_shear as S
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _batch_step(Y, P, ARMED, ST, BANK_REF, KIDX, ACT, cfg, OBS, INF, CODES, active, ws) -> None:
     """Step every active row (``ws``: one kernel workspace, scratch shared by the rows in turn)."""
     for i in range(Y.shape[0]):
@@ -36,7 +36,7 @@ def _batch_step(Y, P, ARMED, ST, BANK_REF, KIDX, ACT, cfg, OBS, INF, CODES, acti
                                       ws)
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _load_starts(rows, kidx, KIDX, Y, P, ARMED, ST, OBS, INF, BY, BP, BARMED, BST, BOBS, BINF) -> None:
     """Copy bank entry ``kidx[j]`` into environment row ``rows[j]``."""
     for j in range(rows.shape[0]):

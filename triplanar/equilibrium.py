@@ -62,7 +62,7 @@ drop_if_stale(Path(__file__).parent / "__pycache__", "equilibrium.*.nb[ic]", [Pa
 
 # -- a small dense simplex ------------------------------------------------------------------------
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _pivot(t: np.ndarray, basis: np.ndarray, r: int, s: int) -> None:
     """Pivot the tableau on row r, column s (all rows, both objective rows and the right-hand side)."""
     rows, width = t.shape
@@ -82,7 +82,7 @@ def _pivot(t: np.ndarray, basis: np.ndarray, r: int, s: int) -> None:
     basis[r] = s
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def _iterate(t: np.ndarray, basis: np.ndarray, n: int, obj: int, opt_tol: float, max_iter: int,
              bland_after: int, done: int) -> tuple:
     """Simplex pivots on objective row ``obj`` with columns 0..n-1 eligible to enter, until optimal (0),
@@ -128,7 +128,7 @@ def _iterate(t: np.ndarray, basis: np.ndarray, n: int, obj: int, opt_tol: float,
         done += 1
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def simplex(a: np.ndarray, b: np.ndarray, c: np.ndarray, x: np.ndarray, max_iter: int = MAX_ITER,
             bland_after: int = BLAND_AFTER) -> tuple:
     """Minimise ``c.x`` subject to ``a x = b``, ``x >= 0`` (``a`` is m x n); the solution goes into ``x``.
@@ -219,7 +219,7 @@ def simplex(a: np.ndarray, b: np.ndarray, c: np.ndarray, x: np.ndarray, max_iter
 
 # -- the static-equilibrium LP --------------------------------------------------------------------
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def equilibrium_system(y: np.ndarray, p: np.ndarray, ext_f: np.ndarray, ext_m: np.ndarray,
                        extra_rows: int, extra_columns: int) -> tuple:
     """The generator-form balance ``a x = b`` at pose ``y`` (velocities ignored) with ``extra_rows`` zero rows
@@ -290,7 +290,7 @@ def equilibrium_system(y: np.ndarray, p: np.ndarray, ext_f: np.ndarray, ext_m: n
     return a, b, N_CONTACT_COLUMNS, n_tip, weight
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def holds(y: np.ndarray, p: np.ndarray, thrust: float, ext_f: np.ndarray, ext_m: np.ndarray) -> bool:
     """True when friction can hold the block at rest at pose ``y`` under ``thrust`` (N, >= 0; the thrust is a
     push, so a negative one is never held) and the external force ``ext_f`` / moment ``ext_m`` (world axes,
@@ -306,7 +306,7 @@ def holds(y: np.ndarray, p: np.ndarray, thrust: float, ext_f: np.ndarray, ext_m:
     return status == OPTIMAL
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy")
 def max_thrust(y: np.ndarray, p: np.ndarray, upper: float, ext_f: np.ndarray, ext_m: np.ndarray) -> float:
     """The largest thrust (N) friction can hold at pose ``y`` with the external wrench (``ext_f``, ``ext_m``).
 
