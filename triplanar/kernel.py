@@ -883,6 +883,8 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     so a terminal event's row lies on the event. A contact or the tip that stops slipping, or whose static
     friction gives way, is handled here (:func:`apply_mode_event`); the run returns to the caller for the
     rest: terminal events, and ``ST_SLOW`` (a possible arrest: the caller decides with the statics LP).
+    A fixed step that would carry a sliding site past its predicted stop ends there instead
+    (:func:`_predicted_stop`, :func:`_step_to_stop`), so the stop is handled where it happens.
     ``armed`` (5 flags, updated in place): whether the all-slow event, each contact's and the tip's stop
     event may fire; each arms once its speed has exceeded twice its threshold, so a start from rest does
     not count. With ``record`` every accepted step is written to the ``out_*`` buffers (row 0 = start).
