@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from triplanar import PAPER_LOADS_N, paper_model, simulate
-from triplanar import kernel as K
+from triplanar import kernel as K, stepping
 from triplanar.statics import holds, start_motion
 
 
@@ -61,10 +61,10 @@ def bench_control_step(repeats: int = 2000) -> None:
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            _, status, _, _, t = K.integrate_ws(K.METHOD_RK4, t, y, p, 0.005, 0.0, 0.0, t + 0.005, x1_target,
-                                                1e-5, armed, *bufs, False, ws)
+            _, status, _, _, t = stepping.integrate_ws(stepping.METHOD_RK4, t, y, p, 0.005, 0.0, 0.0, t + 0.005,
+                                                       x1_target, 1e-5, armed, *bufs, False, ws)
             times.append(time.perf_counter() - t0)
-            if status != K.ST_TIME_LIMIT:  # travel reached: start the episode again
+            if status != stepping.ST_TIME_LIMIT:  # travel reached: start the episode again
                 y, t = y0.copy(), 0.0
                 armed[:] = False
         medians.append(statistics.median(times))

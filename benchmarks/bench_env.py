@@ -28,7 +28,7 @@ from numba import njit
 
 import envs  # noqa: F401 (registers TriPlanarShear-v0)
 from envs.triplanar_shear import TriPlanarShearEnv
-from triplanar import kernel as K
+from triplanar import kernel as K, stepping
 
 
 @njit  # not cached: a cached copy would keep an old kernel built in (numba caches per file)
@@ -41,8 +41,8 @@ def _kernel_periods(y0, p, n, x1_target):
     ws = K.new_workspace()  # as the env: one workspace for the loop
     for i in range(n):
         y[:] = y0
-        K.integrate_ws(K.METHOD_RK4, 0.005, y, p, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed, out_t, out_y,
-                       out_aux, False, ws)
+        stepping.integrate_ws(stepping.METHOD_RK4, 0.005, y, p, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed,
+                              out_t, out_y, out_aux, False, ws)
 
 
 def best_of(repeats: int, fn) -> float:

@@ -18,7 +18,7 @@ import numpy as np
 from gymnasium import spaces
 from numba import njit
 
-from triplanar import PAPER_LOADS_N, equilibrium as E, kernel as K
+from triplanar import PAPER_LOADS_N, equilibrium as E, kernel as K, stepping
 from triplanar.model import Loading, Model, paper_model
 from triplanar.simulate import SLOW_SPEED_M_S, simulate
 from triplanar.specimen import Foundation, Specimen, reference
@@ -292,16 +292,16 @@ def _apply_action(y, p, st, action, cfg, ws) -> None:
     t = st[ST_T]
     if p[K.P_TIP_STUCK] != 0.0 and changed_udot:
         # A stage that changes speed cannot carry a stuck face along instantly: the face slips on the tip.
-        K.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
+        stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
     if p[K.P_STUCK] >= 0.0 or p[K.P_TIP_STUCK] != 0.0:
         aux = ws[K.W_AUX, :K.N_AUX]
         dy = ws[K.W_DY, :K.N_STATE]
         K.rhs_ws(t, y, p, dy, aux, ws)
         if p[K.P_STUCK] >= 0.0 and aux[K.A_STICK] > 0.0:
-            K.apply_mode_event_ws(K.EV_RELEASE, t, y, p, ws)
+            stepping.apply_mode_event_ws(K.EV_RELEASE, t, y, p, ws)
             K.rhs_ws(t, y, p, dy, aux, ws)
         if p[K.P_TIP_STUCK] != 0.0 and aux[K.A_TIP_STICK] > 0.0:
-            K.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
+            stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
 
 
 @njit(cache=True, error_model="numpy")
@@ -324,14 +324,14 @@ def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
     out_y = ws[K.W_YHI:K.W_YHI + 1, :K.N_STATE]
     out_aux = ws[K.W_AUXHI:K.W_AUXHI + 1, :K.N_AUX]
     y0, p0, armed0, t0 = y.copy(), p.copy(), armed.copy(), st[ST_T]
-    rows, status, event, h, t = K.integrate_ws(K.METHOD_RK4, t0, y, p, cfg[CF_H], 0.0, 0.0, t_end,
+    rows, status, event, h, t = stepping.integrate_ws(stepping.METHOD_RK4, t0, y, p, cfg[CF_H], 0.0, 0.0, t_end,
                                                st[ST_X1_TARGET], cfg[CF_SLOW], armed, out_t, out_y, out_aux,
                                                False, ws)
     if cfg[CF_ENERGY_TOL] > 0.0 and abs(_energy_defect(y0, y, p, ws)) > cfg[CF_ENERGY_TOL]:
         y[:] = y0
         p[:] = p0
         armed[:] = armed0
-        rows, status, event, h, t = K.integrate_ws(K.METHOD_DOPRI5, t0, y, p, cfg[CF_H], FALLBACK_RTOL,
+        rows, status, event, h, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, cfg[CF_H], FALLBACK_RTOL,
                                                    FALLBACK_ATOL, t_end, st[ST_X1_TARGET], cfg[CF_SLOW], armed,
                                                    out_t, out_y, out_aux, False, ws)
         inf[IN_FALLBACK] += 1.0
@@ -343,26 +343,26 @@ def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
 def _advance(y, p, armed, st, cfg, inf, ws) -> int:
     """Integrate to the end of the control period or an outcome. When every contact has nearly stopped, the
     statics decide (:func:`triplanar.equilibrium.holds`, the exact LP at the current pose, thrust and tip offset):
-    friction holds the block (an arrest), or it moves on in the mode :func:`triplanar.kernel.start_motion_ws`
+    friction holds the block (an arrest), or it moves on in the mode :func:`triplanar.stepping.start_motion_ws`
     finds."""
     t_end = (st[ST_STEP] + 1.0) * cfg[CF_DT]
     while True:
         status = _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws)
-        if status != K.ST_SLOW:
+        if status != stepping.ST_SLOW:
             break
         if E.holds(y, p, K.thrust(st[ST_T], p), p[K.P_EXTF:K.P_EXTF + 3], p[K.P_EXTM:K.P_EXTM + 3]):
             return ARREST
-        K.start_motion_ws(st[ST_T], y, p, ws)
+        stepping.start_motion_ws(st[ST_T], y, p, ws)
         armed[:] = False
-    if status == K.ST_TIME_LIMIT:
+    if status == stepping.ST_TIME_LIMIT:
         return RUNNING
-    if status == K.ST_TRAVEL:
+    if status == stepping.ST_TRAVEL:
         return SUCCESS
-    if status == K.ST_LIFT_OFF:
+    if status == stepping.ST_LIFT_OFF:
         return LIFT_OFF
-    if status == K.ST_MC_OUTSIDE:
+    if status == stepping.ST_MC_OUTSIDE:
         return MC_OUTSIDE
-    if status == K.ST_LEFT_PLANE:
+    if status == stepping.ST_LEFT_PLANE:
         return LEFT_PLANE
     return FAILED
 

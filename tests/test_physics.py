@@ -11,7 +11,7 @@ import pytest
 
 from triplanar import (Effect, Foundation, Parameter, Plane, make_effect, paper_model, reference, scale_mass,
                        scale_size, scale_uniform, simulate)
-from triplanar import kernel as K
+from triplanar import kernel as K, stepping
 from triplanar.natural_coordinates import ReferenceModel, reference_accelerations
 from triplanar.specimen import GRAVITY, mirrored
 from triplanar.statics import holds, sliding_threshold, start_motion
@@ -243,7 +243,7 @@ def test_paper_euler_converges_with_first_order() -> None:
 def _integrate_from(y0: np.ndarray, p: np.ndarray, method: int, h: float, t0: float = 0.05,
                     t1: float = 0.15) -> np.ndarray:
     y = y0.copy()
-    K.integrate(method, t0, y, p.copy(), h, 1e-12, 1e-14, t1, 10.0, 1e-5, np.ones(5, np.bool_), np.empty(1),
+    stepping.integrate(method, t0, y, p.copy(), h, 1e-12, 1e-14, t1, 10.0, 1e-5, np.ones(5, np.bool_), np.empty(1),
                 np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)), False)
     return y[K.S_R:K.S_R + 3]
 
@@ -253,8 +253,8 @@ def test_rk4_converges_with_fourth_order_on_smooth_motion() -> None:
     model = paper_model("B", 40.0)
     y0 = simulate(model, rtol=1e-12, atol=1e-14, t_max_s=0.05).y[-1]
     p = model.kernel_params()
-    exact = _integrate_from(y0, p, K.METHOD_DOPRI5, 1e-4)
-    errors = [np.abs(_integrate_from(y0, p, K.METHOD_RK4, h) - exact).max() for h in (1e-2, 5e-3, 2.5e-3)]
+    exact = _integrate_from(y0, p, stepping.METHOD_DOPRI5, 1e-4)
+    errors = [np.abs(_integrate_from(y0, p, stepping.METHOD_RK4, h) - exact).max() for h in (1e-2, 5e-3, 2.5e-3)]
     ratios = [errors[i] / errors[i + 1] for i in range(2)]
     assert all(14 < r < 17 for r in ratios), (errors, ratios)
 
@@ -350,18 +350,18 @@ def test_fixed_steps_stop_where_a_slip_stops() -> None:
 
     def stop(method: int, h: float) -> tuple[int, np.ndarray, float]:
         y, p = y0.copy(), p0.copy()
-        _, status, _, _, t = K.integrate(method, sliding.t[-1], y, p, h, 1e-11, 1e-14, sliding.t[-1] + 1.0, 10.0,
+        _, status, _, _, t = stepping.integrate(method, sliding.t[-1], y, p, h, 1e-11, 1e-14, sliding.t[-1] + 1.0, 10.0,
                                          1e-5, np.ones(5, np.bool_), np.empty(1), np.empty((1, K.N_STATE)),
                                          np.empty((1, K.N_AUX)), False)
         cps = np.empty((3, 3))
         K.contact_points(y, p, cps)
         return status, cps, t
 
-    status, exact, t_exact = stop(K.METHOD_DOPRI5, 1e-4)
-    assert status == K.ST_SLOW and holds(model, y0, 10.0)
+    status, exact, t_exact = stop(stepping.METHOD_DOPRI5, 1e-4)
+    assert status == stepping.ST_SLOW and holds(model, y0, 10.0)
     errors = []
     for h in (5e-3, 1e-3):
-        status, cps, t = stop(K.METHOD_RK4, h)
-        assert status == K.ST_SLOW and abs(t - t_exact) < 0.5 * h
+        status, cps, t = stop(stepping.METHOD_RK4, h)
+        assert status == stepping.ST_SLOW and abs(t - t_exact) < 0.5 * h
         errors.append(np.abs(cps - exact).max())
     assert errors[0] < 2e-6 and errors[1] < errors[0] / 10  # m

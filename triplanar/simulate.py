@@ -17,16 +17,18 @@ import math
 import numpy as np
 
 from . import kernel as K
+from . import stepping
 from .model import Model
 from .result import SimulationResult
 from .statics import holds, sliding_threshold, start_motion
 
-METHODS = {"euler": K.METHOD_EULER, "rk4": K.METHOD_RK4, "dopri5": K.METHOD_DOPRI5}
+METHODS = {"euler": stepping.METHOD_EULER, "rk4": stepping.METHOD_RK4, "dopri5": stepping.METHOD_DOPRI5}
 DEFAULT_DT = {"euler": 1e-5, "rk4": 1e-3, "dopri5": 1e-4}
 SLOW_SPEED_M_S = 1e-5  # below this (every contact point) the block is checked for arrest
 
-_STATUS = {K.ST_TRAVEL: "travel", K.ST_LIFT_OFF: "lift_off", K.ST_MC_OUTSIDE: "mass_centre_outside",
-           K.ST_LEFT_PLANE: "left_plane", K.ST_TIME_LIMIT: "time_limit", K.ST_STEP_FAILED: "failed"}
+_STATUS = {stepping.ST_TRAVEL: "travel", stepping.ST_LIFT_OFF: "lift_off",
+           stepping.ST_MC_OUTSIDE: "mass_centre_outside", stepping.ST_LEFT_PLANE: "left_plane",
+           stepping.ST_TIME_LIMIT: "time_limit", stepping.ST_STEP_FAILED: "failed"}
 
 
 def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-11,
@@ -84,14 +86,14 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
         while True:
             out_t, out_y = np.empty(rows), np.empty((rows, K.N_STATE))
             out_aux = np.empty((rows, K.N_AUX))
-            n, code, event, h, t = K.integrate(METHODS[method], t, y, p, h, rtol, atol, t_max_s, x1_target,
+            n, code, event, h, t = stepping.integrate(METHODS[method], t, y, p, h, rtol, atol, t_max_s, x1_target,
                                                SLOW_SPEED_M_S, armed, out_t, out_y, out_aux, True)
             skip = 1 if t_chunks else 0  # each chunk starts with the previous chunk's last row
             t_chunks.append(out_t[skip:n]); y_chunks.append(out_y[skip:n]); a_chunks.append(out_aux[skip:n])
-            if code == K.ST_BUFFER_FULL and sum(len(c) for c in t_chunks) < max_rows:
+            if code == stepping.ST_BUFFER_FULL and sum(len(c) for c in t_chunks) < max_rows:
                 rows = min(2 * rows, max_rows)
                 continue
-            if code == K.ST_SLOW:
+            if code == stepping.ST_SLOW:
                 # Every contact slow, or a second one stops while one sticks: can friction hold it all?
                 if holds(model, y, K.thrust(t, p), t):
                     status, message = "arrested", (f"arrested at t = {t:.4f} s: the contact points came to rest "
@@ -100,7 +102,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
                 start_motion(p, y, t)
                 armed[:] = False
                 continue
-            if code == K.ST_BUFFER_FULL:
+            if code == stepping.ST_BUFFER_FULL:
                 status, message = "failed", f"more than max_rows = {max_rows} steps; raise max_rows or dt"
                 break
             status = _STATUS[code]

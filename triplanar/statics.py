@@ -22,6 +22,7 @@ import numpy as np
 
 from . import equilibrium as E
 from . import kernel as K
+from . import stepping
 from .model import Model
 
 
@@ -66,13 +67,13 @@ def sliding_threshold(model: Model, y: np.ndarray | None = None, upper_N: float 
 
 def incipient_directions(p: np.ndarray, y: np.ndarray, t: float = 0.0, max_iter: int = 400) -> tuple[bool, float]:
     """Set ``p[P_D0:]`` to the directions in which resting sliding sites begin to slip (see
-    :func:`triplanar.kernel.incipient_directions`); returns (converged, consistency)."""
-    converged, consistency = K.incipient_directions(t, y, p, max_iter)
+    :func:`triplanar.stepping.incipient_directions`); returns (converged, consistency)."""
+    converged, consistency = stepping.incipient_directions(t, y, p, max_iter)
     return bool(converged), float(consistency)
 
 
 def start_motion(p: np.ndarray, y: np.ndarray, t: float = 0.0) -> tuple[bool, float]:
     """Choose how a block that cannot hold starts to move, and set ``p`` for it
-    (:func:`triplanar.kernel.start_motion_ws`); returns (accepted, consistency)."""
-    accepted, consistency = K.start_motion_ws(t, y, p, K.new_workspace())
+    (:func:`triplanar.stepping.start_motion_ws`); returns (accepted, consistency)."""
+    accepted, consistency = stepping.start_motion_ws(t, y, p, K.new_workspace())
     return bool(accepted), float(consistency)
