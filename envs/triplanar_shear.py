@@ -317,9 +317,9 @@ def _energy_defect(y0, y1, p, ws) -> float:
 
 @njit(cache=True, error_model="numpy")
 def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
-    """Fixed RK4 steps to ``t_end`` or an event (the kernel steps to each predicted stop of a slip); if the energy
-    balance still shows a defect (a slip that reversed unseen inside a step), the stretch is redone with the
-    kernel's adaptive DOPRI5, which locates every stop. Returns the kernel's status."""
+    """Fixed RK4 steps to ``t_end`` or an event (the kernel steps to each predicted stop of a slip). If the energy
+    balance is off by more than ``energy_tol_J`` (a slow slip whose direction turns too fast for the step, or a plain
+    RK4 error near a stop), the stretch is redone with the kernel's adaptive DOPRI5. Returns the kernel's status."""
     out_t = ws[K.W_YHI, :1]  # (nothing is recorded)
     out_y = ws[K.W_YHI:K.W_YHI + 1, :K.N_STATE]
     out_aux = ws[K.W_AUXHI:K.W_AUXHI + 1, :K.N_AUX]
