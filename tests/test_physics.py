@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -365,3 +366,17 @@ def test_fixed_steps_stop_where_a_slip_stops() -> None:
         assert status == stepping.ST_SLOW and abs(t - t_exact) < 0.5 * h
         errors.append(np.abs(cps - exact).max())
     assert errors[0] < 2e-6 and errors[1] < errors[0] / 10  # m
+
+
+def test_a_turning_slip_does_not_stall_fixed_steps() -> None:
+    """A state from a PPO rollout (tests/data/turning_slip_state.npz): CP3 slips at 1.2 mm/s and decelerates, but
+    its slip turns instead of stopping. Predicting its stop again and again used to shrink the steps towards zero
+    (the env stalled); a site whose predicted stop was not one is not predicted again in the same call."""
+    d = np.load(Path(__file__).parent / "data" / "turning_slip_state.npz")
+    y, p = d["y"].copy(), d["p"].copy()
+    buffers = (np.empty(1000), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_AUX)))
+    rows, status, _, _, t = stepping.integrate(stepping.METHOD_RK4, float(d["t0"]), y, p, float(d["h"]), 0.0, 0.0,
+                                               float(d["t_end"]), float(d["x1_target"]), float(d["slow_speed"]),
+                                               d["armed"].copy(), *buffers, True)
+    assert status == stepping.ST_TIME_LIMIT and t == pytest.approx(float(d["t_end"]), abs=1e-12)
+    assert rows <= stepping.MAX_MISSED_STOPS + 5

@@ -30,6 +30,8 @@ from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_
 
 drop_if_stale(Path(__file__).parent / "__pycache__", "stepping.*.nb[ic]", [Path(K.__file__)], "stepping.kernel.sha256")
 
+MAX_MISSED_STOPS = 8  # predicted stops of one site in a row that may miss before a full step is taken
+
 # -- status codes returned by integrate() ------------------------------------------------------
 ST_RUNNING, ST_TRAVEL, ST_LIFT_OFF, ST_MC_OUTSIDE, ST_LEFT_PLANE = 0, 1, 2, 3, 4
 ST_SLOW, ST_TIME_LIMIT, ST_BUFFER_FULL, ST_STEP_FAILED, ST_STOPPED, ST_RELEASE = 5, 6, 7, 8, 9, 10
@@ -191,6 +193,11 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         if ev_old[k] > 0.0:
             return rows, _status_of(k), k, h, t
     fixed = method != METHOD_DOPRI5
+    # Consecutive predicted steps of each site that did not end in its stop. A stop is usually reached in a few
+    # (each one refines the last); a slip that turns instead of stopping can make them shrink towards zero
+    # (tests/test_physics.py::test_a_turning_slip_does_not_stall_fixed_steps), so after MAX_MISSED_STOPS the next
+    # step is a full one.
+    missed = np.zeros(4, np.int64)
     while True:
         if record and rows >= out_t.shape[0]:
             return rows, ST_BUFFER_FULL, -1, h, t
@@ -199,9 +206,11 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         h_try = min(h, t_max - t)
         site = -1
         if fixed:
-            site, tau = _predicted_stop(y, p, aux, armed, slow_speed, ws)
+            site, tau = _predicted_stop(y, p, aux, armed, slow_speed, missed, ws)
             if site < 0 or tau >= h_try:
                 site = -1
+            else:
+                tau = max(tau, 1e-6 * h_try)  # (always progress: a huge deceleration must not stall time)
         if site >= 0:
             h_try = _step_to_stop(method, t, y, tau, h_try, p, site, slow_speed, y_new, err, aux_new, ws)
             if h_try < 0.0:
@@ -230,6 +239,10 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
                 hit = k
                 break
         predicted = site >= 0 and hit == (EV_TIP_STOP if site == 3 else EV_STOP + site)
+        if site >= 0 and not predicted:
+            missed[site] += 1
+        else:
+            missed[:] = 0
         if hit >= 0 and not predicted:  # (a predicted stop is already where it happens)
             h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
                            y_new, err, aux_new, ws)
@@ -301,9 +314,10 @@ def _site_velocity(y: np.ndarray, p: np.ndarray, aux: np.ndarray, site: int, ws:
 
 @njit(cache=True, error_model="numpy")
 def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.ndarray, slow_speed: float,
-                    ws: np.ndarray) -> tuple:
+                    missed: np.ndarray, ws: np.ndarray) -> tuple:
     """The sliding site (contact 0-2 or the tip, 3) that friction will stop first, and when, extrapolating
-    its deceleration along its slip: ``|v| / (-a . v/|v|)``; (-1, inf) if none decelerates. Sets
+    its deceleration along its slip: ``|v| / (-a . v/|v|)``; (-1, inf) if none decelerates. Sites that
+    missed MAX_MISSED_STOPS predicted stops in a row (``missed``) are left out. Sets
     ``ws[W_SITE_D]`` to that site's slip direction.
 
     Why: a fixed step cannot see a slip that stops and would reverse inside it (friction's direction flips
@@ -314,7 +328,7 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.nda
     stuck = int(p[P_STUCK])
     rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0
     for site in range(4):
-        if site < 3 and (site == stuck or not armed[site + 1]) or site == 3 and not (rubs and armed[4]):
+        if missed[site] >= MAX_MISSED_STOPS or site < 3 and (site == stuck or not armed[site + 1]) or site == 3 and not (rubs and armed[4]):
             continue
         _site_velocity(y, p, aux, site, ws, v)
         speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
