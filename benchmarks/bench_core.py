@@ -46,7 +46,7 @@ def bench_traces(repeats: int = 20) -> None:
 
 
 def bench_control_step(repeats: int = 2000) -> None:
-    print("\ncase A, one control step: 5 ms of physical time, RK4, 1 substep (kernel.integrate_ws from Python, "
+    print("\ncase A, one control step: 5 ms of physical time, RK4, 1 substep (stepping.integrate_ws from Python, "
           "record=False, one workspace as the env keeps)")
     medians = []
     for force in PAPER_LOADS_N:
