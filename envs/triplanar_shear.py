@@ -274,7 +274,7 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
     code = control_step(y, p, armed, st, ref, first, cfg, obs, inf, K.new_workspace())
     if code != RUNNING:
         raise StartError(f"the block's first {1e3 * config.dt:g} ms already ended the test: "
-                         f"{REASONS[code] if code > 0 else code} (specimen {specimen.name!r}, {draw.load_N:g} N)")
+                         f"{REASONS[code]} (specimen {specimen.name!r}, {draw.load_N:g} N)")
     return EpisodeStart(key, model, y, p, armed, st, ref, reference_run.status, obs, inf)
 
 
@@ -379,7 +379,8 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
     travel = cfg[CF_TRAVEL]
     cps = ws[K.W_CPS:K.W_CPS + 3, :3]
     K.contact_points_ws(y, p, cps, ws)
-    R = ws[K.W_R:K.W_R + 3, :3]  # (contact_points_ws left the rotation there)
+    R = ws[K.W_R:K.W_R + 3, :3]
+    K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], R)
     s = cps[0, 0] - st[ST_CP_REST]
     # Hydrostatic reference at the same travel (linear in travel between samples).
     n_ref = ref.shape[0]

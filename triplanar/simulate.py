@@ -86,8 +86,8 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
         while True:
             out_t, out_y = np.empty(rows), np.empty((rows, K.N_STATE))
             out_aux = np.empty((rows, K.N_AUX))
-            n, code, event, h, t = stepping.integrate(METHODS[method], t, y, p, h, rtol, atol, t_max_s, x1_target,
-                                               SLOW_SPEED_M_S, armed, out_t, out_y, out_aux, True)
+            n, code, event, h, t = stepping.integrate(METHODS[method], t, y, p, h, rtol, atol, t_max_s,
+                                                      x1_target, SLOW_SPEED_M_S, armed, out_t, out_y, out_aux, True)
             skip = 1 if t_chunks else 0  # each chunk starts with the previous chunk's last row
             t_chunks.append(out_t[skip:n]); y_chunks.append(out_y[skip:n]); a_chunks.append(out_aux[skip:n])
             if code == stepping.ST_BUFFER_FULL and sum(len(c) for c in t_chunks) < max_rows:

@@ -2,7 +2,7 @@
 
 :func:`integrate` (and :func:`integrate_ws`, which takes a workspace) steps the one right-hand side of
 :mod:`triplanar.kernel` with Euler (the paper's eq. 40), RK4 or adaptive DOPRI5, locates events, handles a contact
-or the tip that stops slipping or whose static friction gives way (:func:`apply_mode_event`), and returns at
+or the tip that stops slipping or whose static friction gives way (:func:`apply_mode_event_ws`), and returns at
 terminal events and at ``ST_SLOW`` (all contacts nearly stopped: the caller decides arrest with the statics LP,
 :mod:`triplanar.equilibrium`). :func:`incipient_directions` and :func:`start_motion_ws` choose how a block at
 rest starts to move. ``docs/physics.md`` explains the choices; the tests in ``tests/test_physics.py`` measure them.
@@ -54,23 +54,14 @@ METHOD_EULER, METHOD_RK4, METHOD_DOPRI5 = 0, 1, 2
 
 
 @njit(cache=True, error_model="numpy")
-def step(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
-         err: np.ndarray, aux: np.ndarray) -> bool:
-    """:func:`step_ws` with its own scratch memory."""
-    return step_ws(method, t, y, h, p, y_new, err, aux, new_workspace(), False)
-
-
-@njit(cache=True, error_model="numpy")
 def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
-            err: np.ndarray, aux: np.ndarray, ws: np.ndarray, k1_ready: bool) -> bool:
+            err: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """One step of size ``h`` from (t, y) into ``y_new`` (not projected); ``err`` gets DOPRI5's estimate.
-    ``k1_ready``: the first stage f(t, y) is already in the workspace's first stage row (``W_STAGES``), which
-    the step otherwise fills (every method's first stage is f(t, y))."""
+    Every method's first stage is f(t, y): the caller keeps it in the workspace's first stage row (``W_STAGES``,
+    see :func:`integrate_ws`)."""
     n = y.shape[0]
     k = ws[W_STAGES:W_STAGES + 7, :N_STATE]
     tmp = ws[W_STAGES + 7, :N_STATE]
-    if not k1_ready and not rhs_ws(t, y, p, k[0], aux, ws):
-        return False
     if method == METHOD_EULER:  # the paper's eq. 40
         for i in range(n):
             y_new[i] = y[i] + h * k[0, i]
@@ -129,7 +120,7 @@ def _error_norm(y: np.ndarray, y_new: np.ndarray, err: np.ndarray, rtol: float, 
 def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
     """A step followed by projection; then evaluate dynamics at the new state to fill ``aux`` (and f(y_new) in
     ``ws[W_DY]``). The step's first stage f(t, y) must be in ``ws[W_STAGES]`` (see :func:`integrate_ws`)."""
-    if not step_ws(method, t, y, h, p, y_new, err, aux, ws, True):
+    if not step_ws(method, t, y, h, p, y_new, err, aux, ws):
         return False
     if not project_ws(y_new, p, ws):
         return False
@@ -159,7 +150,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     ``h`` is the fixed step (Euler, RK4) or the first trial step (DOPRI5). Events are located to 1e-13 s
     by re-stepping from the last accepted state with a shorter step (Illinois regula falsi on the step),
     so a terminal event's row lies on the event. A contact or the tip that stops slipping, or whose static
-    friction gives way, is handled here (:func:`apply_mode_event`); the run returns to the caller for the
+    friction gives way, is handled here (:func:`apply_mode_event_ws`); the run returns to the caller for the
     rest: terminal events, and ``ST_SLOW`` (a possible arrest: the caller decides with the statics LP).
     A fixed step that would carry a sliding site past its predicted stop ends there instead
     (:func:`_predicted_stop`, :func:`_step_to_stop`), so the stop is handled where it happens.
@@ -328,7 +319,9 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.nda
     stuck = int(p[P_STUCK])
     rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0
     for site in range(4):
-        if missed[site] >= MAX_MISSED_STOPS or site < 3 and (site == stuck or not armed[site + 1]) or site == 3 and not (rubs and armed[4]):
+        if missed[site] >= MAX_MISSED_STOPS:
+            continue
+        if site < 3 and (site == stuck or not armed[site + 1]) or site == 3 and not (rubs and armed[4]):
             continue
         _site_velocity(y, p, aux, site, ws, v)
         speed = math.sqrt(v[0] ** 2 + v[1] ** 2 + v[2] ** 2)
@@ -389,12 +382,6 @@ def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray, ws: np.nd
     if p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0 and slip >= SLIP_BLEND:
         for k in range(3):
             p[P_D0 + 9 + k] = aux[A_SLIP + k] / slip
-
-
-@njit(cache=True, error_model="numpy")
-def apply_mode_event(event: int, t: float, y: np.ndarray, p: np.ndarray) -> None:
-    """:func:`apply_mode_event_ws` with its own scratch memory."""
-    apply_mode_event_ws(event, t, y, p, new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
