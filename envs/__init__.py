@@ -17,12 +17,12 @@ from triplanar.compiled_cache import drop_if_stale
 
 
 def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | None = None) -> bool:
-    """The env's compiled step has the kernel, its stepping and the equilibrium LP built in, and the vector env's
+    """The env's compiled step has the kernel, its stepping, the driver and the equilibrium LP built in, and the vector env's
     loop has the single env's step built in: drop this package's numba cache whenever any of them changes
     (:func:`triplanar.compiled_cache.drop_if_stale`; returns True if it did)."""
     if sources is None:
-        from triplanar import equilibrium, kernel, stepping  # importing compiles nothing
-        sources = [Path(module.__file__) for module in (kernel, stepping, equilibrium)]
+        from triplanar import driver, equilibrium, kernel, outcome, stepping  # importing compiles nothing
+        sources = [Path(module.__file__) for module in (kernel, stepping, equilibrium, driver, outcome)]
         sources.append(Path(__file__).parent / "triplanar_shear.py")
     cache = cache if cache is not None else Path(__file__).parent / "__pycache__"
     return drop_if_stale(cache, "*.nb[ic]", sources, "kernel.sha256")

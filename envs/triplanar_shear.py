@@ -18,7 +18,8 @@ import numpy as np
 from gymnasium import spaces
 from numba import njit
 
-from triplanar import PAPER_LOADS_N, equilibrium as E, kernel as K, stepping
+from triplanar import PAPER_LOADS_N, driver, kernel as K, stepping
+from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL, Outcome
 from triplanar.model import Loading, Model, paper_model
 from triplanar.simulate import SLOW_SPEED_M_S, simulate
 from triplanar.specimen import Foundation, Specimen, reference
@@ -33,9 +34,6 @@ N_ST = 21
 # -- configuration shared by all environments of a batch (float64 array ``cfg``) -------------------
 CF_DT, CF_H, CF_STAGE, CF_RANGE, CF_TRAVEL, CF_RATE, CF_FAIL, CF_WEIGHT, CF_SLOW, CF_ENERGY_TOL = range(10)
 N_CF = 10
-# DOPRI5 tolerances (rtol; atol = rtol / 1000) of the redo, tried in turn until the energy balance holds; the last
-# is taken as it is (over 6000 random-action periods: 104 needed it, and its balance was then off by <= 8e-11 J)
-FALLBACK_RTOLS = (1e-6, 1e-8)
 
 # -- info terms (float64 array ``inf``) -----------------------------------------------------------
 (IN_REWARD, IN_R_DIST, IN_R_RATE, IN_R_TERM, IN_DIST, IN_ERR, IN_TRAVEL, IN_THRUST, IN_OFFSET_CMD, IN_OFFSET,
@@ -47,10 +45,6 @@ INFO_KEYS = ("reward_distance", "reward_action_rate", "reward_termination", "dis
 INFO_SLOTS = (IN_R_DIST, IN_R_RATE, IN_R_TERM, IN_DIST, IN_ERR, IN_TRAVEL, IN_THRUST, IN_OFFSET_CMD, IN_OFFSET,
               IN_UDOT, IN_TIME, IN_LOAD, IN_FALLBACK)
 
-# -- step outcome codes ------------------------------------------------------------------------
-RUNNING, SUCCESS, LIFT_OFF, MC_OUTSIDE, LEFT_PLANE, ARREST, FAILED = 0, 1, 2, 3, 4, 5, 6
-REASONS = ("", "success", "lift_off", "mass_centre_outside", "left_plane", "arrest", "failed")
-TIME_LIMIT = "time_limit"
 
 # -- observation layout ------------------------------------------------------------------------
 OBS_POS, OBS_VEL, OBS_OFFSET, OBS_FACE, OBS_LOAD, OBS_REF, OBS_PREV, OBS_TIME = 0, 9, 18, 19, 21, 22, 31, 33
@@ -274,7 +268,7 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
     code = control_step(y, p, armed, st, ref, first, cfg, obs, inf, K.new_workspace())
     if code != RUNNING:
         raise StartError(f"the block's first {1e3 * config.dt:g} ms already ended the test: "
-                         f"{REASONS[code]} (specimen {specimen.name!r}, {draw.load_N:g} N)")
+                         f"{Outcome(code).label} (specimen {specimen.name!r}, {draw.load_N:g} N)")
     return EpisodeStart(key, model, y, p, armed, st, ref, reference_run.status, obs, inf)
 
 
@@ -307,69 +301,21 @@ def _apply_action(y, p, st, action, cfg, ws) -> None:
 
 
 @njit(cache=True, error_model="numpy")
-def _energy_defect(y0, y1, p, ws) -> float:
-    """Change over a step of the energy balance's residual: work in minus (kinetic + potential + dissipated)."""
-    work = y1[K.S_WLOAD] - y0[K.S_WLOAD] + y1[K.S_WOTHER] - y0[K.S_WOTHER]
-    dissipated = y1[K.S_DTIP] - y0[K.S_DTIP]
-    for j in range(3):
-        dissipated += y1[K.S_DC + j] - y0[K.S_DC + j]
-    potential = p[K.P_MASS] * p[K.P_G] * (y1[K.S_R + 1] - y0[K.S_R + 1])
-    return work - (K.kinetic_energy_ws(y1, p, ws) - K.kinetic_energy_ws(y0, p, ws)) - potential - dissipated
-
-
-@njit(cache=True, error_model="numpy")
-def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
-    """Fixed RK4 steps to ``t_end`` or an event (the kernel steps to each predicted stop of a slip). If the energy
-    balance is off by more than ``energy_tol_J`` (a slow slip whose direction turns too fast for the step, or a plain
-    RK4 error near a stop), the stretch is redone with the kernel's adaptive DOPRI5 at the tolerances
-    FALLBACK_RTOLS in turn, until the balance holds. Returns the kernel's status."""
-    out_t = ws[K.W_YHI, :1]  # (nothing is recorded)
-    out_y = ws[K.W_YHI:K.W_YHI + 1, :K.N_STATE]
-    out_aux = ws[K.W_AUXHI:K.W_AUXHI + 1, :K.N_AUX]
-    y0, p0, armed0, t0 = y.copy(), p.copy(), armed.copy(), st[ST_T]
-    rows, status, event, h, t = stepping.integrate_ws(stepping.METHOD_RK4, t0, y, p, cfg[CF_H], 0.0, 0.0, t_end,
-                                                      st[ST_X1_TARGET], cfg[CF_SLOW], armed, out_t, out_y, out_aux,
-                                                      False, ws)
-    for rtol in FALLBACK_RTOLS:
-        if cfg[CF_ENERGY_TOL] <= 0.0 or abs(_energy_defect(y0, y, p, ws)) <= cfg[CF_ENERGY_TOL]:
-            break
-        y[:] = y0
-        p[:] = p0
-        armed[:] = armed0
-        rows, status, event, h, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, cfg[CF_H], rtol,
-                                                          1e-3 * rtol, t_end, st[ST_X1_TARGET], cfg[CF_SLOW],
-                                                          armed, out_t, out_y, out_aux, False, ws)
-        inf[IN_FALLBACK] += 1.0
-    st[ST_T] = t
-    return status
-
-
-@njit(cache=True, error_model="numpy")
 def _advance(y, p, armed, st, cfg, inf, ws) -> int:
-    """Integrate to the end of the control period or an outcome. When every contact has nearly stopped, the
-    statics decide (:func:`triplanar.equilibrium.holds`, the exact LP at the current pose, thrust and tip offset):
-    friction holds the block (an arrest), or it moves on in the mode :func:`triplanar.stepping.start_motion_ws`
-    finds."""
-    t_end = (st[ST_STEP] + 1.0) * cfg[CF_DT]
-    while True:
-        status = _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws)
-        if status != stepping.ST_SLOW:
-            break
-        if E.holds(y, p, K.thrust(st[ST_T], p), p[K.P_EXTF:K.P_EXTF + 3], p[K.P_EXTM:K.P_EXTM + 3]):
-            return ARREST
-        stepping.start_motion_ws(st[ST_T], y, p, ws)
-        armed[:] = False
-    if status == stepping.ST_TIME_LIMIT:
-        return RUNNING
-    if status == stepping.ST_TRAVEL:
-        return SUCCESS
-    if status == stepping.ST_LIFT_OFF:
-        return LIFT_OFF
-    if status == stepping.ST_MC_OUTSIDE:
-        return MC_OUTSIDE
-    if status == stepping.ST_LEFT_PLANE:
-        return LEFT_PLANE
-    return FAILED
+    """Integrate to the end of the control period or an outcome with the project's one driver
+    (:func:`triplanar.driver.drive`: fixed RK4 steps, redone with DOPRI5 where the energy balance is off by more than
+    ``energy_tol_J``; arrests decided by the statics LP at the current pose, thrust and tip offset). Returns the
+    outcome, ``RUNNING`` when the period ended with the block still moving."""
+    count = ws[K.W_COUNT]
+    redone = count[K.C_NREDO]
+    outcome, _, _, _, t = driver.drive(stepping.METHOD_RK4, st[ST_T], y, p, armed, cfg[CF_H], 0.0, 0.0,
+                                       (st[ST_STEP] + 1.0) * cfg[CF_DT], st[ST_X1_TARGET], cfg[CF_SLOW],
+                                       cfg[CF_ENERGY_TOL], ws[K.W_YHI, :1], ws[K.W_YHI:K.W_YHI + 1, :K.N_STATE],
+                                       ws[K.W_AUXHI:K.W_AUXHI + 1, :K.N_AUX], False, 0, ws[K.W_YHI:K.W_YHI, :3],
+                                       ws)
+    st[ST_T] = t
+    inf[IN_FALLBACK] = count[K.C_NREDO] - redone
+    return RUNNING if outcome == TIME_LIMIT else outcome
 
 
 @njit(cache=True, error_model="numpy")
@@ -437,7 +383,7 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
     r_rate = -cfg[CF_RATE] * ((a0 - st[ST_A0]) ** 2 + (a1 - st[ST_A1]) ** 2)
     truncated = code == RUNNING and st[ST_STEP] >= st[ST_MAX_STEPS]
     r_term = 0.0
-    if (code > SUCCESS or truncated) and s < travel:
+    if (code != RUNNING and code != TRAVEL or truncated) and s < travel:
         r_term = -cfg[CF_FAIL] * (1.0 - max(s, 0.0) / travel)
     st[ST_ERR_NUM] += 0.5 * (dist + st[ST_DPREV]) * ds
     st[ST_ERR_DEN] += ds
@@ -466,7 +412,6 @@ def control_step(y, p, armed, st, ref, action, cfg, obs, inf, ws) -> int:
     """One control period: apply ``action``, integrate, observe; returns the outcome code. ``ws`` is a kernel
     workspace (:func:`triplanar.kernel.new_workspace`), scratch only."""
     _apply_action(y, p, st, action, cfg, ws)
-    inf[IN_FALLBACK] = 0.0
     code = _advance(y, p, armed, st, cfg, inf, ws)
     _finish(y, p, st, ref, action, cfg, code, obs, inf, ws)
     return code
@@ -484,10 +429,17 @@ def action_space() -> spaces.Box:
 _SLOTS = np.array(INFO_SLOTS)
 
 
+def reason(code: int, truncated: bool) -> str:
+    """``info["reason"]``: the outcome's label (:mod:`triplanar.outcome`) when the episode ended, else ""."""
+    if code != RUNNING:
+        return Outcome(code).label
+    return Outcome.TIME_LIMIT.label if truncated else ""
+
+
 def info_dict(inf: np.ndarray, code: int) -> dict[str, Any]:
     info: dict[str, Any] = dict(zip(INFO_KEYS, inf[_SLOTS].tolist()))
-    info["reason"] = REASONS[code] if code > 0 else (TIME_LIMIT if inf[IN_TRUNC] else "")
-    info["is_success"] = code == SUCCESS
+    info["reason"] = reason(code, bool(inf[IN_TRUNC]))
+    info["is_success"] = code == TRAVEL
     return info
 
 

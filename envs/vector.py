@@ -23,6 +23,7 @@ from numba import njit
 from stable_baselines3.common.vec_env import VecEnv
 
 from triplanar import kernel as K
+from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
 from . import triplanar_shear as S
 
@@ -144,13 +145,13 @@ class ShearBatch:
         """Info terms of ``rows`` as arrays (keys as the single env's info)."""
         info = {key: self.INF[rows, slot].copy() for key, slot in zip(S.INFO_KEYS, S.INFO_SLOTS)}
         codes = self.CODES[rows]
-        info["reason_code"] = np.where(codes > 0, codes, np.where(self.INF[rows, S.IN_TRUNC] != 0, -2, 0))
-        info["is_success"] = codes == S.SUCCESS
+        info["reason_code"] = np.where(codes != RUNNING, codes, np.where(self.INF[rows, S.IN_TRUNC] != 0, TIME_LIMIT,
+                                                                          RUNNING))
+        info["is_success"] = codes == TRAVEL
         return info
 
     def reason(self, i: int) -> str:
-        code = int(self.CODES[i])
-        return S.REASONS[code] if code > 0 else (S.TIME_LIMIT if self.INF[i, S.IN_TRUNC] else "")
+        return S.reason(int(self.CODES[i]), bool(self.INF[i, S.IN_TRUNC]))
 
 
 def _seed_list(seed: int | Sequence[int | None] | None, n: int) -> list[int | None]:
@@ -167,8 +168,8 @@ class TriPlanarShearVectorEnv(VectorEnv):
 
     Next-step autoreset: the step after an episode ends returns the new episode's first observation, reward 0 and
     ``terminated = truncated = False``. ``reset(seed=s)`` seeds env ``i`` with ``s + i`` (or pass a list);
-    ``info`` holds the single env's terms as arrays, with ``reason_code`` (index into
-    ``envs.triplanar_shear.REASONS``; -2: time limit) and ``is_success``.
+    ``info`` holds the single env's terms as arrays, with ``reason_code`` (the :class:`triplanar.outcome.Outcome`
+    value: ``RUNNING`` while the episode goes on, ``TIME_LIMIT`` when truncated) and ``is_success``.
     """
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
@@ -272,7 +273,7 @@ class ShearSB3VecEnv(VecEnv):
         ended = np.flatnonzero(dones)
         for i in ended:
             infos[i] = {"terminal_observation": obs[i].copy(), "TimeLimit.truncated": bool(truncated[i]),
-                        "is_success": bool(codes[i] == S.SUCCESS), "reason": batch.reason(i),
+                        "is_success": bool(codes[i] == TRAVEL), "reason": batch.reason(i),
                         "mimicry_error_mm": float(batch.INF[i, S.IN_ERR]), "travel_m": float(batch.INF[i, S.IN_TRAVEL]),
                         "load_N": float(batch.INF[i, S.IN_LOAD])}
         if len(ended):

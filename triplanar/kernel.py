@@ -84,6 +84,7 @@ LEFT_PLANE_TOL = 1e-6  # m: how far below another plane a contact point must be 
 # -- events (event_values) -------------------------------------------------------------------
 # Events: 0 travel, 1-3 lift-off, 4 mass centre, 5-10 left plane, 11 all slow, 12-14 CP i stopped,
 # 15 stuck contact released, 16 tip slip stopped, 17 stuck tip released
+EV_TRAVEL, EV_LIFT_OFF, EV_MC_OUTSIDE, EV_LEFT_PLANE = 0, 1, 4, 5
 EV_SLOW, EV_STOP, EV_RELEASE, EV_TIP_STOP, EV_TIP_RELEASE = 11, 12, 15, 16, 17
 N_EVENTS = 18
 
@@ -109,14 +110,20 @@ W_AUX, W_AUXNEW, W_AUXHI, W_AUXMODE = range(96, 100)  # aux vectors
 W_EVOLD, W_EVNEW, W_EVLOC = range(100, 103)  # event-value vectors
 W_DIRS = 103            # 2 rows of 12: incipient directions and their update
 W_SITE_D, W_SITE_V = 105, 106  # 3-vectors: a stopping site's initial slip direction, and its slip velocity
-N_WS_ROWS = 107
+W_COUNT = 107           # counters (zeroed by new_workspace): what a run cost and what happened, see C_*
+N_WS_ROWS = 108
+# counters in row W_COUNT: right-hand-side evaluations, accepted and rejected steps, events located, rows of the
+# event log, starts from rest (mode searches), static-equilibrium checks, stretches redone for the energy balance
+C_NFEV, C_NSTEP, C_NREJECT, C_NEVENT, C_NLOG, C_NSTART, C_NLP, C_NREDO = range(8)
 WS_WIDTH = max(N_STATE, N_AUX, N_EVENTS, 12)
 
 
 @njit(cache=True, error_model="numpy")
 def new_workspace() -> np.ndarray:
-    """Scratch memory for one thread of evaluation (see the note above)."""
-    return np.empty((N_WS_ROWS, WS_WIDTH))
+    """Scratch memory for one thread of evaluation (see the note above), counters at zero."""
+    ws = np.empty((N_WS_ROWS, WS_WIDTH))
+    ws[W_COUNT, :] = 0.0
+    return ws
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -532,6 +539,7 @@ def rhs(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray)
 @njit(cache=True, error_model="numpy")
 def rhs_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """The right-hand side every integrator calls: user wrench (if any), then :func:`dynamics`."""
+    ws[W_COUNT, C_NFEV] += 1.0
     if p[P_USER] != 0.0:
         _user_wrench(t, y, p)
     return dynamics_ws(t, y, p, dy, aux, ws)

@@ -5,12 +5,28 @@ from __future__ import annotations
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 
 from . import kernel as K
 from .measurement import MeasuredTest, write_measurements
 from .model import Model
+from .outcome import Outcome, event_name
+
+
+class Event(NamedTuple):
+    """One event of a run, in order: the time, the kernel's event index (-1 for a decision of the statics,
+    such as an arrest) and the outcome it caused (``STOPPED`` and ``RELEASED`` are stick/slip changes that the
+    run goes on after; ``SLOW`` is a check of the statics, after which the block restarts or is ``ARRESTED``)."""
+
+    t: float
+    event: int
+    outcome: Outcome
+
+    @property
+    def name(self) -> str:
+        return event_name(self.event) if self.event >= 0 else self.outcome.label
 
 
 def rotation_matrices(quaternions: np.ndarray) -> np.ndarray:
@@ -28,7 +44,13 @@ class SimulationResult:
 
     Rows are the integrator's accepted steps; ``t`` is time since the start of sliding (``t_start_s`` is
     when sliding started after the actuator began to push: 0 unless the force rises). The last row is the
-    final state itself (for ``status == "travel"``, at exactly the travel target).
+    final state itself (for ``status == "travel"``, at exactly the travel target). ``status`` is an
+    :class:`~triplanar.outcome.Outcome` label.
+
+    As ``solve_ivp``'s result counts its work: ``events`` lists what happened in order (stick/slip changes,
+    checks of the statics, the ending; the first 10,000), ``nfev`` the right-hand-side evaluations, ``n_steps``
+    the accepted and ``n_rejected`` the rejected steps, ``n_statics`` the static-equilibrium checks and
+    ``n_starts`` the starts from rest (mode searches).
     """
 
     t: np.ndarray
@@ -42,6 +64,16 @@ class SimulationResult:
     travel_target_m: float
     incipient_converged: bool
     incipient_consistency: float
+    events: tuple[Event, ...] = ()
+    nfev: int = 0
+    n_steps: int = 0
+    n_rejected: int = 0
+    n_statics: int = 0
+    n_starts: int = 0
+
+    @property
+    def outcome(self) -> Outcome:
+        return Outcome.from_label(self.status)
 
     @property
     def success(self) -> bool:

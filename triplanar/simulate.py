@@ -7,7 +7,9 @@ Modelled on ``scipy.integrate.solve_ivp``: a plain function returning a result w
 * ``"rk4"``: classical Runge-Kutta at fixed step ``dt`` (what the Gymnasium env uses).
 * ``"euler"``: the paper's explicit Euler (eq. 40) at fixed step ``dt``, for comparison.
 
-Every method projects the contact points back onto their planes after each step (drift < 1e-12 m).
+Every method projects the contact points back onto their planes after each step (drift < 1e-12 m). The
+integration itself is :func:`triplanar.driver.drive`, the same compiled driver the Gymnasium environment uses;
+this function decides whether the block starts at all, records every accepted step and names the ending.
 """
 
 from __future__ import annotations
@@ -16,19 +18,18 @@ import math
 
 import numpy as np
 
+from . import driver, stepping
 from . import kernel as K
-from . import stepping
 from .model import Model
-from .result import SimulationResult
+from .outcome import Outcome, describe
+from .result import Event, SimulationResult
 from .statics import holds, sliding_threshold, start_motion
 
 METHODS = {"euler": stepping.METHOD_EULER, "rk4": stepping.METHOD_RK4, "dopri5": stepping.METHOD_DOPRI5}
 DEFAULT_DT = {"euler": 1e-5, "rk4": 1e-3, "dopri5": 1e-4}
 SLOW_SPEED_M_S = 1e-5  # below this (every contact point) the block is checked for arrest
 
-_STATUS = {stepping.ST_TRAVEL: "travel", stepping.ST_LIFT_OFF: "lift_off",
-           stepping.ST_MC_OUTSIDE: "mass_centre_outside", stepping.ST_LEFT_PLANE: "left_plane",
-           stepping.ST_TIME_LIMIT: "time_limit", stepping.ST_STEP_FAILED: "failed"}
+MAX_LOGGED_EVENTS = 10_000  # events kept in a result's record (the counts go on past it)
 
 
 def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-11,
@@ -76,72 +77,46 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
         return _held(model, y0, method, f"friction holds the block at {thrust0:g} N: a static equilibrium exists, "
                      "so it never starts to slide")
 
+    ws = K.new_workspace()
+    log = np.empty((MAX_LOGGED_EVENTS, 3))
+    capacity = min(max_rows, 4096 if method == "dopri5" else int(t_max_s / h) + 8)
+    out_t, out_y, out_aux = np.empty(capacity), np.empty((capacity, K.N_STATE)), np.empty((capacity, K.N_AUX))
+    rows, t, y = 0, 0.0, y0.copy()
+    x1_target = _cp1_x1(y0, p) + travel_m
+    armed = np.zeros(5, dtype=np.bool_)
     with _user_effects(model):
         converged, consistency = start_motion(p, y0)
-        t_chunks, y_chunks, a_chunks = [], [], []
-        t, y = 0.0, y0.copy()
-        x1_target = _cp1_x1(y0, p) + travel_m
-        armed = np.zeros(5, dtype=np.bool_)
-        rows = min(max_rows, 4096 if method == "dopri5" else int(t_max_s / h) + 8)
         while True:
-            out_t, out_y = np.empty(rows), np.empty((rows, K.N_STATE))
-            out_aux = np.empty((rows, K.N_AUX))
-            n, code, event, h, t = stepping.integrate(METHODS[method], t, y, p, h, rtol, atol, t_max_s,
-                                                      x1_target, SLOW_SPEED_M_S, armed, out_t, out_y, out_aux, True)
-            skip = 1 if t_chunks else 0  # each chunk starts with the previous chunk's last row
-            t_chunks.append(out_t[skip:n]); y_chunks.append(out_y[skip:n]); a_chunks.append(out_aux[skip:n])
-            if code == stepping.ST_BUFFER_FULL and sum(len(c) for c in t_chunks) < max_rows:
-                rows = min(2 * rows, max_rows)
-                continue
-            if code == stepping.ST_SLOW:
-                # Every contact slow, or a second one stops while one sticks: can friction hold it all?
-                if holds(model, y, K.thrust(t, p), t):
-                    status, message = "arrested", (f"arrested at t = {t:.4f} s: the contact points came to rest "
-                                                   "and friction can hold the block")
-                    break
-                start_motion(p, y, t)
-                armed[:] = False
-                continue
-            if code == stepping.ST_BUFFER_FULL:
-                status, message = "failed", f"more than max_rows = {max_rows} steps; raise max_rows or dt"
+            code, event, rows, h, t = driver.drive(METHODS[method], t, y, p, armed, h, rtol, atol, t_max_s, x1_target,
+                                                   SLOW_SPEED_M_S, 0.0, out_t, out_y, out_aux, True, rows, log, ws)
+            if code != Outcome.BUFFER_FULL or capacity >= max_rows:
                 break
-            status = _STATUS[code]
-            message = _message(status, event, t, travel_m)
-            break
-
-    result = SimulationResult(t=np.concatenate(t_chunks), y=np.concatenate(y_chunks),
-                              aux=np.concatenate(a_chunks), status=status, message=message, model=model,
-                              method=method, t_start_s=t_start, travel_target_m=travel_m,
-                              incipient_converged=converged, incipient_consistency=consistency)
-    return result
+            capacity = min(2 * capacity, max_rows)
+            out_t, out_y, out_aux = (np.concatenate([a, np.empty((capacity - len(a),) + a.shape[1:])])
+                                     for a in (out_t, out_y, out_aux))
+    if code == Outcome.BUFFER_FULL:
+        status, message = "failed", f"more than max_rows = {max_rows} steps; raise max_rows or dt"
+    else:
+        status, message = Outcome(code).label, describe(Outcome(code), event, t, travel_m)
+    count = ws[K.W_COUNT]
+    return SimulationResult(t=out_t[:rows].copy(), y=out_y[:rows].copy(), aux=out_aux[:rows].copy(), status=status,
+                            message=message, model=model, method=method, t_start_s=t_start,
+                            travel_target_m=travel_m, incipient_converged=converged,
+                            incipient_consistency=consistency,
+                            events=tuple(Event(float(r[0]), int(r[1]), Outcome(int(r[2]))) for r in
+                                         log[:int(count[K.C_NLOG])]),
+                            nfev=int(count[K.C_NFEV]), n_steps=int(count[K.C_NSTEP]),
+                            n_rejected=int(count[K.C_NREJECT]), n_statics=int(count[K.C_NLP]),
+                            n_starts=1 + int(count[K.C_NSTART]))
 
 
 def _held(model: Model, y0: np.ndarray, method: str, message: str) -> SimulationResult:
     aux = np.zeros(K.N_AUX)
     K.dynamics(0.0, y0, model.kernel_params_cached.copy(), np.empty(K.N_STATE), aux)
-    return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), aux=aux[None, :], status="held", message=message,
+    return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), aux=aux[None, :], status=Outcome.HELD.label,
+                            message=message,
                             model=model, method=method, t_start_s=math.inf, travel_target_m=0.0,
                             incipient_converged=True, incipient_consistency=1.0)
-
-
-def _message(status: str, event: int, t: float, travel_m: float) -> str:
-    at = f"at t = {t:.4f} s"
-    if status == "travel":
-        return f"CP1 moved {travel_m * 100:g} cm along e1 {at}"
-    if status == "lift_off":
-        return f"CP{event} lost contact (its normal reaction reached zero) {at}"
-    if status == "mass_centre_outside":
-        return f"the mass centre left the contact triangle (seen from above) {at}: the block would tip"
-    if status == "left_plane":
-        pairs = [(i, j) for i in range(3) for j in range(3) if i != j]
-        i, j = pairs[event - 5]
-        if t == 0.0:
-            return (f"CP{i + 1} starts under FP{j + 1}: the (tilted) planes put it more than 0.1 mm across the line "
-                    f"where FP{i + 1} and FP{j + 1} meet, so it cannot rest on FP{i + 1}")
-        return f"CP{i + 1} crossed onto FP{j + 1} (left its plane over the line where the planes meet) {at}"
-    if status == "time_limit":
-        return f"time limit reached {at} before the travel target"
-    return f"integration failed {at} (singular contact system or step size underflow)"
 
 
 def _cp1_x1(y: np.ndarray, p: np.ndarray) -> float:

@@ -3,8 +3,8 @@
 :func:`integrate` (and :func:`integrate_ws`, which takes a workspace) steps the one right-hand side of
 :mod:`triplanar.kernel` with Euler (the paper's eq. 40), RK4 or adaptive DOPRI5, locates events, handles a contact
 or the tip that stops slipping or whose static friction gives way (:func:`apply_mode_event_ws`), and returns at
-terminal events and at ``ST_SLOW`` (all contacts nearly stopped: the caller decides arrest with the statics LP,
-:mod:`triplanar.equilibrium`). :func:`incipient_directions` and :func:`start_motion_ws` choose how a block at
+terminal events and at ``SLOW`` (all contacts nearly stopped: :mod:`triplanar.driver` decides arrest with the
+statics LP, :mod:`triplanar.equilibrium`). :func:`incipient_directions` and :func:`start_motion_ws` choose how a block at
 rest starts to move. ``docs/physics.md`` explains the choices; the tests in ``tests/test_physics.py`` measure them.
 
 numba keys its on-disk cache on this file only, while these functions compile the kernel in;
@@ -21,20 +21,19 @@ from numba import njit
 
 from . import kernel as K
 from .compiled_cache import drop_if_stale
-from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_STICK, EV_RELEASE, EV_SLOW, EV_STOP,
-                     EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS, N_STATE, P_C, P_CASE, P_D0, P_STUCK, P_TANEF,
-                     P_TIP_STUCK, SLIP_BLEND, S_DC, S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD, W_AUX, W_AUXHI, W_AUXMODE,
-                     W_AUXNEW, W_DIRS, W_DY, W_ERR, W_EVLOC, W_EVNEW, W_EVOLD, W_R, W_SITE_D, W_SITE_V, W_STAGES,
-                     W_TMP2, W_YHI, W_YNEW, ZERO_SPEED, _cross, _rotate, event_values_ws, kinetic_energy_ws,
-                     new_workspace, project_ws, quat_to_matrix, rhs_ws)
+from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_STICK, C_NEVENT, C_NLOG, C_NREJECT,
+                     C_NSTEP, EV_RELEASE, EV_SLOW, EV_STOP, EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS, N_STATE, P_C,
+                     P_CASE, P_D0, P_STUCK, P_TANEF, P_TIP_STUCK, SLIP_BLEND, S_DC, S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD,
+                     W_AUX, W_AUXHI, W_AUXMODE, W_AUXNEW, W_COUNT, W_DIRS, W_DY, W_ERR, W_EVLOC, W_EVNEW, W_EVOLD, W_R,
+                     W_SITE_D, W_SITE_V, W_STAGES, W_TMP2, W_YHI, W_YNEW, ZERO_SPEED, _cross, _rotate, event_values_ws,
+                     kinetic_energy_ws, new_workspace, project_ws, quat_to_matrix, rhs_ws)
+from .outcome import BUFFER_FULL, EVENT_OUTCOME, FAILED, RELEASED, RUNNING, SLOW, STOPPED, TIME_LIMIT
 
-drop_if_stale(Path(__file__).parent / "__pycache__", "stepping.*.nb[ic]", [Path(K.__file__)], "stepping.kernel.sha256")
+drop_if_stale(Path(__file__).parent / "__pycache__", "stepping.*.nb[ic]", [Path(K.__file__), Path(K.__file__).parent / "outcome.py"],
+              "stepping.kernel.sha256")
 
 MAX_MISSED_STOPS = 8  # predicted stops of one site in a row that may miss before a full step is taken
 
-# -- status codes returned by integrate() ------------------------------------------------------
-ST_RUNNING, ST_TRAVEL, ST_LIFT_OFF, ST_MC_OUTSIDE, ST_LEFT_PLANE = 0, 1, 2, 3, 4
-ST_SLOW, ST_TIME_LIMIT, ST_BUFFER_FULL, ST_STEP_FAILED, ST_STOPPED, ST_RELEASE = 5, 6, 7, 8, 9, 10
 
 
 # -- one step of each method -------------------------------------------------------------------
@@ -136,28 +135,34 @@ def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
 def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
               t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
               out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool):
-    """:func:`integrate_ws` with its own scratch memory."""
+    """:func:`integrate_ws` with its own scratch memory, recording from row 0, no event log."""
     return integrate_ws(method, t0, y, p, h, rtol, atol, t_max, x1_target, slow_speed, armed, out_t, out_y,
-                        out_aux, record, new_workspace())
+                        out_aux, record, 0, np.empty((0, 3)), new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
 def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
                  t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
-                 out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool, ws: np.ndarray):
+                 out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool, row0: int,
+                 log: np.ndarray, ws: np.ndarray):
     """Integrate from (t0, y) until a terminal event, ``t_max`` or a full buffer; ``y`` ends as the final state.
 
     ``h`` is the fixed step (Euler, RK4) or the first trial step (DOPRI5). Events are located to 1e-13 s
     by re-stepping from the last accepted state with a shorter step (Illinois regula falsi on the step),
     so a terminal event's row lies on the event. A contact or the tip that stops slipping, or whose static
     friction gives way, is handled here (:func:`apply_mode_event_ws`); the run returns to the caller for the
-    rest: terminal events, and ``ST_SLOW`` (a possible arrest: the caller decides with the statics LP).
+    rest: terminal events, and ``SLOW`` (a possible arrest: the caller decides with the statics LP; the caller is
+    :func:`triplanar.driver.drive`).
     A fixed step that would carry a sliding site past its predicted stop ends there instead
     (:func:`_predicted_stop`, :func:`_step_to_stop`), so the stop is handled where it happens.
     ``armed`` (5 flags, updated in place): whether the all-slow event, each contact's and the tip's stop
     event may fire; each arms once its speed has exceeded twice its threshold, so a start from rest does
-    not count. With ``record`` every accepted step is written to the ``out_*`` buffers (row 0 = start).
-    Returns (rows written, status code, event index or -1, last step size, final time).
+    not count. With ``record`` every accepted step is written to the ``out_*`` buffers from row ``row0``; the
+    start is written only when ``row0`` is 0 (a continuation's start is the caller's last row). Every event that
+    happens is appended to ``log`` (rows: time, event index, outcome) while it has room; the workspace's counters
+    (``kernel.C_*``) count steps, rejections, events and log rows.
+    Returns (rows in the buffers, outcome (:mod:`triplanar.outcome`), event index or -1, last step size, final
+    time).
     """
     n = y.shape[0]
     aux = ws[W_AUX, :N_AUX]
@@ -165,13 +170,13 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     # f(t, y) of the current state lives in the first stage row: every step from (t, y), including retries and
     # event searches, starts with it, and the evaluation at a step's end (for aux) provides the next one.
     k1 = ws[W_STAGES, :N_STATE]
+    rows = row0
     if not rhs_ws(t0, y, p, k1, aux, ws):
-        return 0, ST_STEP_FAILED, -1, h, t0
+        return rows, FAILED, -1, h, t0
     ev_old = ws[W_EVOLD, :N_EVENTS]
     ev_new = ws[W_EVNEW, :N_EVENTS]
     event_values_ws(y, p, aux, x1_target, slow_speed, ev_old, ws)
-    rows = 0
-    if record:
+    if record and row0 == 0:
         out_t[0] = t0
         out_y[0] = y
         out_aux[0] = aux
@@ -180,9 +185,11 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     y_new = ws[W_YNEW, :N_STATE]
     err = ws[W_ERR, :N_STATE]
     aux_new = ws[W_AUXNEW, :N_AUX]
+    count = ws[W_COUNT]
     for k in range(EV_SLOW):
         if ev_old[k] > 0.0:
-            return rows, _status_of(k), k, h, t
+            _log_event(log, count, t, k)
+            return rows, EVENT_OUTCOME[k], k, h, t
     fixed = method != METHOD_DOPRI5
     # Consecutive predicted steps of each site that did not end in its stop. A stop is usually reached in a few
     # (each one refines the last); a slip that turns instead of stopping can make them shrink towards zero
@@ -191,9 +198,9 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     missed = np.zeros(4, np.int64)
     while True:
         if record and rows >= out_t.shape[0]:
-            return rows, ST_BUFFER_FULL, -1, h, t
+            return rows, BUFFER_FULL, -1, h, t
         if t_max - t <= 1e-9 * h:
-            return rows, ST_TIME_LIMIT, -1, h, t
+            return rows, TIME_LIMIT, -1, h, t
         h_try = min(h, t_max - t)
         site = -1
         if fixed:
@@ -205,19 +212,21 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         if site >= 0:
             h_try = _step_to_stop(method, t, y, tau, h_try, p, site, slow_speed, y_new, err, aux_new, ws)
             if h_try < 0.0:
-                return rows, ST_STEP_FAILED, -1, h, t
+                return rows, FAILED, -1, h, t
         elif not _advance(method, t, y, h_try, p, y_new, err, aux_new, ws):
             if not fixed and h_try > 1e-12:
                 h = 0.25 * h_try
+                count[C_NREJECT] += 1.0
                 continue
-            return rows, ST_STEP_FAILED, -1, h, t
+            return rows, FAILED, -1, h, t
         h_next = h
         if not fixed:
             en = _error_norm(y, y_new, err, rtol, atol)
             if en > 1.0:
                 h = h_try * max(0.2, 0.9 * en ** -0.2)
                 if h < 1e-12:
-                    return rows, ST_STEP_FAILED, -1, h, t
+                    return rows, FAILED, -1, h, t
+                count[C_NREJECT] += 1.0
                 continue
             h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
         event_values_ws(y_new, p, aux_new, x1_target, slow_speed, ev_new, ws)
@@ -238,26 +247,30 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
             h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
                            y_new, err, aux_new, ws)
             if h_ev < 0.0:
-                return rows, ST_STEP_FAILED, -1, h, t
+                return rows, FAILED, -1, h, t
             h_try = h_ev
         t = t + h_try
         for i in range(n):
             y[i] = y_new[i]
         dy_ready = hit < 0 or predicted  # (an event search leaves f of its last trial in dummy)
-        status = ST_RUNNING if hit < 0 else _status_of(hit)
-        second_stop = status == ST_STOPPED and hit != EV_TIP_STOP and p[P_STUCK] >= 0.0
-        if status == ST_STOPPED and not second_stop or status == ST_RELEASE:
+        count[C_NSTEP] += 1.0
+        status = RUNNING
+        if hit >= 0:
+            status = EVENT_OUTCOME[hit]
+            _log_event(log, count, t, hit)
+        second_stop = status == STOPPED and hit != EV_TIP_STOP and p[P_STUCK] >= 0.0
+        if status == STOPPED and not second_stop or status == RELEASED:
             apply_mode_event_ws(hit, t, y, p, ws)
             if hit == EV_TIP_STOP:
                 armed[4] = False
             elif hit < EV_RELEASE:
                 armed[hit - EV_STOP + 1] = False
             if not rhs_ws(t, y, p, dummy, aux_new, ws):
-                return rows, ST_STEP_FAILED, -1, h, t
+                return rows, FAILED, -1, h, t
             dy_ready = True
-            status = ST_RUNNING
+            status = RUNNING
         elif second_stop:
-            status = ST_SLOW
+            status = SLOW
         # (the new d0 enters neither the right-hand side nor the events: it is used only below SLIP_BLEND, where it
         # is not refreshed, so f(t, y) and the event values stay valid)
         _refresh_directions(y, p, aux_new, ws)
@@ -269,7 +282,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         if dy_ready:
             k1[:] = dummy
         elif not rhs_ws(t, y, p, k1, aux_new, ws):
-            return rows, ST_STEP_FAILED, -1, h, t
+            return rows, FAILED, -1, h, t
         if ev_old[EV_SLOW] < -slow_speed:
             armed[0] = True  # arrest can only be detected once the block has really moved
         for i in range(3):
@@ -282,9 +295,26 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
             out_y[rows] = y
             out_aux[rows] = aux_new
             rows += 1
-        if status != ST_RUNNING:
+        if status != RUNNING:
             return rows, status, hit, h, t
         h = h_next
+
+
+@njit(cache=True, error_model="numpy")
+def log_outcome(log: np.ndarray, count: np.ndarray, t: float, event: int, outcome: int) -> None:
+    """Append (t, event index or -1, outcome) to ``log`` while it has room (``count``: the workspace's counters)."""
+    row = int(count[C_NLOG])
+    if row < log.shape[0]:
+        log[row, 0] = t
+        log[row, 1] = event
+        log[row, 2] = outcome
+        count[C_NLOG] += 1.0
+
+
+@njit(cache=True, error_model="numpy")
+def _log_event(log: np.ndarray, count: np.ndarray, t: float, event: int) -> None:
+    count[C_NEVENT] += 1.0
+    log_outcome(log, count, t, event, EVENT_OUTCOME[event])
 
 
 @njit(cache=True, error_model="numpy")
@@ -427,23 +457,6 @@ def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, ws: 
         else:
             p[P_STUCK] = -1.0
     incipient_directions_ws(t, y, p, 400, ws)
-
-
-@njit(cache=True, error_model="numpy")
-def _status_of(event: int) -> int:
-    if event == 0:
-        return ST_TRAVEL
-    if event <= 3:
-        return ST_LIFT_OFF
-    if event == 4:
-        return ST_MC_OUTSIDE
-    if event <= 10:
-        return ST_LEFT_PLANE
-    if event == EV_SLOW:
-        return ST_SLOW
-    if event < EV_RELEASE or event == EV_TIP_STOP:
-        return ST_STOPPED
-    return ST_RELEASE
 
 
 @njit(cache=True, error_model="numpy")

@@ -1,0 +1,116 @@
+"""The one driver of the physics: integrate to the next physical ending, deciding arrests on the way.
+
+:func:`drive` is what both users of the model call: :func:`triplanar.simulate.simulate` (a whole test, every
+accepted step recorded) and the Gymnasium environment (one control period, nothing recorded). It steps with
+:func:`triplanar.stepping.integrate_ws`; when every contact point has nearly stopped (``SLOW``) it asks the
+statics whether friction can hold the block (:func:`triplanar.equilibrium.holds`, the LP at the current pose,
+thrust and tip offset, with the user effects' wrench at rest) and either ends the stretch ``ARRESTED`` or starts
+the block again in the mode :func:`triplanar.stepping.start_motion_ws` finds. Every other ending is returned as
+it is (:mod:`triplanar.outcome`): travel, lift-off, mass centre outside, a plane change, the time limit (for the
+env: the end of the control period), a failed step, or a full recording buffer (the caller gives a larger one
+and calls again).
+
+With ``energy_tol > 0`` a stretch whose energy balance (work in = kinetic + potential + dissipated) is off by
+more than ``energy_tol`` joules is redone with adaptive DOPRI5 at the tolerances :data:`FALLBACK_RTOLS` in turn
+(a slow slip whose direction turns too fast for a fixed step, or a plain RK4 error near a stop; the env uses it,
+``docs/environment.md`` gives the measured accuracy).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from numba import njit
+
+from . import equilibrium as E
+from . import kernel as K
+from . import stepping
+from .compiled_cache import drop_if_stale
+from .kernel import C_NLOG, C_NLP, C_NREDO, C_NSTART, P_EXTF, P_EXTM, P_USER, S_V, W_COUNT
+from .outcome import ARRESTED, SLOW
+
+drop_if_stale(Path(__file__).parent / "__pycache__", "driver.*.nb[ic]",
+              [Path(module.__file__) for module in (K, stepping, E)] + [Path(__file__).parent / "outcome.py"],
+              "driver.sources.sha256")
+
+# DOPRI5 tolerances (rtol; atol = rtol / 1000) of a redo, tried in turn until the energy balance holds; the last is
+# taken as it is (over 6000 random-action env periods: 104 needed it, and its balance was then off by <= 8e-11 J).
+FALLBACK_RTOLS = (1e-6, 1e-8)
+
+
+@njit(cache=True, error_model="numpy")
+def energy_defect(y0: np.ndarray, y1: np.ndarray, p: np.ndarray, ws: np.ndarray) -> float:
+    """Change from ``y0`` to ``y1`` of the energy balance's residual: work in minus (kinetic + potential +
+    dissipated), J."""
+    work = y1[K.S_WLOAD] - y0[K.S_WLOAD] + y1[K.S_WOTHER] - y0[K.S_WOTHER]
+    dissipated = y1[K.S_DTIP] - y0[K.S_DTIP]
+    for j in range(3):
+        dissipated += y1[K.S_DC + j] - y0[K.S_DC + j]
+    potential = p[K.P_MASS] * p[K.P_G] * (y1[K.S_R + 1] - y0[K.S_R + 1])
+    return work - (K.kinetic_energy_ws(y1, p, ws) - K.kinetic_energy_ws(y0, p, ws)) - potential - dissipated
+
+
+@njit(cache=True, error_model="numpy")
+def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target, slow_speed, energy_tol, out_t,
+                       out_y, out_aux, record, row0, log, ws):
+    """:func:`triplanar.stepping.integrate_ws`, redone with DOPRI5 while the energy balance is off (see the module
+    docstring). A redo starts again from the stretch's start (state, modes, arming, recorded rows and event log) and
+    hands back the stretch's own step ``h``, so a fixed-step caller keeps its step."""
+    count = ws[W_COUNT]
+    y0, p0, armed0, log0 = y.copy(), p.copy(), armed.copy(), count[C_NLOG]
+    rows, status, event, h_out, t = stepping.integrate_ws(method, t0, y, p, h, rtol, atol, t_end, x1_target,
+                                                          slow_speed, armed, out_t, out_y, out_aux, record, row0, log,
+                                                          ws)
+    for redo_rtol in FALLBACK_RTOLS:
+        if energy_tol <= 0.0 or abs(energy_defect(y0, y, p, ws)) <= energy_tol:
+            break
+        y[:] = y0
+        p[:] = p0
+        armed[:] = armed0
+        count[C_NLOG] = log0
+        count[C_NREDO] += 1.0
+        rows, status, event, _, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, h, redo_rtol,
+                                                          1e-3 * redo_rtol, t_end, x1_target, slow_speed, armed, out_t,
+                                                          out_y, out_aux, record, row0, log, ws)
+        h_out = h
+    return rows, status, event, h_out, t
+
+
+@njit(cache=True, error_model="numpy")
+def _user_wrench_at_rest(t: float, y: np.ndarray, p: np.ndarray) -> None:
+    """The user effects' wrench on the block at pose ``y`` taken at rest (what the statics must balance)."""
+    rest = y.copy()
+    for i in range(6):
+        rest[S_V + i] = 0.0
+    K._user_wrench(t, rest, p)
+
+
+@njit(cache=True, error_model="numpy")
+def drive(method: int, t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray, h: float, rtol: float,
+          atol: float, t_end: float, x1_target: float, slow_speed: float, energy_tol: float, out_t: np.ndarray,
+          out_y: np.ndarray, out_aux: np.ndarray, record: bool, rows: int, log: np.ndarray, ws: np.ndarray):
+    """Integrate from (t, y) until a physical ending, ``t_end`` or a full buffer; ``y``, ``p`` (its stick/slip
+    modes) and ``armed`` are updated in place.
+
+    Arguments are :func:`triplanar.stepping.integrate_ws`'s, plus ``energy_tol`` (J, 0: no check) and ``rows``, the
+    rows already recorded (a continuation writes after them). The block must be moving (or started by
+    :func:`triplanar.stepping.start_motion_ws`). Returns (outcome, event index or -1, rows recorded, step size,
+    time); the workspace's counters (``kernel.C_*``) add up what the stretch cost.
+    """
+    count = ws[W_COUNT]
+    while True:
+        rows, status, event, h, t = _integrate_checked(method, t, y, p, armed, h, rtol, atol, t_end, x1_target,
+                                                       slow_speed, energy_tol, out_t, out_y, out_aux, record, rows,
+                                                       log, ws)
+        if status != SLOW:
+            return status, event, rows, h, t
+        count[C_NLP] += 1.0
+        if p[P_USER] != 0.0:
+            _user_wrench_at_rest(t, y, p)
+        if E.holds(y, p, K.thrust(t, p), p[P_EXTF:P_EXTF + 3], p[P_EXTM:P_EXTM + 3]):
+            stepping.log_outcome(log, count, t, -1, ARRESTED)
+            return ARRESTED, -1, rows, h, t
+        count[C_NSTART] += 1.0
+        stepping.start_motion_ws(t, y, p, ws)
+        armed[:] = False
