@@ -29,6 +29,7 @@ from numba import njit
 import envs  # noqa: F401 (registers TriPlanarShear-v0)
 from envs.triplanar_shear import TriPlanarShearEnv
 from triplanar import kernel as K, stepping
+from triplanar.outcome import Outcome
 
 
 @njit  # not cached: a cached copy would keep an old kernel built in (numba caches per file)
@@ -42,7 +43,7 @@ def _kernel_periods(y0, p, n, x1_target):
     for i in range(n):
         y[:] = y0
         stepping.integrate_ws(stepping.METHOD_RK4, 0.005, y, p, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed,
-                              out_t, out_y, out_aux, False, ws)
+                              out_t, out_y, out_aux, False, 0, np.empty((0, 3)), ws)
 
 
 def best_of(repeats: int, fn) -> float:
@@ -97,7 +98,7 @@ def ppo_time_to_target(runs: Path, target_mm: float = 7.73, load: str = "27.8") 
     for curve in sorted(runs.glob("seed_*/learning_curve.csv")):
         with open(curve) as f:
             rows = list(csv.DictReader(f))
-        hit = next((r for r in rows if float(r[f"error_mm_{load}N"]) <= target_mm and r[f"reason_{load}N"] == "success"),
+        hit = next((r for r in rows if float(r[f"error_mm_{load}N"]) <= target_mm and r[f"reason_{load}N"] == Outcome.TRAVEL.label),
                    None)
         out.append({"run": curve.parent.name, "timesteps": int(hit["timesteps"]) if hit else None,
                     "wall_s": float(hit["wall_s"]) if hit else None})

@@ -514,14 +514,15 @@ class TriPlanarShearEnv(gym.Env):
 
     ## Episode End
 
-    ``info["reason"]`` says which:
+    ``info["reason"]`` says which, in the project's outcome vocabulary (:class:`triplanar.outcome.Outcome`):
 
-    * terminated, ``success``: CP1 has travelled ``travel_m`` (8 cm) along e1 (located exactly within the period);
+    * terminated, ``travel`` (the success; ``info["is_success"]``): CP1 has travelled ``travel_m`` (8 cm) along e1 (located exactly within the period);
     * terminated, ``lift_off``: a contact point's normal reaction reached zero;
     * terminated, ``mass_centre_outside``: the mass centre left the contact triangle seen from above (tipping);
     * terminated, ``left_plane``: a contact point crossed onto another plane (CP3 starts where all three meet);
-    * terminated, ``arrest``: every contact point came (nearly) to rest and friction holds the block under the
-      current command (statics LP, :func:`triplanar.equilibrium.holds`, decided inside the compiled step);
+    * terminated, ``arrested``: every contact point came (nearly) to rest and friction holds the block under the
+      current command (statics LP, :func:`triplanar.equilibrium.holds`, decided inside the compiled driver,
+      :func:`triplanar.driver.drive`, which :func:`triplanar.simulate.simulate` uses too);
     * terminated, ``failed``: the integration failed (singular contact system; not seen in practice);
     * truncated, ``time_limit``: ``time_limit_s`` (2 s) after the start.
 
@@ -535,6 +536,13 @@ class TriPlanarShearEnv(gym.Env):
     ``specimen``/``foundation`` (default the reference specimen), and ``render_mode`` (``"rgb_array"``,
     ``"human"``). ``reset(options=...)`` accepts ``load_N``, ``load_range``, ``load_levels``,
     ``friction_noise_deg``, ``tip_friction_noise_deg`` for that episode.
+
+    ## Version History
+
+    * v0: the initial version. Since the project's one outcome vocabulary (:mod:`triplanar.outcome`),
+      ``info["reason"]`` says ``travel`` where it said ``success`` and ``arrested`` where it said ``arrest``, and the
+      vector env's ``reason_code`` is the :class:`~triplanar.outcome.Outcome` value; dynamics, observations, rewards,
+      terminations and truncations are bitwise the same as before.
     """
 
     metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 30}

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from triplanar.outcome import Outcome
+
 from .plots import slug
 
 if TYPE_CHECKING:
@@ -60,7 +62,7 @@ def summary(result: StudyResult) -> dict[str, Any]:
         column, reason = f"error_mm_{loads[0]:g}N", f"reason_{loads[0]:g}N"
         reached = {}
         for seed, curve in result.curves.items():
-            hits = np.flatnonzero((curve[column] <= target) & (curve[reason] == "success"))
+            hits = np.flatnonzero((curve[column] <= target) & (curve[reason] == Outcome.TRAVEL.label))
             reached[seed] = None if not len(hits) else {"timesteps": int(curve["timesteps"][hits[0]]),
                                                          "wall_s": float(curve["wall_s"][hits[0]])}
         out["time_to_target"] = {"target_mm": target, "load_N": loads[0], "controller": TARGET_CONTROLLER,

@@ -14,7 +14,7 @@ from agents.train_ppo import DEFAULT_CONFIG, load_config, train_ppo
 @pytest.fixture(scope="module")
 def steel_27() -> float:
     result = evaluate(SteelTip(), 27.8)
-    assert result.success and result.reason == "success"
+    assert result.success and result.reason == "travel"
     return result.mimicry_error_mm
 
 

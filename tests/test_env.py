@@ -18,6 +18,7 @@ from envs import triplanar_shear as S
 from envs.triplanar_shear import TriPlanarShearEnv
 from triplanar import kernel as K
 from triplanar import paper_model, simulate
+from triplanar.outcome import Outcome
 from triplanar.specimen import reference
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -151,7 +152,7 @@ def test_reward_on_a_hand_checked_state() -> None:
     assert inf[S.IN_R_TERM] == 0.0
     assert inf[S.IN_REWARD] == pytest.approx(-0.0325)
     assert inf[S.IN_ERR] == pytest.approx(3.0)                                     # (1 + 5) / 2 over 0.8 mm
-    S._finish(y, p, st.copy(), ref, np.array([0.5, -0.5]), cfg, S.ARREST, obs, inf, K.new_workspace())
+    S._finish(y, p, st.copy(), ref, np.array([0.5, -0.5]), cfg, Outcome.ARRESTED, obs, inf, K.new_workspace())
     assert inf[S.IN_R_TERM] == pytest.approx(-50.0)                               # nothing of 8 cm travelled
     assert inf[S.IN_REWARD] == pytest.approx(-50.0325)
     step_weighted = replace(env.config, reward_weighting="step").packed()
@@ -185,14 +186,14 @@ def test_reward_terms_follow_the_documented_formula_along_an_episode() -> None:
         prev_d, prev_s, prev_a = info["distance_mm"], s, a.astype(float)
         if terminated or truncated:
             break
-    assert info["reason"] == "success" and info["reward_termination"] == 0.0
+    assert info["reason"] == "travel" and info["reward_termination"] == 0.0
     # Summed distance terms: minus the travel-averaged error, over the travel after the first 5 ms.
     assert -total_distance == pytest.approx(info["mimicry_error_mm"], rel=1e-3)
 
 
 def test_every_termination_reason_is_reachable() -> None:
     terminated, _, info, _ = run_constant(TriPlanarShearEnv(load_N=55.6), [0.0, 0.0])
-    assert terminated and info["reason"] == "success" and info["is_success"]
+    assert terminated and info["reason"] == "travel" and info["is_success"]
     assert info["travel_m"] == pytest.approx(0.08, abs=1e-12) and info["reward_termination"] == 0.0
     terminated, _, info, _ = run_constant(TriPlanarShearEnv(load_N=55.6, thrust_scale=10.0), [1.0, 0.0])
     assert terminated and info["reason"] == "lift_off"
@@ -202,7 +203,7 @@ def test_every_termination_reason_is_reachable() -> None:
     assert info["reward_termination"] == pytest.approx(-50.0 * (1 - info["travel_m"] / 0.08))
     # Cut the thrust after 10 periods: the block stops and friction holds it (the statics LP decides).
     terminated, _, info, _ = run_constant(TriPlanarShearEnv(load_N=27.8), [0.0, 0.0], switch=(10, [-0.3, 0.0]))
-    assert terminated and info["reason"] == "arrest" and 0 < info["travel_m"] < 0.002
+    assert terminated and info["reason"] == "arrested" and 0 < info["travel_m"] < 0.002
     specimen = replace(reference()[0], mass_centre_m=np.array([0.115, 0.1, -0.005]))  # tall, near an edge
     terminated, _, info, _ = run_constant(TriPlanarShearEnv(load_N=40.0, specimen=specimen), [0.0, 0.0])
     assert terminated and info["reason"] == "mass_centre_outside"
@@ -233,19 +234,19 @@ def test_held_block_does_not_creep_and_energy_balances() -> None:
         adaptive += info["adaptive_steps"]
         if terminated or truncated:
             break
-    assert adaptive > 0 and info["reason"] == "success"
+    assert adaptive > 0 and info["reason"] == "travel"
     assert abs(residual(env._y)) < 1e-6  # J; the work done is ~0.3 J
     # The kernel steps to each predicted stop, so even without the check a cut drive ends in an arrest (before
     # the predictive stop, fixed steps let the held block creep on for the whole 2 s).
     unchecked = TriPlanarShearEnv(load_N=27.8, energy_tol_J=0.0)
     terminated, _, info, _ = run_constant(unchecked, [0.0, 0.0], switch=(10, [-0.3, 0.0]))
-    assert terminated and info["reason"] == "arrest"
+    assert terminated and info["reason"] == "arrested"
 
 
 def test_constant_steel_tip_reproduces_the_core_simulation() -> None:
     env = TriPlanarShearEnv(load_N=40.0)
     terminated, _, info, _ = run_constant(env, [0.0, 0.0])
-    assert info["reason"] == "success"
+    assert info["reason"] == "travel"
     core = simulate(paper_model("A", 40.0), method="rk4", dt=0.005)
     cps = np.empty((3, 3))
     K.contact_points(env._y, env._p, cps)

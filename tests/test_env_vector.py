@@ -10,6 +10,7 @@ import envs  # noqa: F401
 from envs import triplanar_shear as S
 from envs.triplanar_shear import TriPlanarShearEnv
 from envs.vector import ShearSB3VecEnv, TriPlanarShearVectorEnv
+from triplanar.outcome import Outcome
 
 N = 4
 
@@ -48,7 +49,7 @@ def test_vector_env_equals_n_single_envs() -> None:
                 expected = (o, r, te, tr)
                 if te or tr:
                     reasons.add(inf["reason"])
-                    assert info["reason_code"][i] == (S.REASONS.index(inf["reason"]) if te else -2)
+                    assert info["reason_code"][i] == (Outcome.from_label(inf["reason"]) if te else Outcome.TIME_LIMIT)
                     assert info["mimicry_error_mm"][i] == inf["mimicry_error_mm"]
             assert np.array_equal(obs[i], expected[0])
             assert rewards[i] == expected[1] and terminated[i] == expected[2] and truncated[i] == expected[3]

@@ -13,6 +13,7 @@ import pytest
 from triplanar import (Effect, Foundation, Parameter, Plane, make_effect, paper_model, reference, scale_mass,
                        scale_size, scale_uniform, simulate)
 from triplanar import kernel as K, stepping
+from triplanar.outcome import Outcome
 from triplanar.natural_coordinates import ReferenceModel, reference_accelerations
 from triplanar.specimen import GRAVITY, mirrored
 from triplanar.statics import holds, sliding_threshold, start_motion
@@ -359,11 +360,11 @@ def test_fixed_steps_stop_where_a_slip_stops() -> None:
         return status, cps, t
 
     status, exact, t_exact = stop(stepping.METHOD_DOPRI5, 1e-4)
-    assert status == stepping.ST_SLOW and holds(model, y0, 10.0)
+    assert status == Outcome.SLOW and holds(model, y0, 10.0)
     errors = []
     for h in (5e-3, 1e-3):
         status, cps, t = stop(stepping.METHOD_RK4, h)
-        assert status == stepping.ST_SLOW and abs(t - t_exact) < 0.5 * h
+        assert status == Outcome.SLOW and abs(t - t_exact) < 0.5 * h
         errors.append(np.abs(cps - exact).max())
     assert errors[0] < 2e-6 and errors[1] < errors[0] / 10  # m
 
@@ -378,5 +379,5 @@ def test_a_turning_slip_does_not_stall_fixed_steps() -> None:
     rows, status, _, _, t = stepping.integrate(stepping.METHOD_RK4, float(d["t0"]), y, p, float(d["h"]), 0.0, 0.0,
                                                float(d["t_end"]), float(d["x1_target"]), float(d["slow_speed"]),
                                                d["armed"].copy(), *buffers, True)
-    assert status == stepping.ST_TIME_LIMIT and t == pytest.approx(float(d["t_end"]), abs=1e-12)
+    assert status == Outcome.TIME_LIMIT and t == pytest.approx(float(d["t_end"]), abs=1e-12)
     assert rows <= stepping.MAX_MISSED_STOPS + 5

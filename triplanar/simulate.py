@@ -30,6 +30,7 @@ DEFAULT_DT = {"euler": 1e-5, "rk4": 1e-3, "dopri5": 1e-4}
 SLOW_SPEED_M_S = 1e-5  # below this (every contact point) the block is checked for arrest
 
 MAX_LOGGED_EVENTS = 10_000  # events kept in a result's record (the counts go on past it)
+DOPRI5_FIRST_ROWS = 4096    # recording buffer for an adaptive run; it doubles when full, up to max_rows
 
 
 def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: float = 1e-11,
@@ -79,7 +80,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
 
     ws = K.new_workspace()
     log = np.empty((MAX_LOGGED_EVENTS, 3))
-    capacity = min(max_rows, 4096 if method == "dopri5" else int(t_max_s / h) + 8)
+    capacity = min(max_rows, DOPRI5_FIRST_ROWS if method == "dopri5" else int(t_max_s / h) + 8)
     out_t, out_y, out_aux = np.empty(capacity), np.empty((capacity, K.N_STATE)), np.empty((capacity, K.N_AUX))
     rows, t, y = 0, 0.0, y0.copy()
     x1_target = _cp1_x1(y0, p) + travel_m
