@@ -39,7 +39,7 @@ def _kernel_periods(y0, p, n, x1_target):
     out_aux = np.empty((1, K.N_AUX))
     armed = np.zeros(5, np.bool_)
     y = y0.copy()
-    ws = K.new_workspace()  # as the env: one workspace for the loop
+    ws = stepping.new_workspace()  # as the env: one workspace for the loop
     for i in range(n):
         y[:] = y0
         stepping.integrate_ws(stepping.METHOD_RK4, 0.005, y, p, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed,

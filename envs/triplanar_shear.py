@@ -19,38 +19,56 @@ from gymnasium import spaces
 from numba import njit
 
 from triplanar import PAPER_LOADS_N, driver, kernel as K, stepping
+from triplanar.layout import Layout
 from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL, Outcome
 from triplanar.model import Loading, Model, paper_model
 from triplanar.simulate import SLOW_SPEED_M_S, simulate
 from triplanar.specimen import Foundation, Specimen, reference
 from triplanar.statics import holds, start_motion
 
-# -- per-environment bookkeeping layout (float64 array ``st``) ----------------------------------
-ST_T, ST_STEP, ST_DPREV, ST_SPREV, ST_A0, ST_A1, ST_LOAD, ST_THRUST_MAX = 0, 1, 2, 3, 4, 5, 6, 7
-ST_X1_TARGET, ST_ERR_NUM, ST_ERR_DEN, ST_MAX_STEPS = 8, 9, 10, 11
-ST_CP_REST = 12   # 9: contact points at rest (world), row-major CP1..CP3
-N_ST = 21
+# -- layouts (triplanar.layout: offsets follow from the sizes; each exports plain integers, e.g. ST_T, OBS_DIM) --
+BOOKKEEPING = Layout("ST_", "N_ST", [  # per environment (float64 array ``st``)
+    ("T", 1, "time since the start, s"),
+    ("STEP", 1, "control periods so far"),
+    ("DPREV", 1, "mean distance to the reference at the last period, mm"),
+    ("SPREV", 1, "travel at the last period, m"),
+    ("A0", 1, "last thrust action"),
+    ("A1", 1, "last offset action"),
+    ("LOAD", 1, "load level, N"),
+    ("THRUST_MAX", 1, "thrust at action +1, N"),
+    ("X1_TARGET", 1, "CP1's x1 at the travel target, m"),
+    ("ERR_NUM", 1, "travel-integrated distance, mm m"),
+    ("ERR_DEN", 1, "travel so far, m"),
+    ("MAX_STEPS", 1, "control periods before truncation"),
+    ("CP_REST", 9, "contact points at rest (world), row-major CP1..CP3")])
+BOOKKEEPING.export(globals())
 
-# -- configuration shared by all environments of a batch (float64 array ``cfg``) -------------------
-CF_DT, CF_H, CF_STAGE, CF_RANGE, CF_TRAVEL, CF_RATE, CF_FAIL, CF_WEIGHT, CF_SLOW, CF_ENERGY_TOL = range(10)
-N_CF = 10
+CONFIG = Layout("CF_", "N_CF", [(name, 1, doc) for name, doc in (  # shared by a batch (float64 array ``cfg``)
+    ("DT", "control period, s"), ("H", "RK4 step, s"), ("STAGE", "stage speed limit, m/s"),
+    ("RANGE", "offset range, m"), ("TRAVEL", "travel target, m"), ("RATE", "action-rate coefficient"),
+    ("FAIL", "failure penalty, mm"), ("WEIGHT", "0: travel-weighted reward, 1: per step"),
+    ("SLOW", "speed below which arrest is checked, m/s"), ("ENERGY_TOL", "energy balance tolerance, J"))])
+CONFIG.export(globals())
 
-# -- info terms (float64 array ``inf``) -----------------------------------------------------------
-(IN_REWARD, IN_R_DIST, IN_R_RATE, IN_R_TERM, IN_DIST, IN_ERR, IN_TRAVEL, IN_THRUST, IN_OFFSET_CMD, IN_OFFSET,
- IN_UDOT, IN_TIME, IN_LOAD, IN_TRUNC, IN_FALLBACK) = range(15)
-N_INFO = 15
-INFO_KEYS = ("reward_distance", "reward_action_rate", "reward_termination", "distance_mm", "mimicry_error_mm",
-             "travel_m", "thrust_N", "offset_command_m", "tip_offset_m", "stage_velocity_m_s", "time_s", "load_N",
-             "adaptive_steps")
-INFO_SLOTS = (IN_R_DIST, IN_R_RATE, IN_R_TERM, IN_DIST, IN_ERR, IN_TRAVEL, IN_THRUST, IN_OFFSET_CMD, IN_OFFSET,
-              IN_UDOT, IN_TIME, IN_LOAD, IN_FALLBACK)
+# info terms (float64 array ``inf``): slot name and, for those reported, the ``info`` key
+_INFO = (("REWARD", None), ("R_DIST", "reward_distance"), ("R_RATE", "reward_action_rate"),
+         ("R_TERM", "reward_termination"), ("DIST", "distance_mm"), ("ERR", "mimicry_error_mm"),
+         ("TRAVEL", "travel_m"), ("THRUST", "thrust_N"), ("OFFSET_CMD", "offset_command_m"), ("OFFSET", "tip_offset_m"),
+         ("UDOT", "stage_velocity_m_s"), ("TIME", "time_s"), ("LOAD", "load_N"), ("TRUNC", None),
+         ("FALLBACK", "adaptive_steps"))
+INFO = Layout("IN_", "N_INFO", [(name, 1, key or "") for name, key in _INFO])
+INFO.export(globals())
+INFO_KEYS = tuple(key for _, key in _INFO if key)
+INFO_SLOTS = tuple(INFO.fields[name].offset for name, key in _INFO if key)
 
-
-# -- observation layout ------------------------------------------------------------------------
-OBS_POS, OBS_VEL, OBS_OFFSET, OBS_FACE, OBS_LOAD, OBS_REF, OBS_PREV, OBS_TIME = 0, 9, 18, 19, 21, 22, 31, 33
-OBS_DIM = 34
-OBS_HIGH = np.concatenate([np.full(9, 0.5), np.full(9, 5.0), [0.5], [0.5, 0.5], [1000.0], np.full(9, 0.5),
-                           [1.0, 1.0], [100.0]])
+# observation: field, size, bound (values are clipped to +-bound), meaning (the class docstring has the table)
+_OBS = (("POS", 9, 0.5, "contact points' displacement from rest, m"), ("VEL", 9, 5.0, "their velocity, m/s"),
+        ("OFFSET", 1, 0.5, "tip offset, m"), ("FACE", 2, 0.5, "load point on the aft face from P_CL, m"),
+        ("LOAD", 1, 1000.0, "load level, N"), ("REF", 9, 0.5, "hydrostatic reference displacement, m"),
+        ("PREV", 2, 1.0, "previous action"), ("TIME", 1, 100.0, "time, s"))
+OBSERVATION = Layout("OBS_", "OBS_DIM", [(name, size, doc) for name, size, _, doc in _OBS])
+OBSERVATION.export(globals())
+OBS_HIGH = np.concatenate([np.full(size, bound) for _, size, bound, _ in _OBS])
 REFERENCE_POINTS = 161  # hydrostatic reference sampled every travel_m / 160 (0.5 mm by default)
 
 
@@ -265,7 +283,7 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
     cfg = config.packed()
     obs, inf = np.empty(OBS_DIM), np.empty(N_INFO)
     first = np.array([st[ST_A0], st[ST_A1]])
-    code = control_step(y, p, armed, st, ref, first, cfg, obs, inf, K.new_workspace())
+    code = control_step(y, p, armed, st, ref, first, cfg, obs, inf, new_workspace())
     if code != RUNNING:
         raise StartError(f"the block's first {1e3 * config.dt:g} ms already ended the test: "
                          f"{Outcome(code).label} (specimen {specimen.name!r}, {draw.load_N:g} N)")
@@ -273,6 +291,26 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
 
 
 # -- the compiled control step (shared by the single and the vector env) -------------------------------
+
+# The env's scratch rows, after the stepping's (see the note on scratch memory in triplanar.kernel).
+WORKSPACE = Layout("W_", "N_WS_ROWS", [
+    ("R", 3, "3x3 rotation matrix"),
+    ("CPS", 3, "3x3 contact points"),
+    ("ARM", 1, "3-vector: the load point's arm from the mass centre"),
+    ("PCL", 1, "3-vector: P_CL's arm from the mass centre"),
+    ("AUX", 1, "aux vector of the right-hand side at the period's start"),
+    ("DY", 1, "its derivative (unused)"),
+    ("NO_T", 1, "empty recording buffers (a control period records nothing)"),
+    ("NO_Y", 1, "(state)"),
+    ("NO_AUX", 1, "(aux)")], start=stepping.N_WS_ROWS)
+WORKSPACE.export(globals())
+
+
+@njit(cache=True, error_model="numpy")
+def new_workspace() -> np.ndarray:
+    """Scratch memory for one env's (or one vector env's) control steps."""
+    return K.allocate_workspace(N_WS_ROWS)
+
 
 @njit(cache=True, error_model="numpy")
 def _apply_action(y, p, st, action, cfg, ws) -> None:
@@ -290,8 +328,8 @@ def _apply_action(y, p, st, action, cfg, ws) -> None:
         # A stage that changes speed cannot carry a stuck face along instantly: the face slips on the tip.
         stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
     if p[K.P_STUCK] >= 0.0 or p[K.P_TIP_STUCK] != 0.0:
-        aux = ws[K.W_AUX, :K.N_AUX]
-        dy = ws[K.W_DY, :K.N_STATE]
+        aux = ws[W_AUX, :K.N_AUX]
+        dy = ws[W_DY, :K.N_STATE]
         K.rhs_ws(t, y, p, dy, aux, ws)
         if p[K.P_STUCK] >= 0.0 and aux[K.A_STICK] > 0.0:
             stepping.apply_mode_event_ws(K.EV_RELEASE, t, y, p, ws)
@@ -310,8 +348,8 @@ def _advance(y, p, armed, st, cfg, inf, ws) -> int:
     redone = count[K.C_NREDO]
     outcome, _, _, _, t = driver.drive(stepping.METHOD_RK4, st[ST_T], y, p, armed, cfg[CF_H], 0.0, 0.0,
                                        (st[ST_STEP] + 1.0) * cfg[CF_DT], st[ST_X1_TARGET], cfg[CF_SLOW],
-                                       cfg[CF_ENERGY_TOL], ws[K.W_YHI, :1], ws[K.W_YHI:K.W_YHI + 1, :K.N_STATE],
-                                       ws[K.W_AUXHI:K.W_AUXHI + 1, :K.N_AUX], False, 0, ws[K.W_YHI:K.W_YHI, :3],
+                                       cfg[CF_ENERGY_TOL], ws[W_NO_T, :1], ws[W_NO_Y:W_NO_Y + 1, :K.N_STATE],
+                                       ws[W_NO_AUX:W_NO_AUX + 1, :K.N_AUX], False, 0, ws[W_NO_T:W_NO_T, :3],
                                        ws)
     st[ST_T] = t
     inf[IN_FALLBACK] = count[K.C_NREDO] - redone
@@ -323,9 +361,9 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
     """Observation, reward terms and bookkeeping after a control period that ended with ``code``."""
     st[ST_STEP] += 1.0
     travel = cfg[CF_TRAVEL]
-    cps = ws[K.W_CPS:K.W_CPS + 3, :3]
+    cps = ws[W_CPS:W_CPS + 3, :3]
     K.contact_points_ws(y, p, cps, ws)
-    R = ws[K.W_R:K.W_R + 3, :3]
+    R = ws[W_R:W_R + 3, :3]
     K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], R)
     s = cps[0, 0] - st[ST_CP_REST]
     # Hydrostatic reference at the same travel (linear in travel between samples).
@@ -357,9 +395,9 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
         obs[OBS_VEL + 3 * i + 1] = y[K.S_V + 1] + w2 * ax - w0 * az
         obs[OBS_VEL + 3 * i + 2] = y[K.S_V + 2] + w0 * ay - w1 * ax
     # Load point on the aft face, relative to the centreline point P_CL, along g2 and g3.
-    arm = ws[K.W_TMP, :3]
+    arm = ws[W_ARM, :3]
     K.load_arm(y, p, R, arm)
-    pcl = ws[K.W_FX, :3]
+    pcl = ws[W_PCL, :3]
     for c in range(3):
         pcl[c] = R[c, 0] * p[K.P_PCL] + R[c, 1] * p[K.P_PCL + 1] + R[c, 2] * p[K.P_PCL + 2]
     for a in range(2):
@@ -410,7 +448,7 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
 @njit(cache=True, error_model="numpy")
 def control_step(y, p, armed, st, ref, action, cfg, obs, inf, ws) -> int:
     """One control period: apply ``action``, integrate, observe; returns the outcome code. ``ws`` is a kernel
-    workspace (:func:`triplanar.kernel.new_workspace`), scratch only."""
+    workspace (:func:`new_workspace`), scratch only."""
     _apply_action(y, p, st, action, cfg, ws)
     code = _advance(y, p, armed, st, cfg, inf, ws)
     _finish(y, p, st, ref, action, cfg, code, obs, inf, ws)
@@ -561,7 +599,7 @@ class TriPlanarShearEnv(gym.Env):
         self._obs = np.zeros(OBS_DIM)
         self._inf = np.zeros(N_INFO)
         self._action = np.zeros(2)
-        self._ws = K.new_workspace()
+        self._ws = new_workspace()
         self._start: EpisodeStart | None = None
         self._trace: list[np.ndarray] = []
         self._renderer = None

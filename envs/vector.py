@@ -74,7 +74,7 @@ class ShearBatch:
         self.INF = np.zeros((n, S.N_INFO))
         self.ACT = np.zeros((n, 2))
         self.CODES = np.zeros(n, dtype=np.int64)
-        self.ws = K.new_workspace()  # kernel scratch, shared by the rows in turn
+        self.ws = S.new_workspace()  # scratch, shared by the rows in turn
         self.KIDX = np.zeros(n, dtype=np.int64)
         self.rngs: list[np.random.Generator] = [seeding.np_random(None)[0] for _ in range(n)]
         self.draws: list[S.EpisodeDraw | None] = [None] * n

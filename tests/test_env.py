@@ -144,7 +144,7 @@ def test_reward_on_a_hand_checked_state() -> None:
     ref[:, 0::3], ref[:, 2::3] = 0.003, 0.004
     obs, inf = np.empty(S.OBS_DIM), np.empty(S.N_INFO)
     cfg = env.config.packed()
-    S._finish(y, p, st.copy(), ref, np.array([0.5, -0.5]), cfg, S.RUNNING, obs, inf, K.new_workspace())
+    S._finish(y, p, st.copy(), ref, np.array([0.5, -0.5]), cfg, S.RUNNING, obs, inf, S.new_workspace())
     assert inf[S.IN_DIST] == pytest.approx(5.0, abs=1e-9)
     assert inf[S.IN_TRAVEL] == pytest.approx(0.0, abs=1e-12)
     assert inf[S.IN_R_DIST] == pytest.approx(-0.5 * (1.0 + 5.0) * 0.0008 / 0.08)   # -0.03
@@ -152,11 +152,11 @@ def test_reward_on_a_hand_checked_state() -> None:
     assert inf[S.IN_R_TERM] == 0.0
     assert inf[S.IN_REWARD] == pytest.approx(-0.0325)
     assert inf[S.IN_ERR] == pytest.approx(3.0)                                     # (1 + 5) / 2 over 0.8 mm
-    S._finish(y, p, st.copy(), ref, np.array([0.5, -0.5]), cfg, Outcome.ARRESTED, obs, inf, K.new_workspace())
+    S._finish(y, p, st.copy(), ref, np.array([0.5, -0.5]), cfg, Outcome.ARRESTED, obs, inf, S.new_workspace())
     assert inf[S.IN_R_TERM] == pytest.approx(-50.0)                               # nothing of 8 cm travelled
     assert inf[S.IN_REWARD] == pytest.approx(-50.0325)
     step_weighted = replace(env.config, reward_weighting="step").packed()
-    S._finish(y, p, st.copy(), ref, np.array([0.0, 0.0]), step_weighted, S.RUNNING, obs, inf, K.new_workspace())
+    S._finish(y, p, st.copy(), ref, np.array([0.0, 0.0]), step_weighted, S.RUNNING, obs, inf, S.new_workspace())
     assert inf[S.IN_R_DIST] == pytest.approx(-5.0)
 
 

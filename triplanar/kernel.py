@@ -23,52 +23,64 @@ import math
 import numpy as np
 from numba import njit, objmode
 
+from .layout import Layout
+
 # Compiled with error_model="numpy": a division by zero gives inf/nan (the solvers' isfinite checks catch it) instead
 # of raising, which saves a branch per division, ~15 % of a control period; results are bitwise the same.
 
-# -- state layout ----------------------------------------------------------------------------
-S_R, S_Q, S_V, S_W, S_F, S_U = 0, 3, 7, 10, 13, 14
-S_WLOAD, S_DC, S_DTIP, S_WOTHER = 15, 16, 19, 20
-N_STATE = 21
+# -- layouts (triplanar.layout: offsets follow from the sizes; each exports plain integers, e.g. S_V, P_C, N_STATE) --
+STATE = Layout("S_", "N_STATE", [
+    ("R", 3, "mass-centre position r (world), m"),
+    ("Q", 4, "unit quaternion (w, x, y, z), body to world; body axes are the paper's g1, g2, g3"),
+    ("V", 3, "mass-centre velocity (world), m/s"),
+    ("W", 3, "angular velocity omega (world), rad/s"),
+    ("F", 1, "actuator force F_T, N"),
+    ("U", 1, "lateral tip offset u (+e3), m"),
+    ("WLOAD", 1, "work of the load, J"),
+    ("DC", 3, "energy dissipated at CP1..3, J"),
+    ("DTIP", 1, "energy dissipated at the tip, J"),
+    ("WOTHER", 1, "work of user forces, J")])
+STATE.export(globals())
 
-# -- parameter layout ------------------------------------------------------------------------
-P_MASS, P_G = 0, 1
-P_IB = 2          # 9: inertia about the mass centre, body axes
-P_IBINV = 11      # 9: its inverse
-P_C = 20          # 9: contact points relative to the mass centre, body axes (row i = CP i+1)
-P_N = 29          # 9: plane normals (row i = FP i+1)
-P_TANPHI = 38     # 3: tan(phi_i) at the contacts
-P_TANEF = 41      # tan(phi_EF) at the tip; 0 = no end friction (case B)
-P_CASE = 42       # 0: actuator along e1 at the tip line (cases A/B); 1: hydrostatic along g1 at P_CL (case C)
-P_FCMD = 43       # commanded thrust F_T (N)
-P_TAU = 44        # actuator rise time constant (s); 0 = force equals the command
-P_PCL = 45        # 3: P_CL relative to the mass centre, body axes
-P_TIP0 = 48       # 3: P0_CL, the tip line's point at zero offset (world); the line runs along e1
-P_UDOT = 51       # lateral tip velocity du/dt (m/s)
-P_RATE_A = 52     # rate friction: mu = tan(phi) (1 + a ln(1 + |v|/v0))
-P_RATE_V0 = 53
-P_EXTF = 54       # 3: extra force at the mass centre (world), user effects
-P_EXTM = 57       # 3: extra moment about the mass centre (world)
-P_D0 = 60         # 12: friction directions to use at zero slip (rows: CP1..3, tip)
-P_USER = 72       # 1: call the user effects' Python wrench (slow path) before each evaluation
-P_STUCK = 73      # index of the contact point that sticks (0-2), or -1: all three slide
-P_TIP_STUCK = 74  # 1: the aft face sticks to the tip (static end friction), 0: it slips
-P_F0 = 75         # actuator force when sliding starts (t = 0); with P_TAU > 0 it rises from there to P_FCMD
-P_LEFT0 = 76      # 6: how far each CP starts across another plane's line (re-seated tilted planes), m
-N_PARAM = 82
+PARAMS = Layout("P_", "N_PARAM", [
+    ("MASS", 1, "mass, kg"),
+    ("G", 1, "gravity, m/s2"),
+    ("IB", 9, "inertia about the mass centre, body axes"),
+    ("IBINV", 9, "its inverse"),
+    ("C", 9, "contact points relative to the mass centre, body axes (row i = CP i+1)"),
+    ("N", 9, "plane normals (row i = FP i+1)"),
+    ("TANPHI", 3, "tan(phi_i) at the contacts"),
+    ("TANEF", 1, "tan(phi_EF) at the tip; 0 = no end friction (case B)"),
+    ("CASE", 1, "0: actuator along e1 at the tip line (cases A/B); 1: hydrostatic along g1 at P_CL (case C)"),
+    ("FCMD", 1, "commanded thrust F_T, N"),
+    ("TAU", 1, "actuator rise time constant, s; 0 = force equals the command"),
+    ("PCL", 3, "P_CL relative to the mass centre, body axes"),
+    ("TIP0", 3, "P0_CL, the tip line's point at zero offset (world); the line runs along e1"),
+    ("UDOT", 1, "lateral tip velocity du/dt, m/s"),
+    ("RATE_A", 1, "rate friction: mu = tan(phi) (1 + a ln(1 + |v|/v0))"),
+    ("RATE_V0", 1, "its reference slip speed v0, m/s"),
+    ("EXTF", 3, "extra force at the mass centre (world), user effects, N"),
+    ("EXTM", 3, "extra moment about the mass centre (world), N m"),
+    ("D0", 12, "friction directions to use at zero slip (rows: CP1..3, tip)"),
+    ("USER", 1, "1: call the user effects' Python wrench (slow path) before each evaluation"),
+    ("STUCK", 1, "index of the contact point that sticks (0-2), or -1: all three slide"),
+    ("TIP_STUCK", 1, "1: the aft face sticks to the tip (static end friction), 0: it slips"),
+    ("F0", 1, "actuator force when sliding starts (t = 0); with P_TAU > 0 it rises from there to P_FCMD"),
+    ("LEFT0", 6, "how far each CP starts across another plane's line (re-seated tilted planes), m")])
+PARAMS.export(globals())
 
-# -- aux outputs of dynamics() ----------------------------------------------------------------
-A_N = 0           # 3 normal reactions
-A_PL = 3          # 3 instantaneous load point (world)
-A_ACC = 6         # 12 slip accelerations at CP1..3 and the tip (used to find incipient motion)
-A_SLIP = 18       # 3 slip velocity of the aft face relative to the tip
-A_FT = 21         # thrust in use
-A_SPEED = 22      # 3 contact-point speeds
-A_STICK = 25      # stuck contact: |S| - mu N (> 0: friction cannot hold it any more); -1 otherwise
-A_TIP_STICK = 26  # stuck tip: |F_EF| - F_T (e1.g1) tan(phi_EF); -1 otherwise
-A_STICK_F = 27    # 3 static friction force on the block at the stuck contact
-A_TIP_F = 30      # 3 static end friction force on the block at a stuck tip
-N_AUX = 33
+AUX = Layout("A_", "N_AUX", [  # what dynamics() reports besides the derivative
+    ("N", 3, "normal reactions N1..3, N"),
+    ("PL", 3, "instantaneous load point (world)"),
+    ("ACC", 12, "slip accelerations at CP1..3 and the tip (used to find incipient motion)"),
+    ("SLIP", 3, "slip velocity of the aft face relative to the tip"),
+    ("FT", 1, "thrust in use, N"),
+    ("SPEED", 3, "contact-point speeds, m/s"),
+    ("STICK", 1, "stuck contact: |S| - mu N (> 0: friction cannot hold it any more); -1 otherwise"),
+    ("TIP_STICK", 1, "stuck tip: |F_EF| - F_T (e1.g1) tan(phi_EF); -1 otherwise"),
+    ("STICK_F", 3, "static friction force on the block at the stuck contact"),
+    ("TIP_F", 3, "static end friction force on the block at a stuck tip")])
+AUX.export(globals())
 
 ZERO_SPEED = 1e-9  # m/s: a site slower than this (integration noise) is at rest: its direction is P_D0
 # Below SLIP_BLEND a sliding site's friction direction blends from d0 (the direction of incipient motion, or
@@ -81,37 +93,40 @@ ZERO_SPEED = 1e-9  # m/s: a site slower than this (integration noise) is at rest
 SLIP_BLEND = 1e-5
 LEFT_PLANE_TOL = 1e-6  # m: how far below another plane a contact point must be to have crossed onto it
 
-# -- events (event_values) -------------------------------------------------------------------
-# Events: 0 travel, 1-3 lift-off, 4 mass centre, 5-10 left plane, 11 all slow, 12-14 CP i stopped,
-# 15 stuck contact released, 16 tip slip stopped, 17 stuck tip released
-EV_TRAVEL, EV_LIFT_OFF, EV_MC_OUTSIDE, EV_LEFT_PLANE = 0, 1, 4, 5
-EV_SLOW, EV_STOP, EV_RELEASE, EV_TIP_STOP, EV_TIP_RELEASE = 11, 12, 15, 16, 17
-N_EVENTS = 18
+# -- events (event_values): an event has happened where its value is > 0 --------------------------
+EVENTS = Layout("EV_", "N_EVENTS", [
+    ("TRAVEL", 1, "CP1 reached the travel target"),
+    ("LIFT_OFF", 3, "the normal reaction of CP i is negative"),
+    ("MC_OUTSIDE", 1, "the mass centre's overhead projection left the contact triangle"),
+    ("LEFT_PLANE", 6, "CP i crossed onto plane j (pairs i != j in order)"),
+    ("SLOW", 1, "every contact point slower than slow_speed (a candidate arrest)"),
+    ("STOP", 3, "CP i slower than slow_speed / 10 (it stops: stick or reverse)"),
+    ("RELEASE", 1, "the stuck contact's friction would leave its cone"),
+    ("TIP_STOP", 1, "the aft face's slip on the tip slower than slow_speed / 10"),
+    ("TIP_RELEASE", 1, "the stuck tip's friction would leave its cone")])
+EVENTS.export(globals())
 
 # -- scratch memory ---------------------------------------------------------------------------
 # A right-hand-side evaluation needs ~20 small arrays; allocating them each time (~18 ns each) was half its
-# cost. Compiled loops (integrate, the envs) allocate one workspace, a single 2-D array whose rows are the
-# scratch arrays below, and pass it down: one array keeps calls cheap (a tuple of arrays costs a reference
-# count per member per call) and row slices are free views. The public functions without a workspace
-# argument allocate their own, for callers outside hot loops. Functions that never run nested inside one
-# another share rows (each rewrites what it reads).
-W_R = 0                 # 3x3 rotation matrix
-W_RHO = 3               # 4x3 points of action relative to the mass centre
-W_TMP, W_FX, W_MX, W_IW, W_H, W_ALPHA0, W_ACC, W_ALPHA, W_MU, W_SPEEDS, W_POWER, W_WB = range(7, 19)  # 3-vectors
-W_DR, W_DTH, W_TMP2 = 19, 20, 21
-W_IINV = 22             # 3x3 inverse inertia, world axes
-W_FU, W_CR, W_RXF, W_JR, W_JTH, W_IJT = 25, 32, 39, 46, 53, 60  # 7x3 each
-W_CPS = 67              # 3x3 contact points
-W_BIAS, W_B, W_X, W_RESID, W_TARGET, W_LAM, W_AT = range(70, 77)  # 7-vectors (W_AT: indices, as floats)
-W_MAT = 77              # 7x7 matrix
-W_STAGES = 84           # 8 state vectors: Runge-Kutta stages and the stage argument
-W_DY, W_YNEW, W_ERR, W_YHI = range(92, 96)  # state vectors
-W_AUX, W_AUXNEW, W_AUXHI, W_AUXMODE = range(96, 100)  # aux vectors
-W_EVOLD, W_EVNEW, W_EVLOC = range(100, 103)  # event-value vectors
-W_DIRS = 103            # 2 rows of 12: incipient directions and their update
-W_SITE_D, W_SITE_V = 105, 106  # 3-vectors: a stopping site's initial slip direction, and its slip velocity
-W_COUNT = 107           # counters (zeroed by new_workspace): what a run cost and what happened, see C_*
-N_WS_ROWS = 108
+# cost. Compiled loops (the driver, the envs) allocate one workspace, a single 2-D array whose rows are scratch
+# arrays, and pass it down: one array keeps calls cheap (a tuple of arrays costs a reference count per member per
+# call) and row slices are free views. Each module owns its rows: the kernel's come first (below), then
+# triplanar.stepping's, then the env's (each layout starts where the one it extends ends), and a module's
+# new_workspace() allocates up to its own last row. The public functions without a workspace argument allocate
+# their own, for callers outside hot loops. Kernel functions that never run nested inside one another share rows
+# (each rewrites what it reads).
+WORKSPACE = Layout("W_", "N_KERNEL_WS_ROWS", [
+    ("R", 3, "3x3 rotation matrix"),
+    ("RHO", 4, "4x3 points of action relative to the mass centre"),
+    *((name, 1, "3-vector") for name in ("TMP", "FX", "MX", "IW", "H", "ALPHA0", "ACC", "ALPHA", "MU", "SPEEDS",
+                                         "POWER", "WB", "DR", "DTH", "TMP2")),
+    ("IINV", 3, "3x3 inverse inertia, world axes"),
+    *((name, 7, "7x3") for name in ("FU", "CR", "RXF", "JR", "JTH", "IJT")),
+    ("CPS", 3, "3x3 contact points"),
+    *((name, 1, "7-vector") for name in ("BIAS", "B", "X", "RESID", "TARGET", "LAM", "AT")),  # AT: indices as floats
+    ("MAT", 7, "7x7 matrix"),
+    ("COUNT", 1, "counters (zeroed by allocate_workspace): what a run cost and what happened, see C_*")])
+WORKSPACE.export(globals())
 # counters in row W_COUNT: right-hand-side evaluations, accepted and rejected steps, events located, rows of the
 # event log, starts from rest (mode searches), static-equilibrium checks, stretches redone for the energy balance
 C_NFEV, C_NSTEP, C_NREJECT, C_NEVENT, C_NLOG, C_NSTART, C_NLP, C_NREDO = range(8)
@@ -119,11 +134,17 @@ WS_WIDTH = max(N_STATE, N_AUX, N_EVENTS, 12)
 
 
 @njit(cache=True, error_model="numpy")
-def new_workspace() -> np.ndarray:
-    """Scratch memory for one thread of evaluation (see the note above), counters at zero."""
-    ws = np.empty((N_WS_ROWS, WS_WIDTH))
+def allocate_workspace(rows: int) -> np.ndarray:
+    """A workspace of ``rows`` rows (a module's ``new_workspace`` passes its own last row), counters at zero."""
+    ws = np.empty((rows, WS_WIDTH))
     ws[W_COUNT, :] = 0.0
     return ws
+
+
+@njit(cache=True, error_model="numpy")
+def new_workspace() -> np.ndarray:
+    """Scratch memory for the kernel's own functions (the right-hand side, projection, events)."""
+    return allocate_workspace(N_KERNEL_WS_ROWS)
 
 
 @njit(cache=True, inline="always", error_model="numpy")

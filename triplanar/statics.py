@@ -75,5 +75,5 @@ def incipient_directions(p: np.ndarray, y: np.ndarray, t: float = 0.0, max_iter:
 def start_motion(p: np.ndarray, y: np.ndarray, t: float = 0.0) -> tuple[bool, float]:
     """Choose how a block that cannot hold starts to move, and set ``p`` for it
     (:func:`triplanar.stepping.start_motion_ws`); returns (accepted, consistency)."""
-    accepted, consistency = stepping.start_motion_ws(t, y, p, K.new_workspace())
+    accepted, consistency = stepping.start_motion_ws(t, y, p, stepping.new_workspace())
     return bool(accepted), float(consistency)

@@ -22,15 +22,35 @@ from numba import njit
 from . import kernel as K
 from .compiled_cache import drop_if_stale
 from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_STICK, C_NEVENT, C_NLOG, C_NREJECT,
-                     C_NSTEP, EV_RELEASE, EV_SLOW, EV_STOP, EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS, N_STATE, P_C,
-                     P_CASE, P_D0, P_STUCK, P_TANEF, P_TIP_STUCK, SLIP_BLEND, S_DC, S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD,
-                     W_AUX, W_AUXHI, W_AUXMODE, W_AUXNEW, W_COUNT, W_DIRS, W_DY, W_ERR, W_EVLOC, W_EVNEW, W_EVOLD, W_R,
-                     W_SITE_D, W_SITE_V, W_STAGES, W_TMP2, W_YHI, W_YNEW, ZERO_SPEED, _cross, _rotate, event_values_ws,
-                     kinetic_energy_ws, new_workspace, project_ws, quat_to_matrix, rhs_ws)
+                     C_NSTEP, EV_RELEASE, EV_SLOW, EV_STOP, EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS,
+                     N_KERNEL_WS_ROWS, N_STATE, P_C, P_CASE, P_D0, P_STUCK, P_TANEF, P_TIP_STUCK, SLIP_BLEND, S_DC,
+                     S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD, W_COUNT, ZERO_SPEED, _cross, _rotate, allocate_workspace,
+                     event_values_ws, kinetic_energy_ws, project_ws, quat_to_matrix, rhs_ws)
+from .layout import Layout
 from .outcome import BUFFER_FULL, EVENT_OUTCOME, FAILED, RELEASED, RUNNING, SLOW, STOPPED, TIME_LIMIT
 
 drop_if_stale(Path(__file__).parent / "__pycache__", "stepping.*.nb[ic]", [Path(K.__file__), Path(K.__file__).parent / "outcome.py"],
               "stepping.kernel.sha256")
+
+# This module's scratch rows, after the kernel's (see the note on scratch memory in triplanar.kernel).
+WORKSPACE = Layout("W_", "N_WS_ROWS", [
+    ("STAGES", 8, "Runge-Kutta stages and the stage argument (state vectors)"),
+    *((name, 1, "state vector") for name in ("DY", "YNEW", "ERR", "YHI")),
+    *((name, 1, "aux vector") for name in ("AUX", "AUXNEW", "AUXHI", "AUXMODE")),
+    *((name, 1, "event-value vector") for name in ("EVOLD", "EVNEW", "EVLOC")),
+    ("DIRS", 2, "incipient directions and their update (12 each)"),
+    ("SITE_D", 1, "a stopping site's initial slip direction"),
+    ("SITE_V", 1, "a site's slip velocity"),
+    ("R", 3, "3x3 rotation matrix"),
+    ("ARM", 1, "3-vector: a contact point's arm from the mass centre")], start=N_KERNEL_WS_ROWS)
+WORKSPACE.export(globals())
+
+
+@njit(cache=True, error_model="numpy")
+def new_workspace() -> np.ndarray:
+    """Scratch memory for the steppers and everything below them (the kernel's rows included)."""
+    return allocate_workspace(N_WS_ROWS)
+
 
 MAX_MISSED_STOPS = 8  # predicted stops of one site in a row that may miss before a full step is taken
 
@@ -327,7 +347,7 @@ def _site_velocity(y: np.ndarray, p: np.ndarray, aux: np.ndarray, site: int, ws:
         return
     R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    arm = ws[W_TMP2, :3]
+    arm = ws[W_ARM, :3]
     _rotate(R, p, P_C + 3 * site, arm)
     c0, c1, c2 = _cross(y[S_W], y[S_W + 1], y[S_W + 2], arm[0], arm[1], arm[2])
     out[0], out[1], out[2] = y[S_V] + c0, y[S_V + 1] + c1, y[S_V + 2] + c2
@@ -397,7 +417,7 @@ def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray, ws: np.nd
     (P_D0), so the low-speed blend of a slowing site mixes with where it is going, not with a stale start."""
     R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    tmp = ws[W_TMP2, :3]
+    tmp = ws[W_ARM, :3]
     stuck = int(p[P_STUCK])
     for j in range(3):
         sp = aux[A_SPEED + j]

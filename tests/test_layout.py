@@ -1,0 +1,41 @@
+"""Layouts defined once: offsets follow from sizes, every field is covered once, and modules own their scratch."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from envs import triplanar_shear as S
+from triplanar import kernel as K, stepping
+from triplanar.layout import Layout
+
+
+def test_offsets_follow_sizes_and_are_exported() -> None:
+    layout = Layout("X_", "N_X", [("A", 3, "a"), ("B", 1, "b"), ("C", 2, "c")], start=5)
+    assert layout.constants() == {"X_A": 5, "X_B": 8, "X_C": 9, "N_X": 11}
+    namespace: dict = {}
+    layout.export(namespace)
+    assert namespace["X_C"] == 9
+    assert layout.describe(np.arange(11.0)) == {"A": [5.0, 6.0, 7.0], "B": 8.0, "C": [9.0, 10.0]}
+    with pytest.raises(ValueError, match="already"):
+        layout.export({"X_A": 0})
+    with pytest.raises(ValueError, match="twice"):
+        Layout("Y_", "N_Y", [("A", 1, ""), ("A", 1, "")])
+
+
+@pytest.mark.parametrize("layout", [K.STATE, K.PARAMS, K.AUX, K.EVENTS, K.WORKSPACE, stepping.WORKSPACE,
+                                    S.BOOKKEEPING, S.CONFIG, S.INFO, S.OBSERVATION, S.WORKSPACE])
+def test_fields_tile_the_array(layout: Layout) -> None:
+    covered = np.zeros(layout.size, int)
+    for field in layout.fields.values():
+        covered[field.offset:field.offset + field.size] += 1
+    first = min(f.offset for f in layout.fields.values())
+    assert (covered[first:] == 1).all()
+
+
+def test_each_module_extends_the_workspace_of_the_one_below() -> None:
+    assert stepping.WORKSPACE.fields["STAGES"].offset == K.N_KERNEL_WS_ROWS
+    assert S.WORKSPACE.fields["R"].offset == stepping.N_WS_ROWS
+    assert stepping.new_workspace().shape == (stepping.N_WS_ROWS, K.WS_WIDTH)
+    assert (S.new_workspace()[K.W_COUNT] == 0.0).all()
+    assert S.OBS_HIGH.shape == (S.OBS_DIM,) and len(S.INFO_KEYS) == len(S.INFO_SLOTS)
