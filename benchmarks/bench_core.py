@@ -53,7 +53,8 @@ def bench_control_step(repeats: int = 2000) -> None:
     for force in PAPER_LOADS_N:
         model = paper_model("A", force)
         p, y0 = model.kernel_params(), model.initial_state()
-        start_motion(p, y0)
+        modes = K.sliding_modes()
+        start_motion(p, modes, y0)
         armed = np.zeros(5, np.bool_)
         bufs = (np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)))
         ws = stepping.new_workspace()
@@ -63,7 +64,7 @@ def bench_control_step(repeats: int = 2000) -> None:
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            _, status, _, _, t = stepping.integrate_ws(stepping.METHOD_RK4, t, y, p, 0.005, 0.0, 0.0, t + 0.005,
+            _, status, _, _, t = stepping.integrate_ws(stepping.METHOD_RK4, t, y, p, modes, 0.005, 0.0, 0.0, t + 0.005,
                                                        x1_target, 1e-5, armed, *bufs, False, 0, log, ws)
             times.append(time.perf_counter() - t0)
             if status != Outcome.TIME_LIMIT:  # travel reached: start the episode again

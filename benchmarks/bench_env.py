@@ -33,7 +33,7 @@ from triplanar.outcome import Outcome
 
 
 @njit  # not cached: a cached copy would keep an old kernel built in (numba caches per file)
-def _kernel_periods(y0, p, n, x1_target):
+def _kernel_periods(y0, p, modes, n, x1_target):
     out_t = np.empty(1)
     out_y = np.empty((1, K.N_STATE))
     out_aux = np.empty((1, K.N_AUX))
@@ -42,7 +42,7 @@ def _kernel_periods(y0, p, n, x1_target):
     ws = stepping.new_workspace()  # as the env: one workspace for the loop
     for i in range(n):
         y[:] = y0
-        stepping.integrate_ws(stepping.METHOD_RK4, 0.005, y, p, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed,
+        stepping.integrate_ws(stepping.METHOD_RK4, 0.005, y, p, modes, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed,
                               out_t, out_y, out_aux, False, 0, np.empty((0, 3)), ws)
 
 
@@ -53,10 +53,10 @@ def best_of(repeats: int, fn) -> float:
 def kernel_floor(n: int) -> float:
     env = TriPlanarShearEnv(load_N=27.8)
     env.reset(seed=0)
-    y, p = env._y.copy(), env._p.copy()
-    _kernel_periods(y, p, 10, 1.0)
+    y, p, modes = env._y.copy(), env._p.copy(), env._modes.copy()
+    _kernel_periods(y, p, modes, 10, 1.0)
     t0 = time.perf_counter()
-    _kernel_periods(y, p, n, 1.0)
+    _kernel_periods(y, p, modes, n, 1.0)
     return n / (time.perf_counter() - t0)
 
 
@@ -98,8 +98,8 @@ def ppo_time_to_target(runs: Path, target_mm: float = 7.73, load: str = "27.8") 
     for curve in sorted(runs.glob("seed_*/learning_curve.csv")):
         with open(curve) as f:
             rows = list(csv.DictReader(f))
-        hit = next((r for r in rows if float(r[f"error_mm_{load}N"]) <= target_mm and r[f"reason_{load}N"] == Outcome.TRAVEL.label),
-                   None)
+        hit = next((r for r in rows if float(r[f"error_mm_{load}N"]) <= target_mm
+                    and r[f"reason_{load}N"] == Outcome.TRAVEL.label), None)
         out.append({"run": curve.parent.name, "timesteps": int(hit["timesteps"]) if hit else None,
                     "wall_s": float(hit["wall_s"]) if hit else None})
     return out

@@ -17,8 +17,8 @@ from triplanar.compiled_cache import drop_if_stale
 
 
 def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | None = None) -> bool:
-    """The env's compiled step has the kernel, its stepping, the driver and the equilibrium LP built in, and the vector env's
-    loop has the single env's step built in: drop this package's numba cache whenever any of them changes
+    """The env's compiled step has the kernel, its stepping, the driver and the equilibrium LP built in, and the
+    vector env's loop has the single env's step built in: drop this package's numba cache whenever any of them changes
     (:func:`triplanar.compiled_cache.drop_if_stale`; returns True if it did)."""
     if sources is None:
         from triplanar import driver, equilibrium, kernel, outcome, stepping  # importing compiles nothing

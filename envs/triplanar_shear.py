@@ -205,6 +205,7 @@ class EpisodeStart:
     model: Model
     y: np.ndarray
     p: np.ndarray
+    modes: np.ndarray
     armed: np.ndarray
     st: np.ndarray
     reference: np.ndarray
@@ -256,7 +257,8 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
     if holds(model, y, draw.load_N):
         raise StartError(f"friction holds the block at rest under {draw.load_N:g} N (friction {draw.friction_deg}, "
                          f"tip {draw.tip_friction_deg:g} deg, offset {config.tip_offset_m:g} m): it cannot start")
-    start_motion(p, y)
+    modes = K.sliding_modes()
+    start_motion(p, modes, y)
     reference_run = simulate(paper_model("C", draw.load_N, specimen, foundation), travel_m=config.travel_m)
     cps0 = np.empty((3, 3))
     K.contact_points(y, p, cps0)
@@ -283,11 +285,11 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
     cfg = config.packed()
     obs, inf = np.empty(OBS_DIM), np.empty(N_INFO)
     first = np.array([st[ST_A0], st[ST_A1]])
-    code = control_step(y, p, armed, st, ref, first, cfg, obs, inf, new_workspace())
+    code = control_step(y, p, modes, armed, st, ref, first, cfg, obs, inf, new_workspace())
     if code != RUNNING:
         raise StartError(f"the block's first {1e3 * config.dt:g} ms already ended the test: "
                          f"{Outcome(code).label} (specimen {specimen.name!r}, {draw.load_N:g} N)")
-    return EpisodeStart(key, model, y, p, armed, st, ref, reference_run.status, obs, inf)
+    return EpisodeStart(key, model, y, p, modes, armed, st, ref, reference_run.status, obs, inf)
 
 
 # -- the compiled control step (shared by the single and the vector env) -------------------------------
@@ -313,7 +315,7 @@ def new_workspace() -> np.ndarray:
 
 
 @njit(cache=True, error_model="numpy")
-def _apply_action(y, p, st, action, cfg, ws) -> None:
+def _apply_action(y, p, modes, st, action, cfg, ws) -> None:
     """Thrust and stage velocity for this control period; stuck sites that can no longer stick are released."""
     a0 = min(max(action[0], -1.0), 1.0)
     a1 = min(max(action[1], -1.0), 1.0)
@@ -324,29 +326,29 @@ def _apply_action(y, p, st, action, cfg, ws) -> None:
     p[K.P_FCMD] = thrust
     p[K.P_UDOT] = udot
     t = st[ST_T]
-    if p[K.P_TIP_STUCK] != 0.0 and changed_udot:
+    if modes[K.M_TIP_STUCK] != 0.0 and changed_udot:
         # A stage that changes speed cannot carry a stuck face along instantly: the face slips on the tip.
-        stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
-    if p[K.P_STUCK] >= 0.0 or p[K.P_TIP_STUCK] != 0.0:
+        stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, modes, ws)
+    if modes[K.M_STUCK] >= 0.0 or modes[K.M_TIP_STUCK] != 0.0:
         aux = ws[W_AUX, :K.N_AUX]
         dy = ws[W_DY, :K.N_STATE]
-        K.rhs_ws(t, y, p, dy, aux, ws)
-        if p[K.P_STUCK] >= 0.0 and aux[K.A_STICK] > 0.0:
-            stepping.apply_mode_event_ws(K.EV_RELEASE, t, y, p, ws)
-            K.rhs_ws(t, y, p, dy, aux, ws)
-        if p[K.P_TIP_STUCK] != 0.0 and aux[K.A_TIP_STICK] > 0.0:
-            stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
+        K.rhs_ws(t, y, p, modes, dy, aux, ws)
+        if modes[K.M_STUCK] >= 0.0 and aux[K.A_STICK] > 0.0:
+            stepping.apply_mode_event_ws(K.EV_RELEASE, t, y, p, modes, ws)
+            K.rhs_ws(t, y, p, modes, dy, aux, ws)
+        if modes[K.M_TIP_STUCK] != 0.0 and aux[K.A_TIP_STICK] > 0.0:
+            stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, modes, ws)
 
 
 @njit(cache=True, error_model="numpy")
-def _advance(y, p, armed, st, cfg, inf, ws) -> int:
+def _advance(y, p, modes, armed, st, cfg, inf, ws) -> int:
     """Integrate to the end of the control period or an outcome with the project's one driver
     (:func:`triplanar.driver.drive`: fixed RK4 steps, redone with DOPRI5 where the energy balance is off by more than
     ``energy_tol_J``; arrests decided by the statics LP at the current pose, thrust and tip offset). Returns the
     outcome, ``RUNNING`` when the period ended with the block still moving."""
     count = ws[K.W_COUNT]
     redone = count[K.C_NREDO]
-    outcome, _, _, _, t = driver.drive(stepping.METHOD_RK4, st[ST_T], y, p, armed, cfg[CF_H], 0.0, 0.0,
+    outcome, _, _, _, t = driver.drive(stepping.METHOD_RK4, st[ST_T], y, p, modes, armed, cfg[CF_H], 0.0, 0.0,
                                        (st[ST_STEP] + 1.0) * cfg[CF_DT], st[ST_X1_TARGET], cfg[CF_SLOW],
                                        cfg[CF_ENERGY_TOL], ws[W_NO_T, :1], ws[W_NO_Y:W_NO_Y + 1, :K.N_STATE],
                                        ws[W_NO_AUX:W_NO_AUX + 1, :K.N_AUX], False, 0, ws[W_NO_T:W_NO_T, :3],
@@ -446,11 +448,11 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
 
 
 @njit(cache=True, error_model="numpy")
-def control_step(y, p, armed, st, ref, action, cfg, obs, inf, ws) -> int:
+def control_step(y, p, modes, armed, st, ref, action, cfg, obs, inf, ws) -> int:
     """One control period: apply ``action``, integrate, observe; returns the outcome code. ``ws`` is a kernel
     workspace (:func:`new_workspace`), scratch only."""
-    _apply_action(y, p, st, action, cfg, ws)
-    code = _advance(y, p, armed, st, cfg, inf, ws)
+    _apply_action(y, p, modes, st, action, cfg, ws)
+    code = _advance(y, p, modes, armed, st, cfg, inf, ws)
     _finish(y, p, st, ref, action, cfg, code, obs, inf, ws)
     return code
 
@@ -554,7 +556,8 @@ class TriPlanarShearEnv(gym.Env):
 
     ``info["reason"]`` says which, in the project's outcome vocabulary (:class:`triplanar.outcome.Outcome`):
 
-    * terminated, ``travel`` (the success; ``info["is_success"]``): CP1 has travelled ``travel_m`` (8 cm) along e1 (located exactly within the period);
+    * terminated, ``travel`` (the success, ``info["is_success"]``): CP1 has travelled ``travel_m`` (8 cm) along e1
+      (located exactly within the period);
     * terminated, ``lift_off``: a contact point's normal reaction reached zero;
     * terminated, ``mass_centre_outside``: the mass centre left the contact triangle seen from above (tipping);
     * terminated, ``left_plane``: a contact point crossed onto another plane (CP3 starts where all three meet);
@@ -614,7 +617,8 @@ class TriPlanarShearEnv(gym.Env):
             if len(self._starts) < 64:
                 self._starts[draw] = start
         self._start = start
-        self._y, self._p, self._armed, self._st = start.y.copy(), start.p.copy(), start.armed.copy(), start.st.copy()
+        self._y, self._p, self._modes = start.y.copy(), start.p.copy(), start.modes.copy()
+        self._armed, self._st = start.armed.copy(), start.st.copy()
         self._ref = start.reference
         self._obs[:] = start.obs
         self._inf[:] = start.inf
@@ -629,7 +633,7 @@ class TriPlanarShearEnv(gym.Env):
         if self._start is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         self._action[:] = action
-        code = control_step(self._y, self._p, self._armed, self._st, self._ref, self._action, self._cfg,
+        code = control_step(self._y, self._p, self._modes, self._armed, self._st, self._ref, self._action, self._cfg,
                             self._obs, self._inf, self._ws)
         if self.render_mode is not None:
             self._trace.append(self._contact_points())
@@ -662,7 +666,7 @@ class TriPlanarShearEnv(gym.Env):
     def _tip_line(self) -> np.ndarray:
         """Overhead (x1, x3) of the load point and the tip line's lateral position."""
         aux = np.empty(K.N_AUX)
-        K.rhs(self._st[ST_T], self._y, self._p, np.empty(K.N_STATE), aux)
+        K.rhs(self._st[ST_T], self._y, self._p, self._modes, np.empty(K.N_STATE), aux)
         return aux[K.A_PL:K.A_PL + 3].copy()
 
     @property

@@ -29,22 +29,24 @@ from . import triplanar_shear as S
 
 
 @njit(cache=True, error_model="numpy")
-def _batch_step(Y, P, ARMED, ST, BANK_REF, KIDX, ACT, cfg, OBS, INF, CODES, active, ws) -> None:
+def _batch_step(Y, P, MODES, ARMED, ST, BANK_REF, KIDX, ACT, cfg, OBS, INF, CODES, active, ws) -> None:
     """Step every active row (``ws``: one kernel workspace, scratch shared by the rows in turn)."""
     for i in range(Y.shape[0]):
         if active[i]:
-            CODES[i] = S.control_step(Y[i], P[i], ARMED[i], ST[i], BANK_REF[KIDX[i]], ACT[i], cfg, OBS[i], INF[i],
-                                      ws)
+            CODES[i] = S.control_step(Y[i], P[i], MODES[i], ARMED[i], ST[i], BANK_REF[KIDX[i]], ACT[i], cfg, OBS[i],
+                                      INF[i], ws)
 
 
 @njit(cache=True, error_model="numpy")
-def _load_starts(rows, kidx, KIDX, Y, P, ARMED, ST, OBS, INF, BY, BP, BARMED, BST, BOBS, BINF) -> None:
+def _load_starts(rows, kidx, KIDX, Y, P, MODES, ARMED, ST, OBS, INF, BY, BP, BMODES, BARMED, BST, BOBS,
+                 BINF) -> None:
     """Copy bank entry ``kidx[j]`` into environment row ``rows[j]``."""
     for j in range(rows.shape[0]):
         i, k = rows[j], kidx[j]
         KIDX[i] = k
         Y[i, :] = BY[k]
         P[i, :] = BP[k]
+        MODES[i, :] = BMODES[k]
         ARMED[i, :] = BARMED[k]
         ST[i, :] = BST[k]
         OBS[i, :] = BOBS[k]
@@ -68,6 +70,7 @@ class ShearBatch:
         n = num_envs
         self.Y = np.zeros((n, S.K.N_STATE))
         self.P = np.zeros((n, S.K.N_PARAM))
+        self.MODES = np.zeros((n, S.K.N_MODE))
         self.ARMED = np.zeros((n, 5), dtype=np.bool_)
         self.ST = np.zeros((n, S.N_ST))
         self.OBS = np.zeros((n, S.OBS_DIM))
@@ -88,7 +91,8 @@ class ShearBatch:
     def _grow(self, capacity: int) -> None:
         old = self._bank_capacity
         g = S.REFERENCE_POINTS
-        shapes = {"BY": (S.K.N_STATE,), "BP": (S.K.N_PARAM,), "BARMED": (5,), "BST": (S.N_ST,),
+        shapes = {"BY": (S.K.N_STATE,), "BP": (S.K.N_PARAM,), "BMODES": (S.K.N_MODE,), "BARMED": (5,),
+                  "BST": (S.N_ST,),
                   "BOBS": (S.OBS_DIM,), "BINF": (S.N_INFO,), "BREF": (g, 9)}
         for name, shape in shapes.items():
             arr = np.zeros((capacity,) + shape, dtype=np.bool_ if name == "BARMED" else np.float64)
@@ -105,7 +109,8 @@ class ShearBatch:
         k = len(self._entries)
         if k >= self._bank_capacity:
             self._grow(2 * self._bank_capacity)
-        self.BY[k], self.BP[k], self.BARMED[k], self.BST[k] = entry.y, entry.p, entry.armed, entry.st
+        self.BY[k], self.BP[k], self.BMODES[k] = entry.y, entry.p, entry.modes
+        self.BARMED[k], self.BST[k] = entry.armed, entry.st
         self.BOBS[k], self.BINF[k], self.BREF[k] = entry.obs, entry.inf, entry.reference
         self._entries.append(entry)
         self._index[draw] = k
@@ -131,13 +136,13 @@ class ShearBatch:
             draw = S.draw_episode(self.rngs[i], self.config, self.specimen, opts)
             self.draws[i] = draw
             kidx[j] = self._bank_index(draw)
-        _load_starts(rows, kidx, self.KIDX, self.Y, self.P, self.ARMED, self.ST, self.OBS, self.INF, self.BY,
-                     self.BP, self.BARMED, self.BST, self.BOBS, self.BINF)
+        _load_starts(rows, kidx, self.KIDX, self.Y, self.P, self.MODES, self.ARMED, self.ST, self.OBS, self.INF,
+                     self.BY, self.BP, self.BMODES, self.BARMED, self.BST, self.BOBS, self.BINF)
 
     def step(self, actions: np.ndarray, active: np.ndarray) -> np.ndarray:
         """One control period for the active rows; returns the outcome codes (``> 0``: terminated)."""
         self.ACT[:] = actions
-        _batch_step(self.Y, self.P, self.ARMED, self.ST, self.BREF, self.KIDX, self.ACT, self.cfg, self.OBS,
+        _batch_step(self.Y, self.P, self.MODES, self.ARMED, self.ST, self.BREF, self.KIDX, self.ACT, self.cfg, self.OBS,
                     self.INF, self.CODES, active, self.ws)
         return self.CODES
 

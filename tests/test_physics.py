@@ -245,8 +245,8 @@ def test_paper_euler_converges_with_first_order() -> None:
 def _integrate_from(y0: np.ndarray, p: np.ndarray, method: int, h: float, t0: float = 0.05,
                     t1: float = 0.15) -> np.ndarray:
     y = y0.copy()
-    stepping.integrate(method, t0, y, p.copy(), h, 1e-12, 1e-14, t1, 10.0, 1e-5, np.ones(5, np.bool_), np.empty(1),
-                np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)), False)
+    stepping.integrate(method, t0, y, p.copy(), K.sliding_modes(), h, 1e-12, 1e-14, t1, 10.0, 1e-5,
+                       np.ones(5, np.bool_), np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)), False)
     return y[K.S_R:K.S_R + 3]
 
 
@@ -307,7 +307,7 @@ def test_kernel_matches_natural_coordinate_reference(case: str, effects: list[st
         if np.linalg.norm(result.contact_velocities[row], axis=1).min() < 1e-3:
             continue
         dy, aux = np.empty(K.N_STATE), np.empty(K.N_AUX)
-        assert K.rhs(0.0, y, p, dy, aux)
+        assert K.rhs(0.0, y, p, K.sliding_modes(), dy, aux)
         if case == "A" and np.linalg.norm(aux[K.A_SLIP:K.A_SLIP + 3]) < 1e-3:
             continue
         arms = result.contact_points[row] - y[K.S_R:K.S_R + 3]
@@ -346,15 +346,15 @@ def test_fixed_steps_stop_where_a_slip_stops() -> None:
     end in the all-slow state the statics decide, close to the adaptive solution, and converge with the step."""
     model = paper_model("A", 40.0)
     sliding = simulate(model, travel_m=0.01)
-    y0, p0 = sliding.y[-1].copy(), model.kernel_params().copy()
-    start_motion(p0, model.initial_state())
+    y0, p0, modes0 = sliding.y[-1].copy(), model.kernel_params().copy(), K.sliding_modes()
+    start_motion(p0, modes0, model.initial_state())
     p0[K.P_FCMD] = 10.0
 
     def stop(method: int, h: float) -> tuple[int, np.ndarray, float]:
         y, p = y0.copy(), p0.copy()
-        _, status, _, _, t = stepping.integrate(method, sliding.t[-1], y, p, h, 1e-11, 1e-14, sliding.t[-1] + 1.0, 10.0,
-                                         1e-5, np.ones(5, np.bool_), np.empty(1), np.empty((1, K.N_STATE)),
-                                         np.empty((1, K.N_AUX)), False)
+        _, status, _, _, t = stepping.integrate(method, sliding.t[-1], y, p, modes0.copy(), h, 1e-11, 1e-14,
+                                                sliding.t[-1] + 1.0, 10.0, 1e-5, np.ones(5, np.bool_), np.empty(1),
+                                                np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)), False)
         cps = np.empty((3, 3))
         K.contact_points(y, p, cps)
         return status, cps, t
@@ -376,7 +376,8 @@ def test_a_turning_slip_does_not_stall_fixed_steps() -> None:
     d = np.load(Path(__file__).parent / "data" / "turning_slip_state.npz")
     y, p = d["y"].copy(), d["p"].copy()
     buffers = (np.empty(1000), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_AUX)))
-    rows, status, _, _, t = stepping.integrate(stepping.METHOD_RK4, float(d["t0"]), y, p, float(d["h"]), 0.0, 0.0,
+    rows, status, _, _, t = stepping.integrate(stepping.METHOD_RK4, float(d["t0"]), y, p, d["modes"].copy(),
+                                               float(d["h"]), 0.0, 0.0,
                                                float(d["t_end"]), float(d["x1_target"]), float(d["slow_speed"]),
                                                d["armed"].copy(), *buffers, True)
     assert status == Outcome.TIME_LIMIT and t == pytest.approx(float(d["t_end"]), abs=1e-12)

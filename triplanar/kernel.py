@@ -61,13 +61,28 @@ PARAMS = Layout("P_", "N_PARAM", [
     ("RATE_V0", 1, "its reference slip speed v0, m/s"),
     ("EXTF", 3, "extra force at the mass centre (world), user effects, N"),
     ("EXTM", 3, "extra moment about the mass centre (world), N m"),
-    ("D0", 12, "friction directions to use at zero slip (rows: CP1..3, tip)"),
     ("USER", 1, "1: call the user effects' Python wrench (slow path) before each evaluation"),
-    ("STUCK", 1, "index of the contact point that sticks (0-2), or -1: all three slide"),
-    ("TIP_STUCK", 1, "1: the aft face sticks to the tip (static end friction), 0: it slips"),
     ("F0", 1, "actuator force when sliding starts (t = 0); with P_TAU > 0 it rises from there to P_FCMD"),
     ("LEFT0", 6, "how far each CP starts across another plane's line (re-seated tilted planes), m")])
 PARAMS.export(globals())
+
+# Stick/slip modes: which site sticks and where a site at rest starts to slip. They change as the block moves (the
+# steppers set them at stops and releases, start_motion_ws at a start), so they live in their own vector, apart
+# from the parameters and the controls (thrust command, stage velocity) in p: a stretch redone starts again from
+# the modes it had.
+MODES = Layout("M_", "N_MODE", [
+    ("D0", 12, "friction directions to use at zero slip (rows: CP1..3, tip)"),
+    ("STUCK", 1, "index of the contact point that sticks (0-2), or -1: all three slide"),
+    ("TIP_STUCK", 1, "1: the aft face sticks to the tip (static end friction), 0: it slips")])
+MODES.export(globals())
+
+
+def sliding_modes() -> np.ndarray:
+    """Modes of a block whose contacts all slide and whose tip slips (no direction at rest yet)."""
+    modes = np.zeros(N_MODE)
+    modes[M_STUCK] = -1.0
+    return modes
+
 
 AUX = Layout("A_", "N_AUX", [  # what dynamics() reports besides the derivative
     ("N", 3, "normal reactions N1..3, N"),
@@ -82,7 +97,7 @@ AUX = Layout("A_", "N_AUX", [  # what dynamics() reports besides the derivative
     ("TIP_F", 3, "static end friction force on the block at a stuck tip")])
 AUX.export(globals())
 
-ZERO_SPEED = 1e-9  # m/s: a site slower than this (integration noise) is at rest: its direction is P_D0
+ZERO_SPEED = 1e-9  # m/s: a site slower than this (integration noise) is at rest: its direction is M_D0
 # Below SLIP_BLEND a sliding site's friction direction blends from d0 (the direction of incipient motion, or
 # of the site's slip at the last step while it was faster than SLIP_BLEND) to the slip direction:
 # d = v/SLIP_BLEND + (1 - |v|/SLIP_BLEND) d0. Pure v/|v| makes the slip direction's
@@ -263,12 +278,12 @@ def thrust(t: float, p: np.ndarray) -> float:
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _friction_direction(v0, v1, v2, speed, p, k):
-    """Unit slip direction, blended with the incipient direction p[k:k+3] below SLIP_BLEND."""
+def _friction_direction(v0, v1, v2, speed, modes, k):
+    """Unit slip direction, blended with the incipient direction modes[k:k+3] below SLIP_BLEND."""
     if speed >= SLIP_BLEND:
         return v0 / speed, v1 / speed, v2 / speed
     f = 1.0 - speed / SLIP_BLEND
-    return v0 / SLIP_BLEND + f * p[k], v1 / SLIP_BLEND + f * p[k + 1], v2 / SLIP_BLEND + f * p[k + 2]
+    return v0 / SLIP_BLEND + f * modes[k], v1 / SLIP_BLEND + f * modes[k + 1], v2 / SLIP_BLEND + f * modes[k + 2]
 
 
 @njit(cache=True, error_model="numpy")
@@ -301,13 +316,14 @@ def _face_rows(R: np.ndarray, w: np.ndarray, a: int, h: np.ndarray) -> tuple:
 
 
 @njit(cache=True, error_model="numpy")
-def dynamics(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
+def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
     """:func:`dynamics_ws` with its own scratch memory."""
-    return dynamics_ws(t, y, p, dy, aux, new_workspace())
+    return dynamics_ws(t, y, p, modes, dy, aux, new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
-def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
+def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.ndarray, aux: np.ndarray,
+                ws: np.ndarray) -> bool:
     """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
 
     Forces (paper section 3.3-3.4, ``docs/physics.md``): weight ``-W e2`` at the mass centre; at each
@@ -316,7 +332,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
     ``F_T (e1.g1) tan(phi_EF)`` opposing the slip of the aft face relative to the tip (eq. 32-33 in
     continuous time); case C: ``F_T g1`` at the body-fixed ``P_CL``; plus any user force and moment.
 
-    A contact (``P_STUCK``) or the tip (``P_TIP_STUCK``) that sticks is held by static friction instead:
+    A contact (``modes[M_STUCK]``) or the tip (``modes[M_TIP_STUCK]``) that sticks is held by static friction instead:
     its tangential force becomes an unknown and its slip acceleration a constraint row. The unknowns
     (normal reactions, stuck tangential forces) solve one small linear system: the paper's eq. 39 with
     the rigid-frame multipliers eliminated.
@@ -363,7 +379,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
     # End friction. Slip of the face relative to the tip: the tip moves along e1 (whatever keeps contact)
     # and laterally at udot, so the slip is (v_B - udot e3) projected along e1 onto the face.
     tan_ef = p[P_TANEF] if actuator else 0.0
-    tip_stuck = tan_ef > 0.0 and p[P_TIP_STUCK] != 0.0
+    tip_stuck = tan_ef > 0.0 and modes[M_TIP_STUCK] != 0.0
     wv0, wv1, wv2 = vb0, vb1, vb2 - udot
     kk = (wv0 * g1x + wv1 * g1y + wv2 * g1z) / g1x
     s0, s1, s2 = wv0 - kk, wv1, wv2
@@ -371,7 +387,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
     aux[A_SLIP] = s0; aux[A_SLIP + 1] = s1; aux[A_SLIP + 2] = s2
     tip_limit = F_T * g1x * tan_ef
     if tan_ef > 0.0 and not tip_stuck:
-        d0, d1, d2 = _friction_direction(s0, s1, s2, slip_speed, p, P_D0 + 9)
+        d0, d1, d2 = _friction_direction(s0, s1, s2, slip_speed, modes, M_D0 + 9)
         f0, f1, f2 = -tip_limit * d0, -tip_limit * d1, -tip_limit * d2
         fx[0] += f0; fx[1] += f1; fx[2] += f2
         m0, m1, m2 = _cross(rho[3, 0], rho[3, 1], rho[3, 2], f0, f1, f2)
@@ -391,7 +407,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
     # Unknowns u (force direction fu at point `at`) and rows r (constraint direction cr at point `at`,
     # velocity-dependent acceleration `bias`): N_j along f_j = n_j - mu_j d_j (sliding, eq. 21) or n_j
     # (stuck), two tangential forces at a stuck contact, two face forces at a stuck tip.
-    stuck = int(p[P_STUCK])
+    stuck = int(modes[M_STUCK])
     fu = ws[W_FU:W_FU + 7, :3]
     cr = ws[W_CR:W_CR + 7, :3]
     at = ws[W_AT, :7]
@@ -407,7 +423,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
         if j == stuck:
             d0, d1, d2 = 0.0, 0.0, 0.0
         else:
-            d0, d1, d2 = _friction_direction(vj0, vj1, vj2, sp, p, P_D0 + 3 * j)
+            d0, d1, d2 = _friction_direction(vj0, vj1, vj2, sp, modes, M_D0 + 3 * j)
         power_dir[j] = d0 * vj0 + d1 * vj1 + d2 * vj2
         mu_j = p[P_TANPHI + j]
         if p[P_RATE_A] != 0.0:
@@ -552,25 +568,26 @@ def _user_wrench(t: float, y: np.ndarray, p: np.ndarray) -> None:
 
 
 @njit(cache=True, error_model="numpy")
-def rhs(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
+def rhs(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
     """:func:`rhs_ws` with its own scratch memory."""
-    return rhs_ws(t, y, p, dy, aux, new_workspace())
+    return rhs_ws(t, y, p, modes, dy, aux, new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
-def rhs_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
+def rhs_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.ndarray, aux: np.ndarray,
+           ws: np.ndarray) -> bool:
     """The right-hand side every integrator calls: user wrench (if any), then :func:`dynamics`."""
     ws[W_COUNT, C_NFEV] += 1.0
     if p[P_USER] != 0.0:
         _user_wrench(t, y, p)
-    return dynamics_ws(t, y, p, dy, aux, ws)
+    return dynamics_ws(t, y, p, modes, dy, aux, ws)
 
 
 # -- constraint projection ----------------------------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
-def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarray, target: np.ndarray,
-                     ws: np.ndarray) -> int:
+def _constraint_rows(y: np.ndarray, p: np.ndarray, modes: np.ndarray, jr: np.ndarray, jth: np.ndarray,
+                     target: np.ndarray, ws: np.ndarray) -> int:
     """Jacobian rows (d/dr, d/dtheta) of the constraints and their velocity targets: n_i . P_i (rows 0-2);
     a stuck contact's two tangential velocities; a stuck tip's two slip components (velocity level only).
     Returns the number of rows."""
@@ -589,13 +606,13 @@ def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarr
     at = ws[W_AT, :7]
     at[0], at[1], at[2] = 0, 1, 2
     rows = 3
-    stuck = int(p[P_STUCK])
+    stuck = int(modes[M_STUCK])
     if stuck >= 0:
         tangent_basis(p, stuck, jr[3], jr[4])
         at[3], at[4] = stuck, stuck
         target[3], target[4] = 0.0, 0.0
         rows = 5
-    if p[P_TIP_STUCK] != 0.0 and p[P_TANEF] > 0.0 and p[P_CASE] == 0.0:
+    if modes[M_TIP_STUCK] != 0.0 and p[P_TANEF] > 0.0 and p[P_CASE] == 0.0:
         w = y[S_W:S_W + 3]
         for a in (1, 2):
             _face_rows(R, w, a, tmp)
@@ -653,13 +670,13 @@ def constraint_residual(y: np.ndarray, p: np.ndarray) -> float:
 
 
 @njit(cache=True, error_model="numpy")
-def project(y: np.ndarray, p: np.ndarray) -> bool:
+def project(y: np.ndarray, p: np.ndarray, modes: np.ndarray) -> bool:
     """:func:`project_ws` with its own scratch memory."""
-    return project_ws(y, p, new_workspace())
+    return project_ws(y, p, modes, new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
-def project_ws(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> bool:
+def project_ws(y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) -> bool:
     """Put the contact points back on their planes and their velocities in the planes, in place.
 
     Mass-weighted least-squares corrections (the correction of least kinetic energy), Gauss-Newton passes
@@ -684,7 +701,7 @@ def project_ws(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> bool:
             worst = max(worst, abs(g))
         if worst < 1e-13:
             break
-        _constraint_rows(y, p, jr, jth, target, ws)
+        _constraint_rows(y, p, modes, jr, jth, target, ws)
         if not _mass_weighted_correction(y, p, 3, jr, jth, resid, dr, dth, ws):
             return False
         for k in range(3):
@@ -698,7 +715,7 @@ def project_ws(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> bool:
         qn = math.sqrt(y[S_Q] ** 2 + y[S_Q + 1] ** 2 + y[S_Q + 2] ** 2 + y[S_Q + 3] ** 2)
         for k in range(4):
             y[S_Q + k] /= qn
-    rows = _constraint_rows(y, p, jr, jth, target, ws)
+    rows = _constraint_rows(y, p, modes, jr, jth, target, ws)
     for i in range(rows):
         resid[i] = jr[i, 0] * y[S_V] + jr[i, 1] * y[S_V + 1] + jr[i, 2] * y[S_V + 2] \
             + jth[i, 0] * y[S_W] + jth[i, 1] * y[S_W + 1] + jth[i, 2] * y[S_W + 2] - target[i]
@@ -734,15 +751,15 @@ def _contact_points(y: np.ndarray, p: np.ndarray, out: np.ndarray, R: np.ndarray
 
 
 @njit(cache=True, error_model="numpy")
-def event_values(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float, slow_speed: float,
+def event_values(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, x1_target: float, slow_speed: float,
                  out: np.ndarray) -> None:
     """:func:`event_values_ws` with its own scratch memory."""
-    event_values_ws(y, p, aux, x1_target, slow_speed, out, new_workspace())
+    event_values_ws(y, p, modes, aux, x1_target, slow_speed, out, new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
-def event_values_ws(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float, slow_speed: float,
-                    out: np.ndarray, ws: np.ndarray) -> None:
+def event_values_ws(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, x1_target: float,
+                    slow_speed: float, out: np.ndarray, ws: np.ndarray) -> None:
     """Event functions; an event has happened where its value is > 0 (``aux`` from dynamics at ``y``).
 
     0: CP1 reached the travel target; 1-3: normal reaction of CP i is negative (lift-off); 4: the mass
@@ -781,7 +798,7 @@ def event_values_ws(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: fl
     for i in range(3):
         out[EV_STOP + i] = 0.1 * slow_speed - aux[A_SPEED + i]
     out[EV_RELEASE] = aux[A_STICK]
-    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0
+    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and modes[M_TIP_STUCK] == 0.0
     slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
     out[EV_TIP_STOP] = 0.1 * slow_speed - slip if rubs else -1.0
     out[EV_TIP_RELEASE] = aux[A_TIP_STICK]

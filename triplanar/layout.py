@@ -51,7 +51,7 @@ class Layout:
         return out
 
     def export(self, namespace: dict[str, Any]) -> None:
-        """Write :meth:`constants` into ``namespace`` (a module's ``globals()``), refusing to overwrite another value."""
+        """Write :meth:`constants` into ``namespace`` (a module's ``globals()``); never overwrite another value."""
         for key, value in self.constants().items():
             if namespace.get(key, value) != value:
                 raise ValueError(f"layout {self.prefix}*: {key} is already {namespace[key]}, not {value}")
@@ -59,5 +59,5 @@ class Layout:
 
     def describe(self, array: Any) -> dict[str, Any]:
         """An array in this layout as ``{field: value or list}``, for people and tests."""
-        return {f.name: (float(array[f.offset]) if f.size == 1 else [float(v) for v in array[f.offset:f.offset + f.size]])
+        return {f.name: float(array[f.offset]) if f.size == 1 else [float(v) for v in array[self[f.name]]]
                 for f in self.fields.values()}

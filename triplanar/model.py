@@ -131,18 +131,18 @@ class Model:
         p[K.P_RATE_A] = self.rate_a
         p[K.P_RATE_V0] = self.rate_v0_m_s
         p[K.P_USER] = 1.0 if self.force_effects else 0.0
-        p[K.P_STUCK] = -1.0
-        p[K.P_TIP_STUCK] = 0.0
         # Re-seated on tilted planes, a contact point that rests on a line where two planes meet may start
         # a hair across it; the plane-crossing events count only what lies beyond that start, up to
         # SEAT_TOLERANCE_M. Deeper than that the tilted planes put the point under another plane (it would
         # rest on that one): the run ends at t = 0 with ``left_plane``, honestly.
         y = self._unseated_state(self.loading.force_N)
-        if K.project(y, p):
+        modes = K.sliding_modes()
+        if K.project(y, p, modes):
             aux, events = np.empty(K.N_AUX), np.empty(K.N_EVENTS)
-            K.dynamics(0.0, y, p, np.empty(K.N_STATE), aux)
-            K.event_values(y, p, aux, 0.0, 0.0, events)
-            p[K.P_LEFT0:K.P_LEFT0 + 6] = np.clip(events[5:11] + K.LEFT_PLANE_TOL, 0.0, SEAT_TOLERANCE_M)
+            K.dynamics(0.0, y, p, modes, np.empty(K.N_STATE), aux)
+            K.event_values(y, p, modes, aux, 0.0, 0.0, events)
+            crossed = events[K.EV_LEFT_PLANE:K.EV_LEFT_PLANE + 6]
+            p[K.P_LEFT0:K.P_LEFT0 + 6] = np.clip(crossed + K.LEFT_PLANE_TOL, 0.0, SEAT_TOLERANCE_M)
         return p
 
     def _unseated_state(self, thrust_N: float) -> np.ndarray:
@@ -158,7 +158,7 @@ class Model:
         """The block at rest, seated on the planes; actuator force ``thrust_N`` (default: the command)."""
         y = self._unseated_state(self.loading.force_N if thrust_N is None else thrust_N)
         p = self.kernel_params_cached
-        if not K.project(y, p):
+        if not K.project(y, p, K.sliding_modes()):
             raise SpecimenError("foundation.planes", "the block cannot be seated on these planes")
         return y
 

@@ -85,11 +85,13 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
     rows, t, y = 0, 0.0, y0.copy()
     x1_target = _cp1_x1(y0, p) + travel_m
     armed = np.zeros(5, dtype=np.bool_)
+    modes = K.sliding_modes()
     with _user_effects(model):
-        converged, consistency = start_motion(p, y0)
+        converged, consistency = start_motion(p, modes, y0)
         while True:
-            code, event, rows, h, t = driver.drive(METHODS[method], t, y, p, armed, h, rtol, atol, t_max_s, x1_target,
-                                                   SLOW_SPEED_M_S, 0.0, out_t, out_y, out_aux, True, rows, log, ws)
+            code, event, rows, h, t = driver.drive(METHODS[method], t, y, p, modes, armed, h, rtol, atol, t_max_s,
+                                                   x1_target, SLOW_SPEED_M_S, 0.0, out_t, out_y, out_aux, True, rows,
+                                                   log, ws)
             if code != Outcome.BUFFER_FULL or capacity >= max_rows:
                 break
             capacity = min(2 * capacity, max_rows)
@@ -113,7 +115,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
 
 def _held(model: Model, y0: np.ndarray, method: str, message: str) -> SimulationResult:
     aux = np.zeros(K.N_AUX)
-    K.dynamics(0.0, y0, model.kernel_params_cached.copy(), np.empty(K.N_STATE), aux)
+    K.dynamics(0.0, y0, model.kernel_params_cached.copy(), K.sliding_modes(), np.empty(K.N_STATE), aux)
     return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), aux=aux[None, :], status=Outcome.HELD.label,
                             message=message,
                             model=model, method=method, t_start_s=math.inf, travel_target_m=0.0,

@@ -65,15 +65,17 @@ def sliding_threshold(model: Model, y: np.ndarray | None = None, upper_N: float 
     return float(E.max_thrust(y, model.kernel_params_cached, float(upper), extra_f, extra_m))
 
 
-def incipient_directions(p: np.ndarray, y: np.ndarray, t: float = 0.0, max_iter: int = 400) -> tuple[bool, float]:
-    """Set ``p[P_D0:]`` to the directions in which resting sliding sites begin to slip (see
-    :func:`triplanar.stepping.incipient_directions`); returns (converged, consistency)."""
-    converged, consistency = stepping.incipient_directions(t, y, p, max_iter)
+def incipient_directions(p: np.ndarray, modes: np.ndarray, y: np.ndarray, t: float = 0.0,
+                         max_iter: int = 400) -> tuple[bool, float]:
+    """Set ``modes[M_D0:]`` (the stick/slip modes, :data:`triplanar.kernel.MODES`) to the directions in which
+    resting sliding sites begin to slip (see :func:`triplanar.stepping.incipient_directions`); returns (converged,
+    consistency)."""
+    converged, consistency = stepping.incipient_directions(t, y, p, modes, max_iter)
     return bool(converged), float(consistency)
 
 
-def start_motion(p: np.ndarray, y: np.ndarray, t: float = 0.0) -> tuple[bool, float]:
-    """Choose how a block that cannot hold starts to move, and set ``p`` for it
+def start_motion(p: np.ndarray, modes: np.ndarray, y: np.ndarray, t: float = 0.0) -> tuple[bool, float]:
+    """Choose how a block that cannot hold starts to move, and set its stick/slip ``modes`` for it
     (:func:`triplanar.stepping.start_motion_ws`); returns (accepted, consistency)."""
-    accepted, consistency = stepping.start_motion_ws(t, y, p, stepping.new_workspace())
+    accepted, consistency = stepping.start_motion_ws(t, y, p, modes, stepping.new_workspace())
     return bool(accepted), float(consistency)

@@ -4,8 +4,9 @@
 :mod:`triplanar.kernel` with Euler (the paper's eq. 40), RK4 or adaptive DOPRI5, locates events, handles a contact
 or the tip that stops slipping or whose static friction gives way (:func:`apply_mode_event_ws`), and returns at
 terminal events and at ``SLOW`` (all contacts nearly stopped: :mod:`triplanar.driver` decides arrest with the
-statics LP, :mod:`triplanar.equilibrium`). :func:`incipient_directions` and :func:`start_motion_ws` choose how a block at
-rest starts to move. ``docs/physics.md`` explains the choices; the tests in ``tests/test_physics.py`` measure them.
+statics LP, :mod:`triplanar.equilibrium`). :func:`incipient_directions` and :func:`start_motion_ws` choose how a
+block at rest starts to move. ``docs/physics.md`` explains the choices; the tests in ``tests/test_physics.py``
+measure them.
 
 numba keys its on-disk cache on this file only, while these functions compile the kernel in;
 :func:`triplanar.compiled_cache.drop_if_stale` discards this module's cache when the kernel changes.
@@ -23,14 +24,14 @@ from . import kernel as K
 from .compiled_cache import drop_if_stale
 from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_STICK, C_NEVENT, C_NLOG, C_NREJECT,
                      C_NSTEP, EV_RELEASE, EV_SLOW, EV_STOP, EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS,
-                     N_KERNEL_WS_ROWS, N_STATE, P_C, P_CASE, P_D0, P_STUCK, P_TANEF, P_TIP_STUCK, SLIP_BLEND, S_DC,
+                     N_KERNEL_WS_ROWS, N_STATE, M_D0, M_STUCK, M_TIP_STUCK, P_C, P_CASE, P_TANEF, SLIP_BLEND, S_DC,
                      S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD, W_COUNT, ZERO_SPEED, _cross, _rotate, allocate_workspace,
                      event_values_ws, kinetic_energy_ws, project_ws, quat_to_matrix, rhs_ws)
 from .layout import Layout
 from .outcome import BUFFER_FULL, EVENT_OUTCOME, FAILED, RELEASED, RUNNING, SLOW, STOPPED, TIME_LIMIT
 
-drop_if_stale(Path(__file__).parent / "__pycache__", "stepping.*.nb[ic]", [Path(K.__file__), Path(K.__file__).parent / "outcome.py"],
-              "stepping.kernel.sha256")
+drop_if_stale(Path(__file__).parent / "__pycache__", "stepping.*.nb[ic]",
+              [Path(K.__file__), Path(K.__file__).parent / "outcome.py"], "stepping.kernel.sha256")
 
 # This module's scratch rows, after the kernel's (see the note on scratch memory in triplanar.kernel).
 WORKSPACE = Layout("W_", "N_WS_ROWS", [
@@ -73,7 +74,7 @@ METHOD_EULER, METHOD_RK4, METHOD_DOPRI5 = 0, 1, 2
 
 
 @njit(cache=True, error_model="numpy")
-def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
+def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, modes: np.ndarray, y_new: np.ndarray,
             err: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """One step of size ``h`` from (t, y) into ``y_new`` (not projected); ``err`` gets DOPRI5's estimate.
     Every method's first stage is f(t, y): the caller keeps it in the workspace's first stage row (``W_STAGES``,
@@ -89,15 +90,15 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new
         k1, k2, k3, k4 = k[0], k[1], k[2], k[3]
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k1[i]
-        if not rhs_ws(t + 0.5 * h, tmp, p, k2, aux, ws):
+        if not rhs_ws(t + 0.5 * h, tmp, p, modes, k2, aux, ws):
             return False
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k2[i]
-        if not rhs_ws(t + 0.5 * h, tmp, p, k3, aux, ws):
+        if not rhs_ws(t + 0.5 * h, tmp, p, modes, k3, aux, ws):
             return False
         for i in range(n):
             tmp[i] = y[i] + h * k3[i]
-        if not rhs_ws(t + h, tmp, p, k4, aux, ws):
+        if not rhs_ws(t + h, tmp, p, modes, k4, aux, ws):
             return False
         for i in range(n):
             y_new[i] = y[i] + h / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
@@ -108,7 +109,7 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new
             for j in range(s):
                 acc += _A[s, j] * k[j, i]
             tmp[i] = y[i] + h * acc
-        if not rhs_ws(t + _C[s] * h, tmp, p, k[s], aux, ws):
+        if not rhs_ws(t + _C[s] * h, tmp, p, modes, k[s], aux, ws):
             return False
     for i in range(n):
         y_new[i] = tmp[i]  # stage 7 is the 5th-order solution (FSAL)
@@ -136,14 +137,14 @@ def _error_norm(y: np.ndarray, y_new: np.ndarray, err: np.ndarray, rtol: float, 
 
 
 @njit(cache=True, error_model="numpy")
-def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
+def _advance(method, t, y, h, p, modes, y_new, err, aux, ws: np.ndarray) -> bool:
     """A step followed by projection; then evaluate dynamics at the new state to fill ``aux`` (and f(y_new) in
     ``ws[W_DY]``). The step's first stage f(t, y) must be in ``ws[W_STAGES]`` (see :func:`integrate_ws`)."""
-    if not step_ws(method, t, y, h, p, y_new, err, aux, ws):
+    if not step_ws(method, t, y, h, p, modes, y_new, err, aux, ws):
         return False
-    if not project_ws(y_new, p, ws):
+    if not project_ws(y_new, p, modes, ws):
         return False
-    if not rhs_ws(t + h, y_new, p, ws[W_DY, :N_STATE], aux, ws):
+    if not rhs_ws(t + h, y_new, p, modes, ws[W_DY, :N_STATE], aux, ws):
         return False
     for i in range(y_new.shape[0]):
         if not math.isfinite(y_new[i]):
@@ -152,17 +153,17 @@ def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
 
 
 @njit(cache=True, error_model="numpy")
-def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
-              t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
+def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, h: float, rtol: float,
+              atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
               out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool):
     """:func:`integrate_ws` with its own scratch memory, recording from row 0, no event log."""
-    return integrate_ws(method, t0, y, p, h, rtol, atol, t_max, x1_target, slow_speed, armed, out_t, out_y,
+    return integrate_ws(method, t0, y, p, modes, h, rtol, atol, t_max, x1_target, slow_speed, armed, out_t, out_y,
                         out_aux, record, 0, np.empty((0, 3)), new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
-def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float, atol: float,
-                 t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
+def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, h: float, rtol: float,
+                 atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
                  out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool, row0: int,
                  log: np.ndarray, ws: np.ndarray):
     """Integrate from (t0, y) until a terminal event, ``t_max`` or a full buffer; ``y`` ends as the final state.
@@ -191,11 +192,11 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     # event searches, starts with it, and the evaluation at a step's end (for aux) provides the next one.
     k1 = ws[W_STAGES, :N_STATE]
     rows = row0
-    if not rhs_ws(t0, y, p, k1, aux, ws):
+    if not rhs_ws(t0, y, p, modes, k1, aux, ws):
         return rows, FAILED, -1, h, t0
     ev_old = ws[W_EVOLD, :N_EVENTS]
     ev_new = ws[W_EVNEW, :N_EVENTS]
-    event_values_ws(y, p, aux, x1_target, slow_speed, ev_old, ws)
+    event_values_ws(y, p, modes, aux, x1_target, slow_speed, ev_old, ws)
     if record and row0 == 0:
         out_t[0] = t0
         out_y[0] = y
@@ -224,16 +225,16 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         h_try = min(h, t_max - t)
         site = -1
         if fixed:
-            site, tau = _predicted_stop(y, p, aux, armed, slow_speed, missed, ws)
+            site, tau = _predicted_stop(y, p, modes, aux, armed, slow_speed, missed, ws)
             if site < 0 or tau >= h_try:
                 site = -1
             else:
                 tau = max(tau, 1e-6 * h_try)  # (always progress: a huge deceleration must not stall time)
         if site >= 0:
-            h_try = _step_to_stop(method, t, y, tau, h_try, p, site, slow_speed, y_new, err, aux_new, ws)
+            h_try = _step_to_stop(method, t, y, tau, h_try, p, modes, site, slow_speed, y_new, err, aux_new, ws)
             if h_try < 0.0:
                 return rows, FAILED, -1, h, t
-        elif not _advance(method, t, y, h_try, p, y_new, err, aux_new, ws):
+        elif not _advance(method, t, y, h_try, p, modes, y_new, err, aux_new, ws):
             if not fixed and h_try > 1e-12:
                 h = 0.25 * h_try
                 count[C_NREJECT] += 1.0
@@ -249,7 +250,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
                 count[C_NREJECT] += 1.0
                 continue
             h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
-        event_values_ws(y_new, p, aux_new, x1_target, slow_speed, ev_new, ws)
+        event_values_ws(y_new, p, modes, aux_new, x1_target, slow_speed, ev_new, ws)
         hit = -1
         for k in range(N_EVENTS):
             if (k == EV_SLOW and not armed[0]) or (EV_STOP <= k < EV_RELEASE and not armed[k - EV_STOP + 1]) \
@@ -264,7 +265,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         else:
             missed[:] = 0
         if hit >= 0 and not predicted:  # (a predicted stop is already where it happens)
-            h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
+            h_ev = _locate(method, t, y, h_try, p, modes, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
                            y_new, err, aux_new, ws)
             if h_ev < 0.0:
                 return rows, FAILED, -1, h, t
@@ -278,14 +279,14 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         if hit >= 0:
             status = EVENT_OUTCOME[hit]
             _log_event(log, count, t, hit)
-        second_stop = status == STOPPED and hit != EV_TIP_STOP and p[P_STUCK] >= 0.0
+        second_stop = status == STOPPED and hit != EV_TIP_STOP and modes[M_STUCK] >= 0.0
         if status == STOPPED and not second_stop or status == RELEASED:
-            apply_mode_event_ws(hit, t, y, p, ws)
+            apply_mode_event_ws(hit, t, y, p, modes, ws)
             if hit == EV_TIP_STOP:
                 armed[4] = False
             elif hit < EV_RELEASE:
                 armed[hit - EV_STOP + 1] = False
-            if not rhs_ws(t, y, p, dummy, aux_new, ws):
+            if not rhs_ws(t, y, p, modes, dummy, aux_new, ws):
                 return rows, FAILED, -1, h, t
             dy_ready = True
             status = RUNNING
@@ -293,15 +294,15 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
             status = SLOW
         # (the new d0 enters neither the right-hand side nor the events: it is used only below SLIP_BLEND, where it
         # is not refreshed, so f(t, y) and the event values stay valid)
-        _refresh_directions(y, p, aux_new, ws)
+        _refresh_directions(y, p, modes, aux_new, ws)
         if hit < 0:
             ev_old[:] = ev_new
         else:
-            event_values_ws(y, p, aux_new, x1_target, slow_speed, ev_old, ws)
+            event_values_ws(y, p, modes, aux_new, x1_target, slow_speed, ev_old, ws)
         aux[:] = aux_new
         if dy_ready:
             k1[:] = dummy
-        elif not rhs_ws(t, y, p, k1, aux_new, ws):
+        elif not rhs_ws(t, y, p, modes, k1, aux_new, ws):
             return rows, FAILED, -1, h, t
         if ev_old[EV_SLOW] < -slow_speed:
             armed[0] = True  # arrest can only be detected once the block has really moved
@@ -354,8 +355,8 @@ def _site_velocity(y: np.ndarray, p: np.ndarray, aux: np.ndarray, site: int, ws:
 
 
 @njit(cache=True, error_model="numpy")
-def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.ndarray, slow_speed: float,
-                    missed: np.ndarray, ws: np.ndarray) -> tuple:
+def _predicted_stop(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, armed: np.ndarray,
+                    slow_speed: float, missed: np.ndarray, ws: np.ndarray) -> tuple:
     """The sliding site (contact 0-2 or the tip, 3) that friction will stop first, and when, extrapolating
     its deceleration along its slip: ``|v| / (-a . v/|v|)``; (-1, inf) if none decelerates. Sites that
     missed MAX_MISSED_STOPS predicted stops in a row (``missed``) are left out. Sets
@@ -366,8 +367,8 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.nda
     stop event fire where it happens."""
     best, best_tau = -1, math.inf
     v = ws[W_SITE_V, :3]
-    stuck = int(p[P_STUCK])
-    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0
+    stuck = int(modes[M_STUCK])
+    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and modes[M_TIP_STUCK] == 0.0
     for site in range(4):
         if missed[site] >= MAX_MISSED_STOPS:
             continue
@@ -387,7 +388,7 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.nda
 
 
 @njit(cache=True, error_model="numpy")
-def _step_to_stop(method, t, y, h, h_max, p, site, slow_speed, y_new, err, aux_new, ws: np.ndarray) -> float:
+def _step_to_stop(method, t, y, h, h_max, p, modes, site, slow_speed, y_new, err, aux_new, ws: np.ndarray) -> float:
     """Step to where the slip of ``site`` along its initial direction d (``ws[W_SITE_D]``) reaches zero, from
     the guess ``h`` (at most ``h_max``): the secant method on u(h) = v(t + h) . d, which (unlike the speed) is
     smooth through the stop. Stops refining when |u| < slow_speed / 50, well inside the stop event's
@@ -398,7 +399,7 @@ def _step_to_stop(method, t, y, h, h_max, p, site, slow_speed, y_new, err, aux_n
     h0, u0 = 0.0, v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
     h1 = h
     for it in range(6):
-        if not _advance(method, t, y, h1, p, y_new, err, aux_new, ws):
+        if not _advance(method, t, y, h1, p, modes, y_new, err, aux_new, ws):
             return -1.0
         _site_velocity(y_new, p, aux_new, site, ws, v)
         u1 = v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
@@ -412,30 +413,30 @@ def _step_to_stop(method, t, y, h, h_max, p, site, slow_speed, y_new, err, aux_n
 
 
 @njit(cache=True, error_model="numpy")
-def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> None:
+def _refresh_directions(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> None:
     """At a step boundary, each site sliding faster than SLIP_BLEND gets its current slip direction as d0
-    (P_D0), so the low-speed blend of a slowing site mixes with where it is going, not with a stale start."""
+    (M_D0), so the low-speed blend of a slowing site mixes with where it is going, not with a stale start."""
     R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
     tmp = ws[W_ARM, :3]
-    stuck = int(p[P_STUCK])
+    stuck = int(modes[M_STUCK])
     for j in range(3):
         sp = aux[A_SPEED + j]
         if j == stuck or sp < SLIP_BLEND:
             continue
         _rotate(R, p, P_C + 3 * j, tmp)
         c0, c1, c2 = _cross(y[S_W], y[S_W + 1], y[S_W + 2], tmp[0], tmp[1], tmp[2])
-        p[P_D0 + 3 * j] = (y[S_V] + c0) / sp
-        p[P_D0 + 3 * j + 1] = (y[S_V + 1] + c1) / sp
-        p[P_D0 + 3 * j + 2] = (y[S_V + 2] + c2) / sp
+        modes[M_D0 + 3 * j] = (y[S_V] + c0) / sp
+        modes[M_D0 + 3 * j + 1] = (y[S_V + 1] + c1) / sp
+        modes[M_D0 + 3 * j + 2] = (y[S_V + 2] + c2) / sp
     slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
-    if p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0 and slip >= SLIP_BLEND:
+    if p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and modes[M_TIP_STUCK] == 0.0 and slip >= SLIP_BLEND:
         for k in range(3):
-            p[P_D0 + 9 + k] = aux[A_SLIP + k] / slip
+            modes[M_D0 + 9 + k] = aux[A_SLIP + k] / slip
 
 
 @njit(cache=True, error_model="numpy")
-def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> None:
+def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) -> None:
     """A contact or the tip stopped slipping (it sticks if static friction can hold it, else slips anew
     from rest where the load drives it), or a stuck one's friction gave way (it slips).
 
@@ -446,41 +447,41 @@ def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, ws: 
         # Static friction reached its cone: the site slips opposite to the friction force it had, which is
         # the continuous continuation (the slip acceleration starts from zero along that direction).
         aux = ws[W_AUXMODE, :N_AUX]
-        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
+        rhs_ws(t, y, p, modes, ws[W_DY, :N_STATE], aux, ws)
         tip = event == EV_TIP_RELEASE
-        site = 3 if tip else int(p[P_STUCK])
+        site = 3 if tip else int(modes[M_STUCK])
         base = A_TIP_F if tip else A_STICK_F
         norm = math.sqrt(aux[base] ** 2 + aux[base + 1] ** 2 + aux[base + 2] ** 2)
         if tip:
-            p[P_TIP_STUCK] = 0.0
+            modes[M_TIP_STUCK] = 0.0
         else:
-            p[P_STUCK] = -1.0
+            modes[M_STUCK] = -1.0
         if norm > 0.0:
             for k in range(3):
-                p[P_D0 + 3 * site + k] = -aux[base + k] / norm
+                modes[M_D0 + 3 * site + k] = -aux[base + k] / norm
             return
     else:
         tip = event == EV_TIP_STOP
         before = kinetic_energy_ws(y, p, ws)
         if tip:
-            p[P_TIP_STUCK] = 1.0
+            modes[M_TIP_STUCK] = 1.0
         else:
-            p[P_STUCK] = float(event - EV_STOP)
-        project_ws(y, p, ws)
+            modes[M_STUCK] = float(event - EV_STOP)
+        project_ws(y, p, modes, ws)
         y[S_DTIP if tip else S_DC + event - EV_STOP] += before - kinetic_energy_ws(y, p, ws)
         aux = ws[W_AUXMODE, :N_AUX]
-        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
+        rhs_ws(t, y, p, modes, ws[W_DY, :N_STATE], aux, ws)
         if aux[A_TIP_STICK if tip else A_STICK] <= 0.0:
             return
         if tip:
-            p[P_TIP_STUCK] = 0.0
+            modes[M_TIP_STUCK] = 0.0
         else:
-            p[P_STUCK] = -1.0
-    incipient_directions_ws(t, y, p, 400, ws)
+            modes[M_STUCK] = -1.0
+    incipient_directions_ws(t, y, p, modes, 400, ws)
 
 
 @njit(cache=True, error_model="numpy")
-def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux,
+def _locate(method, t, y, h, p, modes, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux,
             ws: np.ndarray) -> float:
     """Step length in (0, h] at which event ``which`` crosses zero; fills y_new/aux there. -1 on failure."""
     ev = ws[W_EVLOC, :N_EVENTS]
@@ -497,9 +498,9 @@ def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new,
         mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
         if not (lo < mid < hi):
             mid = 0.5 * (lo + hi)
-        if not _advance(method, t, y, mid, p, y_new, err, aux, ws):
+        if not _advance(method, t, y, mid, p, modes, y_new, err, aux, ws):
             return -1.0
-        event_values_ws(y_new, p, aux, x1_target, slow_speed, ev, ws)
+        event_values_ws(y_new, p, modes, aux, x1_target, slow_speed, ev, ws)
         g = ev[which]
         if g > 0.0:
             hi, f_hi = mid, g
@@ -524,14 +525,15 @@ def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new,
 
 
 @njit(cache=True, error_model="numpy")
-def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, max_iter: int) -> tuple:
+def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, max_iter: int) -> tuple:
     """:func:`incipient_directions_ws` with its own scratch memory."""
-    return incipient_directions_ws(t, y, p, max_iter, new_workspace())
+    return incipient_directions_ws(t, y, p, modes, max_iter, new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
-def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, max_iter: int, ws: np.ndarray) -> tuple:
-    """Set ``p[P_D0:]`` to the directions in which the resting sliding sites begin to slip.
+def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, max_iter: int,
+                            ws: np.ndarray) -> tuple:
+    """Set ``modes[M_D0:]`` to the directions in which the resting sliding sites begin to slip.
 
     Friction at a site with zero slip must oppose its incipient slip, which depends on all the friction
     directions: a fixed point (directions -> slip accelerations -> directions), damped if it oscillates.
@@ -541,15 +543,15 @@ def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, max_iter: in
     aux = ws[W_AUXMODE, :N_AUX]
     dy = ws[W_DY, :N_STATE]
     for k in range(12):
-        p[P_D0 + k] = 0.0
-    if not rhs_ws(t, y, p, dy, aux, ws):
+        modes[M_D0 + k] = 0.0
+    if not rhs_ws(t, y, p, modes, dy, aux, ws):
         return False, -1.0
     resting = np.zeros(4, np.bool_)
-    stuck = int(p[P_STUCK])
+    stuck = int(modes[M_STUCK])
     for j in range(3):
         resting[j] = j != stuck and aux[A_SPEED + j] <= ZERO_SPEED
     slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
-    resting[3] = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and p[P_TIP_STUCK] == 0.0 and slip <= ZERO_SPEED
+    resting[3] = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and modes[M_TIP_STUCK] == 0.0 and slip <= ZERO_SPEED
     d = ws[W_DIRS, :12]
     new = ws[W_DIRS + 1, :12]
     d[:] = 0.0
@@ -583,8 +585,8 @@ def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, max_iter: in
             for k in range(3):
                 if norm > 0.0:
                     d[3 * s + k] /= norm
-                p[P_D0 + 3 * s + k] = d[3 * s + k]
-        if not rhs_ws(t, y, p, dy, aux, ws):
+                modes[M_D0 + 3 * s + k] = d[3 * s + k]
+        if not rhs_ws(t, y, p, modes, dy, aux, ws):
             return False, -1.0
     consistency = 1.0
     for s in range(4):
@@ -598,8 +600,8 @@ def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, max_iter: in
 
 
 @njit(cache=True, error_model="numpy")
-def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> tuple:
-    """Choose how a block that cannot hold starts to move, and set ``p`` for it.
+def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) -> tuple:
+    """Choose how a block that cannot hold starts to move, and set its stick/slip ``modes`` for it.
 
     Tries, in order: all contacts sliding with the tip stuck (if it rubs), all sliding, then one contact
     stuck (a pivot) with the tip stuck or sliding. A mode is accepted when its friction opposes every
@@ -613,15 +615,15 @@ def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> t
     for mode in range(4 * n_tip):
         stuck = float(mode // n_tip - 1)  # -1 (all slide), then a pivot about CP1, CP2, CP3
         tip = 1.0 if rubs and mode % n_tip == 0 else 0.0  # the tip stuck first, when it rubs
-        p[P_STUCK], p[P_TIP_STUCK] = stuck, tip
-        _, consistency = incipient_directions_ws(t, y, p, 400, ws)
-        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
+        modes[M_STUCK], modes[M_TIP_STUCK] = stuck, tip
+        _, consistency = incipient_directions_ws(t, y, p, modes, 400, ws)
+        rhs_ws(t, y, p, modes, ws[W_DY, :N_STATE], aux, ws)
         holds_stuck = aux[A_STICK] <= 0.0 and aux[A_TIP_STICK] <= 0.0
         score = consistency if holds_stuck else -2.0
         if holds_stuck and consistency > 0.9999:
             return True, consistency
         if score > best_score:
             best_score, best_stuck, best_tip = score, stuck, tip
-    p[P_STUCK], p[P_TIP_STUCK] = best_stuck, best_tip
-    _, consistency = incipient_directions_ws(t, y, p, 400, ws)
+    modes[M_STUCK], modes[M_TIP_STUCK] = best_stuck, best_tip
+    _, consistency = incipient_directions_ws(t, y, p, modes, 400, ws)
     return False, consistency
