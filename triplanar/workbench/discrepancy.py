@@ -109,21 +109,12 @@ def model_travel_at_time(result: SimulationResult, t: np.ndarray) -> np.ndarray:
     t = np.asarray(t, dtype=float)
     if not _ran(result):
         return np.zeros_like(t)
-    tt, s, v = result.t, result.travel, result.contact_velocities[:, 0, 0]
-    keep = np.append(np.diff(tt) > 0, True)
-    tt, s, v = tt[keep], s[keep], v[keep]
-    if len(tt) < 2:
-        return np.full_like(t, s[-1])
-    tq = np.clip(t, tt[0], tt[-1])
-    i = np.clip(np.searchsorted(tt, tq, side="right") - 1, 0, len(tt) - 2)
-    h = tt[i + 1] - tt[i]
-    u = (tq - tt[i]) / h
-    out = ((2 * u**3 - 3 * u**2 + 1) * s[i] + (u**3 - 2 * u**2 + u) * h * v[i]
-           + (-2 * u**3 + 3 * u**2) * s[i + 1] + (u**3 - u**2) * h * v[i + 1])
-    beyond = t > tt[-1]
+    out = result.travel_at_time(t)
+    t_end, s_end = float(result.t[-1]), float(result.travel[-1])
+    beyond = t > t_end
     if beyond.any():
-        speed = max(float(v[-1]), 0.0) if result.status == "travel" else 0.0
-        out[beyond] = s[-1] + speed * (t[beyond] - tt[-1])
+        speed = max(float(result.contact_velocities[-1, 0, 0]), 0.0) if result.status == "travel" else 0.0
+        out[beyond] = s_end + speed * (t[beyond] - t_end)
     return out
 
 
