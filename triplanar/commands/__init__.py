@@ -1,25 +1,11 @@
-"""CLI subcommands; each module: NAME, HELP, add_arguments(parser), run(args) -> int."""
+"""CLI subcommands; each module: NAME, HELP, add_arguments(parser), run(args) -> int.
+
+A command that needs the RL stack (``train``, ``study``) imports :mod:`agents`/:mod:`experiments` inside
+``run()`` only, so ``triplanar --help`` and the physics and workbench commands work without torch.
+"""
 
 from __future__ import annotations
 
-import argparse
+from ..cli_args import add_model_arguments, load_specimen, parse_effects
 
-from ..effects import Effect, make_effect
-
-
-def add_model_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options every command that builds a model shares: ``--specimen`` and repeated ``--effect``."""
-    parser.add_argument("--specimen", metavar="S.toml", help="specimen and foundation TOML (default: the "
-                        "reference specimen, triplanar/data/reference.toml)")
-    parser.add_argument("--effect", action="append", default=[], metavar="NAME[:P=V,...]",
-                        help="add an effect with fixed parameters, e.g. end_friction:phi_deg=8 (repeatable)")
-
-
-def parse_effects(specs: list[str]) -> list[Effect]:
-    return [make_effect(spec) for spec in specs]
-
-
-def load_specimen(path: str | None):
-    """(specimen, foundation) from ``--specimen`` or the reference."""
-    from ..specimen import load_toml, reference
-    return load_toml(path) if path else reference()
+__all__ = ["add_model_arguments", "load_specimen", "parse_effects"]
