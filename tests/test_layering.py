@@ -51,3 +51,11 @@ def test_envs_and_make_vec_need_no_rl_stack() -> None:
 def test_the_workbench_does_not_import_the_commands() -> None:
     loaded = _loaded_after("import triplanar.workbench.cli_common")
     assert "triplanar.commands" not in loaded
+
+
+def test_a_command_needing_a_missing_extra_says_how_to_install_it(monkeypatch, capsys) -> None:
+    from triplanar import cli, commands
+    monkeypatch.setattr(commands, "RL_MODULES", ("no_such_module_for_this_test",))
+    assert cli.main(["train", "--timesteps", "1", "--out", "unused"]) == 2
+    err = capsys.readouterr().err
+    assert "no_such_module_for_this_test not installed" in err and "triplanar-shear[rl]" in err

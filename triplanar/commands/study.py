@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import require
+
 NAME = "study"
 HELP = "actuator design study: train PPO, evaluate every controller at the 12 loads, write tables, plots, report"
 
@@ -23,5 +25,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    require()
     from experiments.study import run as study  # noqa: PLC0415  (the RL stack, only when run)
     return study(args)

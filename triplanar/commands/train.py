@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 
+from . import require
+
 NAME = "train"
 HELP = "train PPO on TriPlanarShear-v0 (hyperparameters in a YAML file; resumes from checkpoints)"
 
@@ -22,5 +24,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    require()
     from agents.train_ppo import run as train  # noqa: PLC0415  (the RL stack, only when training)
     return train(args)
