@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from triplanar import kernel as K, paper_model, simulate
-from triplanar.interpolate import CubicHermite, distinct_times
-from triplanar.result import _parabola_slopes
+from triplanar.interpolate import CubicHermite, distinct_times, parabola_slopes
 
 
 def test_hermite_reproduces_a_cubic_exactly_and_its_derivative() -> None:
@@ -38,6 +37,13 @@ def test_hermite_rows_first_shapes_clamping_and_repeated_times() -> None:
         CubicHermite(np.array([1.0, 0.0]), np.zeros(2), np.zeros(2))
 
 
+def test_parabola_slopes_are_exact_for_a_quadratic_at_every_row_and_ends() -> None:
+    t = np.array([0.0, 0.1, 0.1, 0.35, 0.4, 1.0])  # uneven, with a repeated time
+    y = np.stack([3 * t**2 - t + 2, -t**2], axis=1)
+    np.testing.assert_allclose(parabola_slopes(t, y), np.stack([6 * t - 1, -2 * t], axis=1), atol=1e-12)
+    np.testing.assert_array_equal(parabola_slopes(t[:2], y[:2]), np.zeros((2, 2)))
+
+
 @pytest.mark.parametrize("case, force", [("A", 40.0), ("B", 23.0)])
 def test_sol_is_exact_at_the_rows_and_close_to_a_tighter_run_between_them(case: str, force: float) -> None:
     """B at 23 N pivots about a sticking CP3 that later slips slowly: the modes the derivative needs."""
@@ -62,6 +68,6 @@ def test_dydt_uses_the_kernel_where_the_mode_is_recovered_and_a_close_slope_else
     assert from_kernel[0] and 100 < from_kernel.sum() < len(result.t)  # both kinds of row occur
     np.testing.assert_array_equal(result.dydt[:, K.S_R:K.S_R + 3], result.y[:, K.S_V:K.S_V + 3])
     # the fallback (slope of the parabola through neighbouring rows) agrees with the kernel where both exist
-    fd = _parabola_slopes(result.t, result.y)[from_kernel, K.S_V:K.S_V + 3]
+    fd = parabola_slopes(result.t, result.y)[from_kernel, K.S_V:K.S_V + 3]
     acc = result.dydt[from_kernel, K.S_V:K.S_V + 3]
     assert np.median(np.abs(fd - acc)) < 0.01 * np.abs(acc).max()

@@ -9,30 +9,9 @@ from pathlib import Path
 import numpy as np
 
 from . import kernel as K
-from .interpolate import CubicHermite, distinct_times
+from .interpolate import CubicHermite, distinct_times, parabola_slopes
 from .measurement import MeasuredTest, write_measurements
 from .model import Model
-
-
-def _parabola_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """(n, ...) slope at each row of the parabola through it and its neighbours (one-sided at the ends,
-    equal times skipped); zeros for fewer than three distinct times."""
-    keep = np.flatnonzero(np.append(np.diff(t) > 0, True))
-    out = np.zeros_like(y)
-    if len(keep) < 3:
-        return out
-    tk, yk = t[keep], y[keep]
-    centre = np.clip(np.arange(len(keep)), 1, len(keep) - 2)
-    t0, t1, t2 = tk[centre - 1], tk[centre], tk[centre + 1]
-    x = tk
-    shape = (-1,) + (1,) * (y.ndim - 1)
-    w0 = ((x - t1) + (x - t2)) / ((t0 - t1) * (t0 - t2))
-    w1 = ((x - t0) + (x - t2)) / ((t1 - t0) * (t1 - t2))
-    w2 = ((x - t0) + (x - t1)) / ((t2 - t0) * (t2 - t1))
-    slopes = (w0.reshape(shape) * yk[centre - 1] + w1.reshape(shape) * yk[centre]
-              + w2.reshape(shape) * yk[centre + 1])
-    rows = np.searchsorted(t[keep], t, side="left")  # each row takes its (last) distinct time's slope
-    return slopes[np.minimum(rows, len(keep) - 1)]
 
 
 def rotation_matrices(quaternions: np.ndarray) -> np.ndarray:
@@ -207,7 +186,7 @@ class SimulationResult:
                     if exact[k]:
                         break
         if not exact.all():
-            fd = _parabola_slopes(self.t, self.y)
+            fd = parabola_slopes(self.t, self.y)
             rates = slice(K.S_V, K.N_STATE)  # r and q rates come from v and omega, whatever the mode
             dy[~exact, rates] = fd[~exact, rates]
         return dy, exact
