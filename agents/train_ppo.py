@@ -69,7 +69,7 @@ def make_vec_envs(config: dict[str, Any], seed: int):
     """(training VecNormalize env, evaluation VecNormalize env: one env per evaluation load)."""
     from stable_baselines3.common.vec_env import VecMonitor, VecNormalize  # noqa: PLC0415
 
-    from envs.vector import ShearSB3VecEnv  # noqa: PLC0415
+    from .sb3_vec_env import ShearSB3VecEnv  # noqa: PLC0415
     shear = env_config(config)
     norm = config.get("normalize", {})
     train = VecNormalize(VecMonitor(ShearSB3VecEnv(int(config.get("n_envs", 16)), shear, seed=seed)), **norm)
@@ -188,24 +188,16 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     return TrainResult(run_dir, model_path, stats_path, curve_path, int(model.num_timesteps), wall)
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--config", default=str(DEFAULT_CONFIG), help="hyperparameter YAML (default agents/ppo.yaml)")
-    parser.add_argument("--out", default="runs/ppo", help="output directory; the run goes to OUT/seed_S")
-    parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
-    parser.add_argument("--timesteps", type=int, help="total environment steps (default: the YAML's)")
-    parser.add_argument("--no-resume", action="store_true", help="start afresh even if checkpoints exist")
-    parser.add_argument("--verbose", type=int, default=0)
-
-
 def run(args: argparse.Namespace) -> int:
     for seed in args.seed or [0]:
-        result = train_ppo(args.config, args.out, seed, args.timesteps, resume=not args.no_resume,
+        result = train_ppo(args.config or DEFAULT_CONFIG, args.out, seed, args.timesteps, resume=not args.no_resume,
                            verbose=args.verbose)
         print(f"seed {seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.model_path}")
     return 0
 
 
 def main(argv: Iterable[str] | None = None) -> int:
+    from triplanar.commands.train import add_arguments  # noqa: PLC0415  (the options are the CLI's)
     parser = argparse.ArgumentParser(prog="python -m agents.train_ppo", description=__doc__.splitlines()[0])
     add_arguments(parser)
     return run(parser.parse_args(None if argv is None else list(argv)))

@@ -219,7 +219,7 @@ Learning curves: [learning_curves.png]({rel / 'learning_curves.png'}).
 
 ### PPO as a baseline
 
-Training (one core, `torch.set_num_threads(1)`, batched env `envs.vector.ShearSB3VecEnv`):
+Training (one core, `torch.set_num_threads(1)`, batched env `agents.sb3_vec_env.ShearSB3VecEnv`):
 
 {training}
 

@@ -131,23 +131,15 @@ def write_tables(result: StudyResult) -> None:
                             + [f"{ppo[:, j].mean():.3f}", f"{ppo[:, j].std():.3f}", ppo.shape[0]])
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--out", required=True, help="directory for tables and plots")
-    parser.add_argument("--ppo-dir", default="runs/ppo", help="PPO runs (trained here unless --skip-train)")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="PPO seeds (default 0 1 2)")
-    parser.add_argument("--timesteps", type=int, help="PPO timesteps per seed (default: the YAML's)")
-    parser.add_argument("--config", default=str(DEFAULT_CONFIG), help="PPO hyperparameter YAML")
-    parser.add_argument("--doc", default="docs/actuator-study.md", help="report to write ('' for none)")
-    parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
-
-
 def run(args: argparse.Namespace) -> int:
-    run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, config=args.config, timesteps=args.timesteps,
+    run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, config=args.config or DEFAULT_CONFIG,
+              timesteps=args.timesteps,
               train=not args.skip_train, doc=args.doc or None)
     return 0
 
 
 def main(argv: Iterable[str] | None = None) -> int:
+    from triplanar.commands.study import add_arguments  # noqa: PLC0415  (the options are the CLI's)
     parser = argparse.ArgumentParser(prog="python -m experiments.study", description=__doc__.splitlines()[0])
     add_arguments(parser)
     return run(parser.parse_args(None if argv is None else list(argv)))

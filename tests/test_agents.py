@@ -44,6 +44,7 @@ def tiny_config() -> dict:
     return config
 
 
+@pytest.mark.slow
 def test_ppo_smoke_trains_saves_resumes_loads_and_evaluates(tmp_path) -> None:
     from agents.ppo_controller import PPOController
     config = tiny_config()
@@ -65,6 +66,7 @@ def test_ppo_smoke_trains_saves_resumes_loads_and_evaluates(tmp_path) -> None:
     assert np.all(np.abs(result.actions) <= 1.0)
 
 
+@pytest.mark.slow
 def test_study_pipeline_writes_its_outputs(tmp_path) -> None:
     from experiments.study import run_study
     config = tiny_config()

@@ -1,15 +1,14 @@
-"""The batched vector env and its SB3 adapter run the single env's dynamics exactly."""
+"""The batched vector env runs the single env's dynamics exactly (its SB3 adapter: tests/test_sb3_vec_env.py)."""
 
 from __future__ import annotations
 
 import gymnasium as gym
 import numpy as np
-import pytest
 
 import envs  # noqa: F401
 from envs import triplanar_shear as S
 from envs.triplanar_shear import TriPlanarShearEnv
-from envs.vector import ShearSB3VecEnv, TriPlanarShearVectorEnv
+from envs.vector import TriPlanarShearVectorEnv
 from triplanar.outcome import Outcome
 
 N = 4
@@ -55,39 +54,3 @@ def test_vector_env_equals_n_single_envs() -> None:
             assert rewards[i] == expected[1] and terminated[i] == expected[2] and truncated[i] == expected[3]
             ended[i] = bool(terminated[i] or truncated[i])
     assert len(reasons) >= 2  # several kinds of ending were compared
-
-
-def test_sb3_adapter_equals_single_envs_with_same_step_reset() -> None:
-    vec = ShearSB3VecEnv(N, load_levels=(27.8, 40.0, 55.6))
-    vec.seed(7)
-    obs = vec.reset()
-    singles = [TriPlanarShearEnv(load_levels=(27.8, 40.0, 55.6)) for _ in range(N)]
-    for i, env in enumerate(singles):
-        assert np.array_equal(obs[i], env.reset(seed=7 + i)[0])
-    episodes = 0
-    for batch in actions(200, seed=3):
-        obs, rewards, dones, infos = vec.step(batch)
-        assert rewards.dtype == np.float32 and len(infos) == N
-        for i, env in enumerate(singles):
-            o, r, te, tr, inf = env.step(batch[i])
-            assert rewards[i] == np.float32(r) and dones[i] == (te or tr)
-            if te or tr:
-                episodes += 1
-                assert np.array_equal(infos[i]["terminal_observation"], o)
-                assert infos[i]["TimeLimit.truncated"] == (tr and not te)
-                assert infos[i]["is_success"] == inf["is_success"] and infos[i]["reason"] == inf["reason"]
-                o = env.reset()[0]
-            else:
-                assert infos[i] == {}
-            assert np.array_equal(obs[i], o)
-    assert episodes >= N
-
-
-def test_sb3_adapter_row_options_and_api() -> None:
-    loads = [27.8, 40.0]
-    vec = ShearSB3VecEnv(2, row_options=[{"load_N": f} for f in loads], seed=0)
-    obs = vec.reset()
-    assert np.allclose(obs[:, S.OBS_LOAD], loads)
-    assert vec.get_attr("render_mode") == [None, None] and vec.env_is_wrapped(gym.Wrapper) == [False, False]
-    with pytest.raises(ValueError):
-        ShearSB3VecEnv(2, row_options=[{}])

@@ -200,6 +200,7 @@ def test_reproduction_verdicts_match_the_documented_ones(rep):
     assert documented == verdicts
 
 
+@pytest.mark.slow
 def test_figures_have_the_expected_panels(rep):
     specs = {s.name: s for s in figure_specs(rep)}
     expected = {"fig06_traces.png": 1, "fig11_case_A.png": 12, "fig12_case_B.png": 12, "fig13_case_C.png": 12,
@@ -224,6 +225,7 @@ def test_render_writes_a_png(rep, tmp_path):
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_outputs_for_a_small_dataset(tmp_path):
     tests, truth = generate_lab_data(loads=(30.3, 45.0), repeats=2, seed=5)
     write_lab_data(tmp_path / "lab.csv", tests, truth)

@@ -181,6 +181,7 @@ def _constraint_residual(P: np.ndarray) -> float:
     return max(res)
 
 
+@pytest.mark.slow
 def test_energy_conserved_frictionless_gravity_only():
     # The foundation climbs toward +e1: released frictionless, the block slides back under gravity.
     t, P, V = reference_simulate(specimen(load_case="hydrostatic", force=0.0), 0.2, 1e-4)
@@ -190,6 +191,7 @@ def test_energy_conserved_frictionless_gravity_only():
     assert _constraint_residual(P) < 1e-12
 
 
+@pytest.mark.slow
 def test_work_of_hydrostatic_load_equals_energy_gain():
     F = 40.0
     t, P, V = reference_simulate(specimen(load_case="hydrostatic", force=F), 0.2, 1e-4)

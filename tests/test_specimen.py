@@ -172,6 +172,7 @@ def test_a_tilt_that_puts_a_point_under_another_plane_is_refused_at_rest() -> No
     assert "starts under FP1" in result.message
 
 
+@pytest.mark.slow
 def test_actuator_rise_starts_at_the_threshold_and_handles_fast_rises() -> None:
     from triplanar.statics import sliding_threshold
     base = paper_model("A", 40.0)

@@ -9,7 +9,7 @@ from concurrent.futures import ProcessPoolExecutor
 import numpy as np
 import pytest
 
-from triplanar.specimen import Foundation, Plane
+from triplanar.specimen import Foundation, Plane, reference
 
 from triplanar import EffectError, MeasuredTest, make_effect, paper_model, simulate
 from triplanar.labdata import generate_lab_data
@@ -20,6 +20,7 @@ from triplanar.workbench.diagnose import load_folds
 from triplanar.workbench.fit import safe_evaluate
 
 LOADS = (27.8, 40.0, 55.6)
+REST = reference()[0].contact_points_m
 
 
 @pytest.fixture(scope="module")
@@ -88,11 +89,11 @@ def test_a_model_the_core_refuses_counts_as_not_moving_in_fits() -> None:
 def test_repeat_scatter() -> None:
     run = simulate(paper_model("A", 40.0), travel_m=0.06).to_measured("a")
     twin = MeasuredTest("b", 40.0, run.positions, run.t_s)
-    assert repeat_scatter_mm([run, twin]) == pytest.approx(0.0, abs=1e-9)
-    assert math.isnan(repeat_scatter_mm([run]))
+    assert repeat_scatter_mm([run, twin], REST) == pytest.approx(0.0, abs=1e-9)
+    assert math.isnan(repeat_scatter_mm([run], REST))
     shifted = MeasuredTest("c", 40.0, run.positions + np.array([0.0, 0.0, 0.001]), run.t_s)
     # Two repeats 1 mm apart laterally at every CP: each is 0.5 mm from the mean, x sqrt(2) for the true path.
-    assert repeat_scatter_mm([run, shifted]) == pytest.approx(math.sqrt(3 * 0.5 ** 2 * 2 / 4), rel=1e-6)
+    assert repeat_scatter_mm([run, shifted], REST) == pytest.approx(math.sqrt(3 * 0.5 ** 2 * 2 / 4), rel=1e-6)
 
 
 def test_tasks_pickle_and_a_process_pool_gives_the_same_answer(case_a_data) -> None:

@@ -21,6 +21,8 @@ from triplanar.labdata import generate_lab_data
 from triplanar.workbench import Diagnoser, ForwardSelection
 from triplanar.workbench.scenarios import HIDDEN_EFFECTS
 
+pytestmark = pytest.mark.slow  # each test fits models to datasets: seconds to tens of seconds
+
 LOADS = (27.8, 35.0, 45.0, 55.6)
 REPEATS = 2
 SEED = 1

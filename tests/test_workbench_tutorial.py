@@ -9,6 +9,8 @@ import pytest
 
 from triplanar import EFFECTS
 
+pytestmark = pytest.mark.slow  # runs the tutorial's fits: ~16 s
+
 DOC = Path(__file__).resolve().parents[1] / "docs" / "adding-an-effect.md"
 
 

@@ -10,6 +10,8 @@ import argparse
 import importlib
 import sys
 
+from .commands import MissingDependency
+
 COMMANDS = ("simulate", "lab_data", "paper", "compare", "diagnose", "fit", "train", "study", "demo")
 
 
@@ -34,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return int(args.handler(args) or 0)
-    except (ValueError, OSError) as err:  # bad input: say what and where, no traceback
+    except (ValueError, OSError, MissingDependency) as err:  # bad input or installation: say what, no traceback
         print(f"triplanar {args.command}: error: {err}", file=sys.stderr)
         return 2
 

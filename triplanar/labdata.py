@@ -121,22 +121,13 @@ def foundation_plan_box(specimen: Specimen) -> PlanBox:
 
 def hermite_in_time(result: SimulationResult, t_query: np.ndarray) -> np.ndarray:
     """(m, 3, 3) contact-point positions at times ``t_query`` (within the simulated span), by cubic Hermite
-    interpolation of the integrator's positions and velocities at the bracketing steps."""
+    interpolation of the integrator's positions and velocities at the bracketing steps
+    (:meth:`SimulationResult.contact_points_at`); refuses times outside the span."""
     t = result.t
-    pos, vel = result.contact_points, result.contact_velocities
-    keep = np.append(np.diff(t) > 0, True)  # a repeated time (event row) keeps its last row
-    t, pos, vel = t[keep], pos[keep], vel[keep]
     t_query = np.asarray(t_query, dtype=float)
     if t_query.size and (t_query.min() < t[0] - 1e-15 or t_query.max() > t[-1] + 1e-12):
         raise ValueError(f"times must lie within [{t[0]:g}, {t[-1]:g}] s, the simulated span")
-    if len(t) == 1:
-        return np.repeat(pos[:1], len(t_query), axis=0)
-    i = np.clip(np.searchsorted(t, t_query, side="right") - 1, 0, len(t) - 2)
-    h = (t[i + 1] - t[i])[:, None, None]
-    u = np.clip((t_query - t[i])[:, None, None] / h, 0.0, 1.0)
-    h00, h10 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u
-    h01, h11 = -2 * u**3 + 3 * u**2, u**3 - u**2
-    return h00 * pos[i] + h10 * h * vel[i] + h01 * pos[i + 1] + h11 * h * vel[i + 1]
+    return result.contact_points_at(t_query)
 
 
 def _friction_angles(model: Model) -> list[float]:

@@ -10,6 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import kernel as K
+from .interpolate import CubicHermite, distinct_times, parabola_slopes
 from .measurement import MeasuredTest, write_measurements
 from .model import Model
 from .outcome import Outcome, event_name
@@ -162,36 +163,112 @@ class SimulationResult:
             - out["dissipated_contacts"].sum(axis=1) - out["dissipated_tip"]
         return out
 
+    # -- dense output --------------------------------------------------------------------------
+    @cached_property
+    def _rows(self) -> np.ndarray:
+        """Rows the interpolants use: all, except that a repeated time keeps only its last row."""
+        return distinct_times(self.t)
+
+    @cached_property
+    def dydt(self) -> np.ndarray:
+        """(n, N_STATE) state derivative at every row, for :attr:`sol`.
+
+        Why not simply the right-hand side at each row: the stick/slip mode and the incipient slip
+        directions live in the kernel parameters, which change during a run and are not recorded. So each
+        row's mode is read back from its own ``aux`` (a contact sticks when ``aux[A_STICK] != -1``, the
+        tip when ``aux[A_TIP_STICK] != -1``; the incipient directions are those of the start of sliding,
+        :func:`triplanar.statics.start_motion`), the kernel's right-hand side is evaluated with it, and it
+        is kept only where it reproduces the recorded ``aux`` (normal reactions, slip accelerations...)
+        to 1e-9: then it is the derivative the integrator saw. Elsewhere (a site slipping slower than
+        ``kernel.SLIP_BLEND`` after a stop or release, whose direction is not recorded) velocities and
+        energy integrals take the slope of the parabola through the row and its neighbours, second order
+        in the step; :attr:`dydt_from_kernel` says which rows. Position and orientation rates are the
+        row's own velocities in every row (they do not depend on the mode).
+        """
+        return self._derivative_rows[0]
+
+    @property
+    def dydt_from_kernel(self) -> np.ndarray:
+        """(n,) bool: the rows whose :attr:`dydt` is the kernel's right-hand side (see there)."""
+        return self._derivative_rows[1]
+
+    @cached_property
+    def _derivative_rows(self) -> tuple[np.ndarray, np.ndarray]:
+        """(dydt, from_kernel) for every row: see :attr:`dydt`."""
+        from .simulate import _user_effects  # simulate builds results: import it when first needed
+        from .statics import start_motion
+        n = len(self.t)
+        p0 = self.model.kernel_params_cached.copy()
+        if p0[K.P_TAU] > 0:
+            p0[K.P_F0] = self.y[0, K.S_F]
+        dy, aux = np.empty_like(self.y), np.empty(K.N_AUX)
+        exact = np.zeros(n, dtype=bool)
+        with _user_effects(self.model):
+            modes0 = K.sliding_modes()
+            if self.status != "held":
+                start_motion(p0, modes0, self.y[0].copy())
+            for k in range(n):
+                modes = modes0.copy()
+                modes[K.M_TIP_STUCK] = 1.0 if self.aux[k, K.A_TIP_STICK] != -1.0 else 0.0
+                stuck = [modes0[K.M_STUCK]] if k == 0 else ([0.0, 1.0, 2.0] if self.aux[k, K.A_STICK] != -1.0
+                                                            else [-1.0])
+                for site in stuck:
+                    modes[K.M_STUCK] = site
+                    K.rhs(float(self.t[k]), self.y[k].copy(), p0, modes, dy[k], aux)
+                    exact[k] = np.allclose(aux, self.aux[k], rtol=1e-9, atol=1e-9)
+                    if exact[k]:
+                        break
+        if not exact.all():
+            fd = parabola_slopes(self.t, self.y)
+            rates = slice(K.S_V, K.N_STATE)  # r and q rates come from v and omega, whatever the mode
+            dy[~exact, rates] = fd[~exact, rates]
+        return dy, exact
+
+    @cached_property
+    def sol(self) -> CubicHermite:
+        """Dense output, like ``solve_ivp(..., dense_output=True).sol``: ``sol(t)`` is the state (kernel
+        layout, ``N_STATE``) at time ``t`` (scalar -> (N_STATE,), array (m,) -> (m, N_STATE), rows first),
+        by cubic Hermite interpolation of the rows and :attr:`dydt`. Exact at the rows; between them
+        accurate to about the integrator's tolerance. The quaternion is interpolated component-wise:
+        normalise it before use. Times outside ``[t[0], t[-1]]`` are clamped."""
+        k = self._rows
+        return CubicHermite(self.t[k], self.y[k], self.dydt[k])
+
+    @cached_property
+    def _contact_path(self) -> CubicHermite:
+        k = self._rows
+        return CubicHermite(self.t[k], self.contact_points[k], self.contact_velocities[k])
+
+    @cached_property
+    def _travel_path(self) -> CubicHermite:
+        k = self._rows
+        return CubicHermite(self.t[k], self.travel[k], self.contact_velocities[k, 0, 0])
+
+    def contact_points_at(self, t: np.ndarray) -> np.ndarray:
+        """(m, 3, 3) contact points at times ``t`` (s since sliding began), cubic Hermite in time from the
+        rows' positions and velocities (exact derivatives, whatever the stick/slip mode)."""
+        return self._contact_path(np.asarray(t, dtype=float))
+
+    def travel_at_time(self, t: np.ndarray) -> np.ndarray:
+        """CP1's travel (m) at times ``t`` within the run, cubic Hermite in time."""
+        return self._travel_path(np.asarray(t, dtype=float))
+
     # -- paths by distance -----------------------------------------------------------------
     def time_at_travel(self, travel: np.ndarray) -> np.ndarray:
         """Times at which CP1 has travelled ``travel`` (m): cubic Hermite in time, Newton-refined."""
         travel = np.asarray(travel, dtype=float)
-        s, x1v = self.travel, self.contact_velocities[:, 0, 0]
+        s = self.travel
         if travel.size and (travel.min() < 0 or travel.max() > s[-1] + 1e-12):
             raise ValueError(f"travel must lie within [0, {s[-1]:.6g}] m, the simulated range")
         t = np.interp(travel, s, self.t)
         for _ in range(3):
-            pos, vel = self._hermite(t, s, x1v)
+            pos, vel = self._travel_path.evaluate(t, derivative=True)
             t = np.clip(t - (pos - travel) / np.maximum(vel, 1e-9), self.t[0], self.t[-1])
         return t
 
-    def _hermite(self, t_query: np.ndarray, values: np.ndarray, slopes: np.ndarray):
-        """Cubic Hermite interpolation of per-row ``values`` with time derivatives ``slopes``."""
-        i = np.clip(np.searchsorted(self.t, t_query, side="right") - 1, 0, len(self.t) - 2)
-        h = self.t[i + 1] - self.t[i]
-        u = ((t_query - self.t[i]) / h).reshape(-1, *([1] * (values.ndim - 1)))
-        hh = h.reshape(u.shape)
-        h00, h10, h01, h11 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
-        pos = h00 * values[i] + h10 * hh * slopes[i] + h01 * values[i + 1] + h11 * hh * slopes[i + 1]
-        dh00, dh10, dh01, dh11 = 6 * u**2 - 6 * u, 3 * u**2 - 4 * u + 1, -6 * u**2 + 6 * u, 3 * u**2 - 2 * u
-        vel = (dh00 * values[i] + dh10 * hh * slopes[i] + dh01 * values[i + 1] + dh11 * hh * slopes[i + 1]) / hh
-        return pos, vel
-
     def resample_by_travel(self, travel: np.ndarray) -> np.ndarray:
         """(m, 3, 3) contact-point positions where CP1 has travelled ``travel`` (m)."""
-        t = self.time_at_travel(travel)
-        pos, _ = self._hermite(t, self.contact_points, self.contact_velocities)
-        return pos
+        return self.contact_points_at(self.time_at_travel(travel))
 
     # -- reporting -------------------------------------------------------------------------
     def summary(self) -> dict[str, object]:

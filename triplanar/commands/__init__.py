@@ -1,25 +1,30 @@
-"""CLI subcommands; each module: NAME, HELP, add_arguments(parser), run(args) -> int."""
+"""CLI subcommands; each module: NAME, HELP, add_arguments(parser), run(args) -> int.
+
+A command that needs the RL stack (``train``, ``study``) imports :mod:`agents`/:mod:`experiments` inside
+``run()`` only, so ``triplanar --help`` and the physics and workbench commands work without torch.
+"""
 
 from __future__ import annotations
 
-import argparse
+import importlib.util
 
-from ..effects import Effect, make_effect
+from ..cli_args import add_model_arguments, load_specimen, parse_effects
 
-
-def add_model_arguments(parser: argparse.ArgumentParser) -> None:
-    """The options every command that builds a model shares: ``--specimen`` and repeated ``--effect``."""
-    parser.add_argument("--specimen", metavar="S.toml", help="specimen and foundation TOML (default: the "
-                        "reference specimen, triplanar/data/reference.toml)")
-    parser.add_argument("--effect", action="append", default=[], metavar="NAME[:P=V,...]",
-                        help="add an effect with fixed parameters, e.g. end_friction:phi_deg=8 (repeatable)")
+#: What ``agents`` and ``experiments`` import beyond the core (the ``rl`` extra of ``pyproject.toml``).
+RL_MODULES = ("torch", "stable_baselines3", "yaml")
 
 
-def parse_effects(specs: list[str]) -> list[Effect]:
-    return [make_effect(spec) for spec in specs]
+class MissingDependency(ImportError):
+    """A command needs packages this installation lacks; ``triplanar`` prints the message, no traceback."""
 
 
-def load_specimen(path: str | None):
-    """(specimen, foundation) from ``--specimen`` or the reference."""
-    from ..specimen import load_toml, reference
-    return load_toml(path) if path else reference()
+def require(modules: tuple[str, ...] | None = None, extra: str = "rl") -> None:
+    """Raise :class:`MissingDependency` naming the missing ``modules`` (default :data:`RL_MODULES`) and how to
+    install them: without it a lab user who installed only the core would get a traceback from deep inside."""
+    missing = [m for m in (RL_MODULES if modules is None else modules) if importlib.util.find_spec(m) is None]
+    if missing:
+        raise MissingDependency(f"this command needs the '{extra}' extra ({', '.join(missing)} not installed): "
+                                f"pip install 'triplanar-shear[{extra}]' (or `make` in a clone)")
+
+
+__all__ = ["add_model_arguments", "load_specimen", "parse_effects", "MissingDependency", "require", "RL_MODULES"]

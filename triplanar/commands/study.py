@@ -1,18 +1,30 @@
-"""``triplanar study --out DIR``: the actuator design study (thin wrapper over :mod:`experiments.study`)."""
+"""``triplanar study --out DIR``: the actuator design study (thin wrapper over :mod:`experiments.study`).
+
+The options are declared here and :mod:`experiments` is imported only in :func:`run`, so building the CLI needs
+neither the agents nor torch; ``python -m experiments.study`` uses the same options.
+"""
 
 from __future__ import annotations
 
 import argparse
+
+from . import require
 
 NAME = "study"
 HELP = "actuator design study: train PPO, evaluate every controller at the 12 loads, write tables, plots, report"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from experiments.study import add_arguments as add  # noqa: PLC0415
-    add(parser)
+    parser.add_argument("--out", required=True, help="directory for tables and plots")
+    parser.add_argument("--ppo-dir", default="runs/ppo", help="PPO runs (trained here unless --skip-train)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="PPO seeds (default 0 1 2)")
+    parser.add_argument("--timesteps", type=int, help="PPO timesteps per seed (default: the YAML's)")
+    parser.add_argument("--config", help="PPO hyperparameter YAML (default agents/ppo.yaml)")
+    parser.add_argument("--doc", default="docs/actuator-study.md", help="report to write ('' for none)")
+    parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
 
 
 def run(args: argparse.Namespace) -> int:
-    from experiments.study import run as study  # noqa: PLC0415
+    require()
+    from experiments.study import run as study  # noqa: PLC0415  (the RL stack, only when run)
     return study(args)

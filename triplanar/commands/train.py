@@ -1,18 +1,29 @@
-"""``triplanar train``: train PPO on TriPlanarShear-v0 (thin wrapper over :mod:`agents.train_ppo`)."""
+"""``triplanar train``: train PPO on TriPlanarShear-v0 (thin wrapper over :mod:`agents.train_ppo`).
+
+The options are declared here and :mod:`agents` is imported only in :func:`run`, so building the CLI (and
+``triplanar --help``) needs neither the agents nor torch; ``python -m agents.train_ppo`` uses the same options.
+"""
 
 from __future__ import annotations
 
 import argparse
+
+from . import require
 
 NAME = "train"
 HELP = "train PPO on TriPlanarShear-v0 (hyperparameters in a YAML file; resumes from checkpoints)"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from agents.train_ppo import add_arguments as add  # noqa: PLC0415
-    add(parser)
+    parser.add_argument("--config", help="hyperparameter YAML (default agents/ppo.yaml)")
+    parser.add_argument("--out", default="runs/ppo", help="output directory; the run goes to OUT/seed_S")
+    parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
+    parser.add_argument("--timesteps", type=int, help="total environment steps (default: the YAML's)")
+    parser.add_argument("--no-resume", action="store_true", help="start afresh even if checkpoints exist")
+    parser.add_argument("--verbose", type=int, default=0)
 
 
 def run(args: argparse.Namespace) -> int:
-    from agents.train_ppo import run as train  # noqa: PLC0415
+    require()
+    from agents.train_ppo import run as train  # noqa: PLC0415  (the RL stack, only when training)
     return train(args)

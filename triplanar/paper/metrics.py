@@ -1,8 +1,8 @@
-"""Numbers read off contact-point paths: distance between two sets of paths at equal travel, lateral
-dilation, rotation about e2 (the quantities the paper discusses in sections 5.1-5.5).
+"""Numbers the paper reproduction reads off contact-point paths: distance between two sets of paths at equal
+travel, and where measured tests are at a given travel (the quantities the paper discusses in sections 5.1-5.5).
 
-"Travel" is CP1's displacement along e1 from its rest position (the paper's Delta q1). Distances are
-horizontal (x1, x3): the paper's figures are overhead views with the vertical suppressed.
+Travel, lateral dilation, rotation and horizontal distance are defined once, in :mod:`triplanar.paths`
+(a simulated path from its first row, a measured one from the specimen's rest position ``rest_positions``).
 """
 
 from __future__ import annotations
@@ -12,7 +12,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..measurement import MeasuredTest
+from ..paths import horizontal_distance, lateral_dilation, model_at_travel, rotation_deg, travel
 from ..result import SimulationResult
+
+__all__ = ["PathDistance", "at_travel", "data_vs_model", "horizontal_distance", "lateral_dilation",
+           "measured_peak_speed", "measured_travel", "model_vs_model", "peak_speed", "rotation_deg", "travel_grid"]
 
 
 @dataclass(frozen=True)
@@ -30,11 +34,6 @@ class PathDistance:
                 "n_samples": self.n_samples, "n_beyond": self.n_beyond}
 
 
-def horizontal_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """(n, 3) horizontal distance between (n, 3, 3) position arrays, per sample and contact point."""
-    return np.hypot(a[..., 0] - b[..., 0], a[..., 2] - b[..., 2])
-
-
 def travel_grid(result_a: SimulationResult, result_b: SimulationResult, n: int = 161) -> np.ndarray:
     """Travels both simulations reached, evenly spaced from rest."""
     return np.linspace(0.0, min(result_a.travel[-1], result_b.travel[-1]), n)
@@ -49,11 +48,11 @@ def model_vs_model(result_a: SimulationResult, result_b: SimulationResult, n: in
 
 def measured_travel(test: MeasuredTest, rest_positions: np.ndarray) -> np.ndarray:
     """CP1's measured travel along e1 from the specimen's rest position (m) at every sample."""
-    return test.positions[:, 0, 0] - rest_positions[0, 0]
+    return travel(test.positions, rest_positions)
 
 
 def data_vs_model(tests: list[MeasuredTest], result: SimulationResult, rest_positions: np.ndarray) -> PathDistance:
-    """Distance from every measured sample to the model's contact points at the same measured travel.
+    """Distance from every measured sample to the model's contact points at the same travel.
 
     Samples pooled over ``tests``; a measured travel below zero (noise at rest) is compared with the rest
     position; samples beyond the model's final travel (model stopped earlier) are not compared and counted.
@@ -65,27 +64,12 @@ def data_vs_model(tests: list[MeasuredTest], result: SimulationResult, rest_posi
         inside = s <= reach
         beyond += int((~inside).sum())
         if inside.any():
-            model = result.resample_by_travel(np.clip(s[inside], 0.0, reach))
-            dists.append(horizontal_distance(test.positions[inside], model))
+            dists.append(horizontal_distance(test.positions[inside], model_at_travel(result, s[inside])))
     if not dists:
         nan = np.full(3, np.nan)
         return PathDistance(nan, nan, 0, beyond)
     d = np.concatenate(dists)
     return PathDistance(d.mean(axis=0), d.max(axis=0), len(d), beyond)
-
-
-def lateral_dilation(positions: np.ndarray, rest_positions: np.ndarray) -> np.ndarray:
-    """(3,) lateral (+e3) displacement of each contact point at the last of ``positions`` (n, 3, 3)."""
-    return positions[-1, :, 2] - rest_positions[:, 2]
-
-
-def rotation_deg(positions: np.ndarray, rest_positions: np.ndarray) -> np.ndarray:
-    """(n,) turn about e2 (degrees, counter-clockwise in the overhead view positive: the front (CP2)
-    drifting toward +e3 faster than the rear (CP1)), from the horizontal direction of CP1 -> CP2."""
-    def angle(p: np.ndarray) -> np.ndarray:
-        d = p[..., 1, :] - p[..., 0, :]
-        return np.degrees(np.arctan2(d[..., 2], d[..., 0]))
-    return angle(positions) - angle(rest_positions)
 
 
 def at_travel(test: MeasuredTest, travel_m: float, rest_positions: np.ndarray) -> np.ndarray | None:

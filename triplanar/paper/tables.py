@@ -18,8 +18,9 @@ import numpy as np
 from ..measurement import MeasuredTest
 from ..result import SimulationResult
 from .cases import Run
-from .metrics import PathDistance, at_travel, data_vs_model, lateral_dilation, measured_peak_speed, model_vs_model, \
-    peak_speed, rotation_deg
+from ..paths import lateral_dilation, rotation_deg
+from .metrics import PathDistance, at_travel, data_vs_model, measured_peak_speed, measured_travel, model_vs_model, \
+    peak_speed
 
 #: Travel at which the dataset's repeats are compared with one another (every test reaches 5 cm).
 DATA_COMPARE_TRAVEL_M = 0.05
@@ -68,30 +69,32 @@ class ScaledRow:
 def model_state_at(result: SimulationResult, travel_m: float) -> tuple[np.ndarray, float]:
     """(dilation (3,), rotation deg) of a simulated test at ``travel_m`` (or its end, if shorter)."""
     s = min(travel_m, float(result.travel[-1]))
-    pos = result.resample_by_travel(np.array([s]))
+    pos = result.resample_by_travel(np.array([s]))[-1]
     rest = result.contact_points[0]
-    return lateral_dilation(pos, rest), float(rotation_deg(pos, rest)[-1])
+    return lateral_dilation(pos, rest), float(rotation_deg(pos, rest))
 
 
 def case_row(run: Run, result: SimulationResult, tests: list[MeasuredTest], rest: np.ndarray) -> CaseRow:
+    """The model (from its first row) against the measured tests (from the specimen's ``rest``)."""
     dil_c, rot_c = model_state_at(result, DATA_COMPARE_TRAVEL_M)
     return CaseRow(run.case, run.force_N, data_vs_model(tests, result, rest),
-                   lateral_dilation(result.contact_points, rest), float(result.rotation_deg[-1]), dil_c, rot_c,
-                   peak_speed(result), result.status, float(result.travel[-1]))
+                   lateral_dilation(result.contact_points[-1], result.contact_points[0]),
+                   float(result.rotation_deg[-1]), dil_c, rot_c, peak_speed(result), result.status,
+                   float(result.travel[-1]))
 
 
 def data_row(force: float, tests: list[MeasuredTest], rest: np.ndarray) -> DataRow:
     states = [p for p in (at_travel(t, DATA_COMPARE_TRAVEL_M, rest) for t in tests) if p is not None]
     if states:
         arr = np.array(states)
-        dil = arr[:, :, 2] - rest[None, :, 2]
+        dil = lateral_dilation(arr, rest)
         rot = rotation_deg(arr, rest)
         dil_mean, dil_sd = dil.mean(axis=0), dil.std(axis=0, ddof=1) if len(arr) > 1 else np.zeros(3)
         rot_mean, rot_sd = float(rot.mean()), float(rot.std(ddof=1)) if len(arr) > 1 else 0.0
     else:
         dil_mean = dil_sd = np.full(3, np.nan)
         rot_mean = rot_sd = float("nan")
-    ends = [float(t.positions[-1, 0, 0] - rest[0, 0]) for t in tests]
+    ends = [float(measured_travel(t, rest)[-1]) for t in tests]
     return DataRow(force, len(tests), len(states), dil_mean, dil_sd, rot_mean, rot_sd, (min(ends), max(ends)),
                    max(measured_peak_speed(t) for t in tests))
 
@@ -101,8 +104,8 @@ def scaled_row(run_a: Run, result_a: SimulationResult, result_b: SimulationResul
     d = model_vs_model(result_a, result_b)
     dist = PathDistance(d.mean_m / c, d.max_m / c, d.n_samples)
     return ScaledRow(run_a.family, run_a.factor, run_a.force_N, dist,
-                     lateral_dilation(result_a.contact_points, result_a.contact_points[0]) / c,
-                     lateral_dilation(result_b.contact_points, result_b.contact_points[0]) / c,
+                     lateral_dilation(result_a.contact_points[-1], result_a.contact_points[0]) / c,
+                     lateral_dilation(result_b.contact_points[-1], result_b.contact_points[0]) / c,
                      float(result_a.rotation_deg[-1]), float(result_b.rotation_deg[-1]),
                      (result_a.status, result_b.status))
 

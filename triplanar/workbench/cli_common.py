@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..commands import add_model_arguments, load_specimen, parse_effects
+from ..cli_args import add_model_arguments, load_specimen, parse_effects
 from ..effects import REGISTRY, EffectError
 from ..measurement import MeasuredTest
 from .compare import load_tests

@@ -185,7 +185,7 @@ class Diagnoser:
         self.baseline_: list[TestDiscrepancy] = discrepancies(evaluate_spec(base, tests))
         self.baseline_error_mm_ = overall_error(self.baseline_)
         self.baseline_by_load_ = errors_by_load(self.baseline_)
-        self.repeat_scatter_mm_ = repeat_scatter_mm(tests)
+        self.repeat_scatter_mm_ = repeat_scatter_mm(tests, base.rest_positions)
         folds = load_folds([t.shear_force_N for t in tests], self.folds)
         self.folds_ = folds
         tasks = [CandidateTask(self.user_base_, c, tuple(tests), tuple(tuple(f) for f in folds), self.max_nfev,

@@ -1,6 +1,7 @@
 """How far a model is from one measured test.
 
-Paths are compared at equal CP1 travel (``MeasuredTest.travel``: CP1's x1 minus its first x1): the model is
+Paths are compared at equal CP1 travel, each measured from its own rest position (:mod:`triplanar.paths`:
+the measured test's first sample, the model's first row): the model is
 resampled at every measured travel (:meth:`SimulationResult.resample_by_travel`), and the horizontal
 (x1, x3) distance between measured and modelled positions is taken for each contact point. Timing, when
 the file has ``t_s``, is compared at equal time: CP1's modelled travel at each measured instant minus the
@@ -32,6 +33,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..measurement import MeasuredTest
+from ..paths import lateral_dilation, model_at_travel, ran as _ran, rotation_deg, travel as path_travel
 from ..result import SimulationResult
 
 MM = 1e3
@@ -83,25 +85,6 @@ class TestDiscrepancy:
         return math.isfinite(self.lag_rms_mm)
 
 
-def heading_deg(horizontal: np.ndarray) -> np.ndarray:
-    """Angle (deg) of CP1 -> CP2 seen from above, atan2(x3, x1), for (..., 3, 2) horizontal positions."""
-    d = horizontal[..., 1, :] - horizontal[..., 0, :]
-    return np.degrees(np.arctan2(d[..., 1], d[..., 0]))
-
-
-def _ran(result: SimulationResult) -> bool:
-    return result.status != "held" and len(result.t) >= 2 and result.travel[-1] > 0
-
-
-def model_at_travel(result: SimulationResult, travel: np.ndarray) -> np.ndarray:
-    """(m, 3, 3) model positions at CP1 travels ``travel``; beyond the run's reach, its last position."""
-    travel = np.asarray(travel, dtype=float)
-    if not _ran(result):
-        return np.repeat(result.contact_points[-1:], len(travel), axis=0)
-    reach = float(np.max(result.travel))
-    return result.resample_by_travel(np.clip(travel, 0.0, reach))
-
-
 def model_travel_at_time(result: SimulationResult, t: np.ndarray) -> np.ndarray:
     """CP1's modelled travel (m) at times ``t`` since sliding began (cubic Hermite between steps). After the
     run's end: extrapolated at the final speed when it ended at its travel target (the block still moves),
@@ -109,22 +92,20 @@ def model_travel_at_time(result: SimulationResult, t: np.ndarray) -> np.ndarray:
     t = np.asarray(t, dtype=float)
     if not _ran(result):
         return np.zeros_like(t)
-    tt, s, v = result.t, result.travel, result.contact_velocities[:, 0, 0]
-    keep = np.append(np.diff(tt) > 0, True)
-    tt, s, v = tt[keep], s[keep], v[keep]
-    if len(tt) < 2:
-        return np.full_like(t, s[-1])
-    tq = np.clip(t, tt[0], tt[-1])
-    i = np.clip(np.searchsorted(tt, tq, side="right") - 1, 0, len(tt) - 2)
-    h = tt[i + 1] - tt[i]
-    u = (tq - tt[i]) / h
-    out = ((2 * u**3 - 3 * u**2 + 1) * s[i] + (u**3 - 2 * u**2 + u) * h * v[i]
-           + (-2 * u**3 + 3 * u**2) * s[i + 1] + (u**3 - u**2) * h * v[i + 1])
-    beyond = t > tt[-1]
+    out = result.travel_at_time(t)
+    t_end, s_end = float(result.t[-1]), float(result.travel[-1])
+    beyond = t > t_end
     if beyond.any():
-        speed = max(float(v[-1]), 0.0) if result.status == "travel" else 0.0
-        out[beyond] = s[-1] + speed * (t[beyond] - tt[-1])
+        speed = max(float(result.contact_velocities[-1, 0, 0]), 0.0) if result.status == "travel" else 0.0
+        out[beyond] = s_end + speed * (t[beyond] - t_end)
     return out
+
+
+def specimen_rest(result: SimulationResult | NoRun) -> np.ndarray:
+    """(3, 3) the specimen's rest position (the drawing), the origin of measured paths (:mod:`triplanar.paths`)."""
+    if isinstance(result, NoRun):
+        return np.asarray(result.rest_positions, dtype=float)
+    return result.model.specimen.contact_points_m
 
 
 def discrepancy(test: MeasuredTest, result: SimulationResult | NoRun) -> TestDiscrepancy:
@@ -136,7 +117,8 @@ def discrepancy_group(tests: list[MeasuredTest] | tuple[MeasuredTest, ...],
                       result: SimulationResult | NoRun, arrival_time: bool = True) -> list[TestDiscrepancy]:
     """Compare several measured tests at one force with the model run at that force (one resampling of
     the run for all of them: the fits call this for every parameter vector)."""
-    travels = [np.maximum(t.travel, 0.0) for t in tests]
+    rest = specimen_rest(result)
+    travels = [np.maximum(path_travel(t.positions, rest), 0.0) for t in tests]
     ends = [int(np.argmax(s)) for s in travels]
     model_all = model_at_travel(result, np.concatenate(travels))
     reach = float(np.max(result.travel)) if _ran(result) else 0.0
@@ -151,12 +133,12 @@ def discrepancy_group(tests: list[MeasuredTest] | tuple[MeasuredTest, ...],
         n = len(travel)
         model = model_all[start:start + n]
         start += n
-        out.append(_compare(test, result, travel, end, model, reach, float(arr)))
+        out.append(_compare(test, result, travel, end, model, reach, float(arr), rest))
     return out
 
 
 def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.ndarray, end: int,
-             model3: np.ndarray, reach: float, arrival: float) -> TestDiscrepancy:
+             model3: np.ndarray, reach: float, arrival: float, rest: np.ndarray) -> TestDiscrepancy:
     n = len(travel)
     measured = test.horizontal                                  # (n, 3, 2)
     model = model3[:, :, ::2]
@@ -166,9 +148,9 @@ def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.nd
     has_v = np.isfinite(dv)
     dv = np.where(has_v, dv, 0.0)
     s_end = float(travel[end])
-    rest = result.contact_points[0][:, ::2]
-    dilation = (measured[end, :, 1] - measured[0, :, 1]) - (model[end, :, 1] - rest[:, 1])
-    rotation = (heading_deg(measured[end]) - heading_deg(measured[0])) - (heading_deg(model[end]) - heading_deg(rest))
+    model_rest = result.contact_points[0]
+    dilation = lateral_dilation(test.positions[end], rest) - lateral_dilation(model3[end], model_rest)
+    rotation = rotation_deg(test.positions[end], rest) - rotation_deg(model3[end], model_rest)
     coverage = 1.0 if s_end <= 0 else min(1.0, reach / s_end)
     groups = 3
     lag = None
@@ -228,12 +210,13 @@ def _interp_or_nan(grid: np.ndarray, s: np.ndarray, values: np.ndarray) -> np.nd
     return np.interp(grid, s[ok], values[ok])
 
 
-def repeat_scatter_mm(tests: list[MeasuredTest], grid_points: int = 40) -> float:
+def repeat_scatter_mm(tests: list[MeasuredTest], rest_positions: np.ndarray, grid_points: int = 40) -> float:
     """The RMS discrepancy a perfect model would still show: how far repeats at one force stray from their
     common mean path, in the units of ``error_mm`` (``nan`` when no force has two repeats).
 
-    Each repeat is resampled at common travels (and, with time, its travel at common times); the deviation
-    from the repeats' mean is scaled by sqrt(k / (k - 1)) to estimate the deviation from the true path.
+    Each repeat is resampled at common travels from the specimen's ``rest_positions`` (and, with time, its
+    travel at common times); the deviation from the repeats' mean is scaled by sqrt(k / (k - 1)) to
+    estimate the deviation from the true path.
     """
     from .spec import group_by_force
     squares: list[float] = []
@@ -241,11 +224,12 @@ def repeat_scatter_mm(tests: list[MeasuredTest], grid_points: int = 40) -> float
         k = len(group)
         if k < 2:
             continue
-        reach = min(float(np.max(t.travel)) for t in group)
+        travels = [path_travel(t.positions, rest_positions) for t in group]
+        reach = min(float(np.max(s)) for s in travels)
         grid = np.linspace(0.0, reach, grid_points)
         paths = []
-        for t in group:
-            s = np.maximum.accumulate(np.maximum(t.travel, 0.0))
+        for t, s in zip(group, travels):
+            s = np.maximum.accumulate(np.maximum(s, 0.0))
             s = s + np.arange(len(s)) * 1e-12                   # strictly increasing for interpolation
             paths.append(np.stack([[_interp_or_nan(grid, s, t.positions[:, c, a]) for a in (0, 1, 2)]
                                    for c in range(3)]))
@@ -259,7 +243,7 @@ def repeat_scatter_mm(tests: list[MeasuredTest], grid_points: int = 40) -> float
             groups = 4
             t_end = min(float(t.t_s[-1]) for t in group)
             tg = np.linspace(0.0, t_end, grid_points)
-            s_t = np.array([np.interp(tg, t.t_s, t.travel) for t in group]) * MM
+            s_t = np.array([np.interp(tg, t.t_s, s) for t, s in zip(group, travels)]) * MM
             lag = np.mean((s_t - s_t.mean(axis=0)) ** 2, axis=1) * k / (k - 1)
             total = total + lag
         squares.extend((total / groups).tolist())

@@ -16,6 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..paths import travel
 from ..plotting import MEASURED, MODEL, overhead_axes, panel_grid, plot_traces, save_figure
 from ..specimen import reference
 from .compare import Comparison
@@ -41,7 +42,8 @@ def plot_overhead(cmp: Comparison, path: str | Path, title: str | None = None) -
             if test.shear_force_N == f:
                 plot_traces(ax, test.positions, color=MEASURED, lw=0.7, marker_start=False)
         if run is not None and len(run.t) > 1:
-            reach = max(float(np.max(t.travel)) for t in cmp.tests if t.shear_force_N == f)
+            rest = run.model.specimen.contact_points_m
+            reach = max(float(np.max(travel(t.positions, rest))) for t in cmp.tests if t.shear_force_N == f)
             keep = run.travel <= reach + 1e-9
             plot_traces(ax, run.contact_points[keep], color=MODEL, lw=1.6)
             points.append(run.contact_points[keep][:, :, ::2].reshape(-1, 2))

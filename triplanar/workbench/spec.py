@@ -22,6 +22,7 @@ import numpy as np
 from ..effects import REGISTRY, Effect, EffectError
 from ..measurement import MeasuredTest
 from ..model import Loading, Model, paper_model
+from ..paths import travel
 from ..result import SimulationResult
 from ..simulate import simulate
 from ..specimen import Foundation, Specimen, reference
@@ -135,7 +136,8 @@ class EvalResult:
 
 def simulate_for(model: Model, tests: Sequence[MeasuredTest]) -> SimulationResult:
     """Simulate ``model`` far enough to cover the longest measured travel of ``tests``."""
-    longest = max(float(np.max(t.travel)) for t in tests) if tests else 0.08
+    rest = model.specimen.contact_points_m
+    longest = max(float(np.max(travel(t.positions, rest))) for t in tests) if tests else 0.08
     return simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **SIM_OPTIONS)
 
 

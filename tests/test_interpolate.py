@@ -1,0 +1,73 @@
+"""The one cubic Hermite interpolator (triplanar/interpolate.py) and ``SimulationResult.sol``, the dense output."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from triplanar import kernel as K, paper_model, simulate
+from triplanar.interpolate import CubicHermite, distinct_times, parabola_slopes
+
+
+def test_hermite_reproduces_a_cubic_exactly_and_its_derivative() -> None:
+    t = np.array([0.0, 0.3, 0.5, 1.2])
+    f = lambda x: 2 * x**3 - x**2 + 0.5 * x - 1  # noqa: E731
+    df = lambda x: 6 * x**2 - 2 * x + 0.5  # noqa: E731
+    spline = CubicHermite(t, f(t), df(t))
+    tq = np.linspace(0.0, 1.2, 37)
+    value, slope = spline.evaluate(tq, derivative=True)
+    np.testing.assert_allclose(value, f(tq), atol=1e-13)
+    np.testing.assert_allclose(slope, df(tq), atol=1e-12)
+    assert spline(0.7) == pytest.approx(f(0.7), abs=1e-13)
+    assert np.ndim(spline(0.7)) == 0
+
+
+def test_hermite_rows_first_shapes_clamping_and_repeated_times() -> None:
+    t = np.array([0.0, 1.0, 1.0, 2.0])
+    values = np.arange(4 * 6, dtype=float).reshape(4, 3, 2)
+    spline = CubicHermite(t[distinct_times(t)], values[distinct_times(t)], np.zeros((3, 3, 2)))
+    assert distinct_times(t).tolist() == [True, False, True, True]
+    assert spline(np.array([0.5, 1.5])).shape == (2, 3, 2)
+    np.testing.assert_array_equal(spline(1.0), values[2])   # a repeated time keeps its last row
+    np.testing.assert_array_equal(spline(-5.0), values[0])  # clamped, no extrapolation
+    np.testing.assert_array_equal(spline(9.0), values[3])
+    np.testing.assert_array_equal(CubicHermite([0.0], values[:1], values[:1])(np.array([3.0, 4.0])),
+                                  values[[0, 0]])
+    with pytest.raises(ValueError, match="non-decreasing"):
+        CubicHermite(np.array([1.0, 0.0]), np.zeros(2), np.zeros(2))
+
+
+def test_parabola_slopes_are_exact_for_a_quadratic_at_every_row_and_ends() -> None:
+    t = np.array([0.0, 0.1, 0.1, 0.35, 0.4, 1.0])  # uneven, with a repeated time
+    y = np.stack([3 * t**2 - t + 2, -t**2], axis=1)
+    np.testing.assert_allclose(parabola_slopes(t, y), np.stack([6 * t - 1, -2 * t], axis=1), atol=1e-12)
+    np.testing.assert_array_equal(parabola_slopes(t[:2], y[:2]), np.zeros((2, 2)))
+
+
+@pytest.mark.parametrize("case, force", [("A", 40.0), ("B", 23.0)])
+def test_sol_is_exact_at_the_rows_and_close_to_a_tighter_run_between_them(case: str, force: float) -> None:
+    """B at 23 N pivots about a sticking CP3 that later slips slowly: the modes the derivative needs."""
+    coarse = simulate(paper_model(case, force), rtol=1e-6, atol=1e-9)
+    tight = simulate(paper_model(case, force), rtol=1e-11, atol=1e-14)
+    np.testing.assert_array_equal(coarse.sol(coarse.t), coarse.y)
+    assert coarse.sol(float(coarse.t[3])).shape == (K.N_STATE,)
+    inside = tight.t <= coarse.t[-1]
+    between = coarse.sol(tight.t[inside])
+    linear = np.stack([np.interp(tight.t[inside], coarse.t, coarse.y[:, j]) for j in range(K.N_STATE)], axis=1)
+    truth = tight.y[inside]
+    for part, bound in ((slice(K.S_R, K.S_R + 3), 2e-7), (slice(K.S_V, K.S_V + 3), 2e-5)):
+        error = np.abs(between[:, part] - truth[:, part]).max()
+        assert error < bound
+        assert error < 0.1 * np.abs(linear[:, part] - truth[:, part]).max()  # it is not just linear
+
+
+def test_dydt_uses_the_kernel_where_the_mode_is_recovered_and_a_close_slope_elsewhere() -> None:
+    result = simulate(paper_model("B", 23.0), rtol=1e-6, atol=1e-9)
+    assert (result.aux[:, K.A_STICK] != -1).any()  # it sticks, so recovering the mode is exercised
+    from_kernel = result.dydt_from_kernel
+    assert from_kernel[0] and 100 < from_kernel.sum() < len(result.t)  # both kinds of row occur
+    np.testing.assert_array_equal(result.dydt[:, K.S_R:K.S_R + 3], result.y[:, K.S_V:K.S_V + 3])
+    # the fallback (slope of the parabola through neighbouring rows) agrees with the kernel where both exist
+    fd = parabola_slopes(result.t, result.y)[from_kernel, K.S_V:K.S_V + 3]
+    acc = result.dydt[from_kernel, K.S_V:K.S_V + 3]
+    assert np.median(np.abs(fd - acc)) < 0.01 * np.abs(acc).max()

@@ -1,0 +1,92 @@
+"""The project's one cubic Hermite interpolator: values between recorded rows from values and slopes.
+
+Every place that needs a trajectory between the integrator's accepted steps (``SimulationResult.sol``,
+resampling by travel, the stand-in laboratory's samples, the workbench's travel at a time) uses
+:class:`CubicHermite`, so they all agree to the last bit. Between two rows the curve is the cubic that
+matches both rows' values and time derivatives: its error is O(h^4) for a smooth trajectory, the order of
+the DOPRI5 steps that recorded the rows, which linear interpolation (O(h^2)) is not.
+
+Rows may repeat a time (an event row): the interval search never picks a zero-length interval inside the
+span, and :func:`distinct_times` drops all but the last of a repeated time where a caller wants that.
+Queries outside the recorded span are clamped to its ends (no extrapolation).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def distinct_times(t: np.ndarray) -> np.ndarray:
+    """Boolean mask keeping the last row of each run of equal times (``t`` non-decreasing)."""
+    return np.append(np.diff(t) > 0, True)
+
+
+def parabola_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(n, ...) slope at each row of the parabola through it and its neighbours (one-sided at the ends,
+    equal times skipped; zeros for fewer than three distinct times): a second-order derivative estimate for
+    rows whose exact derivative is unknown (``SimulationResult.dydt``)."""
+    keep = np.flatnonzero(distinct_times(t))
+    out = np.zeros_like(y)
+    if len(keep) < 3:
+        return out
+    tk, yk = t[keep], y[keep]
+    centre = np.clip(np.arange(len(keep)), 1, len(keep) - 2)
+    t0, t1, t2 = tk[centre - 1], tk[centre], tk[centre + 1]
+    x = tk
+    shape = (-1,) + (1,) * (y.ndim - 1)
+    w0 = ((x - t1) + (x - t2)) / ((t0 - t1) * (t0 - t2))
+    w1 = ((x - t0) + (x - t2)) / ((t1 - t0) * (t1 - t2))
+    w2 = ((x - t0) + (x - t1)) / ((t2 - t0) * (t2 - t1))
+    slopes = (w0.reshape(shape) * yk[centre - 1] + w1.reshape(shape) * yk[centre]
+              + w2.reshape(shape) * yk[centre + 1])
+    rows = np.searchsorted(t[keep], t, side="left")  # each row takes its (last) distinct time's slope
+    return slopes[np.minimum(rows, len(keep) - 1)]
+
+
+class CubicHermite:
+    """Cubic Hermite interpolant through ``values[k]`` with time derivatives ``slopes[k]`` at ``t[k]``.
+
+    ``values`` and ``slopes`` have shape ``(n, ...)``; calling with times of shape ``(m,)`` returns
+    ``(m, ...)``, with a scalar time ``(...)`` (like ``scipy``'s ``OdeSolution``, but rows first).
+    """
+
+    def __init__(self, t: np.ndarray, values: np.ndarray, slopes: np.ndarray):
+        self.t = np.asarray(t, dtype=float)
+        self.values = np.asarray(values, dtype=float)
+        self.slopes = np.asarray(slopes, dtype=float)
+        if self.t.ndim != 1 or not len(self.t):
+            raise ValueError("t must be a non-empty 1-d array")
+        if self.values.shape[0] != len(self.t) or self.slopes.shape != self.values.shape:
+            raise ValueError(f"values {self.values.shape} and slopes {self.slopes.shape} must have "
+                             f"{len(self.t)} rows each")
+        if np.any(np.diff(self.t) < 0):
+            raise ValueError("t must be non-decreasing")
+
+    def __call__(self, t_query: float | np.ndarray) -> np.ndarray:
+        return self.evaluate(t_query)[0]
+
+    def evaluate(self, t_query: float | np.ndarray, derivative: bool = False
+                 ) -> tuple[np.ndarray, np.ndarray | None]:
+        """``(values, d/dt values)`` at ``t_query`` (the derivative only when asked, else ``None``)."""
+        scalar = np.ndim(t_query) == 0
+        tq = np.clip(np.atleast_1d(np.asarray(t_query, dtype=float)), self.t[0], self.t[-1])
+        pos, vel = self._evaluate(tq, derivative)
+        if scalar:
+            return pos[0], (vel[0] if vel is not None else None)
+        return pos, vel
+
+    def _evaluate(self, tq: np.ndarray, derivative: bool) -> tuple[np.ndarray, np.ndarray | None]:
+        t, y, dy = self.t, self.values, self.slopes
+        if len(t) == 1:
+            return np.repeat(y[:1], len(tq), axis=0), (np.zeros((len(tq),) + y.shape[1:]) if derivative else None)
+        i = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, len(t) - 2)
+        shape = (-1,) + (1,) * (y.ndim - 1)
+        h = (t[i + 1] - t[i]).reshape(shape)
+        u = (tq - t[i]).reshape(shape) / h
+        h00, h10, h01, h11 = 2 * u**3 - 3 * u**2 + 1, u**3 - 2 * u**2 + u, -2 * u**3 + 3 * u**2, u**3 - u**2
+        pos = h00 * y[i] + h10 * h * dy[i] + h01 * y[i + 1] + h11 * h * dy[i + 1]
+        if not derivative:
+            return pos, None
+        dh00, dh10, dh01, dh11 = 6 * u**2 - 6 * u, 3 * u**2 - 4 * u + 1, -6 * u**2 + 6 * u, 3 * u**2 - 2 * u
+        vel = (dh00 * y[i] + dh10 * h * dy[i] + dh01 * y[i + 1] + dh11 * h * dy[i + 1]) / h
+        return pos, vel
