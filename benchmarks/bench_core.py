@@ -56,7 +56,7 @@ def bench_control_step(repeats: int = 2000) -> None:
         modes = K.sliding_modes()
         start_motion(p, modes, y0)
         armed = np.zeros(5, np.bool_)
-        bufs = (np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)))
+        bufs = (np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)))
         ws = stepping.new_workspace()
         log = np.empty((0, 3))
         x1_target = model.specimen.contact_points_m[0, 0] + 0.08

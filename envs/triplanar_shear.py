@@ -351,6 +351,7 @@ def _advance(y, p, modes, armed, st, cfg, inf, ws) -> int:
     outcome, _, _, _, t = driver.drive(stepping.METHOD_RK4, st[ST_T], y, p, modes, armed, cfg[CF_H], 0.0, 0.0,
                                        (st[ST_STEP] + 1.0) * cfg[CF_DT], st[ST_X1_TARGET], cfg[CF_SLOW],
                                        cfg[CF_ENERGY_TOL], ws[W_NO_T, :1], ws[W_NO_Y:W_NO_Y + 1, :K.N_STATE],
+                                       ws[W_NO_Y:W_NO_Y + 1, :K.N_STATE],
                                        ws[W_NO_AUX:W_NO_AUX + 1, :K.N_AUX], False, 0, ws[W_NO_T:W_NO_T, :3],
                                        ws)
     st[ST_T] = t

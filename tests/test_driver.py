@@ -76,6 +76,7 @@ def test_a_full_buffer_grows_without_changing_the_trace(monkeypatch) -> None:
     grown = simulate(model)
     assert len(whole.t) > 64
     assert grown.status == "travel" and np.array_equal(whole.y, grown.y) and np.array_equal(whole.aux, grown.aux)
+    assert np.array_equal(whole.dydt, grown.dydt)
     assert grown.events == whole.events and grown.n_steps == whole.n_steps
     assert grown.nfev == whole.nfev + 3  # each of the 3 continuations (16 -> 32 -> 64 -> 128 rows) evaluates f again
     short = simulate(model, max_rows=len(whole.t) - 1)

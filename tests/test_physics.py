@@ -246,7 +246,8 @@ def _integrate_from(y0: np.ndarray, p: np.ndarray, method: int, h: float, t0: fl
                     t1: float = 0.15) -> np.ndarray:
     y = y0.copy()
     stepping.integrate(method, t0, y, p.copy(), K.sliding_modes(), h, 1e-12, 1e-14, t1, 10.0, 1e-5,
-                       np.ones(5, np.bool_), np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)), False)
+                       np.ones(5, np.bool_), np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_STATE)),
+                       np.empty((1, K.N_AUX)), False)
     return y[K.S_R:K.S_R + 3]
 
 
@@ -354,7 +355,8 @@ def test_fixed_steps_stop_where_a_slip_stops() -> None:
         y, p = y0.copy(), p0.copy()
         _, status, _, _, t = stepping.integrate(method, sliding.t[-1], y, p, modes0.copy(), h, 1e-11, 1e-14,
                                                 sliding.t[-1] + 1.0, 10.0, 1e-5, np.ones(5, np.bool_), np.empty(1),
-                                                np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)), False)
+                                                np.empty((1, K.N_STATE)), np.empty((1, K.N_STATE)),
+                                                np.empty((1, K.N_AUX)), False)
         cps = np.empty((3, 3))
         K.contact_points(y, p, cps)
         return status, cps, t
@@ -375,7 +377,7 @@ def test_a_turning_slip_does_not_stall_fixed_steps() -> None:
     (the env stalled); a site whose predicted stop was not one is not predicted again in the same call."""
     d = np.load(Path(__file__).parent / "data" / "turning_slip_state.npz")
     y, p = d["y"].copy(), d["p"].copy()
-    buffers = (np.empty(1000), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_AUX)))
+    buffers = (np.empty(1000), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_AUX)))
     rows, status, _, _, t = stepping.integrate(stepping.METHOD_RK4, float(d["t0"]), y, p, d["modes"].copy(),
                                                float(d["h"]), 0.0, 0.0,
                                                float(d["t_end"]), float(d["x1_target"]), float(d["slow_speed"]),

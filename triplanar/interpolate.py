@@ -21,28 +21,6 @@ def distinct_times(t: np.ndarray) -> np.ndarray:
     return np.append(np.diff(t) > 0, True)
 
 
-def parabola_slopes(t: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """(n, ...) slope at each row of the parabola through it and its neighbours (one-sided at the ends,
-    equal times skipped; zeros for fewer than three distinct times): a second-order derivative estimate for
-    rows whose exact derivative is unknown (``SimulationResult.dydt``)."""
-    keep = np.flatnonzero(distinct_times(t))
-    out = np.zeros_like(y)
-    if len(keep) < 3:
-        return out
-    tk, yk = t[keep], y[keep]
-    centre = np.clip(np.arange(len(keep)), 1, len(keep) - 2)
-    t0, t1, t2 = tk[centre - 1], tk[centre], tk[centre + 1]
-    x = tk
-    shape = (-1,) + (1,) * (y.ndim - 1)
-    w0 = ((x - t1) + (x - t2)) / ((t0 - t1) * (t0 - t2))
-    w1 = ((x - t0) + (x - t2)) / ((t1 - t0) * (t1 - t2))
-    w2 = ((x - t0) + (x - t1)) / ((t2 - t0) * (t2 - t1))
-    slopes = (w0.reshape(shape) * yk[centre - 1] + w1.reshape(shape) * yk[centre]
-              + w2.reshape(shape) * yk[centre + 1])
-    rows = np.searchsorted(t[keep], t, side="left")  # each row takes its (last) distinct time's slope
-    return slopes[np.minimum(rows, len(keep) - 1)]
-
-
 class CubicHermite:
     """Cubic Hermite interpolant through ``values[k]`` with time derivatives ``slopes[k]`` at ``t[k]``.
 

@@ -10,7 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import kernel as K
-from .interpolate import CubicHermite, distinct_times, parabola_slopes
+from .interpolate import CubicHermite, distinct_times
 from .measurement import MeasuredTest, write_measurements
 from .model import Model
 from .outcome import Outcome, event_name
@@ -56,6 +56,7 @@ class SimulationResult:
 
     t: np.ndarray
     y: np.ndarray
+    dydt: np.ndarray
     aux: np.ndarray
     status: str
     message: str
@@ -170,65 +171,11 @@ class SimulationResult:
         return distinct_times(self.t)
 
     @cached_property
-    def dydt(self) -> np.ndarray:
-        """(n, N_STATE) state derivative at every row, for :attr:`sol`.
-
-        Why not simply the right-hand side at each row: the stick/slip mode and the incipient slip
-        directions live in the kernel parameters, which change during a run and are not recorded. So each
-        row's mode is read back from its own ``aux`` (a contact sticks when ``aux[A_STICK] != -1``, the
-        tip when ``aux[A_TIP_STICK] != -1``; the incipient directions are those of the start of sliding,
-        :func:`triplanar.statics.start_motion`), the kernel's right-hand side is evaluated with it, and it
-        is kept only where it reproduces the recorded ``aux`` (normal reactions, slip accelerations...)
-        to 1e-9: then it is the derivative the integrator saw. Elsewhere (a site slipping slower than
-        ``kernel.SLIP_BLEND`` after a stop or release, whose direction is not recorded) velocities and
-        energy integrals take the slope of the parabola through the row and its neighbours, second order
-        in the step; :attr:`dydt_from_kernel` says which rows. Position and orientation rates are the
-        row's own velocities in every row (they do not depend on the mode).
-        """
-        return self._derivative_rows[0]
-
-    @property
-    def dydt_from_kernel(self) -> np.ndarray:
-        """(n,) bool: the rows whose :attr:`dydt` is the kernel's right-hand side (see there)."""
-        return self._derivative_rows[1]
-
-    @cached_property
-    def _derivative_rows(self) -> tuple[np.ndarray, np.ndarray]:
-        """(dydt, from_kernel) for every row: see :attr:`dydt`."""
-        from .simulate import _user_effects  # simulate builds results: import it when first needed
-        from .statics import start_motion
-        n = len(self.t)
-        p0 = self.model.kernel_params_cached.copy()
-        if p0[K.P_TAU] > 0:
-            p0[K.P_F0] = self.y[0, K.S_F]
-        dy, aux = np.empty_like(self.y), np.empty(K.N_AUX)
-        exact = np.zeros(n, dtype=bool)
-        with _user_effects(self.model):
-            modes0 = K.sliding_modes()
-            if self.status != "held":
-                start_motion(p0, modes0, self.y[0].copy())
-            for k in range(n):
-                modes = modes0.copy()
-                modes[K.M_TIP_STUCK] = 1.0 if self.aux[k, K.A_TIP_STICK] != -1.0 else 0.0
-                stuck = [modes0[K.M_STUCK]] if k == 0 else ([0.0, 1.0, 2.0] if self.aux[k, K.A_STICK] != -1.0
-                                                            else [-1.0])
-                for site in stuck:
-                    modes[K.M_STUCK] = site
-                    K.rhs(float(self.t[k]), self.y[k].copy(), p0, modes, dy[k], aux)
-                    exact[k] = np.allclose(aux, self.aux[k], rtol=1e-9, atol=1e-9)
-                    if exact[k]:
-                        break
-        if not exact.all():
-            fd = parabola_slopes(self.t, self.y)
-            rates = slice(K.S_V, K.N_STATE)  # r and q rates come from v and omega, whatever the mode
-            dy[~exact, rates] = fd[~exact, rates]
-        return dy, exact
-
-    @cached_property
     def sol(self) -> CubicHermite:
         """Dense output, like ``solve_ivp(..., dense_output=True).sol``: ``sol(t)`` is the state (kernel
         layout, ``N_STATE``) at time ``t`` (scalar -> (N_STATE,), array (m,) -> (m, N_STATE), rows first),
-        by cubic Hermite interpolation of the rows and :attr:`dydt`. Exact at the rows; between them
+        by cubic Hermite interpolation of the rows and :attr:`dydt`, the right-hand side the integrator
+        evaluated at each row (with the stick/slip modes in force there). Exact at the rows; between them
         accurate to about the integrator's tolerance. The quaternion is interpolated component-wise:
         normalise it before use. Times outside ``[t[0], t[-1]]`` are clamped."""
         k = self._rows

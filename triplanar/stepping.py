@@ -155,17 +155,17 @@ def _advance(method, t, y, h, p, modes, y_new, err, aux, ws: np.ndarray) -> bool
 @njit(cache=True, error_model="numpy")
 def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, h: float, rtol: float,
               atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
-              out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool):
+              out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool):
     """:func:`integrate_ws` with its own scratch memory, recording from row 0, no event log."""
     return integrate_ws(method, t0, y, p, modes, h, rtol, atol, t_max, x1_target, slow_speed, armed, out_t, out_y,
-                        out_aux, record, 0, np.empty((0, 3)), new_workspace())
+                        out_dy, out_aux, record, 0, np.empty((0, 3)), new_workspace())
 
 
 @njit(cache=True, error_model="numpy")
 def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, h: float, rtol: float,
                  atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
-                 out_t: np.ndarray, out_y: np.ndarray, out_aux: np.ndarray, record: bool, row0: int,
-                 log: np.ndarray, ws: np.ndarray):
+                 out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool,
+                 row0: int, log: np.ndarray, ws: np.ndarray):
     """Integrate from (t0, y) until a terminal event, ``t_max`` or a full buffer; ``y`` ends as the final state.
 
     ``h`` is the fixed step (Euler, RK4) or the first trial step (DOPRI5). Events are located to 1e-13 s
@@ -179,7 +179,9 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
     ``armed`` (5 flags, updated in place): whether the all-slow event, each contact's and the tip's stop
     event may fire; each arms once its speed has exceeded twice its threshold, so a start from rest does
     not count. With ``record`` every accepted step is written to the ``out_*`` buffers from row ``row0``; the
-    start is written only when ``row0`` is 0 (a continuation's start is the caller's last row). Every event that
+    start is written only when ``row0`` is 0 (a continuation's start is the caller's last row). ``out_dy`` gets
+    f(t, y) at each row, the derivative the run goes on with (at a stick/slip change, the one after it; a
+    continuation rewrites its start row's, as a restart may have changed the modes). Every event that
     happens is appended to ``log`` (rows: time, event index, outcome) while it has room; the workspace's counters
     (``kernel.C_*``) count steps, rejections, events and log rows.
     Returns (rows in the buffers, outcome (:mod:`triplanar.outcome`), event index or -1, last step size, final
@@ -202,6 +204,8 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
         out_y[0] = y
         out_aux[0] = aux
         rows = 1
+    if record:  # the derivative the run goes on with (after a restart, with the new modes)
+        out_dy[max(row0 - 1, 0)] = k1
     t = t0
     y_new = ws[W_YNEW, :N_STATE]
     err = ws[W_ERR, :N_STATE]
@@ -314,6 +318,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
         if record:
             out_t[rows] = t
             out_y[rows] = y
+            out_dy[rows] = k1
             out_aux[rows] = aux_new
             rows += 1
         if status != RUNNING:
