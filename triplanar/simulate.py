@@ -91,8 +91,8 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
         converged, consistency = start_motion(p, modes, y0)
         while True:
             code, event, rows, h, t = driver.drive(METHODS[method], t, y, p, modes, armed, h, rtol, atol, t_max_s,
-                                                   x1_target, SLOW_SPEED_M_S, 0.0, out_t, out_y, out_dy, out_aux, True, rows,
-                                                   log, ws)
+                                                   x1_target, SLOW_SPEED_M_S, 0.0, out_t, out_y, out_dy, out_aux, True,
+                                                   rows, log, ws)
             if code != Outcome.BUFFER_FULL or capacity >= max_rows:
                 break
             capacity = min(2 * capacity, max_rows)
@@ -104,8 +104,8 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
         status, message = Outcome(code).label, describe(Outcome(code), event, t, travel_m)
     count = ws[K.W_COUNT]
     return SimulationResult(t=out_t[:rows].copy(), y=out_y[:rows].copy(), dydt=out_dy[:rows].copy(),
-                            aux=out_aux[:rows].copy(), status=status, message=message, model=model, method=method, t_start_s=t_start,
-                            travel_target_m=travel_m, incipient_converged=converged,
+                            aux=out_aux[:rows].copy(), status=status, message=message, model=model, method=method,
+                            t_start_s=t_start, travel_target_m=travel_m, incipient_converged=converged,
                             incipient_consistency=consistency,
                             events=tuple(Event(float(r[0]), int(r[1]), Outcome(int(r[2]))) for r in
                                          log[:int(count[K.C_NLOG])]),
@@ -118,8 +118,9 @@ def _held(model: Model, y0: np.ndarray, method: str, message: str) -> Simulation
     aux = np.zeros(K.N_AUX)
     K.dynamics(0.0, y0, model.kernel_params_cached.copy(), K.sliding_modes(), np.empty(K.N_STATE), aux)
     return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), dydt=np.zeros((1, K.N_STATE)), aux=aux[None, :],
-                            status=Outcome.HELD.label, message=message, model=model, method=method, t_start_s=math.inf, travel_target_m=0.0,
-                            incipient_converged=True, incipient_consistency=1.0)
+                            status=Outcome.HELD.label, message=message, model=model, method=method,
+                            t_start_s=math.inf, travel_target_m=0.0, incipient_converged=True,
+                            incipient_consistency=1.0)
 
 
 def _cp1_x1(y: np.ndarray, p: np.ndarray) -> float:
