@@ -37,9 +37,16 @@ def format_report(report: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..workbench.cli_common import check_effect_names, executor_for, model_and_tests, out_dir
+    from pathlib import Path
+
+    from ..workbench.cli_common import (check_effect_names, executor_for, model_and_tests, out_dir,
+                                        refuse_overwriting_inputs)
     from ..workbench.diagnose import Diagnoser
     from ..workbench.report import plot_candidates, write_json
+    if args.folds < 2:
+        raise ValueError(f"--folds {args.folds}: cross-validation needs at least 2 folds")
+    refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [
+        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png")])
     spec, tests = model_and_tests(args)
     names = None
     if args.candidates:

@@ -76,6 +76,30 @@ def executor_for(args: argparse.Namespace):
     return pool_scope(max(1, int(args.workers)))
 
 
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """True if ``a`` and ``b`` name the same file (also through links, or both missing but the same path)."""
+    a, b = Path(a), Path(b)
+    try:
+        if a.exists() and b.exists():
+            return a.samefile(b)
+    except OSError:
+        pass
+    return a.resolve() == b.resolve()
+
+
+def refuse_overwriting_inputs(args: argparse.Namespace, outputs: list[tuple[str, Path | str]]) -> None:
+    """Refuse (ValueError naming both) an output that would replace one of the command's input files."""
+    inputs = [("DATA.csv", args.data)]
+    if getattr(args, "specimen", None):
+        inputs.append(("--specimen", args.specimen))
+    inputs += [("--plugin", p) for p in getattr(args, "plugin", []) if p.endswith(".py")]
+    for what, output in outputs:
+        for kind, given in inputs:
+            if same_file(output, given):
+                raise ValueError(f"{what} {output} is the input {kind} {given}; it would be overwritten. "
+                                 "Choose another output path")
+
+
 def out_dir(args: argparse.Namespace) -> Path:
     path = Path(args.out)
     path.mkdir(parents=True, exist_ok=True)

@@ -153,6 +153,8 @@ class Diagnoser:
 
     def __init__(self, candidates: Sequence[str | Candidate] | None = None, folds: int = 3,
                  executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30):
+        if isinstance(folds, bool) or not isinstance(folds, int) or folds < 2:
+            raise ValueError(f"folds = {folds!r}: cross-validation needs at least 2 folds")
         self.candidates = candidates
         self.folds = folds
         self.executor = executor

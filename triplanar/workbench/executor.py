@@ -6,11 +6,20 @@
 * any object with ``map(fn, iterable)``: used as is and left open, e.g. your own pool, or on a Ray cluster
   ``ray.util.multiprocessing.Pool()`` (its ``map``/``imap`` take the same pure function and picklable tasks;
   workers must import ``triplanar`` and any user effect module so that effect names resolve).
+
+Every pool made here dies with its command: each worker asks the kernel to kill it when its parent dies
+(Linux ``prctl(PR_SET_PDEATHSIG)``) and runs a watchdog thread that exits when the process that made the pool
+is gone (any platform); a SIGTERM to the command terminates the workers before it exits.
 """
 
 from __future__ import annotations
 
+import ctypes
 import os
+import signal
+import sys
+import threading
+import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
 from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence, TypeVar
@@ -35,17 +44,83 @@ class SerialExecutor:
 ExecutorLike = Executor | str | None
 
 
+WATCHDOG_PERIOD_S = 0.5
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:  # a dead but not yet reaped parent is a zombie
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True
+
+
+def _watch_parent(owner: int) -> None:
+    while _alive(owner):
+        time.sleep(WATCHDOG_PERIOD_S)
+    os._exit(1)
+
+
+def die_with_parent(owner: int) -> None:
+    """Worker initializer: exit when process ``owner`` (the pool's maker) dies, however it dies."""
+    if sys.platform.startswith("linux") and os.getppid() == owner:
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG = 1
+        except (OSError, AttributeError):
+            pass
+    if not _alive(owner):
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(owner,), name="parent-watchdog", daemon=True).start()
+
+
+def new_pool(workers: int) -> ProcessPoolExecutor:
+    """A ProcessPoolExecutor whose workers die with this process."""
+    return ProcessPoolExecutor(max_workers=workers, initializer=die_with_parent, initargs=(os.getpid(),))
+
+
+def terminate_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` now: kill its workers instead of waiting for their tasks."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        if process.is_alive():
+            process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+class Terminated(SystemExit):
+    """Raised in the main thread by SIGTERM while a pool is open, so that the pool is terminated first."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated(128 + signum)
+
+
 @contextmanager
 def pool_scope(workers: int) -> Iterator[Executor]:
-    """A process pool of ``workers`` (in this process when 1), shut down on exit."""
+    """A process pool of ``workers`` (in this process when 1), shut down on exit; on an error, an interrupt or
+    SIGTERM its workers are terminated."""
     if workers <= 1:
         yield SerialExecutor()
         return
-    pool = ProcessPoolExecutor(max_workers=workers)
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    pool = new_pool(workers)
     try:
         yield pool
-    finally:
+    except BaseException:
+        terminate_pool(pool)
+        raise
+    else:
         pool.shutdown(wait=True, cancel_futures=True)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager

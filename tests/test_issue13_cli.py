@@ -1,0 +1,137 @@
+"""Issue 13: inputs never overwritten (item 2), commands that claim what they did not do (7), workers die with
+their command (4)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from triplanar import write_measurements
+from triplanar.cli import main
+from triplanar.labdata import generate_lab_data
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture(scope="module")
+def data(tmp_path_factory) -> Path:
+    tests, _ = generate_lab_data(loads=(27.8, 40.0, 55.6), repeats=1, seed=5)
+    path = tmp_path_factory.mktemp("wb") / "lab.csv"
+    write_measurements(path, tests)
+    return path
+
+
+def run(capsys, *argv) -> tuple[int, str]:
+    code = main([str(a) for a in argv])
+    return code, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["diagnose", "fit"])
+def test_json_output_equal_to_the_data_is_refused(command, data, tmp_path, capsys) -> None:
+    copy = tmp_path / "D.csv"
+    copy.write_bytes(data.read_bytes())
+    extra = ["--add", "end_friction"] if command == "fit" else []
+    code, err = run(capsys, command, copy, "--json", copy, "--out", tmp_path / "o", *extra, "--workers", "1")
+    assert code == 2 and "would be overwritten" in err and str(copy) in err
+    assert copy.read_bytes() == data.read_bytes()
+
+
+def test_json_output_through_a_link_is_refused(data, tmp_path, capsys) -> None:
+    copy = tmp_path / "D.csv"
+    copy.write_bytes(data.read_bytes())
+    (tmp_path / "link.csv").symlink_to(copy)
+    code, err = run(capsys, "diagnose", copy, "--json", tmp_path / "link.csv", "--out", tmp_path / "o")
+    assert code == 2 and "would be overwritten" in err and copy.read_bytes() == data.read_bytes()
+
+
+def test_compare_refuses_to_write_its_table_over_the_input(data, tmp_path, capsys) -> None:
+    copy = tmp_path / "compare.csv"
+    copy.write_bytes(data.read_bytes())
+    code, err = run(capsys, "compare", copy, "--out", tmp_path)
+    assert code == 2 and "--out" in err and "would be overwritten" in err
+    assert copy.read_bytes() == data.read_bytes()
+
+
+@pytest.mark.parametrize("folds", ["0", "1", "-5"])
+def test_diagnose_refuses_fewer_than_two_folds(data, tmp_path, capsys, folds) -> None:
+    code, err = run(capsys, "diagnose", data, "--folds", folds, "--out", tmp_path)
+    assert code == 2 and f"--folds {folds}" in err and not (tmp_path / "diagnose.json").exists()
+
+
+@pytest.mark.parametrize("n", ["0", "-1"])
+def test_fit_forward_refuses_max_effects_below_one(data, tmp_path, capsys, n) -> None:
+    code, err = run(capsys, "fit", data, "--forward", "--max-effects", n, "--out", tmp_path)
+    assert code == 2 and f"--max-effects {n}" in err and not (tmp_path / "fit.json").exists()
+
+
+def test_fit_refuses_an_effect_added_twice(data, tmp_path, capsys) -> None:
+    code, err = run(capsys, "fit", data, "--add", "end_friction", "--add", "end_friction", "--out", tmp_path)
+    assert code == 2 and "end_friction given twice" in err
+
+
+def test_library_refuses_degenerate_folds_and_max_effects() -> None:
+    from triplanar.workbench import Diagnoser, ForwardSelection
+    for bad in (0, 1, -5):
+        with pytest.raises(ValueError, match="folds"):
+            Diagnoser(folds=bad)
+    for bad in (0, -1):
+        with pytest.raises(ValueError, match="max_effects"):
+            ForwardSelection(max_effects=bad)
+
+
+# -- item 4: workers die with their command -----------------------------------------------------------
+
+def children(pid: int) -> list[int]:
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                stat = (entry / "stat").read_text()
+            except OSError:
+                continue
+            fields = stat.rsplit(")", 1)[1].split()
+            if int(fields[1]) == pid and fields[0] != "Z":
+                found.append(int(entry.name))
+    return found
+
+
+def alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
+def test_killing_diagnose_kills_its_pool_workers(data, tmp_path, sig) -> None:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-m", "triplanar.cli", "diagnose", str(data), "--out", str(tmp_path),
+                             "--workers", "2", "--no-progress"], cwd=ROOT, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    deadline = time.time() + 600
+    workers: list[int] = []
+    while len(workers) < 2:
+        assert proc.poll() is None, proc.stderr.read()
+        assert time.time() < deadline
+        time.sleep(0.2)
+        workers = children(proc.pid)
+    time.sleep(1.0)
+    proc.send_signal(sig)
+    proc.wait(30)
+    deadline = time.time() + 10
+    while any(alive(w) for w in workers) and time.time() < deadline:
+        time.sleep(0.1)
+    left = [w for w in workers if alive(w)]
+    for w in left:
+        os.kill(w, signal.SIGKILL)
+    assert not left, f"workers {left} outlived their command"
+    if sig == signal.SIGTERM:
+        assert b"Traceback" not in proc.stderr.read()
