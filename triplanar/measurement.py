@@ -17,11 +17,19 @@ Rules enforced by :func:`read_measurements`:
   one data row after the header;
 * the header holds every required column, no column name twice; unknown extra columns are ignored
   (their values are not checked);
-* every data row has as many fields as the header; ``test_id`` is not empty;
-* every numeric value is a finite decimal number (``nan``/``inf`` are refused); an optional ``x2``
+* every data row has as many fields as the header; ``test_id`` is not empty; two ids that differ only
+  by surrounding whitespace (``" F1"`` and ``"F1"``) are refused (they would be two tests and fake a repeat
+  scatter); an id does not start with ``=``, ``+``, ``@`` or a tab/carriage return (spreadsheets would run it
+  as a formula when the results are opened);
+* every numeric value is a finite decimal number written with ASCII digits (``nan``/``inf``, Arabic-Indic or
+  full-width digits are refused); an optional ``x2``
   value may be empty (read as NaN), every other numeric value must be present;
 * ``|position| <= 2`` m (larger values look like millimetres);
 * ``shear_force_N`` is the same on all rows of a test; ``t_s`` strictly increases within a test;
+* ``t_s`` is seconds from the moment the shear force is applied (the model's clock): each test's first time
+  lies within ``MAX_START_TIME_S`` (1 s) of zero (a clock offset, e.g. a Unix time stamp, is refused rather
+  than compared with the model) and a test lasts at most ``MAX_DURATION_S`` (60 s; longer looks like
+  milliseconds);
 * each test has at least 3 samples;
 * blank lines are allowed only at the end of the file (a blank line between data rows is refused);
 * optionally, each test's first sample lies within ``tolerance_m`` (horizontally) of the
@@ -51,12 +59,20 @@ __all__ = [
     "POSITION_COLUMNS",
     "MAX_ABS_POSITION_M",
     "MIN_SAMPLES",
+    "MAX_START_TIME_S",
+    "MAX_DURATION_S",
 ]
 
 #: Largest plausible |position| in metres; anything larger is taken to be millimetres.
 MAX_ABS_POSITION_M = 2.0
 #: Fewest samples a test may have.
 MIN_SAMPLES = 3
+#: First characters a test_id may not have (spreadsheet formula injection).
+FORMULA_STARTS = ("=", "+", "@", "\t", "\r")
+#: Largest |first t_s| of a test: times are seconds from load onset (the model's t = 0).
+MAX_START_TIME_S = 1.0
+#: Longest test in seconds; a longer one looks like milliseconds (the model's tests last about a second).
+MAX_DURATION_S = 60.0
 
 _AXES = ("x1", "x2", "x3")
 #: POSITION_COLUMNS[k][a] is the column of contact point k+1, coordinate axis a (x1, x2, x3).
@@ -204,6 +220,8 @@ def _parse_number(path: str, row: int, column: str, text: str, *, allow_empty: b
     try:
         if "_" in stripped:  # float() accepts '1_000'; a CSV number never should
             raise ValueError
+        if not stripped.isascii():  # float() reads Arabic-Indic and full-width digits; a CSV number never has them
+            raise ValueError
         value = float(stripped)
     except ValueError:
         hint = ""
@@ -328,6 +346,7 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
     pos_names = POSITION_COLUMNS
 
     tests: dict[str, _TestBuilder] = {}
+    stripped_ids: dict[str, tuple[str, int]] = {}
     pending_blank: int | None = None  # line of the first blank line not yet followed by data
     n_data = 0
     line_end = reader.line_num
@@ -358,6 +377,9 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
         test_id = fields[i_id]
         if not test_id.strip():
             raise MeasurementError(spath, row, "test_id", "test_id is empty")
+        if test_id.strip()[0] in FORMULA_STARTS or test_id[0] in FORMULA_STARTS:
+            raise MeasurementError(spath, row, "test_id", f"test_id {_describe(test_id)} starts with "
+                                   f"{test_id[0]!r}, which spreadsheets run as a formula; rename the test")
         force = _parse_number(spath, row, "shear_force_N", fields[i_force], allow_empty=False)
         t = (_parse_number(spath, row, "t_s", fields[i_t], allow_empty=False)
              if i_t is not None else None)
@@ -382,6 +404,12 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
 
         b = tests.get(test_id)
         if b is None:
+            twin = stripped_ids.setdefault(test_id.strip(), (test_id, row))
+            if twin[0] != test_id:
+                raise MeasurementError(
+                    spath, row, "test_id",
+                    f"test_id {test_id!r} differs from {twin[0]!r} (row {twin[1]}) only by surrounding "
+                    "whitespace; use one spelling (two spellings would be two tests)")
             b = tests[test_id] = _TestBuilder(test_id, force, row)
         elif force != b.shear:
             raise MeasurementError(
@@ -408,6 +436,13 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
                 f"test {b.test_id!r} has {len(b.rows)} sample(s) (rows {', '.join(map(str, b.rows))}); "
                 f"at least {MIN_SAMPLES} are required")
 
+    for b in tests.values():
+        if b.t:
+            problem = _time_problem(b.test_id, b.t[0], b.t[-1])
+            if problem:
+                column_row = b.rows[0] if "first" in problem else b.rows[-1]
+                raise MeasurementError(spath, column_row, "t_s", problem)
+
     result = [
         MeasuredTest(test_id=b.test_id, shear_force_N=b.shear,
                      positions=np.asarray(b.pos, dtype=np.float64),
@@ -420,6 +455,17 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
         for mt in result:
             _check_rest(spath, mt, rest, tolerance_m)
     return result
+
+
+def _time_problem(test_id: str, first: float, last: float) -> str | None:
+    """Why a test's times cannot be seconds from load onset, or None."""
+    if abs(first) > MAX_START_TIME_S:
+        return (f"first time {first!r} s of test {test_id!r} is not near 0; t_s must be seconds from the moment "
+                f"the shear force is applied (|first t_s| <= {MAX_START_TIME_S:g} s): subtract the clock's offset")
+    if last - first > MAX_DURATION_S:
+        return (f"test {test_id!r} lasts {last - first:.6g} s (t_s from {first!r} to {last!r}); more than "
+                f"{MAX_DURATION_S:g} s looks like milliseconds - t_s must be in seconds")
+    return None
 
 
 def _check_rest(path: str, mt: MeasuredTest, rest: np.ndarray, tol: float) -> None:
@@ -466,6 +512,12 @@ def _validate_for_write(path: str, tests: list[MeasuredTest]) -> bool:
         tid = mt.test_id
         if not tid.strip():
             raise MeasurementError(path, None, "test_id", "a test has an empty test_id")
+        if tid.strip()[0] in FORMULA_STARTS or tid[0] in FORMULA_STARTS:
+            raise MeasurementError(path, None, "test_id", f"test_id {tid!r} starts with a spreadsheet formula "
+                                   "character (=, +, @, tab, CR); the reader would refuse it")
+        if any(tid != o and tid.strip() == o.strip() for o in seen):
+            raise MeasurementError(path, None, "test_id", f"test_id {tid!r} differs from another only by "
+                                   "surrounding whitespace; the reader would refuse it")
         if tid in seen:
             raise MeasurementError(path, None, "test_id",
                                    f"test_id {tid!r} is used by more than one test")
@@ -503,6 +555,9 @@ def _validate_for_write(path: str, tests: list[MeasuredTest]) -> bool:
                 i = int(np.flatnonzero(dec)[0]) + 1
                 raise MeasurementError(path, None, "t_s",
                                        f"test {tid!r}, sample {i}: time {t[i]!r} does not increase")
+            problem = _time_problem(tid, float(t[0]), float(t[-1]))
+            if problem:
+                raise MeasurementError(path, None, "t_s", problem)
     return all(timed)
 
 
