@@ -47,7 +47,7 @@ import numpy as np
 
 from . import PAPER_LOADS_N
 from .effects import ContactFriction, Effect, EndFriction
-from .measurement import MeasuredTest, write_measurements
+from .measurement import MeasuredTest, MeasurementError, write_measurements
 from .model import Model, paper_model
 from .result import SimulationResult
 from .simulate import simulate
@@ -277,12 +277,19 @@ def write_lab_data(path: str | os.PathLike[str], tests: Sequence[MeasuredTest], 
     truth_file = Path(truth_path) if truth_path is not None else path.with_name(path.name + ".truth.json")
     if path.resolve() == truth_file.resolve():
         raise ValueError(f"the truth file must differ from the data file ({path})")
+    if not tests:
+        raise MeasurementError(path, None, None, "no tests to write")
+    for target in (path, truth_file):
+        target.parent.mkdir(parents=True, exist_ok=True)
     token = secrets.token_hex(6)
     tmp_csv = path.with_name(f".{path.name}.{token}.tmp")
     tmp_json = truth_file.with_name(f".{truth_file.name}.{token}.tmp")
     backup: bytes | None = None
     try:
-        write_measurements(tmp_csv, tests)
+        try:
+            write_measurements(tmp_csv, tests)
+        except MeasurementError as err:  # name the user's file, not the temporary one
+            raise MeasurementError(path, err.row, err.column, err.detail) from None
         digest = hashlib.sha256(tmp_csv.read_bytes()).hexdigest()
         record = {**truth, "data_file": path.name, "data_sha256": digest}
         with open(tmp_json, "w", encoding="utf-8") as fh:

@@ -587,6 +587,8 @@ def write_measurements(path: str | os.PathLike[str], tests: Iterable[MeasuredTes
     header += [c for cp in POSITION_COLUMNS for c in cp]
 
     directory, name = os.path.split(os.path.abspath(spath))
+    if not os.path.isdir(directory):
+        raise MeasurementError(spath, None, None, f"folder {directory} does not exist")
     tmp = os.path.join(directory, f".{name}.{secrets.token_hex(6)}.tmp")
     # os.open with mode 0o666 lets the umask decide permissions, as for an ordinary new file.
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)

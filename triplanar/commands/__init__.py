@@ -16,7 +16,14 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def parse_effects(specs: list[str]) -> list[Effect]:
-    return [make_effect(spec) for spec in specs]
+    """The ``--effect`` options as effects; an effect named twice is refused (which one would hold?)."""
+    from ..effects import EffectError
+    effects = [make_effect(spec) for spec in specs]
+    names = [e.name for e in effects]
+    for name in names:
+        if names.count(name) > 1:
+            raise EffectError(f"--effect {name} given {names.count(name)} times; give each effect once")
+    return effects
 
 
 def load_specimen(path: str | None):

@@ -49,8 +49,13 @@ def run(args: argparse.Namespace) -> int:
         ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png")])
     spec, tests = model_and_tests(args)
     names = None
-    if args.candidates:
+    if args.candidates is not None:
         names = check_effect_names([n.strip() for n in args.candidates.split(",") if n.strip()])
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ValueError(f"--candidates: {', '.join(twice)} given twice")
+        if not names:
+            raise ValueError(f"--candidates {args.candidates!r}: no candidate named")
     out = out_dir(args)
     with executor_for(args) as ex:
         diag = Diagnoser(names, folds=args.folds, executor=ex, progress=not args.no_progress).fit(tests, spec)
