@@ -254,7 +254,7 @@ Loads at which PPO's mean beats each scripted controller: {', '.join(f'{k} {v}/1
 
 ## Caveats
 
-* Everything is the model's: the reference specimen's undocumented values (`shared/design/reference-specimen.md`)
+* Everything is the model's: the reference specimen's undocumented values (`docs/specimen-format.md`)
   and Coulomb friction with a velocity-controlled, infinitely stiff stage. A real stage has finite bandwidth; the
   dithering moment-matching controller and any policy with fast stage reversals would need checking on hardware.
 * Fixed 5 ms RK4 steps step to each predicted stop of a slip, but cannot follow a slip that stays slow while it

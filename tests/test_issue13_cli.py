@@ -135,3 +135,32 @@ def test_killing_diagnose_kills_its_pool_workers(data, tmp_path, sig) -> None:
     assert not left, f"workers {left} outlived their command"
     if sig == signal.SIGTERM:
         assert b"Traceback" not in proc.stderr.read()
+
+
+# -- item 10, 11: documentation the user has ---------------------------------------------------------------
+
+def test_no_user_facing_text_points_outside_the_repository() -> None:
+    offenders = []
+    for path in ROOT.rglob("*"):
+        if path.suffix in (".py", ".md", ".toml", ".yaml", ".txt") and ".git" not in path.parts \
+                and ".venv" not in path.parts and "runs" not in path.parts:
+            if "shared/" in path.read_text(encoding="utf-8", errors="replace"):
+                offenders.append(str(path.relative_to(ROOT)))
+    offenders = [o for o in offenders if o != "tests/test_issue13_cli.py"]
+    assert not offenders
+    assert (ROOT / "docs" / "measurement-format.md").exists() and (ROOT / "docs" / "specimen-format.md").exists()
+
+
+def test_help_points_to_the_format_docs_and_warns_about_pickles(capsys, monkeypatch) -> None:
+    from triplanar.cli import build_parser
+    monkeypatch.setenv("COLUMNS", "1000")  # no line wrapping (it breaks at hyphens)
+    parser = build_parser()
+    helps = {}
+    for name in ("compare", "study"):
+        with pytest.raises(SystemExit):
+            parser.parse_args([name, "--help"])
+        helps[name] = " ".join(capsys.readouterr().out.split())
+    assert "docs/measurement-format.md" in helps["compare"] and "docs/specimen-format.md" in helps["compare"]
+    assert "trusted source" in helps["study"] and "pickle" in helps["study"]
+    readme = (ROOT / "README.md").read_text()
+    assert "trusted source" in readme and "pickle" in readme

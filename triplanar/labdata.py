@@ -2,7 +2,7 @@
 
 The paper's measurements (Galic, Glaser & Goodman 2008, section 5.1, Fig. 11: 50 constant-force tests at
 12 loads, four repeats each, manually terminated, tracked by laser rangefinders) are not public. This
-module makes a substitute dataset in the measured-trace format (``shared/design/measurement-format.md``):
+module makes a substitute dataset in the measured-trace format (``docs/measurement-format.md``):
 
 * the laboratory's "true" physics is :func:`triplanar.paper_model` (``case``, default ``"B"``) with a set
   of effects (default: the steel load tip's end friction at 8 degrees, which makes it the paper's case A);

@@ -1,11 +1,11 @@
 """Laboratory measured-trace CSV files: reading (strictly validated) and writing (atomic).
 
-The format is specified in ``shared/design/measurement-format.md``. One CSV file holds any number of
+The format is specified in ``docs/measurement-format.md``. One CSV file holds any number of
 constant-force shear tests, one row per sample::
 
     test_id, shear_force_N, [t_s], cp1_x1_m, [cp1_x2_m], cp1_x3_m, cp2_x1_m, ..., cp3_x3_m
 
-Positions are in metres in the foundation frame of ``reference-specimen.md`` (origin where the three
+Positions are in metres in the foundation frame of ``docs/specimen-format.md`` (origin where the three
 foundation planes meet, ``x1`` forward, ``x2`` up, ``x3`` lateral). Laboratory users bring these
 files, so the reader is strict: every problem raises :class:`MeasurementError` naming the file, the
 (1-based) line number and the column, nothing read is silently dropped or altered, and a refused

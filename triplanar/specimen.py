@@ -1,6 +1,6 @@
 """Specimen (the top block) and foundation (three planes): data, validation, TOML files, scaling.
 
-Frame and conventions are those of ``shared/design/reference-specimen.md``: ``e1`` forward (push
+Frame and conventions (``docs/specimen-format.md``): ``e1`` forward (push
 direction), ``e2`` up, ``e3 = e1 x e2`` lateral (right when facing ``e1``); the three foundation planes
 contain the origin. Units are SI inside; angles are degrees only in these dataclasses' ``*_deg`` fields.
 
@@ -204,7 +204,7 @@ def barycentric_horizontal(point: np.ndarray, triangle: np.ndarray) -> np.ndarra
 
 @lru_cache(maxsize=1)
 def reference() -> tuple[Specimen, Foundation]:
-    """The reference specimen and foundation of ``reference-specimen.md`` (read once from the shipped TOML;
+    """The reference specimen and foundation (``docs/specimen-format.md``; read once from the shipped TOML;
     both are immutable values)."""
     text = resources.files("triplanar").joinpath("data/reference.toml").read_text(encoding="utf-8")
     return parse_toml(tomllib.loads(text), source="triplanar/data/reference.toml")

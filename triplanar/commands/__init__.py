@@ -9,8 +9,8 @@ from ..effects import Effect, make_effect
 
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     """The options every command that builds a model shares: ``--specimen`` and repeated ``--effect``."""
-    parser.add_argument("--specimen", metavar="S.toml", help="specimen and foundation TOML (default: the "
-                        "reference specimen, triplanar/data/reference.toml)")
+    parser.add_argument("--specimen", metavar="S.toml", help="specimen and foundation TOML (format: "
+                        "docs/specimen-format.md; default: the reference specimen, triplanar/data/reference.toml)")
     parser.add_argument("--effect", action="append", default=[], metavar="NAME[:P=V,...]",
                         help="add an effect with fixed parameters, e.g. end_friction:phi_deg=8 (repeatable)")
 

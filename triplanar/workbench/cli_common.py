@@ -14,7 +14,7 @@ from .spec import ModelSpec
 
 
 def add_data_arguments(parser: argparse.ArgumentParser, default_out: str) -> None:
-    parser.add_argument("data", metavar="DATA.csv", help="measured traces (shared/design/measurement-format.md)")
+    parser.add_argument("data", metavar="DATA.csv", help="measured traces (format: docs/measurement-format.md)")
     add_model_arguments(parser)
     parser.add_argument("--plugin", action="append", default=[], metavar="MODULE",
                         help="import this module (a name on the Python path, or a .py file) first, so that the "
