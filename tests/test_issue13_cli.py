@@ -164,3 +164,66 @@ def test_help_points_to_the_format_docs_and_warns_about_pickles(capsys, monkeypa
     assert "trusted source" in helps["study"] and "pickle" in helps["study"]
     readme = (ROOT / "README.md").read_text()
     assert "trusted source" in readme and "pickle" in readme
+
+
+# -- item 1 for a sweep: an interrupted diagnose resumes to the same complete result -----------------------
+
+def diagnose_cmd(data: Path, out: Path) -> list[str]:
+    return [sys.executable, "-m", "triplanar.cli", "diagnose", str(data), "--out", str(out), "--workers", "2",
+            "--no-progress", "--folds", "2", "--candidates", "end_friction,tip_offset,plane_tilt,rate_friction"]
+
+
+def report_without_timing(path: Path) -> dict:
+    import json
+    report = json.loads(path.read_text())
+    report.pop("seconds", None)
+    for candidate in report["candidates"]:
+        candidate.pop("fit_seconds", None)  # wall-clock times: the only thing a rerun may change
+    return report
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_diagnose_killed_and_rerun_resumes_to_the_same_report(data, tmp_path) -> None:
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    whole = subprocess.run(diagnose_cmd(data, tmp_path / "whole"), cwd=ROOT, env=env, capture_output=True,
+                           text=True, timeout=1200)
+    assert whole.returncode == 0, whole.stderr
+    assert not (tmp_path / "whole" / ".diagnose-partial").exists()  # removed when done
+    out = tmp_path / "killed"
+    partial = out / ".diagnose-partial"
+    proc = subprocess.Popen(diagnose_cmd(data, out), cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.time() + 1200
+    while not (partial.exists() and list(partial.glob("*.pkl"))):
+        assert proc.poll() is None and time.time() < deadline
+        time.sleep(0.05)
+    workers = children(proc.pid)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait(30)
+    finished = {p.name: p.stat().st_mtime_ns for p in partial.glob("*.pkl")}
+    assert finished and not (out / "diagnose.json").exists()
+    time.sleep(2 * 0.5 + 1)
+    assert not [w for w in workers if alive(w)]
+    again = subprocess.run(diagnose_cmd(data, out), cwd=ROOT, env=env, capture_output=True, text=True, timeout=1200)
+    assert again.returncode == 0, again.stderr
+    assert report_without_timing(out / "diagnose.json") == report_without_timing(tmp_path / "whole" / "diagnose.json")
+    assert not partial.exists()
+
+
+def test_run_tasks_checkpoint_skips_finished_tasks_and_ignores_damaged_files(tmp_path) -> None:
+    from triplanar.workbench.executor import TaskCheckpoint, run_tasks
+    calls: list[int] = []
+
+    def square(x: int) -> int:
+        calls.append(x)
+        return x * x
+
+    checkpoint = TaskCheckpoint(tmp_path / "cp")
+    assert run_tasks(square, [1, 2, 3], "serial", checkpoint=checkpoint) == [1, 4, 9] and calls == [1, 2, 3]
+    damaged = tmp_path / "cp" / f"{checkpoint.key(square, 2)}.pkl"
+    damaged.write_bytes(b"\x80\x05trunc")
+    calls.clear()
+    assert run_tasks(square, [1, 2, 3, 4], "serial", checkpoint=checkpoint) == [1, 4, 9, 16]
+    assert calls == [2, 4]
+    checkpoint.clear()
+    assert not (tmp_path / "cp").exists()

@@ -15,13 +15,17 @@ is gone (any platform); a SIGTERM to the command terminates the workers before i
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import os
+import pickle
+import shutil
 import signal
 import sys
 import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence, TypeVar
 
 T = TypeVar("T")
@@ -139,10 +143,58 @@ def executor_scope(executor: ExecutorLike, n_tasks: int = 2) -> Iterator[Executo
         yield executor
 
 
+class TaskCheckpoint:
+    """Finished tasks' results on disk, so that an interrupted sweep resumes where it stopped: each result is
+    written (atomically) as ``<directory>/<key>.pkl`` when its task finishes, the key being a hash of the
+    function and the task. A file that does not load (a damaged write) is ignored and its task run again.
+    The files are pickles: the directory must be one this program wrote (the command's own output folder)."""
+
+    def __init__(self, directory: str | os.PathLike[str]):
+        self.directory = Path(directory)
+
+    def key(self, fn: Callable, task: Any) -> str | None:
+        try:
+            data = pickle.dumps((getattr(fn, "__module__", ""), getattr(fn, "__qualname__", repr(fn)), task),
+                                protocol=5)
+        except Exception:  # noqa: BLE001 (an unpicklable task is simply not checkpointed)
+            return None
+        return hashlib.sha256(data).hexdigest()[:32]
+
+    def load(self, key: str | None) -> tuple[bool, Any]:
+        if key is None:
+            return False, None
+        path = self.directory / f"{key}.pkl"
+        try:
+            with open(path, "rb") as f:
+                return True, pickle.load(f)
+        except FileNotFoundError:
+            return False, None
+        except Exception:  # noqa: BLE001 (damaged: run the task again)
+            path.unlink(missing_ok=True)
+            return False, None
+
+    def save(self, key: str | None, result: Any) -> None:
+        if key is None:
+            return
+        self.directory.mkdir(parents=True, exist_ok=True)
+        tmp = self.directory / f".{key}.{os.getpid()}.partial"
+        try:
+            with open(tmp, "wb") as f:
+                pickle.dump(result, f, protocol=5)
+            os.replace(tmp, self.directory / f"{key}.pkl")
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    def clear(self) -> None:
+        """Remove the directory (the sweep finished and its outputs are written)."""
+        shutil.rmtree(self.directory, ignore_errors=True)
+
+
 def run_tasks(fn: Callable[[T], R], tasks: Sequence[T], executor: ExecutorLike = None,
-              progress: bool | Any = False, desc: str = "") -> list[R]:
+              progress: bool | Any = False, desc: str = "", checkpoint: TaskCheckpoint | None = None) -> list[R]:
     """``[fn(t) for t in tasks]`` through ``executor``, in task order, with an optional tqdm progress bar
-    (``progress``: True for a bar on stderr, or an open tqdm bar to update)."""
+    (``progress``: True for a bar on stderr, or an open tqdm bar to update). With ``checkpoint``, results
+    already on disk are used instead of running their tasks, and each new result is saved when it arrives."""
     bar = None
     own_bar = False
     if progress is True:
@@ -150,23 +202,41 @@ def run_tasks(fn: Callable[[T], R], tasks: Sequence[T], executor: ExecutorLike =
         bar, own_bar = tqdm(total=len(tasks), desc=desc, unit="task", leave=True), True
     elif progress:
         bar = progress
+    done: list[Any] = [None] * len(tasks)
+    keys: list[str | None] = [None] * len(tasks)
+    todo = list(range(len(tasks)))
+    if checkpoint is not None:
+        todo = []
+        for i, task in enumerate(tasks):
+            keys[i] = checkpoint.key(fn, task)
+            found, result = checkpoint.load(keys[i])
+            if found:
+                done[i] = result
+            else:
+                todo.append(i)
+        if bar is not None and len(todo) < len(tasks):
+            bar.update(len(tasks) - len(todo))
+
+    def finished(i: int, result: Any) -> None:
+        done[i] = result
+        if checkpoint is not None:
+            checkpoint.save(keys[i], result)
+        if bar is not None:
+            bar.update(1)
+
     try:
-        with executor_scope(executor, len(tasks)) as ex:
-            if bar is not None and callable(getattr(ex, "submit", None)):
-                # concurrent.futures: tick the bar as tasks finish, in any order.
-                futures = [ex.submit(fn, task) for task in tasks]
-                index = {f: i for i, f in enumerate(futures)}
-                done: list[Any] = [None] * len(tasks)
+        if not todo:
+            return done
+        with executor_scope(executor, len(todo)) as ex:
+            if (bar is not None or checkpoint is not None) and callable(getattr(ex, "submit", None)):
+                # concurrent.futures: record tasks as they finish, in any order.
+                futures = {ex.submit(fn, tasks[i]): i for i in todo}
                 for fut in as_completed(futures):
-                    done[index[fut]] = fut.result()
-                    bar.update(1)
+                    finished(futures[fut], fut.result())
                 return done
-            out: list[R] = []
-            for result in ex.map(fn, tasks):
-                out.append(result)
-                if bar is not None:
-                    bar.update(1)
-            return out
+            for i, result in zip(todo, ex.map(fn, [tasks[i] for i in todo])):
+                finished(i, result)
+            return done
     finally:
         if own_bar:
             bar.close()
