@@ -147,3 +147,16 @@ def test_fuzz_effect_specifications_give_a_named_error_or_an_effect(spec) -> Non
         return
     assert isinstance(effect, Effect) and effect.name in spec
     assert make_effect(repr(effect)) == effect  # what it prints reads back
+
+
+def test_a_killed_writers_leftover_is_removed_by_the_next_write(tmp_path, capsys) -> None:
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    target = tmp_path / "lab.csv"
+    stale = [tmp_path / f".lab.csv.{dead.pid}.0123456789ab.tmp", tmp_path / f".lab.csv.truth.json.{dead.pid}.0123456789ab.tmp"]
+    live = tmp_path / f".lab.csv.{os.getpid()}.ba9876543210.tmp"  # a writer still running: left alone
+    for p in stale + [live]:
+        p.write_text("partial")
+    code, out, err = run(capsys, "lab-data", "--out", target, "--loads", "40", "--repeats", "1")
+    assert code == 0, err
+    assert not any(p.exists() for p in stale) and live.exists()

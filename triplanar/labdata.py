@@ -38,7 +38,6 @@ import hashlib
 import json
 import math
 import os
-import secrets
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -47,7 +46,8 @@ import numpy as np
 
 from . import PAPER_LOADS_N
 from .effects import ContactFriction, Effect, EndFriction
-from .measurement import MeasuredTest, MeasurementError, write_measurements
+from .measurement import (MeasuredTest, MeasurementError, remove_stale_temporaries, temporary_name,
+                          write_measurements)
 from .model import Model, paper_model
 from .result import SimulationResult
 from .simulate import simulate
@@ -281,9 +281,10 @@ def write_lab_data(path: str | os.PathLike[str], tests: Sequence[MeasuredTest], 
         raise MeasurementError(path, None, None, "no tests to write")
     for target in (path, truth_file):
         target.parent.mkdir(parents=True, exist_ok=True)
-    token = secrets.token_hex(6)
-    tmp_csv = path.with_name(f".{path.name}.{token}.tmp")
-    tmp_json = truth_file.with_name(f".{truth_file.name}.{token}.tmp")
+    remove_stale_temporaries(path)  # left by a killed earlier run
+    remove_stale_temporaries(truth_file)
+    tmp_csv = Path(temporary_name(path))
+    tmp_json = Path(temporary_name(truth_file))
     backup: bytes | None = None
     try:
         try:

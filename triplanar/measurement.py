@@ -561,6 +561,41 @@ def _validate_for_write(path: str, tests: list[MeasuredTest]) -> bool:
     return all(timed)
 
 
+def temporary_name(path: str | os.PathLike[str]) -> str:
+    """A hidden sibling of ``path`` to write before renaming: ``.NAME.PID.TOKEN.tmp`` (the PID lets a later
+    run tell a killed writer's leftover from a live writer's file)."""
+    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
+    return os.path.join(directory, f".{name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
+
+
+def remove_stale_temporaries(path: str | os.PathLike[str]) -> None:
+    """Remove the temporary siblings of ``path`` left by writers that were killed (SIGKILL, power loss)."""
+    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
+    try:
+        entries = os.listdir(directory)
+    except OSError:
+        return
+    prefix = f".{name}."
+    for entry in entries:
+        if entry.startswith(prefix) and entry.endswith(".tmp"):
+            parts = entry[len(prefix):-len(".tmp")].split(".")
+            if len(parts) == 2 and parts[0].isdigit() and not _pid_alive(int(parts[0])):
+                try:
+                    os.unlink(os.path.join(directory, entry))
+                except OSError:
+                    pass
+
+
 def write_measurements(path: str | os.PathLike[str], tests: Iterable[MeasuredTest]) -> None:
     """Write tests to a measured-trace CSV file, atomically.
 
@@ -589,7 +624,8 @@ def write_measurements(path: str | os.PathLike[str], tests: Iterable[MeasuredTes
     directory, name = os.path.split(os.path.abspath(spath))
     if not os.path.isdir(directory):
         raise MeasurementError(spath, None, None, f"folder {directory} does not exist")
-    tmp = os.path.join(directory, f".{name}.{secrets.token_hex(6)}.tmp")
+    remove_stale_temporaries(spath)
+    tmp = temporary_name(spath)
     # os.open with mode 0o666 lets the umask decide permissions, as for an ordinary new file.
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
