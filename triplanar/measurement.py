@@ -39,11 +39,12 @@ Rules enforced by :func:`read_measurements`:
 from __future__ import annotations
 
 import csv
-import io
 import math
+import re
+from array import array
 import os
 import secrets
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -203,6 +204,16 @@ class MeasuredTest:
 # --------------------------------------------------------------------------------------------------
 # Reading
 # --------------------------------------------------------------------------------------------------
+_LINE = re.compile(r"[^\r\n]*(?:\r\n|\r|\n)|[^\r\n]+")
+
+
+def _lines(text: str) -> Iterator[str]:
+    """The lines of ``text`` with their ends, split at LF, CR and CRLF as ``io.StringIO(text, newline="")``
+    splits them, one at a time (a StringIO would hold a 4-byte-per-character copy of the whole file)."""
+    for match in _LINE.finditer(text):
+        yield match.group()
+
+
 def _is_blank(fields: list[str]) -> bool:
     return all(not f.strip() for f in fields)
 
@@ -287,9 +298,9 @@ class _TestBuilder:
         self.test_id = test_id
         self.shear = shear
         self.shear_row = row
-        self.pos: list[list[list[float]]] = []
-        self.t: list[float] = []
-        self.rows: list[int] = []
+        self.pos = array("d")  # 9 values per sample (CP1 x1 x2 x3, CP2 ..., CP3 ...): compact, no float objects
+        self.t = array("d")
+        self.rows = array("q")
 
 
 def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray | None = None,
@@ -329,7 +340,7 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
     if not text.strip():
         raise MeasurementError(spath, None, None, "file is empty (expected a header row and data rows)")
 
-    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
+    reader = csv.reader(_lines(text), strict=True)
     try:
         header = next(reader)
     except csv.Error as exc:
@@ -385,11 +396,10 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
              if i_t is not None else None)
         sample = []
         for k in range(3):
-            point = []
             for a in range(3):
                 idx = i_pos[k][a]
                 if idx is None:
-                    point.append(math.nan)
+                    sample.append(math.nan)
                     continue
                 name = pos_names[k][a]
                 v = _parse_number(spath, row, name, fields[idx], allow_empty=(a == 1))
@@ -399,8 +409,7 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
                         f"value {fields[idx].strip()} cannot be a position in metres "
                         f"(|value| > {MAX_ABS_POSITION_M:g} m); it looks like millimetres - "
                         "positions must be given in metres")
-                point.append(v)
-            sample.append(point)
+                sample.append(v)
 
         b = tests.get(test_id)
         if b is None:
@@ -423,7 +432,7 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
                     f"time {t!r} s of test {test_id!r} does not increase (previous sample of the test, "
                     f"row {b.rows[-1]}, has t_s = {b.t[-1]!r} s); time must strictly increase within a test")
             b.t.append(t)
-        b.pos.append(sample)
+        b.pos.extend(sample)
         b.rows.append(row)
 
     if n_data == 0:
@@ -445,7 +454,7 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
 
     result = [
         MeasuredTest(test_id=b.test_id, shear_force_N=b.shear,
-                     positions=np.asarray(b.pos, dtype=np.float64),
+                     positions=np.frombuffer(b.pos, dtype=np.float64).reshape(-1, 3, 3),
                      t_s=np.asarray(b.t, dtype=np.float64) if i_t is not None else None,
                      rows=np.asarray(b.rows, dtype=np.int64))
         for b in tests.values()
