@@ -227,3 +227,18 @@ def test_run_tasks_checkpoint_skips_finished_tasks_and_ignores_damaged_files(tmp
     assert calls == [2, 4]
     checkpoint.clear()
     assert not (tmp_path / "cp").exists()
+
+
+@pytest.mark.parametrize("argv", [
+    ["simulate", "--force", "30", "--specimen", "{s}", "--out", "{s}"],
+    ["simulate", "--force", "30", "--specimen", "{s}", "--plot", "{s}"],
+    ["lab-data", "--specimen", "{s}", "--out", "{s}"],
+    ["lab-data", "--specimen", "{s}", "--out", "{d}/x.csv", "--truth", "{s}"],
+])
+def test_simulate_and_lab_data_refuse_to_write_over_the_specimen(tmp_path, capsys, argv) -> None:
+    from triplanar.specimen import reference, to_toml
+    spec = tmp_path / "s.toml"
+    spec.write_text(to_toml(*reference()))
+    before = spec.read_bytes()
+    code, err = run(capsys, *[a.format(s=spec, d=tmp_path) for a in argv])
+    assert code == 2 and "would be overwritten" in err and spec.read_bytes() == before

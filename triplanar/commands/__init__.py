@@ -30,3 +30,17 @@ def load_specimen(path: str | None):
     """(specimen, foundation) from ``--specimen`` or the reference."""
     from ..specimen import load_toml, reference
     return load_toml(path) if path else reference()
+
+
+def refuse_overwriting(outputs: list[tuple[str, str | None]], inputs: list[tuple[str, str | None]]) -> None:
+    """A ValueError if an output option names the same file as an input option (``[(option, path), ...]``;
+    ``None`` paths are skipped): nothing the user gave is overwritten."""
+    from pathlib import Path
+    for out_option, out in outputs:
+        for in_option, given in inputs:
+            if out and given:
+                a, b = Path(out), Path(given)
+                same = a.samefile(b) if a.exists() and b.exists() else a.resolve() == b.resolve()
+                if same:
+                    raise ValueError(f"{out_option} {out} is the input {in_option} {given}; it would be "
+                                     "overwritten. Choose another output path")

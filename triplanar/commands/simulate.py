@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import add_model_arguments, load_specimen, parse_effects
+from . import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
 
 NAME = "simulate"
 HELP = "simulate one shear test (case A, B or C) and print what happened"
@@ -36,6 +36,7 @@ def run(args: argparse.Namespace) -> int:
             raise ValueError(f"{option}: empty file name")
     if args.out and args.plot and Path(args.out).resolve() == Path(args.plot).resolve():
         raise ValueError(f"--out and --plot name the same file {args.out}")
+    refuse_overwriting([("--out", args.out), ("--plot", args.plot)], [("--specimen", args.specimen)])
     specimen, foundation = load_specimen(args.specimen)
     model = paper_model(args.case, args.force, specimen, foundation, parse_effects(args.effect))
     result = simulate(model, method=args.method, dt=args.dt, travel_m=args.travel, t_max_s=args.t_max)
