@@ -553,7 +553,9 @@ class TriPlanarShearEnv(gym.Env):
 
     ## Action Space
 
-    ``Box(-1, 1, (2,), float32)``, clipped to [-1, 1]:
+    ``Box(-1, 1, (2,), float32)``, clipped to [-1, 1]. ``step`` refuses anything but 2 finite real numbers with a
+    ValueError or TypeError that names the action (NaN, infinity, None, strings, complex or boolean values, other
+    shapes), before the state is touched:
 
     | Num | Action              | Physical value                                                        |
     |-----|---------------------|-----------------------------------------------------------------------|

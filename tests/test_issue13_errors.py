@@ -153,7 +153,8 @@ def test_a_killed_writers_leftover_is_removed_by_the_next_write(tmp_path, capsys
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
     target = tmp_path / "lab.csv"
-    stale = [tmp_path / f".lab.csv.{dead.pid}.0123456789ab.tmp", tmp_path / f".lab.csv.truth.json.{dead.pid}.0123456789ab.tmp"]
+    stale = [tmp_path / f".lab.csv.{dead.pid}.0123456789ab.tmp",
+             tmp_path / f".lab.csv.truth.json.{dead.pid}.0123456789ab.tmp"]
     live = tmp_path / f".lab.csv.{os.getpid()}.ba9876543210.tmp"  # a writer still running: left alone
     for p in stale + [live]:
         p.write_text("partial")
