@@ -141,3 +141,14 @@ def test_study_skip_train_without_a_finished_run_is_a_named_error(tmp_path) -> N
                "--skip-train")
     out, err = proc.communicate(timeout=300)
     assert proc.returncode == 2 and "not a finished run" in err and "Traceback" not in err
+
+
+def test_a_fresh_start_removes_the_previous_runs_checkpoints(tmp_path) -> None:
+    config = tiny_config()
+    train_ppo(config, tmp_path, seed=0, total_timesteps=2048)
+    run = tmp_path / "seed_0"
+    assert (run / "checkpoints" / "ppo_2048_steps.zip").exists()
+    again = train_ppo(config, tmp_path, seed=0, total_timesteps=1024, resume=False)
+    assert again.timesteps == 1024
+    assert sorted(p.name for p in (run / "checkpoints").iterdir()) == ["ppo_1024_steps.zip",
+                                                                      "ppo_vecnormalize_1024_steps.pkl"]
