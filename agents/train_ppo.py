@@ -274,9 +274,9 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     if checkpoint is None:
         if curve_path.exists():
             curve_path.unlink()
-        # A fresh start replaces the previous run: its checkpoints must not be resumed later in place of this one's.
-        for stale in (run_dir / "checkpoints").glob("ppo_*_steps.*"):
-            stale.unlink()
+        if not resume:  # --no-resume replaces the previous run: a later resume must not pick its checkpoints
+            for stale in (run_dir / "checkpoints").glob("ppo_*_steps.*"):
+                stale.unlink()
         ppo = dict(config.get("ppo", {}))
         policy = ppo.pop("policy", "MlpPolicy")
         model = PPO(policy, train_env, seed=seed, device="cpu", verbose=verbose, tensorboard_log=str(run_dir / "tb"),

@@ -143,7 +143,7 @@ def test_study_skip_train_without_a_finished_run_is_a_named_error(tmp_path) -> N
     assert proc.returncode == 2 and "not a finished run" in err and "Traceback" not in err
 
 
-def test_a_fresh_start_removes_the_previous_runs_checkpoints(tmp_path) -> None:
+def test_no_resume_removes_the_previous_runs_checkpoints(tmp_path) -> None:
     config = tiny_config()
     train_ppo(config, tmp_path, seed=0, total_timesteps=2048)
     run = tmp_path / "seed_0"
