@@ -4,7 +4,9 @@ Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run dir
 
 * ``checkpoints/ppo_<N>_steps.zip`` + ``ppo_vecnormalize_<N>_steps.pkl``: resumable checkpoints, each written
   to a temporary name and renamed when complete. Running the same command again continues from the newest one
-  that loads (a damaged one is skipped with a warning; ``--no-resume`` starts afresh);
+  that loads (a damaged one is skipped with a warning; ``--no-resume`` starts afresh and removes the previous
+  run's checkpoints). Rows of ``learning_curve.csv`` written after the checkpoint resumed from are dropped, as
+  they are written again;
 * ``tb/``: TensorBoard logs (``tensorboard --logdir OUT``), including ``mimicry/*`` from the evaluations;
 * ``eval/``: EvalCallback's ``evaluations.npz`` and ``best_model.zip`` (highest mean return over the 12 loads);
 * ``learning_curve.csv``: at every evaluation, timesteps, cumulative wall-clock seconds, and the deterministic
@@ -15,6 +17,9 @@ Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run dir
 
 A resumed run continues the schedule and the logs; it is not bitwise identical to an uninterrupted run (the
 generators' states are not checkpointed).
+
+Resuming loads the checkpoints with pickle/cloudpickle, which runs the code in them: resume only runs you made
+(or that come from a trusted source). Nothing is loaded from anywhere but ``OUT/seed_S``.
 """
 
 from __future__ import annotations
@@ -319,7 +324,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", default="runs/ppo", help="output directory; the run goes to OUT/seed_S")
     parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
     parser.add_argument("--timesteps", type=positive_int, help="total environment steps (default: the YAML's)")
-    parser.add_argument("--no-resume", action="store_true", help="start afresh even if checkpoints exist")
+    parser.add_argument("--no-resume", action="store_true",
+                        help="start afresh even if checkpoints exist (the previous run's checkpoints are removed)")
     parser.add_argument("--verbose", type=int, default=0)
 
 
