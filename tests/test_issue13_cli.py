@@ -242,3 +242,39 @@ def test_simulate_and_lab_data_refuse_to_write_over_the_specimen(tmp_path, capsy
     before = spec.read_bytes()
     code, err = run(capsys, *[a.format(s=spec, d=tmp_path) for a in argv])
     assert code == 2 and "would be overwritten" in err and spec.read_bytes() == before
+
+
+POOL_SCRIPT = """
+import os, sys, time
+from triplanar.workbench.executor import pool_scope
+with pool_scope(2) as pool:
+    futures = [pool.submit(time.sleep, 120) for _ in range(2)]
+    time.sleep(1.0)
+    print(" ".join(str(p) for p in pool._processes), flush=True)
+    futures[0].result()
+"""
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGKILL], ids=["SIGTERM", "SIGKILL"])
+def test_pool_workers_die_with_their_owner(sig) -> None:
+    """The pool of paper's figure drawing and of every workbench sweep (pool_scope)."""
+    import importlib
+    from triplanar.workbench.executor import pool_scope
+    assert importlib.import_module("triplanar.paper.reproduce").pool_scope is pool_scope
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    proc = subprocess.Popen([sys.executable, "-c", POOL_SCRIPT], cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    workers = [int(p) for p in proc.stdout.readline().split()]
+    assert len(workers) == 2 and all(alive(w) for w in workers)
+    proc.send_signal(sig)
+    proc.wait(30)
+    deadline = time.time() + 5
+    while any(alive(w) for w in workers) and time.time() < deadline:
+        time.sleep(0.1)
+    left = [w for w in workers if alive(w)]
+    for w in left:
+        os.kill(w, signal.SIGKILL)
+    assert not left
+    if sig == signal.SIGTERM:
+        assert proc.returncode == 128 + signal.SIGTERM and "Traceback" not in proc.stderr.read()
