@@ -231,6 +231,24 @@ def check_action(action: Any) -> np.ndarray:
     return arr
 
 
+def check_actions(actions: Any, num_envs: int) -> np.ndarray:
+    """The vector env's ``actions`` as a (num_envs, 2) array of finite real numbers, or a named error."""
+    if actions is None or isinstance(actions, (str, bytes)):
+        raise TypeError(f"actions must be a ({num_envs}, 2) array of real numbers, got {actions!r}")
+    try:
+        arr = np.asarray(actions)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"actions must be a ({num_envs}, 2) array of real numbers ({err})") from None
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(f"actions must be a ({num_envs}, 2) array of real numbers, got dtype {arr.dtype}")
+    if arr.shape != (num_envs, 2):
+        raise ValueError(f"actions must have shape ({num_envs}, 2), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.flatnonzero(~np.all(np.isfinite(arr), axis=1))[0])
+        raise ValueError(f"actions must be finite, got {arr[bad].tolist()} for env {bad}")
+    return arr
+
+
 @dataclass
 class EpisodeStart:
     """A cached starting state: the block after the first control period at the load level, and the

@@ -89,3 +89,20 @@ def test_fuzz_actions_give_a_named_error_or_a_finite_step(env, action) -> None:
         assert "action" in str(err)
         return
     assert np.all(np.isfinite(obs)) and math.isfinite(reward)
+
+
+def test_vector_env_refuses_bad_actions_before_touching_its_state() -> None:
+    from envs.vector import TriPlanarShearVectorEnv
+    envs_ = TriPlanarShearVectorEnv(3)
+    envs_.reset(seed=1, options={"load_N": 40.0})
+    good = np.array([[0.3, -0.2]] * 3)
+    for bad, error in ((np.array([[0.3, -0.2], [math.nan, 0.0], [0.0, 0.0]]), ValueError),
+                       (np.zeros((2, 2)), ValueError), (np.zeros(6), ValueError), (None, TypeError),
+                       (np.zeros((3, 2), complex), TypeError)):
+        with pytest.raises(error, match="actions"):
+            envs_.step(bad)
+    obs, rewards, *_ = envs_.step(good)
+    fresh = TriPlanarShearVectorEnv(3)
+    fresh.reset(seed=1, options={"load_N": 40.0})
+    obs2, rewards2, *_ = fresh.step(good)
+    assert np.array_equal(obs, obs2) and np.array_equal(rewards, rewards2) and np.all(np.isfinite(rewards))
