@@ -107,7 +107,7 @@ def check_config(config: dict[str, Any], source: str = "config") -> None:
         if not isinstance(config.get(section, {}) or {}, dict):
             raise ValueError(f"{source}: {section}: expected a mapping, got {config[section]!r}")
     try:
-        shear = env_config(config)
+        env_config(config)
     except (TypeError, ValueError) as err:
         raise ValueError(f"{source}: env: {err}") from None
     if "eval_loads" in config:
@@ -115,7 +115,6 @@ def check_config(config: dict[str, Any], source: str = "config") -> None:
         if not isinstance(loads, list) or not loads or any(
                 isinstance(f, bool) or not isinstance(f, (int, float)) or not np.isfinite(f) or f <= 0 for f in loads):
             raise ValueError(f"{source}: eval_loads: expected a non-empty list of positive loads in N, got {loads!r}")
-    del shear
 
 
 def env_config(config: dict[str, Any]) -> ShearConfig:
@@ -246,7 +245,10 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     from stable_baselines3.common.callbacks import CallbackList, EvalCallback  # noqa: PLC0415
     from stable_baselines3.common.vec_env import VecNormalize  # noqa: PLC0415
 
-    config = load_config(config) if not isinstance(config, dict) else config
+    if isinstance(config, dict):
+        check_config(config)
+    else:
+        config = load_config(config)
     train_cfg = config.get("train", {})
     torch.set_num_threads(int(train_cfg.get("torch_threads", 1)))
     total = int(total_timesteps if total_timesteps is not None else train_cfg.get("total_timesteps", 400_000))
