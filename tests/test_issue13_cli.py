@@ -144,7 +144,7 @@ def test_no_user_facing_text_points_outside_the_repository() -> None:
     for path in ROOT.rglob("*"):
         if path.suffix in (".py", ".md", ".toml", ".yaml", ".txt") and ".git" not in path.parts \
                 and ".venv" not in path.parts and "runs" not in path.parts:
-            if "shared/" in path.read_text(encoding="utf-8", errors="replace"):
+            if "shared" + "/" in path.read_text(encoding="utf-8", errors="replace"):
                 offenders.append(str(path.relative_to(ROOT)))
     offenders = [o for o in offenders if o != "tests/test_issue13_cli.py"]
     assert not offenders
