@@ -2,17 +2,24 @@
 
 Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run directory ``OUT/seed_S`` holds:
 
-* ``checkpoints/ppo_<N>_steps.zip`` + ``ppo_vecnormalize_<N>_steps.pkl``: resumable checkpoints. Running the
-  same command again continues from the newest one (``--no-resume`` starts afresh);
+* ``checkpoints/ppo_<N>_steps.zip`` + ``ppo_vecnormalize_<N>_steps.pkl``: resumable checkpoints, each written
+  to a temporary name and renamed when complete. Running the same command again continues from the newest one
+  that loads (a damaged one is skipped with a warning; ``--no-resume`` starts afresh and removes the previous
+  run's checkpoints). Rows of ``learning_curve.csv`` written after the checkpoint resumed from are dropped, as
+  they are written again;
 * ``tb/``: TensorBoard logs (``tensorboard --logdir OUT``), including ``mimicry/*`` from the evaluations;
 * ``eval/``: EvalCallback's ``evaluations.npz`` and ``best_model.zip`` (highest mean return over the 12 loads);
 * ``learning_curve.csv``: at every evaluation, timesteps, cumulative wall-clock seconds, and the deterministic
   policy's mimicry error (mm) and outcome at each evaluation load;
 * ``final_model.zip`` + ``vecnormalize.pkl``: the policy at the end and its observation statistics;
-  ``done.json`` marks a finished run (running again with at most its timesteps returns it untouched).
+  ``done.json`` marks a finished run (running again with at most its timesteps returns it untouched). All three
+  are written completely or not at all (temporary name, then rename).
 
 A resumed run continues the schedule and the logs; it is not bitwise identical to an uninterrupted run (the
 generators' states are not checkpointed).
+
+Resuming loads the checkpoints with pickle/cloudpickle, which runs the code in them: resume only runs you made
+(or that come from a trusted source). Nothing is loaded from anywhere but ``OUT/seed_S``.
 """
 
 from __future__ import annotations
@@ -20,7 +27,9 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import os
 import re
+import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -45,16 +54,67 @@ class TrainResult:
     wall_s: float
 
 
+CONFIG_KEYS = ("env", "n_envs", "normalize", "ppo", "train", "eval_loads")
+TRAIN_KEYS = ("total_timesteps", "eval_freq", "checkpoint_freq", "torch_threads")
+NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs_keys")
+
+
 def load_config(path: str | Path = DEFAULT_CONFIG, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The hyperparameter YAML at ``path`` (with ``overrides``), checked: a ValueError names the file and key."""
     with open(path) as f:
-        config = yaml.safe_load(f)
+        try:
+            config = yaml.safe_load(f)
+        except yaml.YAMLError as err:
+            raise ValueError(f"{path}: invalid YAML: {err}") from None
+    if config is None:
+        config = {}
+    if not isinstance(config, dict):
+        raise ValueError(f"{path}: expected a mapping of keys ({', '.join(CONFIG_KEYS)}), got {type(config).__name__}")
     for key, value in (overrides or {}).items():  # "ppo.learning_rate": 1e-4 style
         node = config
         *parents, leaf = key.split(".")
         for parent in parents:
             node = node.setdefault(parent, {})
         node[leaf] = value
+    check_config(config, str(path))
     return config
+
+
+def _positive_int(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+        raise ValueError(f"{where}: expected a positive integer, got {value!r}")
+    return value
+
+
+def check_config(config: dict[str, Any], source: str = "config") -> None:
+    """Refuse unknown keys and values that would fail only after training (ValueError naming the key)."""
+    for key in config:
+        if key not in CONFIG_KEYS:
+            raise ValueError(f"{source}: unknown key {key!r}; known keys: {', '.join(CONFIG_KEYS)}")
+    for section, known in (("train", TRAIN_KEYS), ("normalize", NORMALIZE_KEYS)):
+        node = config.get(section, {}) or {}
+        if not isinstance(node, dict):
+            raise ValueError(f"{source}: {section}: expected a mapping, got {node!r}")
+        for key in node:
+            if key not in known:
+                raise ValueError(f"{source}: unknown key {section}.{key}; known keys: {', '.join(known)}")
+    for key in TRAIN_KEYS:
+        if key in (config.get("train") or {}):
+            _positive_int(config["train"][key], f"{source}: train.{key}")
+    if "n_envs" in config:
+        _positive_int(config["n_envs"], f"{source}: n_envs")
+    for section in ("env", "ppo"):
+        if not isinstance(config.get(section, {}) or {}, dict):
+            raise ValueError(f"{source}: {section}: expected a mapping, got {config[section]!r}")
+    try:
+        env_config(config)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{source}: env: {err}") from None
+    if "eval_loads" in config:
+        loads = config["eval_loads"]
+        if not isinstance(loads, list) or not loads or any(
+                isinstance(f, bool) or not isinstance(f, (int, float)) or not np.isfinite(f) or f <= 0 for f in loads):
+            raise ValueError(f"{source}: eval_loads: expected a non-empty list of positive loads in N, got {loads!r}")
 
 
 def env_config(config: dict[str, Any]) -> ShearConfig:
@@ -80,14 +140,46 @@ def make_vec_envs(config: dict[str, Any], seed: int):
     return train, evaluation
 
 
-def latest_checkpoint(run_dir: Path) -> tuple[int, Path, Path] | None:
+def checkpoints(run_dir: Path) -> list[tuple[int, Path, Path]]:
+    """Every complete checkpoint (model and statistics both present), newest first."""
     found = []
     for path in (run_dir / "checkpoints").glob("ppo_*_steps.zip"):
         match = _CHECKPOINT.search(path.name)
         stats = path.with_name(f"ppo_vecnormalize_{match.group(1)}_steps.pkl") if match else None
         if match and stats.exists():
             found.append((int(match.group(1)), path, stats))
-    return max(found) if found else None
+    return sorted(found, reverse=True)
+
+
+def latest_checkpoint(run_dir: Path) -> tuple[int, Path, Path] | None:
+    found = checkpoints(run_dir)
+    return found[0] if found else None
+
+
+def _replace_atomically(save: Any, path: Path) -> None:
+    """``save(tmp)`` then rename to ``path``: the file is complete or absent, never truncated."""
+    tmp = path.with_name(f".{path.stem}.partial{path.suffix}")
+    try:
+        save(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _checkpoint_callback(save_freq: int, save_path: Path):
+    """SB3's CheckpointCallback (model + VecNormalize every ``save_freq`` calls), writing each file atomically."""
+    from stable_baselines3.common.callbacks import CheckpointCallback  # noqa: PLC0415
+
+    class AtomicCheckpoint(CheckpointCallback):
+        def _on_step(self) -> bool:
+            if self.n_calls % self.save_freq == 0:
+                Path(self.save_path).mkdir(parents=True, exist_ok=True)
+                _replace_atomically(lambda p: self.model.save(str(p)), Path(self._checkpoint_path(extension="zip")))
+                _replace_atomically(lambda p: self.model.get_vec_normalize_env().save(str(p)),
+                                    Path(self._checkpoint_path("vecnormalize_", extension="pkl")))
+            return True
+
+    return AtomicCheckpoint(save_freq=save_freq, save_path=str(save_path), name_prefix="ppo", save_vecnormalize=True)
 
 
 def _mimicry_callback(config: dict[str, Any], curve_path: Path, wall_offset: float, started: float):
@@ -130,19 +222,38 @@ def _wall_so_far(curve_path: Path) -> float:
     return float(rows[-1]["wall_s"]) if rows else 0.0
 
 
+def _truncate_curve(curve_path: Path, timesteps: int) -> None:
+    """Drop the learning-curve rows written after the checkpoint a resumed run restarts from (they will be
+    written again), so that a kill and resume leaves no duplicate row; a torn last line is dropped too."""
+    if not curve_path.exists():
+        return
+    lines = curve_path.read_text().splitlines(keepends=True)
+    header, kept = lines[:1], []
+    for line in lines[1:]:
+        first = line.split(",", 1)[0]
+        if line.endswith("\n") and first.isdigit() and int(first) <= timesteps:
+            kept.append(line)
+    _replace_atomically(lambda p: p.write_text("".join(header + kept)), curve_path)
+
+
 def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str | Path = "runs/ppo", seed: int = 0,
               total_timesteps: int | None = None, resume: bool = True, callbacks: Sequence[Any] = (),
               verbose: int = 0) -> TrainResult:
     """Train (or resume) one PPO run; see the module docstring for what it writes."""
     import torch  # noqa: PLC0415
     from stable_baselines3 import PPO  # noqa: PLC0415
-    from stable_baselines3.common.callbacks import CallbackList, CheckpointCallback, EvalCallback  # noqa: PLC0415
+    from stable_baselines3.common.callbacks import CallbackList, EvalCallback  # noqa: PLC0415
     from stable_baselines3.common.vec_env import VecNormalize  # noqa: PLC0415
 
-    config = load_config(config) if not isinstance(config, dict) else config
+    if isinstance(config, dict):
+        check_config(config)
+    else:
+        config = load_config(config)
     train_cfg = config.get("train", {})
     torch.set_num_threads(int(train_cfg.get("torch_threads", 1)))
     total = int(total_timesteps if total_timesteps is not None else train_cfg.get("total_timesteps", 400_000))
+    if total <= 0:
+        raise ValueError(f"timesteps must be positive, got {total}")
     run_dir = Path(out_dir) / f"seed_{seed}"
     run_dir.mkdir(parents=True, exist_ok=True)
     curve_path = run_dir / "learning_curve.csv"
@@ -153,15 +264,26 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
             return TrainResult(run_dir, model_path, stats_path, curve_path, finished["timesteps"], finished["wall_s"])
     done_path.unlink(missing_ok=True)
     train_env, eval_env = make_vec_envs(config, seed)
-    checkpoint = latest_checkpoint(run_dir) if resume else None
-    if checkpoint is not None:
-        done, model_path, stats_path = checkpoint
-        train_env = VecNormalize.load(str(stats_path), train_env.venv)
-        model = PPO.load(str(model_path), env=train_env, device="cpu", tensorboard_log=str(run_dir / "tb"))
+    checkpoint, model = None, None
+    for candidate in (checkpoints(run_dir) if resume else []):
+        done, checkpoint_model, checkpoint_stats = candidate  # the outputs stay final_model.zip, vecnormalize.pkl
+        try:
+            resumed_env = VecNormalize.load(str(checkpoint_stats), train_env.venv)
+            model = PPO.load(str(checkpoint_model), env=resumed_env, device="cpu", tensorboard_log=str(run_dir / "tb"))
+        except Exception as err:  # noqa: BLE001 (a truncated or damaged file: fall back to the previous one)
+            print(f"warning: checkpoint {checkpoint_model.name} does not load ({type(err).__name__}: {err}); "
+                  "trying the previous one", file=sys.stderr)
+            continue
+        checkpoint, train_env = candidate, resumed_env
+        _truncate_curve(curve_path, done)
         wall_offset = _wall_so_far(curve_path)
-    else:
+        break
+    if checkpoint is None:
         if curve_path.exists():
             curve_path.unlink()
+        if not resume:  # --no-resume replaces the previous run: a later resume must not pick its checkpoints
+            for stale in (run_dir / "checkpoints").glob("ppo_*_steps.*"):
+                stale.unlink()
         ppo = dict(config.get("ppo", {}))
         policy = ppo.pop("policy", "MlpPolicy")
         model = PPO(policy, train_env, seed=seed, device="cpu", verbose=verbose, tensorboard_log=str(run_dir / "tb"),
@@ -174,17 +296,17 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
                               best_model_save_path=str(run_dir / "eval"), log_path=str(run_dir / "eval"),
                               deterministic=True, verbose=0,
                               callback_after_eval=_mimicry_callback(config, curve_path, wall_offset, started))
-    checkpoints = CheckpointCallback(save_freq=max(1, int(train_cfg.get("checkpoint_freq", 50_000)) // n_envs),
-                                     save_path=str(run_dir / "checkpoints"), name_prefix="ppo",
-                                     save_vecnormalize=True)
+    saver = _checkpoint_callback(max(1, int(train_cfg.get("checkpoint_freq", 50_000)) // n_envs),
+                                 run_dir / "checkpoints")
     remaining = max(0, total - done)
     if remaining:
-        model.learn(total_timesteps=remaining, callback=CallbackList([checkpoints, evaluation, *callbacks]),
+        model.learn(total_timesteps=remaining, callback=CallbackList([saver, evaluation, *callbacks]),
                     reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
-    model.save(str(model_path))
-    model.get_vec_normalize_env().save(str(stats_path))
+    _replace_atomically(lambda p: model.save(str(p)), model_path)
+    _replace_atomically(lambda p: model.get_vec_normalize_env().save(str(p)), stats_path)
     wall = wall_offset + time.perf_counter() - started
-    done_path.write_text(json.dumps({"timesteps": int(model.num_timesteps), "wall_s": wall, "seed": seed}))
+    _replace_atomically(lambda p: p.write_text(json.dumps({"timesteps": int(model.num_timesteps), "wall_s": wall,
+                                                            "seed": seed})), done_path)
     return TrainResult(run_dir, model_path, stats_path, curve_path, int(model.num_timesteps), wall)
 
 

@@ -179,6 +179,7 @@ def draw_episode(rng: np.random.Generator, config: ShearConfig, specimen: Specim
     unknown = set(options) - {"load_N", "load_range", "load_levels", "friction_noise_deg", "tip_friction_noise_deg"}
     if unknown:
         raise ValueError(f"unknown reset options {sorted(unknown)}")
+    _check_reset_options(options)
     load = options.get("load_N", config.load_N if "load_range" not in options and "load_levels" not in options
                        else None)
     load_range = options.get("load_range", config.load_range if "load_levels" not in options else None)
@@ -194,6 +195,70 @@ def draw_episode(rng: np.random.Generator, config: ShearConfig, specimen: Specim
     if tip_noise > 0:
         tip = max(0.0, tip + float(rng.uniform(-tip_noise, tip_noise)))
     return EpisodeDraw(float(load), tuple(friction), float(tip))
+
+
+def _real(value: Any) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)) \
+        and math.isfinite(value)
+
+
+def _check_reset_options(options: dict[str, Any]) -> None:
+    """A ValueError naming the reset option whose value cannot be used (instead of a numpy error or silence)."""
+    for name in ("friction_noise_deg", "tip_friction_noise_deg"):
+        if name in options and not (_real(options[name]) and options[name] >= 0):
+            raise ValueError(f"reset option {name} must be a finite number >= 0, got {options[name]!r}")
+    if "load_N" in options and options["load_N"] is not None and not (_real(options["load_N"])
+                                                                       and options["load_N"] > 0):
+        raise ValueError(f"reset option load_N must be a positive number, got {options['load_N']!r}")
+    if "load_range" in options and options["load_range"] is not None:
+        value = options["load_range"]
+        if not (isinstance(value, (tuple, list, np.ndarray)) and len(value) == 2 and all(_real(v) for v in value)
+                and 0 < value[0] <= value[1]):
+            raise ValueError(f"reset option load_range must be (low, high) with 0 < low <= high, got {value!r}")
+    if "load_levels" in options:
+        value = options["load_levels"]
+        if not (isinstance(value, (tuple, list, np.ndarray)) and len(value) > 0
+                and all(_real(v) and v > 0 for v in value)):
+            raise ValueError(f"reset option load_levels must be a non-empty sequence of positive loads, got {value!r}")
+
+
+def check_action(action: Any) -> np.ndarray:
+    """``action`` as an array of 2 finite real numbers, or a TypeError/ValueError that names it (a NaN would
+    otherwise propagate into the state; a wrong shape would be broadcast). Values outside [-1, 1] are clipped
+    by the step, as documented."""
+    if action is None or isinstance(action, (str, bytes)):
+        raise TypeError(f"action must be 2 real numbers (thrust, lateral offset) in [-1, 1], got {action!r}")
+    try:
+        arr = np.asarray(action)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"action must be 2 real numbers (thrust, lateral offset) in [-1, 1], got {action!r} "
+                        f"({err})") from None
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(f"action must be 2 real numbers (thrust, lateral offset) in [-1, 1], got {action!r} "
+                        f"(dtype {arr.dtype})")
+    if arr.shape != (2,):
+        raise ValueError(f"action must have shape (2,) (thrust, lateral offset), got shape {arr.shape}: {action!r}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"action must be finite, got {action!r}")
+    return arr
+
+
+def check_actions(actions: Any, num_envs: int) -> np.ndarray:
+    """The vector env's ``actions`` as a (num_envs, 2) array of finite real numbers, or a named error."""
+    if actions is None or isinstance(actions, (str, bytes)):
+        raise TypeError(f"actions must be a ({num_envs}, 2) array of real numbers, got {actions!r}")
+    try:
+        arr = np.asarray(actions)
+    except (TypeError, ValueError) as err:
+        raise TypeError(f"actions must be a ({num_envs}, 2) array of real numbers ({err})") from None
+    if arr.dtype.kind not in "iuf":
+        raise TypeError(f"actions must be a ({num_envs}, 2) array of real numbers, got dtype {arr.dtype}")
+    if arr.shape != (num_envs, 2):
+        raise ValueError(f"actions must have shape ({num_envs}, 2), got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        bad = int(np.flatnonzero(~np.all(np.isfinite(arr), axis=1))[0])
+        raise ValueError(f"actions must be finite, got {arr[bad].tolist()} for env {bad}")
+    return arr
 
 
 @dataclass
@@ -499,7 +564,9 @@ class TriPlanarShearEnv(gym.Env):
 
     ## Action Space
 
-    ``Box(-1, 1, (2,), float32)``, clipped to [-1, 1]:
+    ``Box(-1, 1, (2,), float32)``, clipped to [-1, 1]. ``step`` refuses anything but 2 finite real numbers with a
+    ValueError or TypeError that names the action (NaN, infinity, None, strings, complex or boolean values, other
+    shapes), before the state is touched:
 
     | Num | Action              | Physical value                                                        |
     |-----|---------------------|-----------------------------------------------------------------------|
@@ -633,7 +700,7 @@ class TriPlanarShearEnv(gym.Env):
     def step(self, action):
         if self._start is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        self._action[:] = action
+        self._action[:] = check_action(action)
         code = control_step(self._y, self._p, self._modes, self._armed, self._st, self._ref, self._action, self._cfg,
                             self._obs, self._inf, self._ws)
         if self.render_mode is not None:

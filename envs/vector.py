@@ -206,6 +206,7 @@ class TriPlanarShearVectorEnv(VectorEnv):
     def step(self, actions: np.ndarray):
         if not self._started:
             raise gym.error.ResetNeeded("call reset() before step()")
+        S.check_actions(actions, self.num_envs)  # a named error before any state changes
         batch = self.batch
         resetting = np.flatnonzero(self._prev_done)
         if len(resetting):

@@ -1,4 +1,4 @@
-"""The study's numbers (``summary``) and its report (``write_markdown``, default ``docs/actuator-study.md``)."""
+"""The study's numbers (``summary``) and its report (``write_markdown``, written with ``study --doc``)."""
 
 from __future__ import annotations
 
@@ -256,7 +256,7 @@ Loads at which PPO's mean beats each scripted controller: {', '.join(f'{k} {v}/1
 
 ## Caveats
 
-* Everything is the model's: the reference specimen's undocumented values (`shared/design/reference-specimen.md`)
+* Everything is the model's: the reference specimen's undocumented values (`docs/specimen-format.md`)
   and Coulomb friction with a velocity-controlled, infinitely stiff stage. A real stage has finite bandwidth; the
   dithering moment-matching controller and any policy with fast stage reversals would need checking on hardware.
 * Fixed 5 ms RK4 steps step to each predicted stop of a slip, but cannot follow a slip that stays slow while it
@@ -269,9 +269,10 @@ Loads at which PPO's mean beats each scripted controller: {', '.join(f'{k} {v}/1
 ## Reproduce
 
 ```
-triplanar study --out {result.out_dir} --ppo-dir runs/ppo --seeds {' '.join(str(k) for k in sorted(result.curves))}
+triplanar study --out {result.out_dir} --ppo-dir runs/ppo --seeds {' '.join(str(k) for k in sorted(result.curves))} --doc {path.name}
 ```
 (trains or resumes PPO, then evaluates; `--skip-train` re-evaluates finished runs; `python -m agents.train_ppo`
-trains one run).
+trains one run). The files in `--ppo-dir` (`vecnormalize.pkl`, the SB3 zips) are loaded with pickle and
+cloudpickle, which run code: use only runs you trained or that come from a trusted source.
 """
     path.write_text(text)

@@ -7,7 +7,12 @@ controller at the 12 load levels with :func:`agents.evaluation.evaluate`, and wr
 * ``mimicry_table.csv``: mean mimicry error (mm) per controller and load level, PPO as mean and std over seeds;
 * ``traces_<controller>.png``: overhead traces against the hydrostatic reference at every load level;
 * ``errors_by_load.png``, ``actions_27.8N.png``, ``learning_curves.png``;
-* ``summary.json``; and the report (default ``docs/actuator-study.md``, see :mod:`experiments.report`).
+* ``summary.json``; and, only with ``--doc REPORT.md``, the Markdown report (see :mod:`experiments.report`;
+  the repository's ``docs/actuator-study.md`` was written this way; an existing file is refused unless
+  ``--overwrite-doc``).
+
+The PPO runs in ``--ppo-dir`` are loaded with pickle and cloudpickle (``vecnormalize.pkl``, the SB3 zips): loading
+such a file runs code, so use only runs you trained or that come from a trusted source.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 
 from agents import EpisodeResult, LowFrictionTip, MomentMatching, SteelTip, TrackingTip, evaluate
-from agents.train_ppo import DEFAULT_CONFIG, TrainResult, load_config, train_ppo
+from agents.train_ppo import DEFAULT_CONFIG, TrainResult, eval_loads, load_config, train_ppo
 from triplanar import PAPER_LOADS_N
 
 PPO_NAME = "PPO"
@@ -69,8 +74,8 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
 
 def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: Sequence[int] = (0, 1, 2),
               config: str | Path = DEFAULT_CONFIG, timesteps: int | None = None, train: bool = True,
-              loads: Iterable[float] = PAPER_LOADS_N, doc: str | Path | None = "docs/actuator-study.md",
-              log: Callable[[str], None] = print) -> StudyResult:
+              loads: Iterable[float] = PAPER_LOADS_N, doc: str | Path | None = None,
+              log: Callable[[str], None] = print, overwrite_doc: bool = False) -> StudyResult:
     """Train (or resume) PPO for each seed, evaluate every controller at every load, write the outputs."""
     from agents.ppo_controller import PPOController  # noqa: PLC0415
 
@@ -79,6 +84,10 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
     out_dir.mkdir(parents=True, exist_ok=True)
     loads = tuple(float(f) for f in loads)
     ppo_config = load_config(config)
+    if train and f"{loads[0]:g}" not in {f"{f:g}" for f in eval_loads(ppo_config)}:
+        raise ValueError(f"{config}: eval_loads must include {loads[0]:g} N, the load of the learning-curve plot")
+    if doc is not None and Path(doc).exists() and not overwrite_doc:
+        raise ValueError(f"--doc {doc}: file exists; choose a new name or pass --overwrite-doc")
     env_kwargs = ppo_config.get("env", {})
     timings: dict[str, float] = {}
     runs: list[TrainResult] = []
@@ -89,6 +98,10 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
             runs.append(train_ppo(ppo_config, ppo_dir, seed, timesteps))
         else:
             run_dir = Path(ppo_dir) / f"seed_{seed}"
+            missing = [n for n in ("done.json", "final_model.zip", "vecnormalize.pkl") if not (run_dir / n).exists()]
+            if missing:
+                raise ValueError(f"--skip-train: {run_dir} is not a finished run (no {', '.join(missing)}); "
+                                 "train it first (without --skip-train)")
             info = json.loads((run_dir / "done.json").read_text())
             runs.append(TrainResult(run_dir, run_dir / "final_model.zip", run_dir / "vecnormalize.pkl",
                                     run_dir / "learning_curve.csv", info["timesteps"], info["wall_s"]))
@@ -133,8 +146,8 @@ def write_tables(result: StudyResult) -> None:
 
 def run(args: argparse.Namespace) -> int:
     run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, config=args.config or DEFAULT_CONFIG,
-              timesteps=args.timesteps,
-              train=not args.skip_train, doc=args.doc or None)
+              timesteps=args.timesteps, train=not args.skip_train, doc=args.doc or None,
+              overwrite_doc=args.overwrite_doc)
     return 0
 
 

@@ -128,7 +128,7 @@ def test_round_trip_extreme_floats(tmp_path):
     pos[2, 0, 1] = 2.0
     pos[2, 1, 1] = -2.0
     pos[1, 2, 0] = 1e-300
-    t = np.array([0.0, np.nextafter(0.0, 1.0), 1e300])
+    t = np.array([0.0, np.nextafter(0.0, 1.0), np.nextafter(60.0, 0.0)])  # up to MAX_DURATION_S
     mt = MeasuredTest("x", 1.0000000000000002, pos, t, np.zeros(3, int))
     p = tmp_path / "e.csv"
     write_measurements(p, [mt])

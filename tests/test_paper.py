@@ -1,6 +1,6 @@
 """Tests of the paper reproduction (triplanar/paper/) and ``triplanar paper``.
 
-One test per numbered claim of ``shared/design/reference-specimen.md``, each computing its figure from the
+One test per numbered claim of ``docs/paper-reproduction.md`` ("Claim by claim"), each computing its figure from the
 model directly (simulate + resample) and asserting it. Where our model does not bear a claim out, the
 failing part is a strict xfail carrying the number: it fails loudly if the physics changes so that the
 claim starts to hold, which is the moment docs/paper-reproduction.md must change too.

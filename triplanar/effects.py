@@ -113,6 +113,8 @@ def register(cls: type[Effect]) -> type[Effect]:
 
 def make_effect(spec: str) -> Effect:
     """Build an effect from ``NAME[:PARAM=VALUE[,PARAM=VALUE...]]`` (the CLI's ``--effect`` syntax)."""
+    if not isinstance(spec, str):
+        raise EffectError(f"effect specification must be a string NAME[:PARAM=VALUE,...], got {spec!r}")
     name, _, rest = spec.partition(":")
     name = name.strip()
     if name not in REGISTRY:
@@ -120,12 +122,17 @@ def make_effect(spec: str) -> Effect:
     values: dict[str, float] = {}
     for item in filter(None, (part.strip() for part in rest.split(","))):
         key, eq, value = item.partition("=")
-        if not eq:
+        key = key.strip()
+        if not eq or not key:
             raise EffectError(f"effect {name!r}: expected PARAM=VALUE, got {item!r}")
+        if key in values:
+            raise EffectError(f"effect {name!r}: parameter {key} given twice ({spec!r})")
         try:
-            values[key.strip()] = float(value)
+            if not value.strip().isascii() or "_" in value:  # float() reads '1_0' and non-ASCII digits
+                raise ValueError
+            values[key] = float(value)
         except ValueError:
-            raise EffectError(f"effect {name!r}: {key.strip()} = {value!r} is not a number") from None
+            raise EffectError(f"effect {name!r}: {key} = {value!r} is not a number") from None
     return REGISTRY[name](**values)
 
 

@@ -2,7 +2,7 @@
 
 The paper's measurements (Galic, Glaser & Goodman 2008, section 5.1, Fig. 11: 50 constant-force tests at
 12 loads, four repeats each, manually terminated, tracked by laser rangefinders) are not public. This
-module makes a substitute dataset in the measured-trace format (``shared/design/measurement-format.md``):
+module makes a substitute dataset in the measured-trace format (``docs/measurement-format.md``):
 
 * the laboratory's "true" physics is :func:`triplanar.paper_model` (``case``, default ``"B"``) with a set
   of effects (default: the steel load tip's end friction at 8 degrees, which makes it the paper's case A);
@@ -38,7 +38,6 @@ import hashlib
 import json
 import math
 import os
-import secrets
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -47,7 +46,8 @@ import numpy as np
 
 from . import PAPER_LOADS_N
 from .effects import ContactFriction, Effect, EndFriction
-from .measurement import MeasuredTest, write_measurements
+from .measurement import (MeasuredTest, MeasurementError, remove_stale_temporaries, temporary_name,
+                          write_measurements)
 from .model import Model, paper_model
 from .result import SimulationResult
 from .simulate import simulate
@@ -268,12 +268,20 @@ def write_lab_data(path: str | os.PathLike[str], tests: Sequence[MeasuredTest], 
     truth_file = Path(truth_path) if truth_path is not None else path.with_name(path.name + ".truth.json")
     if path.resolve() == truth_file.resolve():
         raise ValueError(f"the truth file must differ from the data file ({path})")
-    token = secrets.token_hex(6)
-    tmp_csv = path.with_name(f".{path.name}.{token}.tmp")
-    tmp_json = truth_file.with_name(f".{truth_file.name}.{token}.tmp")
+    if not tests:
+        raise MeasurementError(path, None, None, "no tests to write")
+    for target in (path, truth_file):
+        target.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_temporaries(path)  # left by a killed earlier run
+    remove_stale_temporaries(truth_file)
+    tmp_csv = Path(temporary_name(path))
+    tmp_json = Path(temporary_name(truth_file))
     backup: bytes | None = None
     try:
-        write_measurements(tmp_csv, tests)
+        try:
+            write_measurements(tmp_csv, tests)
+        except MeasurementError as err:  # name the user's file, not the temporary one
+            raise MeasurementError(path, err.row, err.column, err.detail) from None
         digest = hashlib.sha256(tmp_csv.read_bytes()).hexdigest()
         record = {**truth, "data_file": path.name, "data_sha256": digest}
         with open(tmp_json, "w", encoding="utf-8") as fh:

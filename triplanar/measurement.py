@@ -1,11 +1,11 @@
 """Laboratory measured-trace CSV files: reading (strictly validated) and writing (atomic).
 
-The format is specified in ``shared/design/measurement-format.md``. One CSV file holds any number of
+The format is specified in ``docs/measurement-format.md``. One CSV file holds any number of
 constant-force shear tests, one row per sample::
 
     test_id, shear_force_N, [t_s], cp1_x1_m, [cp1_x2_m], cp1_x3_m, cp2_x1_m, ..., cp3_x3_m
 
-Positions are in metres in the foundation frame of ``reference-specimen.md`` (origin where the three
+Positions are in metres in the foundation frame of ``docs/specimen-format.md`` (origin where the three
 foundation planes meet, ``x1`` forward, ``x2`` up, ``x3`` lateral). Laboratory users bring these
 files, so the reader is strict: every problem raises :class:`MeasurementError` naming the file, the
 (1-based) line number and the column, nothing read is silently dropped or altered, and a refused
@@ -17,11 +17,19 @@ Rules enforced by :func:`read_measurements`:
   one data row after the header;
 * the header holds every required column, no column name twice; unknown extra columns are ignored
   (their values are not checked);
-* every data row has as many fields as the header; ``test_id`` is not empty;
-* every numeric value is a finite decimal number (``nan``/``inf`` are refused); an optional ``x2``
+* every data row has as many fields as the header; ``test_id`` is not empty; two ids that differ only
+  by surrounding whitespace (``" F1"`` and ``"F1"``) are refused (they would be two tests and fake a repeat
+  scatter); an id does not start with ``=``, ``+``, ``@`` or a tab/carriage return (spreadsheets would run it
+  as a formula when the results are opened);
+* every numeric value is a finite decimal number written with ASCII digits (``nan``/``inf``, Arabic-Indic or
+  full-width digits are refused); an optional ``x2``
   value may be empty (read as NaN), every other numeric value must be present;
 * ``|position| <= 2`` m (larger values look like millimetres);
 * ``shear_force_N`` is the same on all rows of a test; ``t_s`` strictly increases within a test;
+* ``t_s`` is seconds from the moment the shear force is applied (the model's clock): each test's first time
+  lies within ``MAX_START_TIME_S`` (1 s) of zero (a clock offset, e.g. a Unix time stamp, is refused rather
+  than compared with the model) and a test lasts at most ``MAX_DURATION_S`` (60 s; longer looks like
+  milliseconds);
 * each test has at least 3 samples;
 * blank lines are allowed only at the end of the file (a blank line between data rows is refused);
 * optionally, each test's first sample lies within ``tolerance_m`` (horizontally) of the
@@ -31,11 +39,12 @@ Rules enforced by :func:`read_measurements`:
 from __future__ import annotations
 
 import csv
-import io
 import math
+import re
+from array import array
 import os
 import secrets
-from collections.abc import Iterable
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -51,12 +60,20 @@ __all__ = [
     "POSITION_COLUMNS",
     "MAX_ABS_POSITION_M",
     "MIN_SAMPLES",
+    "MAX_START_TIME_S",
+    "MAX_DURATION_S",
 ]
 
 #: Largest plausible |position| in metres; anything larger is taken to be millimetres.
 MAX_ABS_POSITION_M = 2.0
 #: Fewest samples a test may have.
 MIN_SAMPLES = 3
+#: First characters a test_id may not have (spreadsheet formula injection).
+FORMULA_STARTS = ("=", "+", "@", "\t", "\r")
+#: Largest |first t_s| of a test: times are seconds from load onset (the model's t = 0).
+MAX_START_TIME_S = 1.0
+#: Longest test in seconds; a longer one looks like milliseconds (the model's tests last about a second).
+MAX_DURATION_S = 60.0
 
 _AXES = ("x1", "x2", "x3")
 #: POSITION_COLUMNS[k][a] is the column of contact point k+1, coordinate axis a (x1, x2, x3).
@@ -187,6 +204,16 @@ class MeasuredTest:
 # --------------------------------------------------------------------------------------------------
 # Reading
 # --------------------------------------------------------------------------------------------------
+_LINE = re.compile(r"[^\r\n]*(?:\r\n|\r|\n)|[^\r\n]+")
+
+
+def _lines(text: str) -> Iterator[str]:
+    """The lines of ``text`` with their ends, split at LF, CR and CRLF as ``io.StringIO(text, newline="")``
+    splits them, one at a time (a StringIO would hold a 4-byte-per-character copy of the whole file)."""
+    for match in _LINE.finditer(text):
+        yield match.group()
+
+
 def _is_blank(fields: list[str]) -> bool:
     return all(not f.strip() for f in fields)
 
@@ -203,6 +230,8 @@ def _parse_number(path: str, row: int, column: str, text: str, *, allow_empty: b
         raise MeasurementError(path, row, column, "value is empty; a number is required")
     try:
         if "_" in stripped:  # float() accepts '1_000'; a CSV number never should
+            raise ValueError
+        if not stripped.isascii():  # float() reads Arabic-Indic and full-width digits; a CSV number never has them
             raise ValueError
         value = float(stripped)
     except ValueError:
@@ -269,9 +298,9 @@ class _TestBuilder:
         self.test_id = test_id
         self.shear = shear
         self.shear_row = row
-        self.pos: list[list[list[float]]] = []
-        self.t: list[float] = []
-        self.rows: list[int] = []
+        self.pos = array("d")  # 9 values per sample (CP1 x1 x2 x3, CP2 ..., CP3 ...): compact, no float objects
+        self.t = array("d")
+        self.rows = array("q")
 
 
 def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray | None = None,
@@ -311,7 +340,7 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
     if not text.strip():
         raise MeasurementError(spath, None, None, "file is empty (expected a header row and data rows)")
 
-    reader = csv.reader(io.StringIO(text, newline=""), strict=True)
+    reader = csv.reader(_lines(text), strict=True)
     try:
         header = next(reader)
     except csv.Error as exc:
@@ -328,6 +357,7 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
     pos_names = POSITION_COLUMNS
 
     tests: dict[str, _TestBuilder] = {}
+    stripped_ids: dict[str, tuple[str, int]] = {}
     pending_blank: int | None = None  # line of the first blank line not yet followed by data
     n_data = 0
     line_end = reader.line_num
@@ -358,16 +388,18 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
         test_id = fields[i_id]
         if not test_id.strip():
             raise MeasurementError(spath, row, "test_id", "test_id is empty")
+        if test_id.strip()[0] in FORMULA_STARTS or test_id[0] in FORMULA_STARTS:
+            raise MeasurementError(spath, row, "test_id", f"test_id {_describe(test_id)} starts with "
+                                   f"{test_id[0]!r}, which spreadsheets run as a formula; rename the test")
         force = _parse_number(spath, row, "shear_force_N", fields[i_force], allow_empty=False)
         t = (_parse_number(spath, row, "t_s", fields[i_t], allow_empty=False)
              if i_t is not None else None)
         sample = []
         for k in range(3):
-            point = []
             for a in range(3):
                 idx = i_pos[k][a]
                 if idx is None:
-                    point.append(math.nan)
+                    sample.append(math.nan)
                     continue
                 name = pos_names[k][a]
                 v = _parse_number(spath, row, name, fields[idx], allow_empty=(a == 1))
@@ -377,11 +409,16 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
                         f"value {fields[idx].strip()} cannot be a position in metres "
                         f"(|value| > {MAX_ABS_POSITION_M:g} m); it looks like millimetres - "
                         "positions must be given in metres")
-                point.append(v)
-            sample.append(point)
+                sample.append(v)
 
         b = tests.get(test_id)
         if b is None:
+            twin = stripped_ids.setdefault(test_id.strip(), (test_id, row))
+            if twin[0] != test_id:
+                raise MeasurementError(
+                    spath, row, "test_id",
+                    f"test_id {test_id!r} differs from {twin[0]!r} (row {twin[1]}) only by surrounding "
+                    "whitespace; use one spelling (two spellings would be two tests)")
             b = tests[test_id] = _TestBuilder(test_id, force, row)
         elif force != b.shear:
             raise MeasurementError(
@@ -395,7 +432,7 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
                     f"time {t!r} s of test {test_id!r} does not increase (previous sample of the test, "
                     f"row {b.rows[-1]}, has t_s = {b.t[-1]!r} s); time must strictly increase within a test")
             b.t.append(t)
-        b.pos.append(sample)
+        b.pos.extend(sample)
         b.rows.append(row)
 
     if n_data == 0:
@@ -408,9 +445,16 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
                 f"test {b.test_id!r} has {len(b.rows)} sample(s) (rows {', '.join(map(str, b.rows))}); "
                 f"at least {MIN_SAMPLES} are required")
 
+    for b in tests.values():
+        if b.t:
+            problem = _time_problem(b.test_id, b.t[0], b.t[-1])
+            if problem:
+                column_row = b.rows[0] if "first" in problem else b.rows[-1]
+                raise MeasurementError(spath, column_row, "t_s", problem)
+
     result = [
         MeasuredTest(test_id=b.test_id, shear_force_N=b.shear,
-                     positions=np.asarray(b.pos, dtype=np.float64),
+                     positions=np.frombuffer(b.pos, dtype=np.float64).reshape(-1, 3, 3),
                      t_s=np.asarray(b.t, dtype=np.float64) if i_t is not None else None,
                      rows=np.asarray(b.rows, dtype=np.int64))
         for b in tests.values()
@@ -420,6 +464,17 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
         for mt in result:
             _check_rest(spath, mt, rest, tolerance_m)
     return result
+
+
+def _time_problem(test_id: str, first: float, last: float) -> str | None:
+    """Why a test's times cannot be seconds from load onset, or None."""
+    if abs(first) > MAX_START_TIME_S:
+        return (f"first time {first!r} s of test {test_id!r} is not near 0; t_s must be seconds from the moment "
+                f"the shear force is applied (|first t_s| <= {MAX_START_TIME_S:g} s): subtract the clock's offset")
+    if last - first > MAX_DURATION_S:
+        return (f"test {test_id!r} lasts {last - first:.6g} s (t_s from {first!r} to {last!r}); more than "
+                f"{MAX_DURATION_S:g} s looks like milliseconds - t_s must be in seconds")
+    return None
 
 
 def _check_rest(path: str, mt: MeasuredTest, rest: np.ndarray, tol: float) -> None:
@@ -466,6 +521,12 @@ def _validate_for_write(path: str, tests: list[MeasuredTest]) -> bool:
         tid = mt.test_id
         if not tid.strip():
             raise MeasurementError(path, None, "test_id", "a test has an empty test_id")
+        if tid.strip()[0] in FORMULA_STARTS or tid[0] in FORMULA_STARTS:
+            raise MeasurementError(path, None, "test_id", f"test_id {tid!r} starts with a spreadsheet formula "
+                                   "character (=, +, @, tab, CR); the reader would refuse it")
+        if any(tid != o and tid.strip() == o.strip() for o in seen):
+            raise MeasurementError(path, None, "test_id", f"test_id {tid!r} differs from another only by "
+                                   "surrounding whitespace; the reader would refuse it")
         if tid in seen:
             raise MeasurementError(path, None, "test_id",
                                    f"test_id {tid!r} is used by more than one test")
@@ -503,7 +564,45 @@ def _validate_for_write(path: str, tests: list[MeasuredTest]) -> bool:
                 i = int(np.flatnonzero(dec)[0]) + 1
                 raise MeasurementError(path, None, "t_s",
                                        f"test {tid!r}, sample {i}: time {t[i]!r} does not increase")
+            problem = _time_problem(tid, float(t[0]), float(t[-1]))
+            if problem:
+                raise MeasurementError(path, None, "t_s", problem)
     return all(timed)
+
+
+def temporary_name(path: str | os.PathLike[str]) -> str:
+    """A hidden sibling of ``path`` to write before renaming: ``.NAME.PID.TOKEN.tmp`` (the PID lets a later
+    run tell a killed writer's leftover from a live writer's file)."""
+    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
+    return os.path.join(directory, f".{name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, ValueError):
+        return True
+    return True
+
+
+def remove_stale_temporaries(path: str | os.PathLike[str]) -> None:
+    """Remove the temporary siblings of ``path`` left by writers that were killed (SIGKILL, power loss)."""
+    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
+    try:
+        entries = os.listdir(directory)
+    except OSError:
+        return
+    prefix = f".{name}."
+    for entry in entries:
+        if entry.startswith(prefix) and entry.endswith(".tmp"):
+            parts = entry[len(prefix):-len(".tmp")].split(".")
+            if len(parts) == 2 and parts[0].isdigit() and not _pid_alive(int(parts[0])):
+                try:
+                    os.unlink(os.path.join(directory, entry))
+                except OSError:
+                    pass
 
 
 def write_measurements(path: str | os.PathLike[str], tests: Iterable[MeasuredTest]) -> None:
@@ -532,7 +631,10 @@ def write_measurements(path: str | os.PathLike[str], tests: Iterable[MeasuredTes
     header += [c for cp in POSITION_COLUMNS for c in cp]
 
     directory, name = os.path.split(os.path.abspath(spath))
-    tmp = os.path.join(directory, f".{name}.{secrets.token_hex(6)}.tmp")
+    if not os.path.isdir(directory):
+        raise MeasurementError(spath, None, None, f"folder {directory} does not exist")
+    remove_stale_temporaries(spath)
+    tmp = temporary_name(spath)
     # os.open with mode 0o666 lets the umask decide permissions, as for an ordinary new file.
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:

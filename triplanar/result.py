@@ -236,5 +236,5 @@ class SimulationResult:
                             positions=self.contact_points.copy(), t_s=self.t.copy())
 
     def write_csv(self, path: str | Path, test_id: str = "model") -> None:
-        """Write the trace in the measurement format (``shared/design/measurement-format.md``)."""
+        """Write the trace in the measurement format (``docs/measurement-format.md``)."""
         write_measurements(path, [self.to_measured(test_id)])

@@ -1,6 +1,6 @@
 """Specimen (the top block) and foundation (three planes): data, validation, TOML files, scaling.
 
-Frame and conventions are those of ``shared/design/reference-specimen.md``: ``e1`` forward (push
+Frame and conventions (``docs/specimen-format.md``): ``e1`` forward (push
 direction), ``e2`` up, ``e3 = e1 x e2`` lateral (right when facing ``e1``); the three foundation planes
 contain the origin. Units are SI inside; angles are degrees only in these dataclasses' ``*_deg`` fields.
 
@@ -204,65 +204,141 @@ def barycentric_horizontal(point: np.ndarray, triangle: np.ndarray) -> np.ndarra
 
 @lru_cache(maxsize=1)
 def reference() -> tuple[Specimen, Foundation]:
-    """The reference specimen and foundation of ``reference-specimen.md`` (read once from the shipped TOML;
+    """The reference specimen and foundation (``docs/specimen-format.md``; read once from the shipped TOML;
     both are immutable values)."""
     text = resources.files("triplanar").joinpath("data/reference.toml").read_text(encoding="utf-8")
     return parse_toml(tomllib.loads(text), source="triplanar/data/reference.toml")
 
 
-def load_toml(path: str | Path) -> tuple[Specimen, Foundation]:
-    """Read a specimen/foundation TOML file (format: ``triplanar/data/reference.toml``) and validate it."""
+def load_toml(path: str | Path, allow_large: bool = False) -> tuple[Specimen, Foundation]:
+    """Read a specimen/foundation TOML file (format: ``docs/specimen-format.md``) and validate it strictly:
+    a :class:`SpecimenError` names the file and the key of the first problem."""
     path = Path(path)
+    raw = path.read_bytes()
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise SpecimenError("(file)", f"not UTF-8 text (byte {err.start}: {raw[err.start:err.start + 1]!r}); "
+                            "save the file as UTF-8", str(path)) from None
+    text = text.removeprefix("\ufeff")  # a byte-order mark, as spreadsheet editors write (CSV accepts one too)
+    try:
+        data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         raise SpecimenError("(file)", f"not valid TOML: {err}", str(path)) from None
-    return parse_toml(data, source=str(path))
+    return parse_toml(data, source=str(path), allow_large=allow_large)
 
 
 _SPECIMEN_KEYS = {"name", "mass_kg", "contact_points_m", "mass_centre_m", "inertia_kg_m2", "load_point_A_m",
                   "load_point_B_m", "friction_deg", "tip_friction_deg"}
+_SHAPES = {"mass_kg": (), "contact_points_m": (3, 3), "mass_centre_m": (3,), "inertia_kg_m2": (3, 3),
+           "load_point_A_m": (), "load_point_B_m": (), "friction_deg": (3,), "tip_friction_deg": ()}
+_TOP_KEYS = {"specimen", "foundation"}
+_PLANE_KEYS = {"dip_deg", "dip_direction_deg"}
+#: Lengths (contact-point spread, mass centre, load point) above this are refused unless ``allow_large``:
+#: the laboratory blocks the model describes are decimetres; metres-sized values usually are millimetres.
+MAX_LENGTH_M = 5.0
+#: ... and a block smaller than this (contact-point spread) is refused: lengths given in kilometres?
+MIN_SPREAD_M = 1e-3
 
 
-def parse_toml(data: dict, source: str | None = None) -> tuple[Specimen, Foundation]:
-    """Build and validate (specimen, foundation) from parsed TOML (every key is required)."""
-    spec_table = data.get("specimen", {})
-    unknown = set(spec_table) - _SPECIMEN_KEYS
+def _number(value, where: str, source: str | None) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise SpecimenError(where, f"must be a number, got {type(value).__name__} {value!r}", source)
+    try:
+        return float(value)
+    except OverflowError:
+        raise SpecimenError(where, f"number too large: {value!r}", source) from None
+
+
+def _array(value, shape: tuple[int, ...], where: str, source: str | None):
+    if not shape:
+        return _number(value, where, source)
+    if not isinstance(value, list) or len(value) != shape[0]:
+        raise SpecimenError(where, f"must be an array of shape {shape}, got {value!r}", source)
+    return [_array(v, shape[1:], f"{where}[{i}]", source) for i, v in enumerate(value)]
+
+
+def _table(value, where: str, source: str | None, hint: str) -> dict:
+    if not isinstance(value, dict):
+        raise SpecimenError(where, f"must be a table ({hint}), got {type(value).__name__} {value!r}", source)
+    return value
+
+
+def _refuse_unknown(table: dict, known: set[str], prefix: str, source: str | None) -> None:
+    unknown = sorted(set(table) - known)
     if unknown:
-        raise SpecimenError(f"specimen.{sorted(unknown)[0]}", f"unknown key (known: {sorted(_SPECIMEN_KEYS)})", source)
-    kwargs = {}
-    for key, value in spec_table.items():
-        try:
-            kwargs[key] = value if key == "name" else np.asarray(value, dtype=float)
-        except (TypeError, ValueError):
-            raise SpecimenError(f"specimen.{key}", f"must be numeric, got {value!r}", source) from None
-        if key in ("mass_kg", "load_point_A_m", "load_point_B_m", "tip_friction_deg"):
-            if kwargs[key].shape != ():
-                raise SpecimenError(f"specimen.{key}", "must be a single number", source)
-            kwargs[key] = float(kwargs[key])
-    for key, shape in (("contact_points_m", (3, 3)), ("mass_centre_m", (3,)), ("inertia_kg_m2", (3, 3)),
-                       ("friction_deg", (3,))):
-        if key in kwargs and kwargs[key].shape != shape:
-            raise SpecimenError(f"specimen.{key}", f"must have shape {shape}, got {kwargs[key].shape}", source)
-    missing = sorted(_SPECIMEN_KEYS - {"name"} - set(kwargs))
+        raise SpecimenError(f"{prefix}{unknown[0]}", f"unknown key (known: {', '.join(sorted(known))})", source)
+
+
+def parse_toml(data: dict, source: str | None = None, allow_large: bool = False) -> tuple[Specimen, Foundation]:
+    """Build and validate (specimen, foundation) from parsed TOML. Strict: unknown keys are refused at every
+    level, numbers must be TOML numbers (not strings or booleans), arrays must have their shape, and lengths
+    must be plausible for a laboratory block (``allow_large`` or ``allow_large = true`` in ``[specimen]``
+    lifts the size limit). See ``docs/specimen-format.md``."""
+    _table(data, "(file)", source, "[specimen] and [foundation]")
+    _refuse_unknown(data, _TOP_KEYS, "", source)
+    for key in sorted(_TOP_KEYS - set(data)):
+        raise SpecimenError(key, f"missing table [{key}]", source)
+    spec_table = dict(_table(data["specimen"], "specimen", source, "write [specimen], once"))
+    if "allow_large" in spec_table:
+        flag = spec_table.pop("allow_large")
+        if not isinstance(flag, bool):
+            raise SpecimenError("specimen.allow_large", f"must be true or false, got {flag!r}", source)
+        allow_large = allow_large or flag
+    _refuse_unknown(spec_table, _SPECIMEN_KEYS, "specimen.", source)
+    missing = sorted(_SPECIMEN_KEYS - {"name"} - set(spec_table))
     if missing:
-        raise SpecimenError(f"specimen.{missing[0]}", f"missing (required: {sorted(_SPECIMEN_KEYS - {'name'})})", source)
+        raise SpecimenError(f"specimen.{missing[0]}", f"missing (required: {', '.join(sorted(_SHAPES))})", source)
+    kwargs = {}
+    if "name" in spec_table:
+        if not isinstance(spec_table["name"], str):
+            raise SpecimenError("specimen.name", f"must be a string, got {spec_table['name']!r}", source)
+        kwargs["name"] = spec_table["name"]
+    for key, shape in _SHAPES.items():
+        value = _array(spec_table[key], shape, f"specimen.{key}", source)
+        kwargs[key] = value if not shape else np.array(value, dtype=float)
     specimen = Specimen(**kwargs)
-    planes_data = data.get("foundation", {}).get("planes")
+    found_table = _table(data["foundation"], "foundation", source, "write [foundation] with planes = [...]")
+    _refuse_unknown(found_table, {"planes"}, "foundation.", source)
+    planes_data = found_table.get("planes")
     if planes_data is None:
         raise SpecimenError("foundation.planes", "missing: give the three planes' dip_deg and dip_direction_deg", source)
+    if not isinstance(planes_data, list):
+        raise SpecimenError("foundation.planes", f"must be an array of 3 tables {{ dip_deg = ..., "
+                            f"dip_direction_deg = ... }}, got {planes_data!r}", source)
     if len(planes_data) != 3:
         raise SpecimenError("foundation.planes", f"needs exactly 3 planes, got {len(planes_data)}", source)
     planes = []
     for i, entry in enumerate(planes_data):
-        try:
-            planes.append(Plane(float(entry["dip_deg"]), float(entry.get("dip_direction_deg", 0.0))))
-        except (KeyError, TypeError, ValueError) as err:
-            raise SpecimenError(f"foundation.planes[{i}]", f"needs numeric dip_deg and dip_direction_deg "
-                                f"({err})", source) from None
+        where = f"foundation.planes[{i}]"
+        _table(entry, where, source, "{ dip_deg = ..., dip_direction_deg = ... }")
+        _refuse_unknown(entry, _PLANE_KEYS, f"{where}.", source)
+        if "dip_deg" not in entry:
+            raise SpecimenError(f"{where}.dip_deg", "missing", source)
+        planes.append(Plane(_number(entry["dip_deg"], f"{where}.dip_deg", source),
+                            _number(entry.get("dip_direction_deg", 0.0), f"{where}.dip_direction_deg", source)))
     foundation = Foundation(tuple(planes))
+    specimen._check_finite(source)
+    if not allow_large:
+        _check_size(specimen, source)
     specimen.validate(foundation, source)
     return specimen, foundation
+
+
+def _check_size(specimen: Specimen, source: str | None) -> None:
+    """Refuse lengths no laboratory block has (the usual cause: millimetres where metres are expected)."""
+    p = specimen.contact_points_m
+    spread = float(max(np.linalg.norm(p[i] - p[j]) for i in range(3) for j in range(i)))
+    lengths = {"contact_points_m": spread, "mass_centre_m": float(np.linalg.norm(specimen.mass_centre_m)),
+               "load_point_A_m": abs(specimen.load_point_A_m), "load_point_B_m": abs(specimen.load_point_B_m)}
+    for key, length in lengths.items():
+        if length > MAX_LENGTH_M:
+            raise SpecimenError(f"specimen.{key}", f"describes a block {length:.4g} m across; lengths are in "
+                                f"metres (millimetres given?). A block larger than {MAX_LENGTH_M:g} m is refused "
+                                "unless [specimen] sets allow_large = true", source)
+    if spread < MIN_SPREAD_M:
+        raise SpecimenError("specimen.contact_points_m", f"the contact points are only {spread:.3g} m apart; "
+                            "lengths are in metres", source)
 
 
 def to_toml(specimen: Specimen, foundation: Foundation) -> str:
@@ -271,11 +347,26 @@ def to_toml(specimen: Specimen, foundation: Foundation) -> str:
         return repr(np.asarray(a).tolist())
     planes = ",\n".join(f"    {{ dip_deg = {p.dip_deg!r}, dip_direction_deg = {p.dip_direction_deg!r} }}"
                         for p in foundation.planes)
-    return (f"[specimen]\nname = {specimen.name!r}\nmass_kg = {specimen.mass_kg!r}\n"
+    large = "allow_large = true\n" if _too_large(specimen) else ""
+    return (f"[specimen]\n{large}name = {_toml_string(specimen.name)}\nmass_kg = {specimen.mass_kg!r}\n"
             f"contact_points_m = {arr(specimen.contact_points_m)}\nmass_centre_m = {arr(specimen.mass_centre_m)}\n"
             f"inertia_kg_m2 = {arr(specimen.inertia_kg_m2)}\nload_point_A_m = {specimen.load_point_A_m!r}\n"
             f"load_point_B_m = {specimen.load_point_B_m!r}\nfriction_deg = {list(specimen.friction_deg)!r}\n"
             f"tip_friction_deg = {specimen.tip_friction_deg!r}\n\n[foundation]\nplanes = [\n{planes},\n]\n")
+
+
+def _too_large(specimen: Specimen) -> bool:
+    try:
+        _check_size(specimen, None)
+    except SpecimenError as err:
+        return "allow_large" in str(err)
+    return False
+
+
+def _toml_string(text: str) -> str:
+    """A TOML basic string (Python's repr is not TOML for every string)."""
+    import json  # noqa: PLC0415 (a JSON string is a valid TOML basic string once control characters are escaped)
+    return json.dumps(text, ensure_ascii=False)
 
 
 def mirrored(specimen: Specimen, foundation: Foundation) -> tuple[Specimen, Foundation]:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from ..cli_args import add_model_arguments, load_specimen, parse_effects
+from ..cli_args import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
 
 #: What ``agents`` and ``experiments`` import beyond the core (the ``rl`` extra of ``pyproject.toml``).
 RL_MODULES = ("torch", "stable_baselines3", "yaml")
@@ -27,4 +27,5 @@ def require(modules: tuple[str, ...] | None = None, extra: str = "rl") -> None:
                                 f"pip install 'triplanar-shear[{extra}]' (or `make` in a clone)")
 
 
-__all__ = ["add_model_arguments", "load_specimen", "parse_effects", "MissingDependency", "require", "RL_MODULES"]
+__all__ = ["add_model_arguments", "load_specimen", "parse_effects", "refuse_overwriting", "MissingDependency", "require",
+           "RL_MODULES"]

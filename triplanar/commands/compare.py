@@ -15,9 +15,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..workbench.cli_common import model_and_tests, out_dir
+    from pathlib import Path
+
+    from ..workbench.cli_common import model_and_tests, out_dir, refuse_overwriting_inputs
     from ..workbench.compare import compare
     from ..workbench.report import plot_error_map, plot_overhead, plot_residuals
+    refuse_overwriting_inputs(args, [("--out", Path(args.out) / name) for name in (
+        "compare.csv", "summary.txt", "overhead.png", "residuals.png", "error_map.png")])
     spec, tests = model_and_tests(args)
     out = out_dir(args)
     cmp = compare(tests, spec)

@@ -37,21 +37,37 @@ def format_report(report: dict) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..workbench.cli_common import check_effect_names, executor_for, model_and_tests, out_dir
+    from pathlib import Path
+
+    from ..workbench.cli_common import (check_effect_names, executor_for, model_and_tests, out_dir,
+                                        refuse_overwriting_inputs)
     from ..workbench.diagnose import Diagnoser
+    from ..workbench.executor import TaskCheckpoint
     from ..workbench.report import plot_candidates, write_json
+    if args.folds < 2:
+        raise ValueError(f"--folds {args.folds}: cross-validation needs at least 2 folds")
+    refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [
+        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png")])
     spec, tests = model_and_tests(args)
     names = None
-    if args.candidates:
+    if args.candidates is not None:
         names = check_effect_names([n.strip() for n in args.candidates.split(",") if n.strip()])
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ValueError(f"--candidates: {', '.join(twice)} given twice")
+        if not names:
+            raise ValueError(f"--candidates {args.candidates!r}: no candidate named")
     out = out_dir(args)
+    partial = TaskCheckpoint(out / ".diagnose-partial")  # an interrupted run resumes from the finished candidates
     with executor_for(args) as ex:
-        diag = Diagnoser(names, folds=args.folds, executor=ex, progress=not args.no_progress).fit(tests, spec)
+        diag = Diagnoser(names, folds=args.folds, executor=ex, progress=not args.no_progress,
+                         checkpoint=partial).fit(tests, spec)
     report = diag.report_
     write_json(report, out / "diagnose.json")
     if args.json:
         write_json(report, args.json)
     plot_candidates(report, out / "diagnose.png")
+    partial.clear()
     print(format_report(report))
     print(f"\nwrote {out / 'diagnose.json'}{', ' + args.json if args.json else ''}, diagnose.png")
     return 0

@@ -30,8 +30,17 @@ def run(args: argparse.Namespace) -> int:
     from ..workbench.fit import EffectFit
     from ..workbench.report import plot_error_fall, plot_overhead, write_json
     from ..workbench.select import ForwardSelection
+    from pathlib import Path
+
+    from ..workbench.cli_common import refuse_overwriting_inputs
     if not args.add and not args.forward:
         raise EffectError("nothing to fit: give --add NAME (repeatable) and/or --forward")
+    if args.forward and args.max_effects < 1:
+        raise ValueError(f"--max-effects {args.max_effects}: forward selection needs at least 1")
+    if len(set(args.add)) != len(args.add):
+        raise EffectError(f"--add: {', '.join(sorted({a for a in args.add if args.add.count(a) > 1}))} given twice")
+    refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [
+        ("--out", Path(args.out) / name) for name in ("fit.json", "error_fall.png", "overhead.png")])
     spec, tests = model_and_tests(args)
     add = check_effect_names(args.add)
     out = out_dir(args)

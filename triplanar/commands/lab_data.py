@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from . import add_model_arguments, load_specimen, parse_effects
+from . import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
 
 NAME = "lab-data"
 HELP = ("write simulated laboratory traces (measurement CSV) and the truth used to make them (JSON beside it); "
@@ -46,6 +46,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from ..labdata import generate_lab_data, write_lab_data
+    refuse_overwriting([("--out", args.out), ("--truth", args.truth or f"{args.out}.truth.json")],
+                       [("--specimen", args.specimen)])
     if args.no_effects and args.effect:
         raise ValueError("give either --no-effects or --effect, not both")
     effects = () if args.no_effects else (parse_effects(args.effect) if args.effect else None)

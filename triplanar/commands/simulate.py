@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import add_model_arguments, load_specimen, parse_effects
+from . import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
 
 NAME = "simulate"
 HELP = "simulate one shear test (case A, B or C) and print what happened"
@@ -27,9 +27,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..measurement import MIN_SAMPLES
     from ..model import paper_model
     from ..simulate import simulate
 
+    for option, value in (("--out", args.out), ("--plot", args.plot)):
+        if value is not None and not value.strip():
+            raise ValueError(f"{option}: empty file name")
+    if args.out and args.plot and Path(args.out).resolve() == Path(args.plot).resolve():
+        raise ValueError(f"--out and --plot name the same file {args.out}")
+    refuse_overwriting([("--out", args.out), ("--plot", args.plot)], [("--specimen", args.specimen)])
     specimen, foundation = load_specimen(args.specimen)
     model = paper_model(args.case, args.force, specimen, foundation, parse_effects(args.effect))
     result = simulate(model, method=args.method, dt=args.dt, travel_m=args.travel, t_max_s=args.t_max)
@@ -45,13 +52,16 @@ def run(args: argparse.Namespace) -> int:
               "plots)")
         print(f"energy balance residual: {np.abs(result.energy['residual']).max():.2e} J; constraint residual: "
               f"{summary['max_constraint_residual_m']:.1e} m")
-    if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        result.write_csv(args.out, test_id=f"{args.case}-{args.force:g}")
-        print(f"trace written to {args.out}")
     if args.plot:
         _plot(result, args)
         print(f"plot written to {args.plot}")
+    if args.out:
+        if len(result.t) < MIN_SAMPLES:
+            raise ValueError(f"--out {args.out}: not written: the block {result.status} and the trace has "
+                             f"{len(result.t)} sample(s); the measurement format needs at least {MIN_SAMPLES}")
+        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+        result.write_csv(args.out, test_id=f"{args.case}-{args.force:g}")
+        print(f"trace written to {args.out}")
     return 0 if result.success else 1
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 
 from . import require
+from .train import positive_int
 
 NAME = "study"
 HELP = "actuator design study: train PPO, evaluate every controller at the 12 loads, write tables, plots, report"
@@ -16,11 +17,16 @@ HELP = "actuator design study: train PPO, evaluate every controller at the 12 lo
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="directory for tables and plots")
-    parser.add_argument("--ppo-dir", default="runs/ppo", help="PPO runs (trained here unless --skip-train)")
+    parser.add_argument("--ppo-dir", default="runs/ppo", help="PPO runs (trained here unless --skip-train). Its "
+                        "final_model.zip and vecnormalize.pkl are loaded with (cloud)pickle, which runs code: use "
+                        "only runs you trained or that come from a trusted source")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="PPO seeds (default 0 1 2)")
-    parser.add_argument("--timesteps", type=int, help="PPO timesteps per seed (default: the YAML's)")
+    parser.add_argument("--timesteps", type=positive_int, help="PPO timesteps per seed (default: the YAML's)")
     parser.add_argument("--config", help="PPO hyperparameter YAML (default agents/ppo.yaml)")
-    parser.add_argument("--doc", default="docs/actuator-study.md", help="report to write ('' for none)")
+    parser.add_argument("--doc", default=None, metavar="REPORT.md",
+                        help="also write the Markdown report here (default: none; an existing file is refused "
+                             "unless --overwrite-doc)")
+    parser.add_argument("--overwrite-doc", action="store_true", help="allow --doc to replace an existing file")
     parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
 
 

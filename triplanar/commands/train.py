@@ -14,12 +14,24 @@ NAME = "train"
 HELP = "train PPO on TriPlanarShear-v0 (hyperparameters in a YAML file; resumes from checkpoints)"
 
 
+def positive_int(text: str) -> int:
+    """argparse type: an integer > 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", help="hyperparameter YAML (default agents/ppo.yaml)")
     parser.add_argument("--out", default="runs/ppo", help="output directory; the run goes to OUT/seed_S")
     parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
-    parser.add_argument("--timesteps", type=int, help="total environment steps (default: the YAML's)")
-    parser.add_argument("--no-resume", action="store_true", help="start afresh even if checkpoints exist")
+    parser.add_argument("--timesteps", type=positive_int, help="total environment steps (default: the YAML's)")
+    parser.add_argument("--no-resume", action="store_true",
+                        help="start afresh even if checkpoints exist (the previous run's checkpoints are removed)")
     parser.add_argument("--verbose", type=int, default=0)
 
 

@@ -3,7 +3,7 @@
 or both at once with ``run_paper(dir, data)``.
 
 Modules: :mod:`.cases` (what is simulated), :mod:`.metrics` (distances, dilation, rotation),
-:mod:`.tables`, :mod:`.claims` (the numbered claims of ``reference-specimen.md``), :mod:`.figures`,
+:mod:`.tables`, :mod:`.claims` (the numbered claims, ``docs/paper-reproduction.md``), :mod:`.figures`,
 :mod:`.reproduce` (orchestration).
 """
 

@@ -1,4 +1,4 @@
-"""The paper's claims (the numbered list at the end of ``shared/design/reference-specimen.md``), each
+"""The paper's claims (the numbered list of ``docs/paper-reproduction.md``, "Claim by claim"), each
 evaluated from the reproduction's numbers with a criterion fixed in advance (constants below).
 
 Verdicts: ``holds``, ``holds partly`` (true at some loads or for some of its parts, not all), ``does not

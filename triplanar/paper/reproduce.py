@@ -12,7 +12,6 @@ import json
 import os
 import time
 from collections import defaultdict
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
@@ -23,6 +22,7 @@ from tqdm import tqdm
 from ..effects import Effect
 from ..measurement import MeasuredTest, read_measurements
 from ..specimen import Foundation, Specimen, reference
+from ..workbench.executor import pool_scope
 from . import claims as C
 from . import figures as Fg
 from . import tables as T
@@ -125,7 +125,7 @@ def render_figures(specs: list[Fg.FigureSpec], out_dir: Path, workers: int = 2, 
     bar = tqdm(total=len(specs), desc="drawing figures", unit="fig", disable=not progress)
     paths = []
     if workers > 1 and len(specs) > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with pool_scope(workers) as pool:  # workers die with the command
             for path in pool.map(Fg.render, specs, [out_dir] * len(specs)):
                 paths.append(path)
                 bar.update()

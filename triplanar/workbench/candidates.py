@@ -155,9 +155,14 @@ def resolve(candidates: Iterable[Candidate | str] | None, exclude: Iterable[str]
     if candidates is None:
         return candidate_library(None, exclude, friction_deg)
     skip = set(exclude)
-    out = []
+    out: list[Candidate] = []
+    candidates_seen: set[str] = set()
     for c in candidates:
         cand = c if isinstance(c, Candidate) else candidate_library([c], (), friction_deg)[0]
+        if cand in out or (isinstance(c, str) and c in candidates_seen):
+            raise ValueError(f"candidate {cand.effect!r} given twice")
+        if isinstance(c, str):
+            candidates_seen.add(c)
         if cand.effect not in skip:
             out.append(cand)
     return out

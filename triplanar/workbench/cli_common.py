@@ -14,7 +14,7 @@ from .spec import ModelSpec
 
 
 def add_data_arguments(parser: argparse.ArgumentParser, default_out: str) -> None:
-    parser.add_argument("data", metavar="DATA.csv", help="measured traces (shared/design/measurement-format.md)")
+    parser.add_argument("data", metavar="DATA.csv", help="measured traces (format: docs/measurement-format.md)")
     add_model_arguments(parser)
     parser.add_argument("--plugin", action="append", default=[], metavar="MODULE",
                         help="import this module (a name on the Python path, or a .py file) first, so that the "
@@ -74,6 +74,30 @@ def check_effect_names(names: list[str]) -> list[str]:
 def executor_for(args: argparse.Namespace):
     """The ``--workers`` pool (in this process for 1), shut down on exit."""
     return pool_scope(max(1, int(args.workers)))
+
+
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """True if ``a`` and ``b`` name the same file (also through links, or both missing but the same path)."""
+    a, b = Path(a), Path(b)
+    try:
+        if a.exists() and b.exists():
+            return a.samefile(b)
+    except OSError:
+        pass
+    return a.resolve() == b.resolve()
+
+
+def refuse_overwriting_inputs(args: argparse.Namespace, outputs: list[tuple[str, Path | str]]) -> None:
+    """Refuse (ValueError naming both) an output that would replace one of the command's input files."""
+    inputs = [("DATA.csv", args.data)]
+    if getattr(args, "specimen", None):
+        inputs.append(("--specimen", args.specimen))
+    inputs += [("--plugin", p) for p in getattr(args, "plugin", []) if p.endswith(".py")]
+    for what, output in outputs:
+        for kind, given in inputs:
+            if same_file(output, given):
+                raise ValueError(f"{what} {output} is the input {kind} {given}; it would be overwritten. "
+                                 "Choose another output path")
 
 
 def out_dir(args: argparse.Namespace) -> Path:

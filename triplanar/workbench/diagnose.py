@@ -40,7 +40,7 @@ import numpy as np
 from ..measurement import MeasuredTest
 from .candidates import Candidate, resolve
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
-from .executor import ExecutorLike, run_tasks
+from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import (FitOutcome, FitTask, discrepancies, errors_by_load, evaluate_spec, overall_error,
                   run_fit)
 from .spec import ModelSpec, spec_with_values
@@ -139,6 +139,9 @@ class Diagnoser:
         executor: ``None`` (2-process pool), ``"serial"``, or any object with ``map`` (e.g. a Ray pool).
         progress: show a progress bar (tqdm, on stderr).
         max_nfev: least-squares evaluations per fit.
+        checkpoint: a :class:`TaskCheckpoint`: finished candidates are kept on disk, so that an interrupted
+            diagnosis run again resumes instead of starting over (the ``diagnose`` command uses
+            ``DIR/.diagnose-partial`` and removes it when done).
 
     Fitted attributes: ``report_`` (the JSON report), ``candidates_`` (list of :class:`CandidateResult`,
     best first), ``missing_effect_``, ``confidence_``, ``reason_``, ``baseline_error_mm_``,
@@ -152,7 +155,11 @@ class Diagnoser:
     margin = 1.25
 
     def __init__(self, candidates: Sequence[str | Candidate] | None = None, folds: int = 3,
-                 executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30):
+                 executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30,
+                 checkpoint: TaskCheckpoint | None = None):
+        self.checkpoint = checkpoint
+        if isinstance(folds, bool) or not isinstance(folds, int) or folds < 2:
+            raise ValueError(f"folds = {folds!r}: cross-validation needs at least 2 folds")
         self.candidates = candidates
         self.folds = folds
         self.executor = executor
@@ -192,7 +199,8 @@ class Diagnoser:
                                refit_cands, refit) for c in cands]
         # Slowest first (slow simulations, many parameters), so that the pool stays balanced.
         tasks.sort(key=lambda t: (t.candidate.effect != "actuator_rise", -len(t.candidate.free)))
-        outcomes = run_tasks(run_candidate, tasks, self.executor, self.progress, desc="diagnose")
+        outcomes = run_tasks(run_candidate, tasks, self.executor, self.progress, desc="diagnose",
+                             checkpoint=self.checkpoint)
         by_label = {f"{t.candidate.effect}/{k}": v for t, out in zip(tasks, outcomes) for k, v in out.items()}
         results = [self._assemble(c, by_label, len(folds)) for c in cands]
         results.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))

@@ -6,13 +6,26 @@
 * any object with ``map(fn, iterable)``: used as is and left open, e.g. your own pool, or on a Ray cluster
   ``ray.util.multiprocessing.Pool()`` (its ``map``/``imap`` take the same pure function and picklable tasks;
   workers must import ``triplanar`` and any user effect module so that effect names resolve).
+
+Every pool made here dies with its command: each worker asks the kernel to kill it when its parent dies
+(Linux ``prctl(PR_SET_PDEATHSIG)``) and runs a watchdog thread that exits when the process that made the pool
+is gone (any platform); a SIGTERM to the command terminates the workers before it exits.
 """
 
 from __future__ import annotations
 
+import ctypes
+import hashlib
 import os
+import pickle
+import shutil
+import signal
+import sys
+import threading
+import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
+from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence, TypeVar
 
 T = TypeVar("T")
@@ -35,17 +48,83 @@ class SerialExecutor:
 ExecutorLike = Executor | str | None
 
 
+WATCHDOG_PERIOD_S = 0.5
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    try:  # a dead but not yet reaped parent is a zombie
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True
+
+
+def _watch_parent(owner: int) -> None:
+    while _alive(owner):
+        time.sleep(WATCHDOG_PERIOD_S)
+    os._exit(1)
+
+
+def die_with_parent(owner: int) -> None:
+    """Worker initializer: exit when process ``owner`` (the pool's maker) dies, however it dies."""
+    if sys.platform.startswith("linux") and os.getppid() == owner:
+        try:
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG = 1
+        except (OSError, AttributeError):
+            pass
+    if not _alive(owner):
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(owner,), name="parent-watchdog", daemon=True).start()
+
+
+def new_pool(workers: int) -> ProcessPoolExecutor:
+    """A ProcessPoolExecutor whose workers die with this process."""
+    return ProcessPoolExecutor(max_workers=workers, initializer=die_with_parent, initargs=(os.getpid(),))
+
+
+def terminate_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop ``pool`` now: kill its workers instead of waiting for their tasks."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):
+        if process.is_alive():
+            process.terminate()
+    pool.shutdown(wait=False, cancel_futures=True)
+
+
+class Terminated(SystemExit):
+    """Raised in the main thread by SIGTERM while a pool is open, so that the pool is terminated first."""
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated(128 + signum)
+
+
 @contextmanager
 def pool_scope(workers: int) -> Iterator[Executor]:
-    """A process pool of ``workers`` (in this process when 1), shut down on exit."""
+    """A process pool of ``workers`` (in this process when 1), shut down on exit; on an error, an interrupt or
+    SIGTERM its workers are terminated."""
     if workers <= 1:
         yield SerialExecutor()
         return
-    pool = ProcessPoolExecutor(max_workers=workers)
+    previous = None
+    if threading.current_thread() is threading.main_thread():
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    pool = new_pool(workers)
     try:
         yield pool
-    finally:
+    except BaseException:
+        terminate_pool(pool)
+        raise
+    else:
         pool.shutdown(wait=True, cancel_futures=True)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 @contextmanager
@@ -64,10 +143,58 @@ def executor_scope(executor: ExecutorLike, n_tasks: int = 2) -> Iterator[Executo
         yield executor
 
 
+class TaskCheckpoint:
+    """Finished tasks' results on disk, so that an interrupted sweep resumes where it stopped: each result is
+    written (atomically) as ``<directory>/<key>.pkl`` when its task finishes, the key being a hash of the
+    function and the task. A file that does not load (a damaged write) is ignored and its task run again.
+    The files are pickles: the directory must be one this program wrote (the command's own output folder)."""
+
+    def __init__(self, directory: str | os.PathLike[str]):
+        self.directory = Path(directory)
+
+    def key(self, fn: Callable, task: Any) -> str | None:
+        try:
+            data = pickle.dumps((getattr(fn, "__module__", ""), getattr(fn, "__qualname__", repr(fn)), task),
+                                protocol=5)
+        except Exception:  # noqa: BLE001 (an unpicklable task is simply not checkpointed)
+            return None
+        return hashlib.sha256(data).hexdigest()[:32]
+
+    def load(self, key: str | None) -> tuple[bool, Any]:
+        if key is None:
+            return False, None
+        path = self.directory / f"{key}.pkl"
+        try:
+            with open(path, "rb") as f:
+                return True, pickle.load(f)
+        except FileNotFoundError:
+            return False, None
+        except Exception:  # noqa: BLE001 (damaged: run the task again)
+            path.unlink(missing_ok=True)
+            return False, None
+
+    def save(self, key: str | None, result: Any) -> None:
+        if key is None:
+            return
+        self.directory.mkdir(parents=True, exist_ok=True)
+        tmp = self.directory / f".{key}.{os.getpid()}.partial"
+        try:
+            with open(tmp, "wb") as f:
+                pickle.dump(result, f, protocol=5)
+            os.replace(tmp, self.directory / f"{key}.pkl")
+        finally:
+            tmp.unlink(missing_ok=True)
+
+    def clear(self) -> None:
+        """Remove the directory (the sweep finished and its outputs are written)."""
+        shutil.rmtree(self.directory, ignore_errors=True)
+
+
 def run_tasks(fn: Callable[[T], R], tasks: Sequence[T], executor: ExecutorLike = None,
-              progress: bool | Any = False, desc: str = "") -> list[R]:
+              progress: bool | Any = False, desc: str = "", checkpoint: TaskCheckpoint | None = None) -> list[R]:
     """``[fn(t) for t in tasks]`` through ``executor``, in task order, with an optional tqdm progress bar
-    (``progress``: True for a bar on stderr, or an open tqdm bar to update)."""
+    (``progress``: True for a bar on stderr, or an open tqdm bar to update). With ``checkpoint``, results
+    already on disk are used instead of running their tasks, and each new result is saved when it arrives."""
     bar = None
     own_bar = False
     if progress is True:
@@ -75,23 +202,41 @@ def run_tasks(fn: Callable[[T], R], tasks: Sequence[T], executor: ExecutorLike =
         bar, own_bar = tqdm(total=len(tasks), desc=desc, unit="task", leave=True), True
     elif progress:
         bar = progress
+    done: list[Any] = [None] * len(tasks)
+    keys: list[str | None] = [None] * len(tasks)
+    todo = list(range(len(tasks)))
+    if checkpoint is not None:
+        todo = []
+        for i, task in enumerate(tasks):
+            keys[i] = checkpoint.key(fn, task)
+            found, result = checkpoint.load(keys[i])
+            if found:
+                done[i] = result
+            else:
+                todo.append(i)
+        if bar is not None and len(todo) < len(tasks):
+            bar.update(len(tasks) - len(todo))
+
+    def finished(i: int, result: Any) -> None:
+        done[i] = result
+        if checkpoint is not None:
+            checkpoint.save(keys[i], result)
+        if bar is not None:
+            bar.update(1)
+
     try:
-        with executor_scope(executor, len(tasks)) as ex:
-            if bar is not None and callable(getattr(ex, "submit", None)):
-                # concurrent.futures: tick the bar as tasks finish, in any order.
-                futures = [ex.submit(fn, task) for task in tasks]
-                index = {f: i for i, f in enumerate(futures)}
-                done: list[Any] = [None] * len(tasks)
+        if not todo:
+            return done
+        with executor_scope(executor, len(todo)) as ex:
+            if (bar is not None or checkpoint is not None) and callable(getattr(ex, "submit", None)):
+                # concurrent.futures: record tasks as they finish, in any order.
+                futures = {ex.submit(fn, tasks[i]): i for i in todo}
                 for fut in as_completed(futures):
-                    done[index[fut]] = fut.result()
-                    bar.update(1)
+                    finished(futures[fut], fut.result())
                 return done
-            out: list[R] = []
-            for result in ex.map(fn, tasks):
-                out.append(result)
-                if bar is not None:
-                    bar.update(1)
-            return out
+            for i, result in zip(todo, ex.map(fn, [tasks[i] for i in todo])):
+                finished(i, result)
+            return done
     finally:
         if own_bar:
             bar.close()

@@ -59,6 +59,10 @@ class ForwardSelection:
     def __init__(self, candidates: Sequence[str | Candidate] | None = None, max_effects: int = 3,
                  min_fall: float = 0.1, folds: int = 3, executor: ExecutorLike = None, progress: bool = True,
                  max_nfev: int = 30):
+        if isinstance(max_effects, bool) or not isinstance(max_effects, int) or max_effects < 1:
+            raise ValueError(f"max_effects = {max_effects!r}: forward selection adds at least 1 effect")
+        if isinstance(folds, bool) or not isinstance(folds, int) or folds < 2:
+            raise ValueError(f"folds = {folds!r}: cross-validation needs at least 2 folds")
         self.candidates = candidates
         self.max_effects = max_effects
         self.min_fall = min_fall
