@@ -287,7 +287,7 @@ def _reference_model(model, tip_offset: float, tip_rate: float) -> ReferenceMode
                           tan_phi=np.tan(np.radians(s.friction_deg)), load_case=model.loading.kind,
                           force=model.loading.force_N, tan_phi_ef=model.tan_phi_EF, A=s.load_point_A_m,
                           B=s.load_point_B_m, tip_offset=tip_offset, tip_offset_rate=tip_rate,
-                          rate_a=model.rate_a, rate_v0=model.rate_v0_m_s, gravity=GRAVITY)
+                          contact_laws=model.effects, gravity=GRAVITY)
 
 
 @pytest.mark.parametrize("case, effects, tip_rate", [

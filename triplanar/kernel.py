@@ -57,6 +57,15 @@ P_F0 = 75         # actuator force when sliding starts (t = 0); with P_TAU > 0 i
 P_LEFT0 = 76      # 6: how far each CP starts across another plane's line (re-seated tilted planes), m
 N_PARAM = 82
 
+# -- kernel-level settings ---------------------------------------------------------------------
+# Constants of the friction law that effects set by name (``Effect.kernel_settings``, collected in
+# ``Model.kernel_settings``); ``Model.kernel_params`` packs each into its slot, or its default when no effect
+# sets it, and ``Model.validate`` checks it against its closed range. name: (slot, default, lower, upper).
+KERNEL_SETTINGS = {
+    "rate_a": (P_RATE_A, 0.0, -math.inf, math.inf),
+    "rate_v0_m_s": (P_RATE_V0, 0.05, 1e-12, math.inf),  # must be positive
+}
+
 # -- aux outputs of dynamics() ----------------------------------------------------------------
 A_N = 0           # 3 normal reactions
 A_PL = 3          # 3 instantaneous load point (world)
