@@ -293,6 +293,7 @@ def _reference_model(model, tip_offset: float, tip_rate: float) -> ReferenceMode
 @pytest.mark.parametrize("case, effects, tip_rate", [
     ("A", [], 0.0), ("B", [], 0.0), ("C", [], 0.0),
     ("A", ["rate_friction:a=0.3,v0_m_s=0.01", "tip_offset:offset_m=0.01"], 0.05),
+    ("A", ["cohesion:c_N=1.5", "rate_friction:a=0.3,v0_m_s=0.01"], 0.0), ("C", ["cohesion:c_N=2.5"], 0.0),
 ])
 def test_kernel_matches_natural_coordinate_reference(case: str, effects: list[str], tip_rate: float) -> None:
     model = paper_model(case, 45.0, effects=[make_effect(e) for e in effects])

@@ -7,7 +7,8 @@ coordinates. Friction ``S_i = -N_i mu_i v_i/|v_i|`` (eq. 21) is proportional to 
 the three ``N_i`` solve a 3x3 linear system (the analogue of eq. 39). ``docs/physics.md`` derives why this
 equals the paper's 9-coordinate Lagrangian; ``triplanar/natural_coordinates.py`` implements that form independently
 and the tests compare the two. What advances the state in time (steppers, event location, stick and
-slip, start modes) is :mod:`triplanar.stepping`.
+slip, start modes) is :mod:`triplanar.stepping`. Mohr-Coulomb cohesion ``c`` (``P_COHESION``, the ``cohesion``
+effect; 0 in the paper) adds the known friction part ``-c v_i/|v_i|``, on the right-hand side of that system.
 
 State ``y`` (``N_STATE`` floats): mass-centre position ``r``, unit quaternion ``q`` (w, x, y, z; body to
 world, body axes = the paper's g1, g2, g3), velocity ``v``, angular velocity ``omega`` (world axes), actuator
@@ -55,7 +56,8 @@ P_STUCK = 73      # index of the contact point that sticks (0-2), or -1: all thr
 P_TIP_STUCK = 74  # 1: the aft face sticks to the tip (static end friction), 0: it slips
 P_F0 = 75         # actuator force when sliding starts (t = 0); with P_TAU > 0 it rises from there to P_FCMD
 P_LEFT0 = 76      # 6: how far each CP starts across another plane's line (re-seated tilted planes), m
-N_PARAM = 82
+P_COHESION = 82   # Mohr-Coulomb cohesion c at each contact (N): shear strength mu N + c
+N_PARAM = 83
 
 # -- kernel-level settings ---------------------------------------------------------------------
 # Constants of the friction law that effects set by name (``Effect.kernel_settings``, collected in
@@ -64,6 +66,7 @@ N_PARAM = 82
 KERNEL_SETTINGS = {
     "rate_a": (P_RATE_A, 0.0, -math.inf, math.inf),
     "rate_v0_m_s": (P_RATE_V0, 0.05, 1e-12, math.inf),  # must be positive
+    "cohesion_N": (P_COHESION, 0.0, 0.0, math.inf),
 }
 
 # -- aux outputs of dynamics() ----------------------------------------------------------------
@@ -73,7 +76,7 @@ A_ACC = 6         # 12 slip accelerations at CP1..3 and the tip (used to find in
 A_SLIP = 18       # 3 slip velocity of the aft face relative to the tip
 A_FT = 21         # thrust in use
 A_SPEED = 22      # 3 contact-point speeds
-A_STICK = 25      # stuck contact: |S| - mu N (> 0: friction cannot hold it any more); -1 otherwise
+A_STICK = 25      # stuck contact: |S| - (mu N + c) (> 0: friction cannot hold it any more); -1 otherwise
 A_TIP_STICK = 26  # stuck tip: |F_EF| - F_T (e1.g1) tan(phi_EF); -1 otherwise
 A_STICK_F = 27    # 3 static friction force on the block at the stuck contact
 A_TIP_F = 30      # 3 static end friction force on the block at a stuck tip
@@ -292,7 +295,8 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
     """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
 
     Forces (paper section 3.3-3.4, ``docs/physics.md``): weight ``-W e2`` at the mass centre; at each
-    contact ``N_i n_i - N_i mu_i v_i/|v_i|`` (eq. 19-21); cases A/B: thrust ``F_T e1`` at the load point
+    contact ``N_i n_i - (N_i mu_i + c) v_i/|v_i|`` (eq. 19-21; ``c``: cohesion, ``P_COHESION``, a known force;
+    0 in the paper); cases A/B: thrust ``F_T e1`` at the load point
     ``P_L`` where the tip line meets the aft face (eq. 27-30), and end friction of magnitude
     ``F_T (e1.g1) tan(phi_EF)`` opposing the slip of the aft face relative to the tip (eq. 32-33 in
     continuous time); case C: ``F_T g1`` at the body-fixed ``P_CL``; plus any user force and moment.
@@ -380,6 +384,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
     mu = ws[W_MU, :3]
     speeds = ws[W_SPEEDS, :3]
     power_dir = ws[W_POWER, :3]  # d_j . v_j: dissipated power per unit friction force
+    coh = p[P_COHESION]
     for j in range(3):
         c0, c1, c2 = _cross(w[0], w[1], w[2], rho[j, 0], rho[j, 1], rho[j, 2])
         vj0, vj1, vj2 = v[0] + c0, v[1] + c1, v[2] + c2
@@ -394,6 +399,12 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
         if p[P_RATE_A] != 0.0:
             mu_j *= 1.0 + p[P_RATE_A] * math.log1p(sp / p[P_RATE_V0])
         mu[j] = mu_j
+        if coh != 0.0 and j != stuck:
+            # Cohesion: the constant part -c d_j of the sliding friction is a known force at P_j.
+            f0, f1, f2 = -coh * d0, -coh * d1, -coh * d2
+            fx[0] += f0; fx[1] += f1; fx[2] += f2
+            m0, m1, m2 = _cross(rho[j, 0], rho[j, 1], rho[j, 2], f0, f1, f2)
+            mx[0] += m0; mx[1] += m1; mx[2] += m2
         for k in range(3):
             cr[j, k] = p[P_N + 3 * j + k]
         fu[j, 0] = cr[j, 0] - mu_j * d0
@@ -465,6 +476,8 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
         aux[A_TIP_F + k] = 0.0
     if stuck >= 0:
         aux[A_STICK] = math.sqrt(x[i_stick] ** 2 + x[i_stick + 1] ** 2) - mu[stuck] * x[stuck]
+        if coh != 0.0:
+            aux[A_STICK] -= coh
         for k in range(3):
             aux[A_STICK_F + k] = x[i_stick] * fu[i_stick, k] + x[i_stick + 1] * fu[i_stick + 1, k]
     if tip_stuck:
@@ -488,6 +501,8 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.
     dy[S_WLOAD] = p_load
     for j in range(3):
         dy[S_DC + j] = 0.0 if j == stuck else mu[j] * x[j] * power_dir[j]
+        if coh != 0.0 and j != stuck:
+            dy[S_DC + j] = (mu[j] * x[j] + coh) * power_dir[j]
     dy[S_DTIP] = p_tip
     dy[S_WOTHER] = p_other
 
