@@ -289,12 +289,13 @@ def _reference_model(model, tip_offset: float, tip_rate: float) -> ReferenceMode
                           tan_phi=np.tan(np.radians(s.friction_deg)), load_case=model.loading.kind,
                           force=model.loading.force_N, tan_phi_ef=model.tan_phi_EF, A=s.load_point_A_m,
                           B=s.load_point_B_m, tip_offset=tip_offset, tip_offset_rate=tip_rate,
-                          rate_a=model.rate_a, rate_v0=model.rate_v0_m_s, gravity=GRAVITY)
+                          contact_laws=model.effects, gravity=GRAVITY)
 
 
 @pytest.mark.parametrize("case, effects, tip_rate", [
     ("A", [], 0.0), ("B", [], 0.0), ("C", [], 0.0),
     ("A", ["rate_friction:a=0.3,v0_m_s=0.01", "tip_offset:offset_m=0.01"], 0.05),
+    ("A", ["cohesion:c_N=1.5", "rate_friction:a=0.3,v0_m_s=0.01"], 0.0), ("C", ["cohesion:c_N=2.5"], 0.0),
 ])
 def test_kernel_matches_natural_coordinate_reference(case: str, effects: list[str], tip_rate: float) -> None:
     model = paper_model(case, 45.0, effects=[make_effect(e) for e in effects])

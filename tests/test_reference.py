@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from triplanar.effects import make_effect
 from triplanar.natural_coordinates import ReferenceModel, reference_accelerations, reference_simulate
 
 G = 9.81
@@ -96,7 +97,8 @@ def newton_euler_residual(model, R, P, V, w, Pdd, N, dirs, f_ext, m_ext):
     forces = [(c, -MASS * G * E2 + f_ext)]
     for i in range(3):
         sp = np.linalg.norm(V[i])
-        mu = model.tan_phi[i] * (1 + model.rate_a * np.log(1 + sp / model.rate_v0))
+        rate_a = RATE_A if model.contact_laws else 0.0  # the rate law of the models below, recomputed here
+        mu = model.tan_phi[i] * (1 + rate_a * np.log(1 + sp / RATE_V0))
         d = V[i] / sp if sp >= 1e-12 else dirs[i]
         forces.append((P[i], N[i] * NORMALS[i] - mu * N[i] * d))
     g1, g2, g3 = R.T
@@ -118,9 +120,10 @@ def newton_euler_residual(model, R, P, V, w, Pdd, N, dirs, f_ext, m_ext):
     return rigid_misfit, f_res, m_res
 
 
+RATE_A, RATE_V0 = 0.05, 1e-3
 CASE_A = dict(load_case="actuator", force=40.0, tan_phi_ef=np.tan(np.radians(8)),
-              tan_phi=np.tan(np.radians([17.0, 14.0, 11.0])), tip_offset=0.004,
-              tip_offset_rate=0.02, rate_a=0.05, rate_v0=1e-3)
+              tan_phi=np.tan(np.radians([17.0, 14.0, 11.0])), tip_offset=0.004, tip_offset_rate=0.02,
+              contact_laws=(make_effect(f"rate_friction:a={RATE_A},v0_m_s={RATE_V0}"),))
 
 
 @pytest.mark.parametrize("kw", [
@@ -160,7 +163,7 @@ def test_single_inclined_plane_closed_form(rate_a):
     model = ReferenceModel(cp_rest=CP_REST @ R.T, mass=MASS, com_rest=R @ COM_REST,
                            inertia_rest=R @ I_REST @ R.T, normals=np.tile(n, (3, 1)),
                            tan_phi=np.full(3, mu0), load_case="hydrostatic", force=0.0,
-                           rate_a=rate_a, rate_v0=1e-3)
+                           contact_laws=(make_effect(f"rate_friction:a={rate_a},v0_m_s=0.001"),))
     down = np.array([0.0, -np.sin(np.radians(dip)), np.cos(np.radians(dip))])  # dip direction e3
     assert abs(down @ n) < 1e-15
     v0 = 0.01

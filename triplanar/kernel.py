@@ -7,7 +7,8 @@ coordinates. Friction ``S_i = -N_i mu_i v_i/|v_i|`` (eq. 21) is proportional to 
 the three ``N_i`` solve a 3x3 linear system (the analogue of eq. 39). ``docs/physics.md`` derives why this
 equals the paper's 9-coordinate Lagrangian; ``triplanar/natural_coordinates.py`` implements that form independently
 and the tests compare the two. What advances the state in time (steppers, event location, stick and
-slip, start modes) is :mod:`triplanar.stepping`.
+slip, start modes) is :mod:`triplanar.stepping`. Mohr-Coulomb cohesion ``c`` (``P_COHESION``, the ``cohesion``
+effect; 0 in the paper) adds the known friction part ``-c v_i/|v_i|``, on the right-hand side of that system.
 
 State ``y`` (``N_STATE`` floats): mass-centre position ``r``, unit quaternion ``q`` (w, x, y, z; body to
 world, body axes = the paper's g1, g2, g3), velocity ``v``, angular velocity ``omega`` (world axes), actuator
@@ -63,8 +64,19 @@ PARAMS = Layout("P_", "N_PARAM", [
     ("EXTM", 3, "extra moment about the mass centre (world), N m"),
     ("USER", 1, "1: call the user effects' Python wrench (slow path) before each evaluation"),
     ("F0", 1, "actuator force when sliding starts (t = 0); with P_TAU > 0 it rises from there to P_FCMD"),
-    ("LEFT0", 6, "how far each CP starts across another plane's line (re-seated tilted planes), m")])
+    ("LEFT0", 6, "how far each CP starts across another plane's line (re-seated tilted planes), m"),
+    ("COHESION", 1, "Mohr-Coulomb cohesion c at each contact, N: shear strength mu N + c")])
 PARAMS.export(globals())
+
+# -- kernel-level settings ---------------------------------------------------------------------
+# Constants of the friction law that effects set by name (``Effect.kernel_settings``, collected in
+# ``Model.kernel_settings``); ``Model.kernel_params`` packs each into its slot, or its default when no effect
+# sets it, and ``Model.validate`` checks it against its closed range. name: (slot, default, lower, upper).
+KERNEL_SETTINGS = {
+    "rate_a": (P_RATE_A, 0.0, -math.inf, math.inf),
+    "rate_v0_m_s": (P_RATE_V0, 0.05, 1e-12, math.inf),  # must be positive
+    "cohesion_N": (P_COHESION, 0.0, 0.0, math.inf),
+}
 
 # Stick/slip modes: which site sticks and where a site at rest starts to slip. They change as the block moves (the
 # steppers set them at stops and releases, start_motion_ws at a start), so they live in their own vector, apart
@@ -91,7 +103,7 @@ AUX = Layout("A_", "N_AUX", [  # what dynamics() reports besides the derivative
     ("SLIP", 3, "slip velocity of the aft face relative to the tip"),
     ("FT", 1, "thrust in use, N"),
     ("SPEED", 3, "contact-point speeds, m/s"),
-    ("STICK", 1, "stuck contact: |S| - mu N (> 0: friction cannot hold it any more); -1 otherwise"),
+    ("STICK", 1, "stuck contact: |S| - (mu N + c) (> 0: friction cannot hold it any more); -1 otherwise"),
     ("TIP_STICK", 1, "stuck tip: |F_EF| - F_T (e1.g1) tan(phi_EF); -1 otherwise"),
     ("STICK_F", 3, "static friction force on the block at the stuck contact"),
     ("TIP_F", 3, "static end friction force on the block at a stuck tip")])
@@ -327,7 +339,8 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
     """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
 
     Forces (paper section 3.3-3.4, ``docs/physics.md``): weight ``-W e2`` at the mass centre; at each
-    contact ``N_i n_i - N_i mu_i v_i/|v_i|`` (eq. 19-21); cases A/B: thrust ``F_T e1`` at the load point
+    contact ``N_i n_i - (N_i mu_i + c) v_i/|v_i|`` (eq. 19-21; ``c``: cohesion, ``P_COHESION``, a known force;
+    0 in the paper); cases A/B: thrust ``F_T e1`` at the load point
     ``P_L`` where the tip line meets the aft face (eq. 27-30), and end friction of magnitude
     ``F_T (e1.g1) tan(phi_EF)`` opposing the slip of the aft face relative to the tip (eq. 32-33 in
     continuous time); case C: ``F_T g1`` at the body-fixed ``P_CL``; plus any user force and moment.
@@ -415,6 +428,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
     mu = ws[W_MU, :3]
     speeds = ws[W_SPEEDS, :3]
     power_dir = ws[W_POWER, :3]  # d_j . v_j: dissipated power per unit friction force
+    coh = p[P_COHESION]
     for j in range(3):
         c0, c1, c2 = _cross(w[0], w[1], w[2], rho[j, 0], rho[j, 1], rho[j, 2])
         vj0, vj1, vj2 = v[0] + c0, v[1] + c1, v[2] + c2
@@ -429,6 +443,12 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
         if p[P_RATE_A] != 0.0:
             mu_j *= 1.0 + p[P_RATE_A] * math.log1p(sp / p[P_RATE_V0])
         mu[j] = mu_j
+        if coh != 0.0 and j != stuck:
+            # Cohesion: the constant part -c d_j of the sliding friction is a known force at P_j.
+            f0, f1, f2 = -coh * d0, -coh * d1, -coh * d2
+            fx[0] += f0; fx[1] += f1; fx[2] += f2
+            m0, m1, m2 = _cross(rho[j, 0], rho[j, 1], rho[j, 2], f0, f1, f2)
+            mx[0] += m0; mx[1] += m1; mx[2] += m2
         for k in range(3):
             cr[j, k] = p[P_N + 3 * j + k]
         fu[j, 0] = cr[j, 0] - mu_j * d0
@@ -500,6 +520,8 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
         aux[A_TIP_F + k] = 0.0
     if stuck >= 0:
         aux[A_STICK] = math.sqrt(x[i_stick] ** 2 + x[i_stick + 1] ** 2) - mu[stuck] * x[stuck]
+        if coh != 0.0:
+            aux[A_STICK] -= coh
         for k in range(3):
             aux[A_STICK_F + k] = x[i_stick] * fu[i_stick, k] + x[i_stick + 1] * fu[i_stick + 1, k]
     if tip_stuck:
@@ -523,6 +545,8 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
     dy[S_WLOAD] = p_load
     for j in range(3):
         dy[S_DC + j] = 0.0 if j == stuck else mu[j] * x[j] * power_dir[j]
+        if coh != 0.0 and j != stuck:
+            dy[S_DC + j] = (mu[j] * x[j] + coh) * power_dir[j]
     dy[S_DTIP] = p_tip
     dy[S_WOTHER] = p_other
 

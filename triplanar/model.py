@@ -60,13 +60,16 @@ class BlockState:
 @dataclass(frozen=True)
 class Model:
     """Everything a simulation needs. Build with :func:`paper_model` or directly; add effects with
-    :meth:`with_effects`."""
+    :meth:`with_effects`.
+
+    ``kernel_settings``: constants of the kernel's friction law that effects set (``Effect.kernel_settings``),
+    as sorted (name, value) pairs; an unset name takes its default from ``kernel.KERNEL_SETTINGS``.
+    """
 
     loading: Loading
     specimen: Specimen = field(default_factory=lambda: reference()[0])
     foundation: Foundation = field(default_factory=lambda: reference()[1])
-    rate_a: float = 0.0
-    rate_v0_m_s: float = 0.05
+    kernel_settings: tuple[tuple[str, float], ...] = ()  # (name, value) pairs, ``kernel.KERNEL_SETTINGS``
     effects: tuple[Effect, ...] = ()
 
     def with_force(self, force_N: float) -> Model:
@@ -77,8 +80,17 @@ class Model:
         """This model with each effect applied in turn (and recorded in ``effects``)."""
         model = self
         for effect in effects:
-            model = replace(effect.apply(model), effects=model.effects + (effect,))
+            changed = effect.apply(model)
+            settings = {**dict(changed.kernel_settings), **effect.kernel_settings()}
+            model = replace(changed, effects=model.effects + (effect,),
+                            kernel_settings=tuple(sorted((k, float(v)) for k, v in settings.items())))
         return model
+
+    def setting(self, name: str) -> float:
+        """A kernel-level setting's value: what an effect set, or its default."""
+        if name not in K.KERNEL_SETTINGS:
+            raise KeyError(f"no kernel setting {name!r} (known: {', '.join(K.KERNEL_SETTINGS)})")
+        return dict(self.kernel_settings).get(name, K.KERNEL_SETTINGS[name][1])
 
     @property
     def force_effects(self) -> tuple[Effect, ...]:
@@ -101,12 +113,17 @@ class Model:
             raise SpecimenError("loading.rise_time_s", f"must be >= 0, got {load.rise_time_s}")
         if not math.isfinite(load.tip_offset_m):
             raise SpecimenError("loading.tip_offset_m", "must be finite")
-        if self.rate_a != 0.0 and not self.rate_v0_m_s > 0:
-            raise SpecimenError("rate_v0_m_s", f"must be positive, got {self.rate_v0_m_s}")
-        # Tilted planes (plane_tilt) legitimately move the planes off the drawn contact points: the block is
-        # re-seated by initial_state(), so only then is a few millimetres allowed.
-        tilted = any(e.name == "plane_tilt" for e in self.effects)
-        s.validate(self.foundation, plane_tolerance_m=0.005 if tilted else PLANE_TOLERANCE_M)
+        for name, value in self.kernel_settings:
+            if name not in K.KERNEL_SETTINGS:
+                raise SpecimenError(f"kernel_settings.{name}", f"unknown (known: {', '.join(K.KERNEL_SETTINGS)})")
+            _, _, lower, upper = K.KERNEL_SETTINGS[name]
+            if not lower <= value <= upper:
+                raise SpecimenError(f"kernel_settings.{name}", f"must lie in [{lower}, {upper}], got {value}")
+        # An effect that moves the planes off the drawn contact points (tilted planes) says how far: the block
+        # is re-seated by initial_state(), so only then is more than the drawing's tolerance allowed.
+        tolerance = max([PLANE_TOLERANCE_M] + [e.plane_tolerance_m for e in self.effects
+                                               if e.plane_tolerance_m is not None])
+        s.validate(self.foundation, plane_tolerance_m=tolerance)
 
     # -- packing for the kernel --------------------------------------------------------------
     def kernel_params(self) -> np.ndarray:
@@ -128,8 +145,8 @@ class Model:
         p[K.P_TAU] = self.loading.rise_time_s
         p[K.P_PCL:K.P_PCL + 3] = (s.load_point_world - com) @ g
         p[K.P_TIP0:K.P_TIP0 + 3] = s.load_point_world
-        p[K.P_RATE_A] = self.rate_a
-        p[K.P_RATE_V0] = self.rate_v0_m_s
+        for name, (slot, _, _, _) in K.KERNEL_SETTINGS.items():
+            p[slot] = self.setting(name)
         p[K.P_USER] = 1.0 if self.force_effects else 0.0
         # Re-seated on tilted planes, a contact point that rests on a line where two planes meet may start
         # a hair across it; the plane-crossing events count only what lies beyond that start, up to

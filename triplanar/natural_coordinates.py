@@ -30,7 +30,8 @@ u.u = 1; u.d2 = 0; u.d3 = 0.  Equations of motion (eq. 39, no Baumgarte terms):
 where the generalized force of the plane multiplier lam_i is n_i in the P_i slot, i.e. a force
 lam_i n_i at CP i: lam_i = N_i, the normal reaction (eq. 18-20).  Coulomb friction
 S_i = -mu_i N_i v_i/|v_i| is proportional to lam_i, so (paper eq. 21-23, 35) its generalized force
-lam_i s_i, s_i = -mu_i v_i/|v_i| in the P_i slot, is moved into the matrix.  A force F at a body
+lam_i s_i, s_i = -mu_i v_i/|v_i| in the P_i slot, is moved into the matrix; a constant part c_i of the
+shear strength (mu_i N_i + c_i, the effects' contact law) stays in Q.  A force F at a body
 point with matrix C contributes C^T F to Q; a moment Mo contributes sum_k 1/2 G_k^T (Mo x g_k)
 (G_k: the matrices of g1, g2, g3; this is a statically equivalent couple of point forces).
 """
@@ -60,8 +61,10 @@ class ReferenceModel:
     B: float = 0.0
     tip_offset: float = 0.0        # u_tip: tip line passes through P0_CL + u_tip e3, direction e1
     tip_offset_rate: float = 0.0   # d(u_tip)/dt, m/s
-    rate_a: float = 0.0            # mu_i = tan_phi_i (1 + rate_a ln(1 + |v_i|/rate_v0))
-    rate_v0: float = 1e-3
+    # The contact friction law as the effects describe it: objects with contact_strength(mu, c, speed)
+    # -> (mu, c) (triplanar.effects.Effect; pass the model's effects), applied in turn from (tan_phi_i, 0).
+    # A sliding contact resists with mu_i N_i + c_i.
+    contact_laws: tuple = ()
     gravity: float = 9.81          # along -e2
 
 
@@ -163,12 +166,17 @@ def _solve(model: ReferenceModel, k: dict, q: np.ndarray, qd: np.ndarray, dirs: 
             Q += C_L.T @ f_ef
     else:
         raise ValueError(f"unknown load_case {model.load_case!r}")
-    # Coulomb friction: lam_i * s_i with s_i = -mu_i v_i/|v_i| in the P_i slot (eq. 21-23, 35).
+    # Coulomb friction: lam_i * s_i with s_i = -mu_i v_i/|v_i| in the P_i slot (eq. 21-23, 35); a constant
+    # part c_i of the contact's shear strength (the effects' contact law) is an applied force -c_i v_i/|v_i|.
     S = np.zeros((12, 9))
     for i in range(3):
-        speed = np.linalg.norm(V[i])
-        mu = k["tan_phi"][i] * (1.0 + model.rate_a * np.log1p(speed / model.rate_v0))
-        S[3 * i:3 * i + 3, i] = -mu * _unit_or(V[i], dirs[i])
+        speed = float(np.linalg.norm(V[i]))
+        mu, c = float(k["tan_phi"][i]), 0.0
+        for law in model.contact_laws:
+            mu, c = law.contact_strength(mu, c, speed)
+        d = _unit_or(V[i], dirs[i])
+        S[3 * i:3 * i + 3, i] = -mu * d
+        Q[3 * i:3 * i + 3] -= c * d
     A = np.block([[k["M"], -(J.T + S)], [J, np.zeros((9, 9))]])
     sol = np.linalg.solve(A, np.concatenate([Q, gamma]))
     return sol[:12], sol[12:]

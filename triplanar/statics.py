@@ -4,8 +4,8 @@ Coulomb friction at rest is a range, not a value, so neither question is answere
 side alone:
 
 * :func:`holds` asks whether *some* static equilibrium exists: normal reactions ``N_i >= 0`` and friction
-  forces inside their cones (``|S_i| <= N_i tan(phi_i)`` at each contact, ``|F_EF| <= F_T (e1.g1)
-  tan(phi_EF)`` at the tip) that balance the weight and the load, forces and moments. The cones are
+  forces inside their cones (``|S_i| <= N_i tan(phi_i) + c`` at each contact, ``c`` the cohesion of the
+  ``cohesion`` effect, 0 by default; ``|F_EF| <= F_T (e1.g1) tan(phi_EF)`` at the tip) that balance the weight and the load, forces and moments. The cones are
   replaced by inscribed 64-gons, a linear program: "holds" is then certain, and a load that the exact
   circles would hold is at most 0.12 % of the friction force away from being called so. The LP is solved
   in compiled code (:mod:`triplanar.equilibrium`: the cones by their generators, a small simplex; tens of

@@ -178,10 +178,9 @@ class Diagnoser:
         tests = list(tests)
         if not tests:
             raise ValueError("diagnose needs at least one measured test")
-        friction = base.specimen.friction_deg if base.specimen is not None else (17.0, 14.0, 11.0)
         refit = {k: dict(v) for k, v in (refit or {}).items()}
-        refit_cands = tuple(resolve(list(refit), friction_deg=friction))
-        cands = resolve(self.candidates, exclude=(*base.effect_names, *refit), friction_deg=friction)
+        refit_cands = tuple(resolve(list(refit), specimen=base.specimen))
+        cands = resolve(self.candidates, exclude=(*base.effect_names, *refit), specimen=base.specimen)
         if not cands:
             raise ValueError("no candidate effects to try (all are already in the model)")
         self.user_base_ = base

@@ -294,8 +294,7 @@ class EffectFit:
         self.max_nfev = max_nfev
 
     def _candidates(self) -> list[Candidate]:
-        friction = (self.base.specimen.friction_deg if self.base.specimen is not None else (17.0, 14.0, 11.0))
-        cands = resolve(self.add, friction_deg=friction)
+        cands = resolve(self.add, specimen=self.base.specimen)
         names = [c.effect for c in cands]
         duplicate = {n for n in names if names.count(n) > 1} | (set(names) & set(self.base.effect_names))
         if duplicate:
