@@ -140,10 +140,11 @@ def test_stuck_contact_gives_way_at_mu_n_plus_c() -> None:
     model = paper_model("B", 23.0, effects=[make_effect("cohesion:c_N=0.8")])
     y = model.initial_state()
     p = model.kernel_params()
-    p[K.P_STUCK] = 2
-    p[K.P_D0:K.P_D0 + 9] = np.tile([1.0, 0.0, 0.0], 3)
+    modes = K.sliding_modes()
+    modes[K.M_STUCK] = 2
+    modes[K.M_D0:K.M_D0 + 9] = np.tile([1.0, 0.0, 0.0], 3)
     dy, aux = np.empty(K.N_STATE), np.empty(K.N_AUX)
-    assert K.rhs(0.0, y, p, dy, aux)
+    assert K.rhs(0.0, y, p, modes, dy, aux)
     static = np.linalg.norm(aux[K.A_STICK_F:K.A_STICK_F + 3])
     limit = p[K.P_TANPHI + 2] * aux[K.A_N + 2] + 0.8
     assert aux[K.A_STICK] == pytest.approx(static - limit, abs=1e-12)
