@@ -86,8 +86,9 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
         while True:
             out_t, out_y = np.empty(rows), np.empty((rows, K.N_STATE))
             out_aux = np.empty((rows, K.N_AUX))
-            n, code, event, h, t = stepping.integrate(METHODS[method], t, y, p, h, rtol, atol, t_max_s,
-                                                      x1_target, SLOW_SPEED_M_S, armed, out_t, out_y, out_aux, True)
+            n, code, event, h, t = stepping.integrate_ws(METHODS[method], t, y, p, h, rtol, atol, t_max_s, x1_target,
+                                                         SLOW_SPEED_M_S, armed, out_t, out_y, out_aux, True,
+                                                         K.new_workspace())
             skip = 1 if t_chunks else 0  # each chunk starts with the previous chunk's last row
             t_chunks.append(out_t[skip:n]); y_chunks.append(out_y[skip:n]); a_chunks.append(out_aux[skip:n])
             if code == stepping.ST_BUFFER_FULL and sum(len(c) for c in t_chunks) < max_rows:
@@ -118,7 +119,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
 
 def _held(model: Model, y0: np.ndarray, method: str, message: str) -> SimulationResult:
     aux = np.zeros(K.N_AUX)
-    K.dynamics(0.0, y0, model.kernel_params_cached.copy(), np.empty(K.N_STATE), aux)
+    K.dynamics_ws(0.0, y0, model.kernel_params_cached.copy(), np.empty(K.N_STATE), aux, K.new_workspace())
     return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), aux=aux[None, :], status="held", message=message,
                             model=model, method=method, t_start_s=math.inf, travel_target_m=0.0,
                             incipient_converged=True, incipient_consistency=1.0)
