@@ -67,7 +67,9 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new
             y_new[i] = y[i] + h * k[0, i]
         return True
     if method == METHOD_RK4:
-        k1, k2, k3, k4 = k[0], k[1], k[2], k[3]
+        # (rows of ws, not of k: k's rows are not contiguous to numba, and rhs_ws would compile twice)
+        k1, k2 = ws[W_STAGES, :N_STATE], ws[W_STAGES + 1, :N_STATE]
+        k3, k4 = ws[W_STAGES + 2, :N_STATE], ws[W_STAGES + 3, :N_STATE]
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k1[i]
         if not rhs_ws(t + 0.5 * h, tmp, p, k2, aux, ws):
@@ -89,7 +91,7 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new
             for j in range(s):
                 acc += _A[s, j] * k[j, i]
             tmp[i] = y[i] + h * acc
-        if not rhs_ws(t + _C[s] * h, tmp, p, k[s], aux, ws):
+        if not rhs_ws(t + _C[s] * h, tmp, p, ws[W_STAGES + s, :N_STATE], aux, ws):
             return False
     for i in range(n):
         y_new[i] = tmp[i]  # stage 7 is the 5th-order solution (FSAL)
