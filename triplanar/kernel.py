@@ -656,7 +656,8 @@ def project_ws(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> bool:
         if worst < 1e-13:
             break
         _constraint_rows(y, p, jr, jth, target, ws)
-        if not _mass_weighted_correction(y, p, 3, jr, jth, resid, dr, dth, ws):
+        # (np.int64(3), not a literal 3, which numba would compile a second version of the function for)
+        if not _mass_weighted_correction(y, p, np.int64(3), jr, jth, resid, dr, dth, ws):
             return False
         for k in range(3):
             y[S_R + k] += dr[k]
