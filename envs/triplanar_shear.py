@@ -323,13 +323,16 @@ def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
     balance is off by more than ``energy_tol_J`` (a slow slip whose direction turns too fast for the step, or a plain
     RK4 error near a stop), the stretch is redone with the kernel's adaptive DOPRI5 at the tolerances
     FALLBACK_RTOLS in turn, until the balance holds. Returns the kernel's status."""
-    out_t = ws[K.W_YHI, :1]  # (nothing is recorded)
-    out_y = ws[K.W_YHI:K.W_YHI + 1, :K.N_STATE]
-    out_aux = ws[K.W_AUXHI:K.W_AUXHI + 1, :K.N_AUX]
+    # (nothing is recorded; whole rows and a non-literal False give the very signature simulate compiles, so the
+    # kernel's integrate_ws is compiled once, not twice)
+    out_t = ws[K.W_YHI, :1]
+    out_y = ws[K.W_YHI:K.W_YHI + 1]
+    out_aux = ws[K.W_AUXHI:K.W_AUXHI + 1]
+    record = np.bool_(False)
     y0, p0, armed0, t0 = y.copy(), p.copy(), armed.copy(), st[ST_T]
     rows, status, event, h, t = stepping.integrate_ws(stepping.METHOD_RK4, t0, y, p, cfg[CF_H], 0.0, 0.0, t_end,
                                                       st[ST_X1_TARGET], cfg[CF_SLOW], armed, out_t, out_y, out_aux,
-                                                      False, ws)
+                                                      record, ws)
     for rtol in FALLBACK_RTOLS:
         if cfg[CF_ENERGY_TOL] <= 0.0 or abs(_energy_defect(y0, y, p, ws)) <= cfg[CF_ENERGY_TOL]:
             break
@@ -338,7 +341,7 @@ def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
         armed[:] = armed0
         rows, status, event, h, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, cfg[CF_H], rtol,
                                                           1e-3 * rtol, t_end, st[ST_X1_TARGET], cfg[CF_SLOW],
-                                                          armed, out_t, out_y, out_aux, False, ws)
+                                                          armed, out_t, out_y, out_aux, record, ws)
         inf[IN_FALLBACK] += 1.0
     st[ST_T] = t
     return status
