@@ -13,7 +13,7 @@ from pathlib import Path
 
 from gymnasium.envs.registration import register, registry
 
-from triplanar.compiled_cache import drop_if_stale
+from triplanar.compiled_cache import drop_if_stale, numba_cache_dir
 
 
 def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | None = None) -> bool:
@@ -24,7 +24,7 @@ def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | N
         from triplanar import equilibrium, kernel, stepping  # importing compiles nothing
         sources = [Path(module.__file__) for module in (kernel, stepping, equilibrium)]
         sources.append(Path(__file__).parent / "triplanar_shear.py")
-    cache = cache if cache is not None else Path(__file__).parent / "__pycache__"
+    cache = cache if cache is not None else numba_cache_dir(Path(__file__).parent / "triplanar_shear.py")
     return drop_if_stale(cache, "*.nb[ic]", sources, "kernel.sha256")
 
 

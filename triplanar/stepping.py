@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from . import kernel as K
-from .compiled_cache import drop_if_stale
+from .compiled_cache import drop_if_stale, numba_cache_dir
 from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_STICK, EV_RELEASE, EV_SLOW, EV_STOP,
                      EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS, N_STATE, P_C, P_CASE, P_D0, P_STUCK, P_TANEF,
                      P_TIP_STUCK, SLIP_BLEND, S_DC, S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD, W_AUX, W_AUXHI, W_AUXMODE,
@@ -28,7 +28,7 @@ from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_
                      W_TMP2, W_YHI, W_YNEW, ZERO_SPEED, _cross, _rotate, event_values_ws, kinetic_energy_ws,
                      new_workspace, project_ws, quat_to_matrix, rhs_ws)
 
-drop_if_stale(Path(__file__).parent / "__pycache__", "stepping.*.nb[ic]", [Path(K.__file__)], "stepping.kernel.sha256")
+drop_if_stale(numba_cache_dir(__file__), "stepping.*.nb[ic]", [Path(K.__file__)], "stepping.kernel.sha256")
 
 MAX_MISSED_STOPS = 8  # predicted stops of one site in a row that may miss before a full step is taken
 
