@@ -338,7 +338,7 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.nda
     return best, best_tau
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _step_to_stop(method, t, y, h, h_max, p, site, slow_speed, y_new, err, aux_new, ws: np.ndarray) -> float:
     """Step to where the slip of ``site`` along its initial direction d (``ws[W_SITE_D]``) reaches zero, from
     the guess ``h`` (at most ``h_max``): the secant method on u(h) = v(t + h) . d, which (unlike the speed) is
@@ -448,7 +448,7 @@ def _status_of(event: int) -> int:
     return ST_RELEASE
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux,
             ws: np.ndarray) -> float:
     """Step length in (0, h] at which event ``which`` crosses zero; fills y_new/aux there. -1 on failure."""
