@@ -280,7 +280,7 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
 
 # -- the compiled control step (shared by the single and the vector env) -------------------------------
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _apply_action(y, p, st, action, cfg, ws) -> None:
     """Thrust and stage velocity for this control period; stuck sites that can no longer stick are released."""
     a0 = min(max(action[0], -1.0), 1.0)
@@ -317,7 +317,7 @@ def _energy_defect(y0, y1, p, ws) -> float:
     return work - (K.kinetic_energy_ws(y1, p, ws) - K.kinetic_energy_ws(y0, p, ws)) - potential - dissipated
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
     """Fixed RK4 steps to ``t_end`` or an event (the kernel steps to each predicted stop of a slip). If the energy
     balance is off by more than ``energy_tol_J`` (a slow slip whose direction turns too fast for the step, or a plain
@@ -347,7 +347,7 @@ def _integrate_checked(y, p, armed, st, cfg, inf, t_end, ws) -> int:
     return status
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _advance(y, p, armed, st, cfg, inf, ws) -> int:
     """Integrate to the end of the control period or an outcome. When every contact has nearly stopped, the
     statics decide (:func:`triplanar.equilibrium.holds`, the exact LP at the current pose, thrust and tip offset):
