@@ -24,9 +24,9 @@ from pathlib import Path
 from typing import Iterable
 
 PACKAGES = ("triplanar", "envs", "agents", "experiments")  # whose compiled functions the notice is about
-COMPILE_SECONDS = 60  # simulate, env and vector env from an empty cache on one quiet core (docs/performance.md)
-NOTICE = (f"triplanar: compiling the physics kernels, once (about {COMPILE_SECONDS} s; numba keeps them in its "
-          "cache for later runs, and `make install` or `python -m triplanar.warmup` compiles them ahead)...")
+COMPILE_SECONDS = 40  # simulate, env and vector env from an empty cache, one core (docs/performance.md)
+NOTICE = (f"triplanar: compiling the physics kernels, once (up to about {COMPILE_SECONDS} s; later runs load them "
+          "from numba's cache, and `make install` or `python -m triplanar.warmup` compiles them ahead)...")
 
 
 def numba_cache_dir(source: str | Path) -> Path | None:

@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     warm_physics()
     envs_done = False if args.physics_only else warm_envs()
     what = "physics and environment kernels" if envs_done else "physics kernels"
-    print(f"triplanar: {what} compiled and cached ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+    print(f"triplanar: {what} ready in numba's cache ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
     return 0
 
 
