@@ -80,9 +80,12 @@ def test_drop_if_stale_does_nothing_without_a_cache(tmp_path) -> None:
 def test_after_the_warmup_nothing_compiles(tmp_path) -> None:
     """``make install`` runs the warm-up: then the first trace, env step and vector-env step compile nothing."""
     _run("import sys; from triplanar.warmup import main; sys.exit(main())", NUMBA_CACHE_DIR=str(tmp_path))
-    code = ("import numpy as np, gymnasium as gym, envs; from triplanar import paper_model, simulate; "
+    code = ("import numpy as np, gymnasium as gym, envs; from triplanar import Effect, paper_model, simulate; "
             "simulate(paper_model('B', 40.0)); e = gym.make('TriPlanarShear-v0'); e.reset(seed=1); "
             "e.step(np.ones(2, np.float32)); v = gym.make_vec('TriPlanarShear-v0', num_envs=3); v.reset(seed=2); "
-            "v.step(np.ones((3, 2), np.float32))")
+            "v.step(np.ones((3, 2), np.float32))\n"
+            "class Drag(Effect):\n    name, parameters = 'drag', {}\n"
+            "    def wrench(self, t, state): return -2.0 * state.velocity, np.zeros(3)\n"
+            "simulate(paper_model('A', 40.0, effects=[Drag()]))  # a user force: an object-mode block, not cached")
     out = _run(code, NUMBA_CACHE_DIR=str(tmp_path))
     assert NOTICE not in out.stderr

@@ -80,7 +80,7 @@ def announce_compilation() -> None:
     global _announcer
     if _announcer is not None:
         return
-    from numba.core import event
+    from numba.core import event, types
 
     class _Announcer(event.Listener):
         said = False
@@ -88,9 +88,13 @@ def announce_compilation() -> None:
         def on_start(self, ev: event.Event) -> None:
             if self.said:
                 return
-            func = getattr(ev.data.get("dispatcher"), "py_func", None) if isinstance(ev.data, dict) else None
+            data = ev.data if isinstance(ev.data, dict) else {}
+            func = getattr(data.get("dispatcher"), "py_func", None)
             module = getattr(func, "__module__", None) or ""
-            if module.split(".")[0] in PACKAGES:
+            # (an object-mode block, such as the kernel's call of user forces, is compiled in every process and
+            # quickly: numba cannot cache it)
+            object_mode = any(a in (types.ffi_forced_object, types.pyobject) for a in data.get("args", ()))
+            if module.split(".")[0] in PACKAGES and not object_mode:
                 self.said = True
                 print(NOTICE, file=sys.stderr, flush=True)
 
