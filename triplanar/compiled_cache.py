@@ -42,10 +42,11 @@ def numba_cache_dir(source: str | Path) -> Path | None:
 
     probe.__code__ = probe.__code__.replace(co_filename=str(source))
     try:
-        cache = FunctionCache(probe)
+        return Path(FunctionCache(probe).cache_path)
     except RuntimeError:  # "no locator available": nowhere writable
         return None
-    return Path(cache._cache_path)
+    except Exception:  # numba changed its internals: assume the usual place
+        return Path(source).parent / "__pycache__"
 
 
 def drop_if_stale(cache: Path | None, pattern: str, sources: Iterable[Path], stamp_name: str) -> bool:
