@@ -42,7 +42,7 @@ def _kernel_periods(y0, p, n, x1_target):
     for i in range(n):
         y[:] = y0
         stepping.integrate_ws(stepping.METHOD_RK4, 0.005, y, p, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed,
-                              out_t, out_y, out_aux, False, ws)
+                              out_t, out_y, out_aux, np.bool_(False), ws)  # (as the env: no extra compile)
 
 
 def best_of(repeats: int, fn) -> float:
