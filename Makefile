@@ -1,23 +1,28 @@
-# `make test` and `make demo` each create .venv when it is missing and install the pinned set.
+# `make install` creates .venv when it is missing, installs the pinned set (again only when pyproject.toml or
+# constraints.txt change) and compiles every numba kernel into numba's cache, so that no command compiles on its
+# first run (with a warm cache the warm-up only loads them: a few seconds). `make test` and `make demo` run it first.
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: test demo bench clean
+.PHONY: install test demo bench clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet -c constraints.txt -e ".[rl,dev]"
 	touch $(STAMP)
 
-test: $(STAMP)
+install: $(STAMP)
+	$(PY) -m triplanar.warmup
+
+test: install
 	$(PY) -m pytest -q
 
-demo: $(STAMP)
+demo: install
 	$(PY) -m triplanar.cli demo --out out/demo
 
-bench: $(STAMP)
+bench: install
 	$(PY) benchmarks/bench_core.py
 
 clean:

@@ -13,7 +13,7 @@ from pathlib import Path
 
 from gymnasium.envs.registration import register, registry
 
-from triplanar.compiled_cache import drop_if_stale
+from triplanar.compiled_cache import drop_if_stale, numba_cache_dir
 
 
 def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | None = None) -> bool:
@@ -21,10 +21,10 @@ def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | N
     vector env's loop has the single env's step built in: drop this package's numba cache whenever any of them changes
     (:func:`triplanar.compiled_cache.drop_if_stale`; returns True if it did)."""
     if sources is None:
-        from triplanar import driver, equilibrium, kernel, outcome, stepping  # importing compiles nothing
-        sources = [Path(module.__file__) for module in (kernel, stepping, equilibrium, driver, outcome)]
+        from triplanar import driver, equilibrium, kernel, layout, outcome, stepping  # importing compiles nothing
+        sources = [Path(module.__file__) for module in (kernel, stepping, equilibrium, driver, outcome, layout)]
         sources.append(Path(__file__).parent / "triplanar_shear.py")
-    cache = cache if cache is not None else Path(__file__).parent / "__pycache__"
+    cache = cache if cache is not None else numba_cache_dir(Path(__file__).parent / "triplanar_shear.py")
     return drop_if_stale(cache, "*.nb[ic]", sources, "kernel.sha256")
 
 

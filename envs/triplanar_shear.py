@@ -367,9 +367,8 @@ WORKSPACE = Layout("W_", "N_WS_ROWS", [
     ("PCL", 1, "3-vector: P_CL's arm from the mass centre"),
     ("AUX", 1, "aux vector of the right-hand side at the period's start"),
     ("DY", 1, "its derivative (unused)"),
-    ("NO_T", 1, "empty recording buffers (a control period records nothing)"),
-    ("NO_Y", 1, "(state)"),
-    ("NO_AUX", 1, "(aux)")], start=stepping.N_WS_ROWS)
+    ("NO_T", 1, "recording buffers that stay unused (a control period records nothing)"),
+    ("NO_Y", 1, "(rows)")], start=stepping.N_WS_ROWS)
 WORKSPACE.export(globals())
 
 
@@ -379,7 +378,7 @@ def new_workspace() -> np.ndarray:
     return K.allocate_workspace(N_WS_ROWS)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _apply_action(y, p, modes, st, action, cfg, ws) -> None:
     """Thrust and stage velocity for this control period; stuck sites that can no longer stick are released."""
     a0 = min(max(action[0], -1.0), 1.0)
@@ -405,7 +404,7 @@ def _apply_action(y, p, modes, st, action, cfg, ws) -> None:
             stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, modes, ws)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _advance(y, p, modes, armed, st, cfg, inf, ws) -> int:
     """Integrate to the end of the control period or an outcome with the project's one driver
     (:func:`triplanar.driver.drive`: fixed RK4 steps, redone with DOPRI5 where the energy balance is off by more than
@@ -413,12 +412,13 @@ def _advance(y, p, modes, armed, st, cfg, inf, ws) -> int:
     outcome, ``RUNNING`` when the period ended with the block still moving."""
     count = ws[K.W_COUNT]
     redone = count[K.C_NREDO]
-    outcome, _, _, _, t = driver.drive(stepping.METHOD_RK4, st[ST_T], y, p, modes, armed, cfg[CF_H], 0.0, 0.0,
-                                       (st[ST_STEP] + 1.0) * cfg[CF_DT], st[ST_X1_TARGET], cfg[CF_SLOW],
-                                       cfg[CF_ENERGY_TOL], ws[W_NO_T, :1], ws[W_NO_Y:W_NO_Y + 1, :K.N_STATE],
-                                       ws[W_NO_Y:W_NO_Y + 1, :K.N_STATE],
-                                       ws[W_NO_AUX:W_NO_AUX + 1, :K.N_AUX], False, 0, ws[W_NO_T:W_NO_T, :3],
-                                       ws)
+    # Nothing is recorded. Whole workspace rows as the buffers and non-literal arguments give the very signature
+    # simulate compiles, so the driver and everything below it are compiled once, not twice.
+    no_t, no_rows = ws[W_NO_T, :1], ws[W_NO_Y:W_NO_Y + 1]
+    outcome, _, _, _, t = driver.drive(np.int64(stepping.METHOD_RK4), st[ST_T], y, p, modes, armed, cfg[CF_H], 0.0,
+                                       0.0, (st[ST_STEP] + 1.0) * cfg[CF_DT], st[ST_X1_TARGET], cfg[CF_SLOW],
+                                       cfg[CF_ENERGY_TOL], no_t, no_rows, no_rows, no_rows, np.bool_(False),
+                                       np.int64(0), ws[W_NO_T:W_NO_T], ws)
     st[ST_T] = t
     inf[IN_FALLBACK] = count[K.C_NREDO] - redone
     return RUNNING if outcome == TIME_LIMIT else outcome

@@ -7,6 +7,7 @@ Quick use::
     print(result.status, result.message, result.summary())
 """
 
+from .compiled_cache import announce_compilation
 from .effects import Effect, EffectError, Parameter, REGISTRY as EFFECTS, make_effect, register
 from .measurement import MeasuredTest, MeasurementError, read_measurements, write_measurements
 from .model import Loading, Model, paper_model
@@ -14,6 +15,8 @@ from .result import SimulationResult
 from .simulate import simulate
 from .specimen import (Foundation, Plane, Specimen, SpecimenError, load_toml, reference, scale_mass, scale_size,
                        scale_uniform)
+
+announce_compilation()  # (importing compiles nothing; a cold numba cache says so on stderr before it compiles)
 
 try:
     from importlib.metadata import version as _version

@@ -26,12 +26,13 @@ from numba import njit
 from . import equilibrium as E
 from . import kernel as K
 from . import stepping
-from .compiled_cache import drop_if_stale
+from .compiled_cache import drop_if_stale, numba_cache_dir
 from .kernel import C_NLOG, C_NLP, C_NREDO, C_NSTART, P_EXTF, P_EXTM, P_USER, S_V, W_COUNT
 from .outcome import ARRESTED, SLOW
 
-drop_if_stale(Path(__file__).parent / "__pycache__", "driver.*.nb[ic]",
-              [Path(module.__file__) for module in (K, stepping, E)] + [Path(__file__).parent / "outcome.py"],
+drop_if_stale(numba_cache_dir(__file__), "driver.*.nb[ic]",
+              [Path(module.__file__) for module in (K, stepping, E)]
+              + [Path(__file__).parent / name for name in ("outcome.py", "layout.py")],
               "driver.sources.sha256")
 
 # DOPRI5 tolerances (rtol; atol = rtol / 1000) of a redo, tried in turn until the energy balance holds; the last is
@@ -51,7 +52,7 @@ def energy_defect(y0: np.ndarray, y1: np.ndarray, p: np.ndarray, ws: np.ndarray)
     return work - (K.kinetic_energy_ws(y1, p, ws) - K.kinetic_energy_ws(y0, p, ws)) - potential - dissipated
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _integrate_checked(method, t0, y, p, modes, armed, h, rtol, atol, t_end, x1_target, slow_speed, energy_tol, out_t,
                        out_y, out_dy, out_aux, record, row0, log, ws):
     """:func:`triplanar.stepping.integrate_ws`, redone with DOPRI5 while the energy balance is off (see the module

@@ -50,7 +50,7 @@ import numpy as np
 from numba import njit
 
 from . import kernel as K
-from .compiled_cache import drop_if_stale
+from .compiled_cache import drop_if_stale, numba_cache_dir
 from .kernel import (P_C, P_CASE, P_COHESION, P_G, P_MASS, P_N, P_TANEF, P_TANPHI, S_Q, S_R, contact_points,
                      load_arm, quat_to_matrix, tangent_basis)
 
@@ -65,8 +65,8 @@ PIVOT_TOL = 1e-9         # smallest usable pivot in a row-equilibrated tableau (
 OPTIMALITY_TOL = 1e-10   # reduced costs, relative to the largest cost of the phase
 FEASIBILITY_TOL = 1e-9   # phase-1 residual, relative to max(1, largest |b| of the equilibrated rows)
 
-drop_if_stale(Path(__file__).parent / "__pycache__", "equilibrium.*.nb[ic]", [Path(K.__file__)],
-              "equilibrium.kernel.sha256")
+drop_if_stale(numba_cache_dir(__file__), "equilibrium.*.nb[ic]",
+              [Path(K.__file__), Path(K.__file__).parent / "layout.py"], "equilibrium.kernel.sha256")
 
 
 # -- a small dense simplex ------------------------------------------------------------------------

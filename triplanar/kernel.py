@@ -20,11 +20,18 @@ dissipation at the tip, work of user forces. Parameters ``p`` (``N_PARAM`` float
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 from numba import njit, objmode
 
+from .compiled_cache import drop_if_stale, numba_cache_dir
 from .layout import Layout
+
+# The offsets below are computed by triplanar/layout.py, and numba keys the cache of this file's functions on this
+# file only: drop it when the layout code changes.
+drop_if_stale(numba_cache_dir(__file__), "kernel.*.nb[ic]", [Path(__file__).parent / "layout.py"],
+              "kernel.layout.sha256")
 
 # Compiled with error_model="numpy": a division by zero gives inf/nan (the solvers' isfinite checks catch it) instead
 # of raising, which saves a branch per division, ~15 % of a control period; results are bitwise the same.
@@ -726,7 +733,8 @@ def project_ws(y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) 
         if worst < 1e-13:
             break
         _constraint_rows(y, p, modes, jr, jth, target, ws)
-        if not _mass_weighted_correction(y, p, 3, jr, jth, resid, dr, dth, ws):
+        # (np.int64(3), not a literal 3, which numba would compile a second version of the function for)
+        if not _mass_weighted_correction(y, p, np.int64(3), jr, jth, resid, dr, dth, ws):
             return False
         for k in range(3):
             y[S_R + k] += dr[k]

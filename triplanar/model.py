@@ -153,11 +153,13 @@ class Model:
         # SEAT_TOLERANCE_M. Deeper than that the tilted planes put the point under another plane (it would
         # rest on that one): the run ends at t = 0 with ``left_plane``, honestly.
         y = self._unseated_state(self.loading.force_N)
-        modes = K.sliding_modes()
-        if K.project(y, p, modes):
+        # (the *_ws functions, called with a workspace: their wrappers without one would be compiled too, each with
+        # all it calls built in again)
+        modes, ws = K.sliding_modes(), K.new_workspace()
+        if K.project_ws(y, p, modes, ws):
             aux, events = np.empty(K.N_AUX), np.empty(K.N_EVENTS)
-            K.dynamics(0.0, y, p, modes, np.empty(K.N_STATE), aux)
-            K.event_values(y, p, modes, aux, 0.0, 0.0, events)
+            K.dynamics_ws(0.0, y, p, modes, np.empty(K.N_STATE), aux, ws)
+            K.event_values_ws(y, p, modes, aux, 0.0, 0.0, events, ws)
             crossed = events[K.EV_LEFT_PLANE:K.EV_LEFT_PLANE + 6]
             p[K.P_LEFT0:K.P_LEFT0 + 6] = np.clip(crossed + K.LEFT_PLANE_TOL, 0.0, SEAT_TOLERANCE_M)
         return p
@@ -174,8 +176,8 @@ class Model:
     def initial_state(self, thrust_N: float | None = None) -> np.ndarray:
         """The block at rest, seated on the planes; actuator force ``thrust_N`` (default: the command)."""
         y = self._unseated_state(self.loading.force_N if thrust_N is None else thrust_N)
-        p = self.kernel_params_cached
-        if not K.project(y, p, K.sliding_modes()):
+        p = self.kernel_params_cached.copy()  # (writable, as everywhere: numba compiles a version per array flag)
+        if not K.project_ws(y, p, K.sliding_modes(), K.new_workspace()):
             raise SpecimenError("foundation.planes", "the block cannot be seated on these planes")
         return y
 
@@ -184,7 +186,7 @@ class Model:
         rot = np.empty((3, 3))
         K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], rot)
         cps = np.empty((3, 3))
-        K.contact_points(y, self.kernel_params_cached, cps)
+        K.contact_points(y, self.kernel_params_cached.copy(), cps)
         v, w = y[K.S_V:K.S_V + 3].copy(), y[K.S_W:K.S_W + 3].copy()
         r = y[K.S_R:K.S_R + 3].copy()
         cpv = v + np.cross(w, cps - r)

@@ -116,7 +116,8 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
 
 def _held(model: Model, y0: np.ndarray, method: str, message: str) -> SimulationResult:
     aux = np.zeros(K.N_AUX)
-    K.dynamics(0.0, y0, model.kernel_params_cached.copy(), K.sliding_modes(), np.empty(K.N_STATE), aux)
+    K.dynamics_ws(0.0, y0, model.kernel_params_cached.copy(), K.sliding_modes(), np.empty(K.N_STATE), aux,
+                  K.new_workspace())
     return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), dydt=np.zeros((1, K.N_STATE)), aux=aux[None, :],
                             status=Outcome.HELD.label, message=message, model=model, method=method,
                             t_start_s=math.inf, travel_target_m=0.0, incipient_converged=True,

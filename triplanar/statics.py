@@ -40,6 +40,12 @@ def _external_wrench(model: Model, y: np.ndarray, t: float) -> tuple[np.ndarray,
     return extra_f, extra_m
 
 
+def _params(model: Model) -> np.ndarray:
+    """The model's kernel parameters, writable: numba compiles a second version of everything it calls for a
+    read-only array (``Model.kernel_params_cached`` is one)."""
+    return model.kernel_params_cached.copy()
+
+
 def holds(model: Model, y: np.ndarray, thrust_N: float | None = None, t: float = 0.0) -> bool:
     """True when a static equilibrium with friction inside its cones exists at pose ``y``.
 
@@ -48,7 +54,7 @@ def holds(model: Model, y: np.ndarray, thrust_N: float | None = None, t: float =
     thrust = model.loading.force_N if thrust_N is None else float(thrust_N)
     y = np.ascontiguousarray(y, dtype=np.float64)
     extra_f, extra_m = _external_wrench(model, y, t)
-    return bool(E.holds(y, model.kernel_params_cached, thrust, extra_f, extra_m))
+    return bool(E.holds(y, _params(model), thrust, extra_f, extra_m))
 
 
 def sliding_threshold(model: Model, y: np.ndarray | None = None, upper_N: float | None = None,
@@ -62,7 +68,7 @@ def sliding_threshold(model: Model, y: np.ndarray | None = None, upper_N: float 
     y = model.initial_state() if y is None else np.ascontiguousarray(y, dtype=np.float64)
     upper = upper_N if upper_N is not None else 5.0 * model.specimen.weight_N
     extra_f, extra_m = _external_wrench(model, y, t)
-    return float(E.max_thrust(y, model.kernel_params_cached, float(upper), extra_f, extra_m))
+    return float(E.max_thrust(y, _params(model), float(upper), extra_f, extra_m))
 
 
 def incipient_directions(p: np.ndarray, modes: np.ndarray, y: np.ndarray, t: float = 0.0,

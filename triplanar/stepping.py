@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 from . import kernel as K
-from .compiled_cache import drop_if_stale
+from .compiled_cache import drop_if_stale, numba_cache_dir
 from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_STICK, C_NEVENT, C_NLOG, C_NREJECT,
                      C_NSTEP, EV_RELEASE, EV_SLOW, EV_STOP, EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS,
                      N_KERNEL_WS_ROWS, N_STATE, M_D0, M_STUCK, M_TIP_STUCK, P_C, P_CASE, P_TANEF, SLIP_BLEND, S_DC,
@@ -30,8 +30,9 @@ from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_
 from .layout import Layout
 from .outcome import BUFFER_FULL, EVENT_OUTCOME, FAILED, RELEASED, RUNNING, SLOW, STOPPED, TIME_LIMIT
 
-drop_if_stale(Path(__file__).parent / "__pycache__", "stepping.*.nb[ic]",
-              [Path(K.__file__), Path(K.__file__).parent / "outcome.py"], "stepping.kernel.sha256")
+drop_if_stale(numba_cache_dir(__file__), "stepping.*.nb[ic]",
+              [Path(K.__file__), Path(K.__file__).parent / "outcome.py", Path(K.__file__).parent / "layout.py"],
+              "stepping.kernel.sha256")
 
 # This module's scratch rows, after the kernel's (see the note on scratch memory in triplanar.kernel).
 WORKSPACE = Layout("W_", "N_WS_ROWS", [
@@ -87,7 +88,9 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, modes
             y_new[i] = y[i] + h * k[0, i]
         return True
     if method == METHOD_RK4:
-        k1, k2, k3, k4 = k[0], k[1], k[2], k[3]
+        # (rows of ws, not of k: k's rows are not contiguous to numba, and rhs_ws would compile twice)
+        k1, k2 = ws[W_STAGES, :N_STATE], ws[W_STAGES + 1, :N_STATE]
+        k3, k4 = ws[W_STAGES + 2, :N_STATE], ws[W_STAGES + 3, :N_STATE]
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k1[i]
         if not rhs_ws(t + 0.5 * h, tmp, p, modes, k2, aux, ws):
@@ -109,7 +112,7 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, modes
             for j in range(s):
                 acc += _A[s, j] * k[j, i]
             tmp[i] = y[i] + h * acc
-        if not rhs_ws(t + _C[s] * h, tmp, p, modes, k[s], aux, ws):
+        if not rhs_ws(t + _C[s] * h, tmp, p, modes, ws[W_STAGES + s, :N_STATE], aux, ws):
             return False
     for i in range(n):
         y_new[i] = tmp[i]  # stage 7 is the 5th-order solution (FSAL)
@@ -392,7 +395,7 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.nda
     return best, best_tau
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _step_to_stop(method, t, y, h, h_max, p, modes, site, slow_speed, y_new, err, aux_new, ws: np.ndarray) -> float:
     """Step to where the slip of ``site`` along its initial direction d (``ws[W_SITE_D]``) reaches zero, from
     the guess ``h`` (at most ``h_max``): the secant method on u(h) = v(t + h) . d, which (unlike the speed) is
@@ -485,7 +488,7 @@ def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, mode
     incipient_directions_ws(t, y, p, modes, 400, ws)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _locate(method, t, y, h, p, modes, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux,
             ws: np.ndarray) -> float:
     """Step length in (0, h] at which event ``which`` crosses zero; fills y_new/aux there. -1 on failure."""

@@ -1,0 +1,70 @@
+"""Compile every numba kernel into numba's cache ahead of use: ``python -m triplanar.warmup`` (``make install``).
+
+Runs what a user's first commands run, small: traces (the static-equilibrium LP, the sliding threshold of a rising
+actuator force, the start modes, DOPRI5; RK4 and Euler share its compiled code), a block at rest, the decoded
+block state, and, when Gymnasium is installed, one single-env and one vector-env episode start and step. Each
+compiled function lands in numba's cache (:func:`triplanar.compiled_cache.numba_cache_dir`); with a warm cache
+this only loads them (a few seconds, most of it importing torch for the vector env). Idempotent.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+
+def warm_physics() -> None:
+    """Everything ``simulate``, the statics and the workbench compile."""
+    import numpy as np
+
+    from . import make_effect, paper_model, simulate
+
+    result = simulate(paper_model("A", 30.0))  # holds, start_motion, integrate_ws, the kernel
+    assert result.status == "travel", result.message
+    simulate(paper_model("A", 35.0, effects=[make_effect("actuator_rise:tau_s=0.05")]))  # the sliding threshold
+    model = paper_model("A", 1.0)
+    simulate(model)  # held: the right-hand side at rest
+    model.block_state(0.0, model.initial_state())
+    assert np.isfinite(result.y).all()
+
+
+def warm_envs() -> bool:
+    """The single env's and the vector env's compiled steps. False if Gymnasium (the RL extra) is missing."""
+    try:
+        import gymnasium as gym
+        import numpy as np
+
+        import envs  # noqa: F401 (registers TriPlanarShear-v0)
+    except ImportError:
+        return False
+    env = gym.make("TriPlanarShear-v0")
+    env.reset(seed=0)
+    env.step(np.zeros(2, np.float32))
+    env.unwrapped._contact_points()
+    env.unwrapped._tip_line()
+    env.close()
+    try:
+        vec = gym.make_vec("TriPlanarShear-v0", num_envs=2)
+    except ImportError:  # the vector env's stable-baselines3 adapter is missing
+        return True
+    vec.reset(seed=0)
+    vec.step(np.zeros((2, 2), np.float32))
+    vec.close()
+    return True
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m triplanar.warmup", description=__doc__.splitlines()[0])
+    parser.add_argument("--physics-only", action="store_true", help="skip the Gymnasium environments")
+    args = parser.parse_args(argv)
+    t0 = time.perf_counter()
+    warm_physics()
+    envs_done = False if args.physics_only else warm_envs()
+    what = "physics and environment kernels" if envs_done else "physics kernels"
+    print(f"triplanar: {what} ready in numba's cache ({time.perf_counter() - t0:.1f} s)", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
