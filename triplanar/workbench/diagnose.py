@@ -319,8 +319,11 @@ class Diagnoser:
         self.time_domain_ = time_domain(self.baseline_)
         explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= self.min_improvement]
         self.best_ = explaining[0] if explaining else None
+        self.after_, self.best_label_ = None, None
         if self.best_ is not None:
             after = discrepancies(evaluate_spec(self._spec_of(self.best_), tests))
+            self.after_ = after
+            self.best_label_ = f"{'refitted ' if self.best_.kind == 'refit' else '+ '}{self.best_.effect}"
             self.time_domain_after_ = time_domain(after)
             self.growth_after_ = growth_along_travel(after)
         else:
@@ -436,6 +439,7 @@ class Diagnoser:
                 "reason": self.reason_,
                 "baseline_error_mm": self.baseline_error_mm_,
                 "candidates": [c.as_json() for c in self.candidates_],
+                "refit_results": [c.as_json() for c in self.refits_],
                 "refits": [{"effect": r.effect, "param": p, "given": r.given.get(p), "fitted": r.params[p],
                             "ci95": r.param_ci95.get(p), "status": r.param_status.get(p),
                             "cv_error_mm": r.cv_error_mm, "improvement": r.improvement}
