@@ -104,3 +104,30 @@ def test_diagnose_cli_refuses_a_bad_start_value(tmp_path, capsys) -> None:
                  "--start", "end_friction:phi_deg=-3"])
     assert code == 2
     assert "phi_deg" in capsys.readouterr().err
+
+
+def test_a_fit_starts_at_a_parameters_start_apart_from_neutral() -> None:
+    from triplanar import Effect, Parameter
+    from triplanar.workbench.candidates import default_candidate
+    from triplanar.effects import REGISTRY
+
+    class Wobble(Effect):
+        name = "wobble_start_test"
+        parameters = {"amp_N": Parameter(0.0, 0.0, 10.0, "N", "amplitude", start=1.0),
+                      "freq_hz": Parameter(5.0, 1.0, 20.0, "Hz", "frequency")}
+
+    REGISTRY[Wobble.name] = Wobble
+    try:
+        cand = default_candidate(Wobble.name)
+        assert cand.start_values() == {"amp_N": 1.0, "freq_hz": 5.0}
+        assert Wobble().values["amp_N"] == 0.0            # the default still does nothing
+    finally:
+        del REGISTRY[Wobble.name]
+
+
+def test_a_model_given_as_b_plus_end_friction_is_named_case_a() -> None:
+    from triplanar import make_effect
+    from triplanar.workbench import ModelSpec
+    assert ModelSpec.from_effects([make_effect("end_friction:phi_deg=8")]).describe() == "case A (end friction)"
+    assert ModelSpec.from_effects([make_effect("end_friction:phi_deg=4"), make_effect("tip_offset:offset_m=0.001")]
+                                  ).describe() == "case A (end friction, phi_EF = 4 deg) + tip_offset:offset_m=0.001"

@@ -302,7 +302,7 @@ class EffectFit:
 
     def _candidates(self) -> list[Candidate]:
         # an effect the model already has is *refitted*: freed, starting at the value the user gave it
-        given = dict(self.base.effects)
+        given = {n: dict(v) for n, v in self.base.effects}
         again = [a for a in self.add if isinstance(a, str) and a in given]
         self.refitted_ = {a: dict(given[a]) for a in again}
         self.fit_base_ = replace(self.base, effects=tuple(e for e in self.base.effects if e[0] not in again))
