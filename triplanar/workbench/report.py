@@ -177,13 +177,13 @@ def plot_time_residuals(before: Sequence, after: Sequence | None, path: str | Pa
             row[2].semilogy(grid, np.nanmedian(np.array(spectra), axis=0), color="black", lw=1)
         row[0].set_ylabel(f"{label}\ntravel lag, model - measured (mm)", fontsize=8)
         row[1].set_ylabel("CP1 lateral error (mm)", fontsize=8)
-        row[2].set_ylabel("residual power / median (median over tests)", fontsize=8)
+        row[2].set_ylabel("residual power / its median\n(median over tests)", fontsize=8)
         for ax in row[:2]:
             ax.axhline(0.0, color="0.7", lw=0.6)
             ax.set_xlabel("time since the actuator began (s)")
         row[2].set_xlabel("frequency (Hz)")
     sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(lo, hi))
-    fig.colorbar(sm, ax=list(axes[:, 1]), label="shear load (N)", shrink=0.85)
+    fig.colorbar(sm, ax=list(axes.ravel()), label="shear load (N)", shrink=0.85)
     fig.suptitle("residuals in time: arrival, lag, spectrum", fontsize=10)
     return save_figure(fig, path)
 
