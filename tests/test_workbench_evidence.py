@@ -74,6 +74,8 @@ def test_interval_statuses_and_model_form_widening() -> None:
     assert interval95(0.0, 0.1, 0.0, fit_error_mm=1, scatter_mm=1, start=0.0, **args) == (None, "not_moved")
     assert interval95(8.0, 0.0, 0.0, fit_error_mm=1, scatter_mm=1, start=0.0, **args) == (None, "degenerate")
     assert interval95(8.0, math.nan, 0.2, fit_error_mm=1, scatter_mm=1, start=0.0, **args) == (None, "degenerate")
+    ci, status = interval95(8.0, 20.0, 0.0, fit_error_mm=1, scatter_mm=1, start=0.0, **args)
+    assert status == "unidentified" and ci == [0.0, 44.0]         # spans the whole fit range: said so
 
 
 def test_start_values_are_parsed_and_bad_ones_named() -> None:

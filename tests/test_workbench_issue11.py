@@ -38,7 +38,7 @@ def check_contract(report: dict) -> None:
         assert set(c["params"]) == set(c["param_ci95"])
         for p, ci in c["param_ci95"].items():
             assert ci is None or (len(ci) == 2 and ci[0] <= c["params"][p] <= ci[1])
-            assert c["param_status"][p] in ("fitted", "not_moved", "degenerate", "at_bound")
+            assert c["param_status"][p] in ("fitted", "not_moved", "degenerate", "at_bound", "unidentified")
             assert (ci is None) == (c["param_status"][p] in ("not_moved", "degenerate"))
     for r in report["refits"]:
         assert {"effect", "param", "given", "fitted", "ci95", "cv_error_mm", "improvement"} <= set(r)

@@ -31,8 +31,9 @@ def format_param(name: str, value: float, ci: list[float] | None, status: str | 
     if ci is None:
         why = {"not_moved": "never left its start", "degenerate": "the data do not pin it (degenerate covariance)"}
         return f"{name} = {value:.4g} ({why.get(status or '', 'no interval')})"
-    return f"{name} = {value:.4g} [{ci[0]:.4g}, {ci[1]:.4g}]" + (" (at the edge of its range)"
-                                                                  if status == "at_bound" else "")
+    note = {"at_bound": " (at the edge of its range)",
+            "unidentified": " (not identified: the interval spans its whole plausible range)"}.get(status or "", "")
+    return f"{name} = {value:.4g} [{ci[0]:.4g}, {ci[1]:.4g}]{note}"
 
 
 def format_report(report: dict) -> str:

@@ -15,7 +15,8 @@ widen in proportion to the unexplained error; at or below the scatter the factor
 The interval is ``value +- t(0.975, n_tests - p) * stderr``, clipped to the parameter's physical bounds.
 A parameter that never left its start (the fit did not move it, or a snap set it back) gets no interval and
 the status ``not_moved``; a zero or non-finite standard error (a degenerate covariance: the data do not pull
-on the parameter) gets the status ``degenerate``.
+on the parameter) gets the status ``degenerate``; an interval that spans the whole fit range keeps its numbers
+with the status ``unidentified`` (the data do not pin the parameter within its plausible range).
 """
 
 from __future__ import annotations
@@ -44,4 +45,7 @@ def interval95(value: float, sandwich_se: float, jackknife_se: float, n_tests: i
         return None, "degenerate"
     se *= inflation(fit_error_mm, scatter_mm)
     q = float(student_t.ppf(0.975, max(1, n_tests - n_free)))
-    return [max(bounds[0], value - q * se), min(bounds[1], value + q * se)], "fitted"
+    ci = [max(bounds[0], value - q * se), min(bounds[1], value + q * se)]
+    if ci[0] <= fit_range[0] and ci[1] >= fit_range[1]:
+        return ci, "unidentified"       # the data allow anything over the plausible range (e.g. 10 +- 2.7e9 Hz)
+    return ci, "fitted"
