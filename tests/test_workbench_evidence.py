@@ -133,3 +133,13 @@ def test_a_model_given_as_b_plus_end_friction_is_named_case_a() -> None:
     assert ModelSpec.from_effects([make_effect("end_friction:phi_deg=8")]).describe() == "case A (end friction)"
     assert ModelSpec.from_effects([make_effect("end_friction:phi_deg=4"), make_effect("tip_offset:offset_m=0.001")]
                                   ).describe() == "case A (end friction, phi_EF = 4 deg) + tip_offset:offset_m=0.001"
+
+
+def test_diagnose_start_values_move_a_candidates_start_and_widen_its_range() -> None:
+    from triplanar.workbench import Diagnoser
+    from triplanar.workbench.candidates import default_candidate
+    cand = Diagnoser(start={"tip_offset": {"offset_m": 0.03}})._with_start(default_candidate("tip_offset"))
+    assert cand.start_values() == {"offset_m": 0.03}
+    assert cand.bounds["offset_m"][1] == 0.03                      # the plausible range now contains the start
+    with pytest.raises(ValueError, match="not a free parameter"):
+        Diagnoser(start={"rate_friction": {"v0_m_s": 0.1}})._with_start(default_candidate("rate_friction"))
