@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import statistics
 import sys
 import time
@@ -37,6 +38,12 @@ def timed(fn):
     return out, time.perf_counter() - t0
 
 
+def cpu_seconds() -> float:
+    """CPU time of this process and its finished children (the pool's workers, once shut down)."""
+    me, kids = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return me.ru_utime + me.ru_stime + kids.ru_utime + kids.ru_stime
+
+
 def bench_speed(data: Path, workers: int) -> None:
     tests = load_tests(data)
     print(f"dataset {data.relative_to(ROOT) if data.is_relative_to(ROOT) else data}: {len(tests)} tests, "
@@ -49,14 +56,20 @@ def bench_speed(data: Path, workers: int) -> None:
           f"{statistics.median(times) * 1e3:.0f} ms median of 5")
     cmp, t_cmp = timed(lambda: compare(tests, base))
     print(f"compare (case B): {t_cmp:.2f} s; RMS discrepancy {cmp.error_mm:.2f} mm")
+    cpu0, wall0 = cpu_seconds(), time.perf_counter()
     with ProcessPoolExecutor(max_workers=workers) as pool:
         diag, t_diag = timed(lambda: Diagnoser(executor=pool if workers > 1 else "serial").fit(tests, base))
+    cpu, wall = cpu_seconds() - cpu0, time.perf_counter() - wall0
     r = diag.report_
-    print(f"diagnose ({workers} worker{'s' if workers > 1 else ''}, {len(diag.folds_)} folds): {t_diag:.1f} s -> "
-          f"{r['missing_effect']} ({r['confidence']}); baseline {r['baseline_error_mm']:.2f} mm, repeat scatter "
-          f"{r['repeat_scatter_mm']:.2f} mm")
+    print(f"diagnose ({workers} worker{'s' if workers > 1 else ''}, {len(diag.folds_)} folds, intervals, noise and "
+          f"time-domain evidence included): {t_diag:.1f} s wall ({wall:.1f} s with the pool's start and shutdown), "
+          f"{cpu:.1f} s CPU (this process and its workers); load average {os.getloadavg()[0]:.2f} -> "
+          f"{r['verdict']}, {r['missing_effect']} ({r['confidence']}); baseline {r['baseline_error_mm']:.2f} mm, "
+          f"repeat scatter {r['repeat_scatter_mm']:.2f} mm, noise {r['noise']['instrument_noise_mm']:.3f} mm, "
+          f"expected scatter {r['noise']['expected_scatter_mm']:.3f} mm")
     for c in diag.candidates_:
-        params = ", ".join(f"{k} = {v:.4g} +- {c.param_stderr[k]:.2g}" for k, v in c.params.items())
+        params = ", ".join(f"{k} = {v:.4g} {c.param_ci95[k] and '[%.4g, %.4g]' % tuple(c.param_ci95[k])}"
+                           for k, v in c.params.items())
         print(f"   {c.effect:17s} cv {c.cv_error_mm:7.3f} mm  improvement {c.improvement:6.1%}  "
               f"fits {c.seconds:5.1f} s CPU ({c.nfev} evaluations)  {params}{'' if c.plausible else '  [implausible]'}")
     fit, t_fit = timed(lambda: EffectFit(["end_friction"], base).fit(tests))

@@ -142,8 +142,13 @@ def test_effect_fit_recovers_end_friction(case_a_data) -> None:
     assert fit.error_mm_ < 0.2 * fit.baseline_error_mm_
     assert set(fit.error_by_load_) == set(LOADS)
     assert fit.predict(40.0).status == "travel"
+    # issue 11: adding an effect the model already has refits it, from the value given
+    given = ModelSpec.from_effects([make_effect("end_friction:phi_deg=4")])
+    refit = EffectFit(["end_friction"], given, executor="serial").fit(case_a_data)
+    assert refit.refitted_ == {"end_friction": {"phi_deg": 4.0}}
+    assert refit.params_["end_friction"]["phi_deg"] == pytest.approx(8.0, rel=0.15)
     with pytest.raises(EffectError, match="already in the model"):
-        EffectFit(["end_friction"], ModelSpec.from_effects([make_effect("end_friction")])).fit(case_a_data)
+        EffectFit(["end_friction", "end_friction"]).fit(case_a_data)
 
 
 def test_candidates_are_validated() -> None:

@@ -146,3 +146,29 @@ def test_test_below_the_sliding_threshold_is_reported_per_test(data, tmp_path, c
 def test_bad_options_are_refused_with_the_known_names(data, tmp_path, capsys, argv, needle) -> None:
     code, _, err = run(capsys, argv[0], data, *argv[1:], "--out", tmp_path / "o")
     assert code == 2 and needle in err
+
+
+# -- issue 11: the report contract, refits, fixed parameters, plots --------------------------------------
+
+@pytest.mark.slow
+def test_diagnose_refits_a_wrong_given_parameter_and_fit_frees_it(data, tmp_path, capsys) -> None:
+    code, out, err = run(capsys, "diagnose", data, "--effect", "end_friction:phi_deg=4", "--candidates",
+                         "rate_friction", "--out", tmp_path / "d", "--no-progress")
+    assert code == 0, err
+    report = json.loads((tmp_path / "d" / "diagnose.json").read_text())
+    assert report["verdict"] == "refit_given_effect" and report["missing_effect"] is None
+    (refit,) = report["refits"]
+    assert refit["given"] == 4.0 and refit["fitted"] == pytest.approx(8.0, abs=0.8)
+    assert "(refit)" in out and "verdict: refit_given_effect" in out
+    assert report["model"] == "case A (end friction, phi_EF = 4 deg)"
+    assert (tmp_path / "d" / "time_residuals.png").stat().st_size > 0
+    code, out, err = run(capsys, "fit", data, "--effect", "end_friction:phi_deg=4", "--add", "end_friction",
+                         "--add", "rate_friction", "--out", tmp_path / "f", "--workers", "1")
+    assert code == 0, err
+    steps = json.loads((tmp_path / "f" / "fit.json").read_text())["steps"]
+    assert steps[1]["refitted"] and steps[1]["given"] == {"phi_deg": 4.0}
+    assert steps[2]["param_status"]["rate_friction"]["v0_m_s"] == "fixed"
+    assert "v0_m_s = 0.05 (fixed)" in out and "nan" not in out
+    assert "refit end_friction" in out
+    for name in ("residuals.png", "deviations.png", "overhead.png"):
+        assert (tmp_path / "f" / name).stat().st_size > 0

@@ -40,7 +40,8 @@ def lab(effects) -> list:
 
 def show(name: str, report: dict) -> None:
     print(f"\n[{name}] baseline {report['baseline_error_mm']:.3f} mm, scatter {report['repeat_scatter_mm']:.3f} mm "
-          f"-> {report['missing_effect']} ({report['confidence']}) in {report['seconds']:.1f} s")
+          f"-> {report['verdict']}: {report['missing_effect']} ({report['confidence']}) in {report['seconds']:.1f} s; "
+          f"periodic in {report['time_domain']['after_best']['periodic_fraction']:.0%} of the tests")
     for c in report["candidates"]:
         params = ", ".join(f"{k}={v:.4g}+-{c['param_stderr'][k]:.2g}" for k, v in c["params"].items())
         print(f"   {c['effect']:17s} cv {c['cv_error_mm']:7.3f} mm  improvement {c['improvement']:6.1%}  {params}"

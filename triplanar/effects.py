@@ -57,6 +57,9 @@ class Parameter:
     * ``grid``: the coarse scan before polishing when it is the effect's only free parameter: a number of
       evenly spaced points over the fit range, or the values themselves (``None``: 7).
     * ``snap``: a fitted value closer than this to the start is set to the start (unresolvable small values).
+    * ``start``: where a fit starts instead of ``neutral`` (``None``: the neutral value). For a parameter at
+      whose neutral value the fit cannot see a gradient: an oscillating force's amplitude of 0 makes its
+      frequency and phase invisible, and with them the amplitude's own direction of descent.
     """
 
     default: float
@@ -70,10 +73,16 @@ class Parameter:
     free: bool = True
     grid: int | tuple[float, ...] | None = None
     snap: float = 0.0
+    start: float | None = None
 
     @property
     def neutral_value(self) -> float:
         return self.default if self.neutral is None else self.neutral
+
+    @property
+    def start_value(self) -> float:
+        """Where a fit starts: ``start`` if given, else the neutral value."""
+        return self.neutral_value if self.start is None else self.start
 
     def fit_range(self, start: float) -> tuple[float, float]:
         """The range a fit starting at ``start`` may move this parameter over."""
@@ -149,8 +158,8 @@ class Effect:
 
     @classmethod
     def fit_start(cls, specimen: Specimen) -> dict[str, float]:
-        """Where a fit of this effect starts for ``specimen``: each parameter's neutral value."""
-        return {k: p.neutral_value for k, p in cls.parameters.items()}
+        """Where a fit of this effect starts for ``specimen``: each parameter's ``start``, else its neutral value."""
+        return {k: p.start_value for k, p in cls.parameters.items()}
 
     def wrench(self, t: float, state: BlockState) -> tuple[np.ndarray, np.ndarray]:
         """Extra (force at the mass centre, moment about it), world axes. Default: none."""

@@ -45,7 +45,14 @@ class Loading:
 
 @dataclass(frozen=True)
 class BlockState:
-    """What a user effect's ``wrench`` sees: the block's kinematics at one instant (world frame, SI)."""
+    """What a user effect's ``wrench`` sees: the block's kinematics at one instant (world frame, SI).
+
+    ``t`` is the time since the actuator began pushing (t = 0: the commanded thrust is switched on, at the
+    rest position; ``time_since_actuator_s`` is the same number under a self-explaining name). ``thrust_N``
+    is F_T at that instant; ``thrust_direction`` the unit vector it acts along (e1 for the actuator, g1 for
+    case C's hydrostatic load); ``load_point`` the point it acts at (P_L of eq. 27-28, or P_CL for case C);
+    ``specimen`` the block and its contacts (mass, inertia, friction angles, drawing).
+    """
 
     t: float
     position: np.ndarray        # mass centre
@@ -55,6 +62,13 @@ class BlockState:
     contact_points: np.ndarray  # (3, 3)
     contact_velocities: np.ndarray
     thrust_N: float
+    load_point: np.ndarray | None = None        # world position where F_T acts
+    thrust_direction: np.ndarray | None = None  # unit vector of F_T
+    specimen: Specimen | None = None
+
+    @property
+    def time_since_actuator_s(self) -> float:
+        return self.t
 
 
 @dataclass(frozen=True)
@@ -191,7 +205,10 @@ class Model:
         r = y[K.S_R:K.S_R + 3].copy()
         cpv = v + np.cross(w, cps - r)
         thrust = self.loading.force_N if self.loading.rise_time_s <= 0 else float(y[K.S_F])
-        return BlockState(t, r, rot, v, w, cps, cpv, thrust)
+        arm = np.empty(3)
+        K.load_arm(y, self.kernel_params_cached.copy(), rot, arm)
+        direction = np.array([1.0, 0.0, 0.0]) if self.loading.kind == "actuator" else rot[:, 0].copy()
+        return BlockState(t, r, rot, v, w, cps, cpv, thrust, r + arm, direction, self.specimen)
 
     @cached_property
     def kernel_params_cached(self) -> np.ndarray:

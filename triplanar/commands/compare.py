@@ -19,9 +19,11 @@ def run(args: argparse.Namespace) -> int:
 
     from ..workbench.cli_common import model_and_tests, out_dir, refuse_overwriting_inputs
     from ..workbench.compare import compare
-    from ..workbench.report import plot_error_map, plot_overhead, plot_residuals
+    from ..workbench.report import (plot_deviations, plot_error_map, plot_overhead, plot_residuals,
+                                    plot_time_residuals)
     refuse_overwriting_inputs(args, [("--out", Path(args.out) / name) for name in (
-        "compare.csv", "summary.txt", "overhead.png", "residuals.png", "error_map.png")])
+        "compare.csv", "summary.txt", "overhead.png", "residuals.png", "error_map.png", "deviations.png",
+        "time_residuals.png")])
     spec, tests = model_and_tests(args)
     out = out_dir(args)
     cmp = compare(tests, spec)
@@ -31,6 +33,9 @@ def run(args: argparse.Namespace) -> int:
     plot_overhead(cmp, out / "overhead.png")
     plot_residuals(cmp, out / "residuals.png")
     plot_error_map(cmp, out / "error_map.png")
+    plot_deviations(cmp, out / "deviations.png")
+    plot_time_residuals(cmp.discrepancies, None, out / "time_residuals.png", spec.describe())
     print(summary)
-    print(f"\nwrote {out / 'compare.csv'}, summary.txt, overhead.png, residuals.png, error_map.png")
+    print(f"\nwrote {out / 'compare.csv'}, summary.txt, overhead.png, residuals.png, error_map.png, deviations.png, "
+          "time_residuals.png")
     return 0

@@ -10,8 +10,12 @@ HELP = ("try each candidate effect added to your model, fit it, rank by cross-va
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..workbench.cli_common import add_data_arguments, add_worker_arguments
+    from ..workbench.cli_common import add_data_arguments, add_start_arguments, add_worker_arguments
     add_data_arguments(parser, "out/diagnose")
+    add_start_arguments(parser)
+    parser.add_argument("--no-refit", action="store_true",
+                        help="do not free the parameters of the --effect effects you gave (by default each is "
+                             "refitted and ranked with the candidates)")
     parser.add_argument("--json", metavar="REPORT.json", help="also write the JSON report here "
                         "(it is always written to DIR/diagnose.json)")
     parser.add_argument("--candidates", metavar="NAME[,NAME...]",
@@ -20,35 +24,63 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_worker_arguments(parser)
 
 
+def format_param(name: str, value: float, ci: list[float] | None, status: str | None) -> str:
+    """``name = value [low, high]``, or what kept it from having an interval."""
+    if status == "fixed":
+        return f"{name} = {value:.4g} (fixed)"
+    if ci is None:
+        why = {"not_moved": "never left its start", "degenerate": "the data do not pin it (degenerate covariance)"}
+        return f"{name} = {value:.4g} ({why.get(status or '', 'no interval')})"
+    note = {"at_bound": " (at the edge of its range)",
+            "unidentified": " (not identified: the interval spans its whole plausible range)"}.get(status or "", "")
+    return f"{name} = {value:.4g} [{ci[0]:.4g}, {ci[1]:.4g}]{note}"
+
+
 def format_report(report: dict) -> str:
+    noise = report.get("noise", {})
     lines = [f"model: {report['model']}  ({report['n_tests']} tests)",
              f"baseline RMS discrepancy {report['baseline_error_mm']:.3f} mm"
-             + (f"; repeat scatter {report['repeat_scatter_mm']:.3f} mm" if report.get("repeat_scatter_mm") else ""),
-             "", "  rank  effect              cv error mm  improvement  parameters (+- stderr)"]
-    for i, c in enumerate(report["candidates"], start=1):
-        params = ", ".join(f"{k} = {v:.4g} +- {c['param_stderr'][k]:.2g}" for k, v in c["params"].items())
+             + (f"; repeat scatter {report['repeat_scatter_mm']:.3f} mm" if report.get("repeat_scatter_mm") else "")
+             + (f"; instrument noise {noise['instrument_noise_mm']:.3f} mm, scatter it and the specimen explain "
+                f"{noise['expected_scatter_mm']:.3f} mm" if noise.get("expected_scatter_mm") else ""),
+             "", "  rank  effect                    cv error mm  improvement  parameters [95% interval]"]
+    ranked = sorted([(c["cv_error_mm"], c["effect"], c) for c in report["candidates"]]
+                    + [(c["cv_error_mm"], f"{c['effect']} (refit)", c) for c in report.get("refit_results", [])],
+                    key=lambda x: (x[0] != x[0], x[0]))
+    for i, (_, label, c) in enumerate(ranked, start=1):
+        params = ", ".join(format_param(k, v, c.get("param_ci95", {}).get(k), c.get("param_status", {}).get(k))
+                           for k, v in c["params"].items())
+        given = (" (given " + ", ".join(f"{k} = {v:.4g}" for k, v in c["given"].items()) + ")") if c.get("given") else ""
         flag = "" if c["plausible"] else f"  [implausible: {', '.join(c['at_bound'])} at the edge of its range]"
-        lines.append(f"  {i:4d}  {c['effect']:18s}  {c['cv_error_mm']:11.3f}  {c['improvement']:10.0%}   "
-                     f"{params}{flag}")
-    verdict = report["missing_effect"] or "none (no candidate explains the discrepancy)"
-    lines += ["", f"missing effect: {verdict}   confidence: {report['confidence']}", f"why: {report['reason']}",
-              f"time: {report['seconds']:.1f} s"]
+        lines.append(f"  {i:4d}  {label:24s}  {c['cv_error_mm']:11.3f}  {c['improvement']:10.0%}   "
+                     f"{params}{given}{flag}")
+    td = report.get("time_domain") or {}
+    if td.get("has_time"):
+        freq = td.get("dominant_frequency_hz")
+        lines += ["", f"in time (model as given): arrival error {td['arrival_error_s']:+.3f} s on average, travel lag "
+                      f"{td['lag_rms_mm']:.2f} mm RMS (mean path distance {td['mean_distance_mm']:.2f} mm); residual "
+                      + (f"periodic at {freq:.1f} Hz in {td['periodic_fraction']:.0%} of the tests" if freq is not None
+                         else f"spectrum without a dominant frequency ({td['periodic_fraction']:.0%} of tests with a peak)")]
+    verdict = report["missing_effect"] or "none"
+    lines += ["", f"verdict: {report.get('verdict', '?')}   missing effect: {verdict}   confidence: {report['confidence']}",
+              f"why: {report['reason']}", f"time: {report['seconds']:.1f} s"]
     return "\n".join(lines)
 
 
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..workbench.cli_common import (check_effect_names, executor_for, model_and_tests, out_dir,
+    from ..workbench.cli_common import (check_effect_names, executor_for, model_and_tests, out_dir, parse_starts,
                                         refuse_overwriting_inputs)
     from ..workbench.diagnose import Diagnoser
     from ..workbench.executor import TaskCheckpoint
-    from ..workbench.report import plot_candidates, write_json
+    from ..workbench.report import plot_candidates, plot_time_residuals, write_json
     if args.folds < 2:
         raise ValueError(f"--folds {args.folds}: cross-validation needs at least 2 folds")
     refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [
-        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png")])
+        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png", "time_residuals.png")])
     spec, tests = model_and_tests(args)
+    starts = parse_starts(args.start)
     names = None
     if args.candidates is not None:
         names = check_effect_names([n.strip() for n in args.candidates.split(",") if n.strip()])
@@ -61,13 +93,15 @@ def run(args: argparse.Namespace) -> int:
     partial = TaskCheckpoint(out / ".diagnose-partial")  # an interrupted run resumes from the finished candidates
     with executor_for(args) as ex:
         diag = Diagnoser(names, folds=args.folds, executor=ex, progress=not args.no_progress,
-                         checkpoint=partial).fit(tests, spec)
+                         checkpoint=partial, refit_given=not args.no_refit, start=starts).fit(tests, spec)
     report = diag.report_
     write_json(report, out / "diagnose.json")
     if args.json:
         write_json(report, args.json)
     plot_candidates(report, out / "diagnose.png")
+    plot_time_residuals(diag.baseline_, diag.after_, out / "time_residuals.png", diag.base_.describe(),
+                        diag.best_label_)
     partial.clear()
     print(format_report(report))
-    print(f"\nwrote {out / 'diagnose.json'}{', ' + args.json if args.json else ''}, diagnose.png")
+    print(f"\nwrote {out / 'diagnose.json'}{', ' + args.json if args.json else ''}, diagnose.png, time_residuals.png")
     return 0

@@ -10,10 +10,13 @@ HELP = ("add effects to your model and fit their parameters (--add NAME, repeata
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..workbench.cli_common import add_data_arguments, add_worker_arguments
+    from ..workbench.cli_common import add_data_arguments, add_start_arguments, add_worker_arguments
     add_data_arguments(parser, "out/fit")
     parser.add_argument("--add", action="append", default=[], metavar="NAME",
-                        help="effect to add and fit (repeatable; fitted jointly, in the order given)")
+                        help="effect to add and fit (repeatable; fitted jointly, in the order given); an effect the "
+                             "model already has (--effect) is refitted: its parameters are freed, starting at the "
+                             "values given")
+    add_start_arguments(parser)
     parser.add_argument("--forward", action="store_true",
                         help="forward selection: diagnose, add the named effect, repeat until the error stops falling "
                              "(after the --add effects, if any)")
@@ -28,7 +31,8 @@ def run(args: argparse.Namespace) -> int:
     from ..workbench.cli_common import check_effect_names, executor_for, model_and_tests, out_dir
     from ..workbench.compare import compare
     from ..workbench.fit import EffectFit
-    from ..workbench.report import plot_error_fall, plot_overhead, write_json
+    from ..workbench.cli_common import parse_starts
+    from ..workbench.report import plot_deviations, plot_error_fall, plot_overhead, plot_residuals, write_json
     from ..workbench.select import ForwardSelection
     from pathlib import Path
 
@@ -40,8 +44,9 @@ def run(args: argparse.Namespace) -> int:
     if len(set(args.add)) != len(args.add):
         raise EffectError(f"--add: {', '.join(sorted({a for a in args.add if args.add.count(a) > 1}))} given twice")
     refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [
-        ("--out", Path(args.out) / name) for name in ("fit.json", "error_fall.png", "overhead.png")])
+        ("--out", Path(args.out) / name) for name in ("fit.json", "error_fall.png", "overhead.png", "residuals.png", "deviations.png")])
     spec, tests = model_and_tests(args)
+    starts = parse_starts(args.start)
     add = check_effect_names(args.add)
     out = out_dir(args)
     steps: list[dict] = []
@@ -49,13 +54,15 @@ def run(args: argparse.Namespace) -> int:
     with executor_for(args) as ex:
         current = spec
         for i in range(len(add)):
-            fit = EffectFit(add[:i + 1], spec, values, ex).fit(tests)
+            fit = EffectFit(add[:i + 1], spec, {**starts, **values}, ex).fit(tests)
             if not steps:
                 steps.append({"added": None, "effects": {}, "param_stderr": {}, "error_mm": fit.baseline_error_mm_,
                               "error_by_load_mm": {f"{k:g}": v for k, v in fit.baseline_by_load_.items()}})
             values = fit.params_
             current = fit.spec_
-            steps.append({"added": add[i], "effects": fit.params_, "param_stderr": fit.stderr_,
+            steps.append({"added": add[i], "refitted": add[i] in fit.refitted_,
+                          "given": fit.refitted_.get(add[i]), "effects": fit.params_, "param_stderr": fit.stderr_,
+                          "param_ci95": fit.ci95_, "param_status": fit.status_,
                           "at_bound": list(fit.at_bound_), "error_mm": fit.error_mm_,
                           "error_by_load_mm": {f"{k:g}": v for k, v in fit.error_by_load_.items()}})
         stop = None
@@ -71,15 +78,23 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(result, args.json)
     plot_error_fall(steps, out / "error_fall.png")
-    plot_overhead(compare(tests, current), out / "overhead.png", f"measured (black) vs {current.describe()} (grey)")
+    fitted = compare(tests, current)
+    plot_overhead(fitted, out / "overhead.png", f"measured (black) vs {current.describe()} (grey)")
+    plot_residuals(fitted, out / "residuals.png")
+    plot_deviations(fitted, out / "deviations.png", f"after fitting: deviations from {current.describe()} (mm)")
+    from .diagnose import format_param
     print(f"model: {spec.describe()}")
     for s in steps:
-        what = "model as given" if s["added"] is None else f"+ {s['added']}"
-        errs = s["param_stderr"]
-        params = "; ".join(f"{e}: " + ", ".join(f"{k} = {v:.4g} +- {errs.get(e, {}).get(k, float('nan')):.2g}"
-                                                  for k, v in ps.items()) for e, ps in s["effects"].items())
+        what = ("model as given" if s["added"] is None else
+                f"refit {s['added']}" if s.get("refitted") else f"+ {s['added']}")
+        errs, cis, status = s["param_stderr"], s.get("param_ci95") or {}, s.get("param_status") or {}
+        params = "; ".join(f"{e}: " + ", ".join(
+            format_param(k, v, cis.get(e, {}).get(k), status.get(e, {}).get(k)) if cis else
+            (f"{k} = {v:.4g} +- {errs[e][k]:.2g}" if k in errs.get(e, {}) else f"{k} = {v:.4g} (fixed)")
+            for k, v in ps.items()) for e, ps in s["effects"].items())
         print(f"  {what:24s} RMS discrepancy {s['error_mm']:8.3f} mm   {params}")
     if stop:
         print(f"forward selection stopped: {stop}")
-    print(f"\nwrote {out / 'fit.json'}{', ' + args.json if args.json else ''}, error_fall.png, overhead.png")
+    print(f"\nwrote {out / 'fit.json'}{', ' + args.json if args.json else ''}, error_fall.png, overhead.png, "
+          "residuals.png, deviations.png")
     return 0

@@ -144,3 +144,24 @@ def resolve(candidates: Iterable[Candidate | str] | None, exclude: Iterable[str]
         if cand.effect not in skip:
             out.append(cand)
     return out
+
+
+def refit_candidate(name: str, given: Mapping[str, float], specimen: Specimen | None = None) -> Candidate:
+    """The recipe of effect ``name`` for re-estimating the values the user *gave* it: the same free
+    parameters, starting at the given values (the grid scan, if any, still runs and includes them); a fit
+    range widened to contain each given value (within the effect's physical bounds)."""
+    from dataclasses import replace
+    cand = default_candidate(name, specimen)
+    params = REGISTRY[name].parameters
+    start = {k: float(given.get(k, cand.start_values()[k])) for k in cand.free}
+    bounds = {}
+    for k in cand.free:
+        lo, hi = cand.bounds[k]
+        bounds[k] = (max(params[k].lower, min(lo, start[k])), min(params[k].upper, max(hi, start[k])))
+    fixed = {**cand.fixed, **{k: float(v) for k, v in given.items() if k not in cand.free}}
+    return replace(cand, start=start, bounds=bounds, fixed=fixed)
+
+
+def without_effect(effects: tuple, name: str) -> tuple:
+    """A ``ModelSpec.effects`` tuple without effect ``name``."""
+    return tuple(e for e in effects if e[0] != name)

@@ -44,6 +44,28 @@ def import_plugins(plugins: list[str]) -> None:
                 raise OSError(f"--plugin {plugin}: {err}") from None
 
 
+def add_start_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--start", action="append", default=[], metavar="NAME:P=V[,P=V...]",
+                        help="start the fit of effect NAME's parameters P at V (repeatable), instead of the neutral "
+                             "value where the effect does nothing (e.g. an oscillating force's amplitude)")
+
+
+def parse_starts(specs: list[str]) -> dict[str, dict[str, float]]:
+    """``--start`` values as ``{effect: {param: value}}``; a bad one raises :class:`EffectError` naming it."""
+    from ..effects import make_effect
+    out: dict[str, dict[str, float]] = {}
+    for spec in specs:
+        name, _, rest = spec.partition(":")
+        if not rest.strip():
+            raise EffectError(f"--start {spec!r}: give NAME:P=V[,P=V...]")
+        effect = make_effect(spec)  # names the unknown effect, parameter, bad number or out-of-bounds value
+        if effect.name in out:
+            raise EffectError(f"--start {effect.name} given twice; give each effect once")
+        keys = [item.partition("=")[0].strip() for item in rest.split(",") if item.strip()]
+        out[effect.name] = {k: effect.values[k] for k in keys}
+    return out
+
+
 def add_worker_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=DEFAULT_WORKERS, metavar="N",
                         help=f"processes for the sweep (default {DEFAULT_WORKERS}; 1: in this process)")

@@ -206,6 +206,18 @@ def describe_pattern(found: Sequence[TestDiscrepancy], status: dict[float, str] 
     if arr and abs(np.mean(arr)) >= 0.005:
         when = "earlier" if np.mean(arr) < 0 else "later"
         sentences.append(f"the model arrives {abs(np.mean(arr)):.3f} s {when} than measured on average")
+    from .evidence import time_domain
+    td = time_domain(found)
+    if td["mostly_in_time"]:
+        # the paths agree better than the timing: lead with the timing (the summary would otherwise hide it)
+        sentences.insert(0, f"the error is mostly in time: the model's travel lags the measured by "
+                            f"{td['lag_rms_mm']:.2f} mm RMS at equal time, against a mean path distance of "
+                            f"{td['mean_distance_mm']:.2f} mm (right path, wrong pace)")
+    elif td["lag_rms_mm"] is not None:
+        sentences.append(f"in time, the travel lag is {td['lag_rms_mm']:.2f} mm RMS")
+    if td["dominant_frequency_hz"] is not None:
+        sentences.append(f"the residual oscillates at {td['dominant_frequency_hz']:.1f} Hz (a spectral peak in "
+                         f"{td['periodic_fraction']:.0%} of the tests)")
     if status:
         odd = {f: s for f, s in status.items() if s != "travel"}
         for f, s in sorted(odd.items()):

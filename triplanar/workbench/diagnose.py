@@ -38,12 +38,17 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from ..measurement import MeasuredTest
-from .candidates import Candidate, resolve
+from .candidates import Candidate, refit_candidate, resolve, without_effect
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
+from .evidence import (expected_scatter_mm, growth_along_travel, instrument_noise_mm, noise_floor_mm,
+                       time_domain)
+from .intervals import interval95
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import (FitOutcome, FitTask, discrepancies, errors_by_load, evaluate_spec, overall_error,
                   run_fit)
 from .spec import ModelSpec, spec_with_values
+from ..effects import REGISTRY
+from dataclasses import replace
 
 
 def load_folds(forces: Sequence[float], k: int) -> list[list[float]]:
@@ -71,15 +76,27 @@ class CandidateResult:
     nfev: int = 0
     all_values: dict[str, dict[str, float]] = field(default_factory=dict)
     all_stderr: dict[str, dict[str, float]] = field(default_factory=dict)
+    kind: str = "candidate"                       # "candidate" (added) or "refit" (a given effect, freed)
+    given: dict[str, float] = field(default_factory=dict)   # refit: the values the user gave
+    param_ci95: dict[str, list[float] | None] = field(default_factory=dict)
+    param_status: dict[str, str] = field(default_factory=dict)
+    fixed: dict[str, float] = field(default_factory=dict)
 
     def as_json(self) -> dict[str, Any]:
-        return {"effect": self.effect, "params": self.params, "param_stderr": self.param_stderr,
-                "cv_error_mm": self.cv_error_mm, "improvement": self.improvement,
+        return {"effect": self.effect, "params": self.params, "param_ci95": self.param_ci95,
+                "param_stderr": self.param_stderr,
+                "cv_error_mm": self.cv_error_mm, "improvement": self.improvement, "kind": self.kind,
+                "param_status": self.param_status, "fixed": self.fixed,
+                **({"given": self.given} if self.kind == "refit" else {}),
                 "fit_error_mm": self.fit_error_mm, "plausible": self.plausible, "at_bound": self.at_bound,
                 "cv_error_by_load_mm": {f"{k:g}": v for k, v in self.cv_error_by_load.items()},
                 "fold_params": self.fold_params, "fit_seconds": round(self.seconds, 3), "nfev": self.nfev,
                 **({"refitted": {k: v for k, v in self.all_values.items() if k != self.effect}}
                    if len(self.all_values) > 1 else {})}
+
+
+def _fmt(values: Mapping[str, float]) -> str:
+    return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
 
 
 def _jackknife(folds: list[dict[str, float]]) -> dict[str, float]:
@@ -104,6 +121,11 @@ class CandidateTask:
     max_nfev: int = 30
     refit: tuple[Candidate, ...] = ()
     warm: Mapping[str, Mapping[str, float]] | None = None
+    kind: str = "candidate"
+
+    @property
+    def key(self) -> str:
+        return f"{self.kind}:{self.candidate.effect}"
 
 
 def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
@@ -153,11 +175,18 @@ class Diagnoser:
     explained_factor = 2.0
     quiet_factor = 1.5
     margin = 1.25
+    #: the repeat scatter may exceed what noise and the specimen's variability explain by this factor
+    scatter_factor = 2.0
+    #: the specimen's repeat-to-repeat friction scatter assumed by ``expected_scatter_mm`` (deg)
+    friction_scatter_deg = 0.2
 
     def __init__(self, candidates: Sequence[str | Candidate] | None = None, folds: int = 3,
                  executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30,
-                 checkpoint: TaskCheckpoint | None = None):
+                 checkpoint: TaskCheckpoint | None = None, refit_given: bool = True,
+                 start: Mapping[str, Mapping[str, float]] | None = None):
         self.checkpoint = checkpoint
+        self.refit_given = refit_given
+        self.start = {k: dict(v) for k, v in (start or {}).items()}
         if isinstance(folds, bool) or not isinstance(folds, int) or folds < 2:
             raise ValueError(f"folds = {folds!r}: cross-validation needs at least 2 folds")
         self.candidates = candidates
@@ -181,7 +210,11 @@ class Diagnoser:
         refit = {k: dict(v) for k, v in (refit or {}).items()}
         refit_cands = tuple(resolve(list(refit), specimen=base.specimen))
         cands = resolve(self.candidates, exclude=(*base.effect_names, *refit), specimen=base.specimen)
-        if not cands:
+        # the user's given effects, each freed in turn (the others and any forward-selection refits kept)
+        given = [(name, dict(values)) for name, values in base.effects if REGISTRY[name].parameters
+                 and any(p.free for p in REGISTRY[name].parameters.values())] if self.refit_given else []
+        cands = [self._with_start(c) for c in cands]
+        if not cands and not given:
             raise ValueError("no candidate effects to try (all are already in the model)")
         self.user_base_ = base
         self.refit_ = refit
@@ -196,26 +229,36 @@ class Diagnoser:
         self.folds_ = folds
         tasks = [CandidateTask(self.user_base_, c, tuple(tests), tuple(tuple(f) for f in folds), self.max_nfev,
                                refit_cands, refit) for c in cands]
+        for name, values in given:
+            stripped = replace(self.user_base_, effects=without_effect(self.user_base_.effects, name))
+            tasks.append(CandidateTask(stripped, refit_candidate(name, values, base.specimen), tuple(tests),
+                                       tuple(tuple(f) for f in folds), self.max_nfev, refit_cands, refit,
+                                       kind="refit"))
         # Slowest first (slow simulations, many parameters), so that the pool stays balanced.
         tasks.sort(key=lambda t: (t.candidate.effect != "actuator_rise", -len(t.candidate.free)))
         outcomes = run_tasks(run_candidate, tasks, self.executor, self.progress, desc="diagnose",
                              checkpoint=self.checkpoint)
-        by_label = {f"{t.candidate.effect}/{k}": v for t, out in zip(tasks, outcomes) for k, v in out.items()}
-        results = [self._assemble(c, by_label, len(folds)) for c in cands]
+        by_label = {f"{t.key}/{k}": v for t, out in zip(tasks, outcomes) for k, v in out.items()}
+        results = [self._assemble(t, by_label, len(folds), len(tests)) for t in tasks]
         results.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))
-        self.candidates_ = results
+        self.candidates_ = [r for r in results if r.kind == "candidate"]
+        self.refits_ = [r for r in results if r.kind == "refit"]
+        self.ranked_ = results
         self.outcomes_ = by_label
+        self._evidence(tests, base)
         self._decide()
         self.seconds_ = time.perf_counter() - began
         self.report_ = self._report()
         return self
 
-    def _assemble(self, cand: Candidate, by_label: dict[str, FitOutcome], k: int) -> CandidateResult:
-        full = by_label[f"{cand.effect}/all"]
+    def _assemble(self, task: CandidateTask, by_label: dict[str, FitOutcome], k: int,
+                  n_tests: int) -> CandidateResult:
+        cand = task.candidate
+        full = by_label[f"{task.key}/all"]
         held: dict[str, tuple[float, float]] = {}
         fold_params = []
         for i in range(k):
-            out = by_label[f"{cand.effect}/fold{i}"]
+            out = by_label[f"{task.key}/fold{i}"]
             held.update(out.held_out_errors)
             fold_params.append({p: out.values[cand.effect][p] for p in cand.free})
         cv = rms([e for _, e in held.values()])
@@ -229,44 +272,152 @@ class Diagnoser:
         base = self.baseline_error_mm_
         improvement = 1.0 - cv / base if base > 0 and math.isfinite(cv) else 0.0
         implausible = [a.split(".", 1)[1] for a in full.at_bound if a.split(".", 1)[0] == cand.effect]
-        seconds = full.seconds + sum(by_label[f"{cand.effect}/fold{i}"].seconds for i in range(k))
-        nfev = full.nfev + sum(by_label[f"{cand.effect}/fold{i}"].nfev for i in range(k))
+        seconds = full.seconds + sum(by_label[f"{task.key}/fold{i}"].seconds for i in range(k))
+        nfev = full.nfev + sum(by_label[f"{task.key}/fold{i}"].nfev for i in range(k))
+        start = cand.start_values()
+        ci, status = {}, {}
+        for p in cand.free:
+            lo, hi = REGISTRY[cand.effect].parameters[p].lower, REGISTRY[cand.effect].parameters[p].upper
+            ci[p], status[p] = interval95(params[p], sandwich.get(p, math.nan), jack.get(p, 0.0), n_tests,
+                                          len(cand.free), full.train_error_mm, self.repeat_scatter_mm_,
+                                          (lo, hi), start[p], cand.bounds[p])
+            if p in implausible:
+                status[p] = "at_bound"
+        given = dict(cand.start or {}) if task.kind == "refit" else {}
         return CandidateResult(cand.effect, params, stderr, cv, full.train_error_mm, improvement,
                                not implausible, implausible,
                                {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
-                               full.values, full.stderr)
+                               full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed))
+
+    def _with_start(self, cand: Candidate) -> Candidate:
+        """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""
+        given = self.start.get(cand.effect)
+        if not given:
+            return cand
+        params = REGISTRY[cand.effect].parameters
+        unknown = sorted(set(given) - set(cand.free))
+        if unknown:
+            raise ValueError(f"start value for {cand.effect}.{unknown[0]}: not a free parameter of that candidate "
+                             f"(free: {', '.join(cand.free) or 'none'})")
+        bounds = dict(cand.bounds)
+        for k, v in given.items():
+            if not params[k].lower <= v <= params[k].upper:
+                raise ValueError(f"start value {cand.effect}.{k} = {v} is outside [{params[k].lower}, "
+                                 f"{params[k].upper}] {params[k].unit}")
+            lo, hi = bounds[k]
+            bounds[k] = (min(lo, v), max(hi, v))
+        return replace(cand, start={**cand.start_values(), **given}, bounds=bounds)
+
+    def _evidence(self, tests: list[MeasuredTest], base: ModelSpec) -> None:
+        """Noise, expected scatter and the evidence in time (:mod:`triplanar.workbench.evidence`)."""
+        def evaluate(spec: ModelSpec, ts: Sequence[MeasuredTest]) -> list[TestDiscrepancy]:
+            return discrepancies(evaluate_spec(spec, ts))
+        self.noise_mm_ = instrument_noise_mm(tests)
+        self.noise_floor_mm_ = noise_floor_mm(tests, self.noise_mm_)
+        self.expected_scatter_mm_ = expected_scatter_mm(base, tests, self.noise_mm_, self.friction_scatter_deg,
+                                                        evaluate)
+        self.time_domain_ = time_domain(self.baseline_)
+        explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= self.min_improvement]
+        self.best_ = explaining[0] if explaining else None
+        self.after_, self.best_label_ = None, None
+        if self.best_ is not None:
+            after = discrepancies(evaluate_spec(self._spec_of(self.best_), tests))
+            self.after_ = after
+            self.best_label_ = f"{'refitted ' if self.best_.kind == 'refit' else '+ '}{self.best_.effect}"
+            self.time_domain_after_ = time_domain(after)
+            self.growth_after_ = growth_along_travel(after)
+        else:
+            self.time_domain_after_, self.growth_after_ = self.time_domain_, growth_along_travel(self.baseline_)
+
+    def _spec_of(self, result: CandidateResult) -> ModelSpec:
+        spec = self.user_base_
+        if result.kind == "refit":
+            spec = replace(spec, effects=without_effect(spec.effects, result.effect))
+        for name, values in result.all_values.items():
+            if name != result.effect:
+                spec = spec_with_values(spec, name, values)
+        return spec_with_values(spec, result.effect, result.all_values[result.effect])
+
+    def _residual_kinds(self, unexplained_mm: float) -> list[str]:
+        """What kind of residual remains (the evidence of an ``outside_library`` verdict)."""
+        kinds = []
+        td = self.time_domain_after_
+        if td.get("dominant_frequency_hz") is not None:
+            kinds.append(f"periodic at {td['dominant_frequency_hz']:.1f} Hz (a spectral peak in "
+                         f"{td['periodic_fraction']:.0%} of the tests)")
+        if math.isfinite(self.growth_after_) and self.growth_after_ > 2.0:
+            kinds.append(f"growing with travel (the lateral error over the last third of the travel is "
+                         f"{self.growth_after_:.1f} x that over the first)")
+        scatter, expected = self.repeat_scatter_mm_, self.expected_scatter_mm_
+        if math.isfinite(scatter) and math.isfinite(expected) and scatter > self.scatter_factor * expected:
+            kinds.append(f"random from test to test (the repeats scatter {scatter:.2f} mm, {scatter / expected:.1f} x "
+                         f"the {expected:.2f} mm that instrument noise ({self.noise_mm_:.2f} mm) and a "
+                         f"{self.friction_scatter_deg:g} deg friction scatter explain)")
+        if td.get("mostly_in_time"):
+            kinds.append(f"mostly in time (travel lag {td['lag_rms_mm']:.2f} mm RMS against a mean path distance "
+                         f"of {td['mean_distance_mm']:.2f} mm)")
+        if not kinds and math.isfinite(unexplained_mm):
+            kinds.append(f"{unexplained_mm:.2f} mm unexplained, without a periodic or travel-growing pattern")
+        return kinds
 
     def _decide(self) -> None:
         scatter = self.repeat_scatter_mm_
+        expected = self.expected_scatter_mm_
         base = self.baseline_error_mm_
-        self.missing_effect_, self.confidence_ = None, "none"
+        self.missing_effect_, self.confidence_, self.verdict_ = None, "none", "outside_library"
+        scatter_ok = not (math.isfinite(scatter) and math.isfinite(expected) and scatter > self.scatter_factor * expected)
+        periodic = self.time_domain_after_.get("dominant_frequency_hz") is not None
         if math.isfinite(scatter) and base <= self.quiet_factor * scatter:
-            self.reason_ = (f"the model already matches the data to within the repeats' own scatter (error "
-                            f"{base:.2f} mm, scatter {scatter:.2f} mm): nothing is missing")
+            self.unexplained_mm_ = base
+            if scatter_ok and not periodic:
+                self.verdict_ = "none_missing"
+                self.reason_ = (f"the model already matches the data to within the repeats' own scatter (error "
+                                f"{base:.2f} mm, scatter {scatter:.2f} mm), and that scatter is what instrument "
+                                f"noise and the specimen's variability explain ({expected:.2f} mm): nothing is missing")
+            else:
+                self.reason_ = (f"the model matches the data as well as the repeats agree with each other (error "
+                                f"{base:.2f} mm, scatter {scatter:.2f} mm), but something outside the library acts: "
+                                + "; ".join(self._residual_kinds(base)))
             return
-        explaining = [c for c in self.candidates_ if c.plausible and c.improvement >= self.min_improvement]
-        if not explaining:
-            best = self.candidates_[0] if self.candidates_ else None
-            detail = (f"; the best, {best.effect}, removes {best.improvement:.0%} of the error"
-                      f"{'' if best.plausible else ' with an implausible ' + ', '.join(best.at_bound)}"
-                      if best else "")
+        best = self.best_
+        if best is None:
+            self.unexplained_mm_ = base
+            top = self.ranked_[0] if self.ranked_ else None
+            detail = (f"; the best, {top.effect}, removes {top.improvement:.0%} of the error"
+                      f"{'' if top.plausible else ' with an implausible ' + ', '.join(top.at_bound)}"
+                      if top else "")
             self.reason_ = (f"no candidate explains the discrepancy (none removes at least "
-                            f"{self.min_improvement:.0%} of it with plausible parameters){detail}")
+                            f"{self.min_improvement:.0%} of it with plausible parameters){detail}; what remains: "
+                            + "; ".join(self._residual_kinds(base)))
             return
-        best = explaining[0]
-        self.missing_effect_ = best.effect
-        others = [c for c in self.candidates_ if c is not best]
+        self.unexplained_mm_ = best.cv_error_mm
+        others = [c for c in self.ranked_ if c is not best]
         runner = others[0] if others else None
         explained = (not math.isfinite(scatter)) or best.cv_error_mm <= self.explained_factor * scatter
         separated = runner is None or not math.isfinite(runner.cv_error_mm) or \
             runner.cv_error_mm >= self.margin * best.cv_error_mm
-        high = best.improvement >= self.high_improvement and explained and separated
+        high = best.improvement >= self.high_improvement and explained and separated and scatter_ok and not periodic
         self.confidence_ = "high" if high else "low"
-        why = [f"{best.effect} removes {best.improvement:.0%} of the error on held-out loads"]
+        what = (f"refitting the given {best.effect} ({_fmt(best.given)} -> {_fmt(best.params)})"
+                if best.kind == "refit" else best.effect)
+        why = [f"{what} removes {best.improvement:.0%} of the error on held-out loads"]
         if math.isfinite(scatter):
             why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {scatter:.2f} mm")
         if runner is not None:
-            why.append(f"runner-up {runner.effect} leaves {runner.cv_error_mm:.2f} mm")
+            why.append(f"runner-up {runner.effect}{' (refit)' if runner.kind == 'refit' else ''} leaves "
+                       f"{runner.cv_error_mm:.2f} mm")
+        if self.time_domain_.get("mostly_in_time"):
+            why.append(f"the model's error was mostly in time (travel lag {self.time_domain_['lag_rms_mm']:.2f} mm "
+                       f"RMS, mean path distance {self.time_domain_['mean_distance_mm']:.2f} mm)")
+        if explained and scatter_ok and not periodic:
+            self.verdict_ = "refit_given_effect" if best.kind == "refit" else "library_effect"
+            if best.kind == "candidate":
+                self.missing_effect_ = best.effect
+        else:
+            # a library effect helps, but what it leaves is not noise: say so rather than name it as the answer
+            self.verdict_ = "outside_library"
+            self.missing_effect_ = best.effect if best.kind == "candidate" else None
+            why.append("but what remains is not noise: " + "; ".join(self._residual_kinds(best.cv_error_mm)))
         if not high:
             lacks = []
             if best.improvement < self.high_improvement:
@@ -275,16 +426,32 @@ class Diagnoser:
                 lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
             if not separated:
                 lacks.append("the runner-up explains the data almost as well")
+            if not scatter_ok or periodic:
+                lacks.append("the residual shows a pattern no library effect explains")
             why.append("low confidence: " + "; ".join(lacks))
         self.reason_ = "; ".join(why)
 
     def _report(self) -> dict[str, Any]:
-        return {"baseline_error_mm": self.baseline_error_mm_,
-                "candidates": [c.as_json() for c in self.candidates_],
+        finite = lambda v: v if v is not None and math.isfinite(v) else None  # noqa: E731
+        return {"verdict": self.verdict_,
                 "missing_effect": self.missing_effect_,
                 "confidence": self.confidence_,
                 "reason": self.reason_,
-                "repeat_scatter_mm": None if not math.isfinite(self.repeat_scatter_mm_) else self.repeat_scatter_mm_,
+                "baseline_error_mm": self.baseline_error_mm_,
+                "candidates": [c.as_json() for c in self.candidates_],
+                "refit_results": [c.as_json() for c in self.refits_],
+                "refits": [{"effect": r.effect, "param": p, "given": r.given.get(p), "fitted": r.params[p],
+                            "ci95": r.param_ci95.get(p), "status": r.param_status.get(p),
+                            "cv_error_mm": r.cv_error_mm, "improvement": r.improvement}
+                           for r in self.refits_ for p in r.params],
+                "noise": {"instrument_noise_mm": finite(self.noise_mm_),
+                          "noise_floor_mm": finite(self.noise_floor_mm_),
+                          "expected_scatter_mm": finite(self.expected_scatter_mm_),
+                          "friction_scatter_deg": self.friction_scatter_deg,
+                          "repeat_scatter_mm": finite(self.repeat_scatter_mm_),
+                          "unexplained_error_mm": finite(self.unexplained_mm_)},
+                "time_domain": {**self.time_domain_, "after_best": self.time_domain_after_},
+                "repeat_scatter_mm": finite(self.repeat_scatter_mm_),
                 "baseline_error_by_load_mm": {f"{k:g}": v for k, v in self.baseline_by_load_.items()},
                 "model": self.base_.describe(),
                 "folds_N": [[float(f) for f in fold] for fold in self.folds_],
@@ -296,14 +463,12 @@ class Diagnoser:
     def best_spec(self) -> ModelSpec:
         """The model with the named missing effect (and any refitted ones) at their fitted values (the
         model itself if none is named)."""
+        if self.verdict_ == "refit_given_effect" and self.best_ is not None:
+            return self._spec_of(self.best_)
         if self.missing_effect_ is None:
             return self.base_
         best = next(c for c in self.candidates_ if c.effect == self.missing_effect_)
-        spec = self.user_base_
-        for name, values in best.all_values.items():
-            if name != best.effect:
-                spec = spec_with_values(spec, name, values)
-        return spec_with_values(spec, best.effect, best.all_values[best.effect])
+        return self._spec_of(best)
 
     def score(self, tests: Sequence[MeasuredTest]) -> float:
         """Fraction of the model's RMS discrepancy on ``tests`` removed by adding the named effect (0 when

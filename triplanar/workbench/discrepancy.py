@@ -59,6 +59,8 @@ class TestDiscrepancy:
         travel_m: (n,) measured travel; lateral_mm: (n, 3) signed x3 error (measured minus model) per sample.
         residuals: the fit residual vector (sum of squares = error_mm ** 2).
         vertical_rms_mm: (3,) RMS vertical (x2) difference per contact point where the file has x2 (else nan).
+        lag_mm, t_s: (n,) the travel lag at each measured instant and the instants (``None`` without ``t_s``):
+            the evidence in time (:mod:`triplanar.workbench.evidence`).
     """
 
     __test__ = False  # not a pytest test class despite the name
@@ -79,6 +81,8 @@ class TestDiscrepancy:
     lateral_mm: np.ndarray
     residuals: np.ndarray
     vertical_rms_mm: np.ndarray
+    lag_mm: np.ndarray | None = None     # (n,) CP1's modelled minus measured travel at each instant (with t_s)
+    t_s: np.ndarray | None = None        # (n,) the measured instants (with t_s)
 
     @property
     def has_time(self) -> bool:
@@ -172,7 +176,7 @@ def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.nd
         rotation_error_deg=float(rotation), arrival_error_s=arrival,
         lag_rms_mm=float(np.sqrt(np.mean(lag**2))) if lag is not None else math.nan,
         coverage=coverage, error_mm=error, travel_m=travel, lateral_mm=d[..., 1], residuals=residuals,
-        vertical_rms_mm=vertical)
+        vertical_rms_mm=vertical, lag_mm=lag, t_s=test.t_s)
 
 
 @dataclass(frozen=True)

@@ -17,17 +17,18 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..effects import Effect, EffectError
+from ..effects import REGISTRY, Effect, EffectError
 from ..measurement import MeasuredTest
 from ..result import SimulationResult
-from .candidates import Candidate, resolve
-from .discrepancy import NoRun, TestDiscrepancy, discrepancy_group, rms
+from .candidates import Candidate, refit_candidate, resolve
+from .discrepancy import NoRun, TestDiscrepancy, discrepancy_group, repeat_scatter_mm, rms
+from .intervals import interval95
 from .executor import ExecutorLike, executor_scope
 from .spec import EvalResult, EvalTask, ModelSpec, evaluate, group_by_force, spec_with_values, tasks_for
 
@@ -281,7 +282,13 @@ class EffectFit:
 
     Fitted attributes: ``params_``, ``stderr_``, ``at_bound_``, ``spec_`` (base plus the fitted effects),
     ``effects_`` (Effect objects), ``baseline_error_mm_``, ``error_mm_``, ``baseline_by_load_``,
-    ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``.
+    ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``, ``ci95_`` (``{effect:
+    {param: [low, high] or None}}``, :mod:`~triplanar.workbench.intervals`; the jackknife part is absent here, there
+    are no folds), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
+    (effects of the model that were freed: ``{name: values the user gave}``).
+
+    An ``add`` name that the model already has is *refitted*: its parameters are freed, starting at the values
+    the model gave them.
     """
 
     def __init__(self, add: Sequence[str | Candidate], base: ModelSpec | None = None,
@@ -294,9 +301,15 @@ class EffectFit:
         self.max_nfev = max_nfev
 
     def _candidates(self) -> list[Candidate]:
-        cands = resolve(self.add, specimen=self.base.specimen)
+        # an effect the model already has is *refitted*: freed, starting at the value the user gave it
+        given = {n: dict(v) for n, v in self.base.effects}
+        again = [a for a in self.add if isinstance(a, str) and a in given]
+        self.refitted_ = {a: dict(given[a]) for a in again}
+        self.fit_base_ = replace(self.base, effects=tuple(e for e in self.base.effects if e[0] not in again))
+        cands = [refit_candidate(a, given[a], self.base.specimen) if isinstance(a, str) and a in given
+                 else resolve([a], specimen=self.base.specimen)[0] for a in self.add]
         names = [c.effect for c in cands]
-        duplicate = {n for n in names if names.count(n) > 1} | (set(names) & set(self.base.effect_names))
+        duplicate = {n for n in names if names.count(n) > 1} | (set(names) & set(self.fit_base_.effect_names))
         if duplicate:
             raise EffectError(f"effect {sorted(duplicate)[0]!r} is already in the model; add each effect once")
         if not cands:
@@ -313,16 +326,33 @@ class EffectFit:
             if self.start:
                 start = tuple(float(self.start.get(c.effect, {}).get(p, c.start_values()[p]))
                               for c in cands for p in c.free)
-            task = FitTask(self.base, tuple(cands), tuple(tests), (), start, self.max_nfev, "fit")
+            task = FitTask(self.fit_base_, tuple(cands), tuple(tests), (), start, self.max_nfev, "fit")
             self.outcome_ = run_fit(task, mapper)
-            self.spec_ = self.base
+            self.spec_ = self.fit_base_
             for name, values in self.outcome_.values.items():
                 self.spec_ = spec_with_values(self.spec_, name, values)
             self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
         self.params_ = self.outcome_.values
         self.stderr_ = self.outcome_.stderr
         self.at_bound_ = self.outcome_.at_bound
-        self.effects_: list[Effect] = self.spec_.build_effects()[len(self.base.effects):]
+        self.ci95_, self.status_ = {}, {}
+        scatter = repeat_scatter_mm(tests, self.base.rest_positions)
+        for c in cands:
+            params = REGISTRY[c.effect].parameters
+            starts = c.start_values() if start is None else dict(zip(c.free, start[:len(c.free)]))
+            ci, status = {}, {}
+            for p in c.free:
+                ci[p], status[p] = interval95(self.params_[c.effect][p], self.stderr_[c.effect][p], 0.0, len(tests),
+                                              len(c.free), self.outcome_.train_error_mm, scatter,
+                                              (params[p].lower, params[p].upper), float(starts[p]), c.bounds[p])
+                if f"{c.effect}.{p}" in self.at_bound_:
+                    status[p] = "at_bound"
+            for p in c.fixed:
+                status[p] = "fixed"
+            self.ci95_[c.effect], self.status_[c.effect] = ci, status
+            if start is not None:
+                start = start[len(c.free):]
+        self.effects_: list[Effect] = self.spec_.build_effects()[len(self.fit_base_.effects):]
         self.baseline_error_mm_ = overall_error(self.baseline_)
         self.error_mm_ = overall_error(self.discrepancies_)
         self.baseline_by_load_ = errors_by_load(self.baseline_)

@@ -5,6 +5,9 @@
   load (the "see where it fails" plot).
 * :func:`plot_error_map`: mean horizontal distance by load level x contact point.
 * :func:`plot_candidates`: diagnose's ranking (cross-validated error of each candidate against the baseline).
+* :func:`plot_time_residuals`: travel lag and lateral error against time, and the residual spectrum.
+* :func:`plot_deviations`: measured minus model (x1, x3) of each contact point in mm against travel (the
+  overhead view's deviations at a scale where millimetres show).
 * :func:`plot_error_fall`: the error after each addition, overall and per load level ("watch it fall").
 """
 
@@ -110,28 +113,109 @@ def plot_error_map(cmp: Comparison, path: str | Path) -> Path:
 
 
 def plot_candidates(report: dict, path: str | Path) -> Path:
-    """Diagnose's ranking: cross-validated RMS discrepancy per candidate, the baseline as a line."""
+    """Diagnose's ranking: cross-validated RMS discrepancy per candidate and per refit of a given effect (hatched),
+    implausible fits marked (light, with "implausible"), the baseline, repeat scatter and expected scatter as lines."""
     import matplotlib.pyplot as plt
-    cands = report["candidates"]
-    names = [c["effect"] for c in cands]
-    values = [c["cv_error_mm"] for c in cands]
-    fig, ax = plt.subplots(figsize=(6, 0.45 * len(cands) + 1.4))
-    colours = ["black" if c["effect"] == report.get("missing_effect") else "0.65" for c in cands]
-    ax.barh(range(len(cands)), values, color=colours)
-    ax.set_yticks(range(len(cands)), names)
+    rows = [(c, c["effect"]) for c in report["candidates"]]
+    rows += [(c, f"{c['effect']} (refit)") for c in report.get("refit_results", [])]
+    rows.sort(key=lambda r: (not math.isfinite(r[0]["cv_error_mm"]), r[0]["cv_error_mm"]))
+    values = [c["cv_error_mm"] for c, _ in rows]
+    fig, ax = plt.subplots(figsize=(6.5, 0.45 * len(rows) + 1.6))
+    best = report.get("missing_effect")
+    for i, (c, label) in enumerate(rows):
+        chosen = (c.get("kind") == "refit" and report.get("verdict") == "refit_given_effect" and i == 0) or \
+            (c.get("kind", "candidate") == "candidate" and c["effect"] == best)
+        colour = "black" if chosen else ("0.85" if not c["plausible"] else "0.6")
+        ax.barh(i, c["cv_error_mm"], color=colour, hatch="//" if c.get("kind") == "refit" else None,
+                edgecolor="0.3")
+        if not c["plausible"]:
+            ax.text(c["cv_error_mm"], i, "  implausible", va="center", fontsize=7, color="tab:red")
+    ax.set_yticks(range(len(rows)), [label for _, label in rows])
     ax.invert_yaxis()
     ax.axvline(report["baseline_error_mm"], color="tab:red", lw=1, label="model as given")
     if report.get("repeat_scatter_mm"):
         ax.axvline(report["repeat_scatter_mm"], color="tab:blue", lw=1, ls="--", label="repeat scatter")
+    expected = (report.get("noise") or {}).get("expected_scatter_mm")
+    if expected:
+        ax.axvline(expected, color="tab:green", lw=1, ls=":", label="scatter noise + specimen explain")
     ax.set_xscale("log")
     finite = [v for v in values + [report["baseline_error_mm"], report.get("repeat_scatter_mm") or math.inf]
               if v and math.isfinite(v) and v > 0]
     if finite:
-        ax.set_xlim(left=0.5 * min(finite))
+        ax.set_xlim(left=0.5 * min(finite), right=4 * max(finite))
     ax.set_xlabel("cross-validated RMS discrepancy (mm)")
-    ax.legend(fontsize=7)
-    verdict = report.get("missing_effect") or "no candidate"
-    ax.set_title(f"diagnose: {verdict} (confidence {report.get('confidence')})", fontsize=9)
+    ax.legend(fontsize=7, loc="lower right")
+    ax.set_title(f"diagnose: {report.get('verdict', '')}, {best or 'no library effect named'} "
+                 f"(confidence {report.get('confidence')})", fontsize=9)
+    return save_figure(fig, path)
+
+
+def plot_time_residuals(before: Sequence, after: Sequence | None, path: str | Path, model: str,
+                        best: str | None = None) -> Path:
+    """Evidence in time, for the model as given (top row) and after the best fit (bottom row, if any): travel
+    lag against time, CP1's lateral error against time (one line per test, coloured by load), and the residual
+    spectrum (median over tests, :func:`triplanar.workbench.evidence.residual_spectrum`)."""
+    import matplotlib.pyplot as plt
+    from .evidence import residual_spectrum
+    sets = [(model, before)] + ([(best or "best fit", after)] if after else [])
+    loads = sorted({d.force_N for d in before}) or [0.0]
+    colour, cmap, lo, hi = _load_colours(loads)
+    fig, axes = plt.subplots(len(sets), 3, figsize=(13, 3.3 * len(sets)), squeeze=False)
+    for row, (label, found) in zip(axes, sets):
+        grid = np.linspace(0.0, 60.0, 241)
+        spectra = []
+        for d in found:
+            if d.t_s is None:
+                continue
+            row[0].plot(d.t_s, d.lag_mm, color=colour(d.force_N), lw=0.7)
+            row[1].plot(d.t_s, d.lateral_mm[:, 0], color=colour(d.force_N), lw=0.7)
+            spec = residual_spectrum(d)
+            if spec is not None and np.any(spec[1] > 0):
+                spectra.append(np.interp(grid, spec[0], spec[1] / np.median(spec[1][spec[0] >= 2.0]),
+                                         right=np.nan))
+        if spectra:
+            row[2].semilogy(grid, np.nanmedian(np.array(spectra), axis=0), color="black", lw=1)
+        row[0].set_ylabel(f"{label}\ntravel lag, model - measured (mm)", fontsize=8)
+        row[1].set_ylabel("CP1 lateral error (mm)", fontsize=8)
+        row[2].set_ylabel("residual power / its median\n(median over tests)", fontsize=8)
+        for ax in row[:2]:
+            ax.axhline(0.0, color="0.7", lw=0.6)
+            ax.set_xlabel("time since the actuator began (s)")
+        row[2].set_xlabel("frequency (Hz)")
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(lo, hi))
+    fig.colorbar(sm, ax=list(axes.ravel()), label="shear load (N)", shrink=0.85)
+    fig.suptitle("residuals in time: arrival, lag, spectrum", fontsize=10)
+    return save_figure(fig, path)
+
+
+def plot_deviations(cmp: Comparison, path: str | Path, title: str | None = None) -> Path:
+    """Where millimetres show: each contact point's horizontal deviation from the model (measured - model, x1
+    and x3 in mm) against CP1 travel, one line per test coloured by load: an overhead view of the deviations,
+    relative to the model, at a scale where the post-fit agreement (tenths of a millimetre) is visible."""
+    import matplotlib.pyplot as plt
+    loads = sorted(cmp.runs)
+    colour, cmap, lo, hi = _load_colours(loads)
+    fig, axes = plt.subplots(2, 3, figsize=(12, 5.6), sharex=True, sharey="row")
+    for cp in range(3):
+        for d in cmp.discrepancies:
+            test = next(t for t in cmp.tests if t.test_id == d.test_id)
+            run = cmp.runs[d.force_N].result
+            if run is None or len(run.t) < 2:
+                continue
+            from ..paths import model_at_travel
+            model = model_at_travel(run, d.travel_m)
+            dx = (test.positions[:, cp, 0] - model[:, cp, 0]) * 1e3
+            axes[0, cp].plot(d.travel_m * 100, dx, color=colour(d.force_N), lw=0.7)
+            axes[1, cp].plot(d.travel_m * 100, d.lateral_mm[:, cp], color=colour(d.force_N), lw=0.7)
+        axes[0, cp].set_title(f"CP{cp + 1}", fontsize=9)
+        axes[1, cp].set_xlabel("CP1 travel (cm)")
+        for ax in axes[:, cp]:
+            ax.axhline(0.0, color="0.7", lw=0.6)
+    axes[0, 0].set_ylabel("x1: measured - model (mm)", fontsize=8)
+    axes[1, 0].set_ylabel("x3: measured - model (mm)", fontsize=8)
+    sm = plt.cm.ScalarMappable(cmap=cmap, norm=plt.Normalize(lo, hi))
+    fig.colorbar(sm, ax=list(axes.ravel()), label="shear load (N)", shrink=0.85)
+    fig.suptitle(title or f"deviations from {cmp.spec.describe()} (mm, relative to the model)", fontsize=10)
     return save_figure(fig, path)
 
 

@@ -106,8 +106,17 @@ class ModelSpec:
 
     def describe(self) -> str:
         base = {"A": "case A (end friction)", "B": "case B (bare actuator)", "C": "case C (hydrostatic)"}
-        parts = [base.get(self.case, f"case {self.case}")]
-        parts += [repr(build_effect(s)) for s in self.effects]
+        effects = [build_effect(s) for s in self.effects]
+        ends = [e for e in effects if e.name == "end_friction"]
+        if self.case == "B" and ends:
+            # B plus end friction is the paper's case A (section 5.2); name it so, with the angle if not the specimen's
+            own = (self.specimen or _reference()[0]).tip_friction_deg
+            phi = ends[0]["phi_deg"]
+            parts = ["case A (end friction)" if abs(phi - own) < 1e-9 else f"case A (end friction, phi_EF = {phi:g} deg)"]
+            effects = [e for e in effects if e is not ends[0]]
+        else:
+            parts = [base.get(self.case, f"case {self.case}")]
+        parts += [repr(e) for e in effects]
         return " + ".join(parts)
 
 

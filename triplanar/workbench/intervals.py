@@ -1,0 +1,51 @@
+"""95 % intervals of fitted parameters that account for test-to-test scatter and for model-form error.
+
+The standard error is the larger of two estimates that both treat *tests* as the independent units:
+
+* the cluster-robust sandwich of the full fit (one cluster per test; ``fit.sandwich_stderr``): the scatter of
+  the tests' own pulls on the parameter, whatever its cause (noise, friction that differs per repeat);
+* the delete-a-fold jackknife over the cross-validation fits (folds are load levels): how far the estimate
+  moves when a third of the loads is left out, which also sees a parameter that drifts with load.
+
+Model-form error: when the fitted model still leaves more error than the repeats scatter (``fit_error`` above
+``scatter``), the residuals are not only scatter, and the part that is shared by all tests is invisible to
+both estimates. The standard error is then multiplied by ``fit_error / scatter`` (a Birge ratio: the intervals
+widen in proportion to the unexplained error; at or below the scatter the factor is 1).
+
+The interval is ``value +- t(0.975, n_tests - p) * stderr``, clipped to the parameter's physical bounds.
+A parameter that never left its start (the fit did not move it, or a snap set it back) gets no interval and
+the status ``not_moved``; a zero or non-finite standard error (a degenerate covariance: the data do not pull
+on the parameter) gets the status ``degenerate``; an interval that spans the whole fit range keeps its numbers
+with the status ``unidentified`` (the data do not pin the parameter within its plausible range).
+"""
+
+from __future__ import annotations
+
+import math
+
+from scipy.stats import t as student_t
+
+
+def inflation(fit_error_mm: float, scatter_mm: float) -> float:
+    """The model-form factor ``max(1, fit_error / scatter)`` (1 without a scatter estimate)."""
+    if not (math.isfinite(fit_error_mm) and math.isfinite(scatter_mm) and scatter_mm > 0):
+        return 1.0
+    return max(1.0, fit_error_mm / scatter_mm)
+
+
+def interval95(value: float, sandwich_se: float, jackknife_se: float, n_tests: int, n_free: int,
+               fit_error_mm: float, scatter_mm: float, bounds: tuple[float, float], start: float,
+               fit_range: tuple[float, float]) -> tuple[list[float] | None, str]:
+    """(``[low, high]`` or ``None``, status) for one fitted parameter (module doc)."""
+    span = fit_range[1] - fit_range[0]
+    if abs(value - start) <= 1e-9 * max(span, 1e-300):
+        return None, "not_moved"
+    se = max(sandwich_se if math.isfinite(sandwich_se) else 0.0, jackknife_se if math.isfinite(jackknife_se) else 0.0)
+    if not math.isfinite(sandwich_se) or se <= 0.0:
+        return None, "degenerate"
+    se *= inflation(fit_error_mm, scatter_mm)
+    q = float(student_t.ppf(0.975, max(1, n_tests - n_free)))
+    ci = [max(bounds[0], value - q * se), min(bounds[1], value + q * se)]
+    if ci[0] <= fit_range[0] and ci[1] >= fit_range[1]:
+        return ci, "unidentified"       # the data allow anything over the plausible range (e.g. 10 +- 2.7e9 Hz)
+    return ci, "fitted"
