@@ -9,7 +9,10 @@ picklable tasks. Backends (the ``executor`` argument, or ``--executor`` on the C
   sweep (``docs/scaling.md``); a task whose worker dies is retried.
 * any object with ``map(fn, iterable)`` (and optionally ``submit``): used as is and left open.
 
-Whatever the backend, results come back in task order and a task computes the same numbers; with a
+Whatever the backend, results come back in task order and a task computes the same numbers: each task runs with
+BLAS/OpenMP limited to one thread (:class:`OneThreadTask`; a multi-threaded BLAS splits sums differently and
+changes the last bits of a fit, and Ray starts its workers with one thread anyway: the task is the unit of
+parallelism). With a
 :class:`TaskCheckpoint` each finished task's result is saved (atomically) in this process as it arrives, so an
 interrupted sweep resumes without redoing finished tasks.
 
@@ -158,6 +161,19 @@ def executor_scope(executor: ExecutorLike, n_tasks: int = 2) -> Iterator[Executo
         yield executor
 
 
+class OneThreadTask:
+    """``fn`` run with BLAS and OpenMP limited to one thread (``threadpoolctl``), so that a task's numbers do not
+    depend on the process it runs in (the caller's, a pool's or a Ray worker's)."""
+
+    def __init__(self, fn: Callable[[T], R]):
+        self.fn = fn
+
+    def __call__(self, task: T) -> R:
+        from threadpoolctl import threadpool_limits  # noqa: PLC0415
+        with threadpool_limits(limits=1):
+            return self.fn(task)
+
+
 class TaskCheckpoint:
     """Finished tasks' results on disk, so that an interrupted sweep resumes where it stopped: each result is
     written (atomically) as ``<directory>/<key>.pkl`` when its task finishes, the key being a hash of the
@@ -239,17 +255,18 @@ def run_tasks(fn: Callable[[T], R], tasks: Sequence[T], executor: ExecutorLike =
         if bar is not None:
             bar.update(1)
 
+    call = OneThreadTask(fn)
     try:
         if not todo:
             return done
         with executor_scope(executor, len(todo)) as ex:
             if (bar is not None or checkpoint is not None) and callable(getattr(ex, "submit", None)):
                 # concurrent.futures: record tasks as they finish, in any order.
-                futures = {ex.submit(fn, tasks[i]): i for i in todo}
+                futures = {ex.submit(call, tasks[i]): i for i in todo}
                 for fut in as_completed(futures):
                     finished(futures[fut], fut.result())
                 return done
-            for i, result in zip(todo, ex.map(fn, [tasks[i] for i in todo])):
+            for i, result in zip(todo, ex.map(call, [tasks[i] for i in todo])):
                 finished(i, result)
             return done
     finally:
