@@ -80,3 +80,10 @@ class PluginTip(EndFriction):
 
     name = "plugin_tip"
 '''
+
+
+def ray_daemons() -> set[int]:
+    """Process ids of Ray's node daemons (raylet, gcs_server) on this machine."""
+    import subprocess
+    found = subprocess.run(["pgrep", "-x", "raylet|gcs_server"], capture_output=True, text=True).stdout
+    return {int(pid) for pid in found.split()}

@@ -3,15 +3,11 @@ resume from the per-task checkpoint, plugins on the workers, the CLI flags."""
 
 from __future__ import annotations
 
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import pytest
 
-from ray_helpers import (OBJECT_STORE_BYTES, PLUGIN, ROOT, attempts, by_value, kill_when_started,
-                         recorded_square, ray_env)
+from ray_helpers import OBJECT_STORE_BYTES, PLUGIN, attempts, by_value, kill_when_started, recorded_square
 
 ray = pytest.importorskip("ray")
 
@@ -108,26 +104,3 @@ def test_ray_address_without_the_ray_executor_is_refused(capsys) -> None:
     from triplanar.cli import main
     code = main(["lab-data", "--out", "x.csv", "--ray-address", "127.0.0.1:1", "--executor", "serial"])
     assert code == 2 and "--ray-address 127.0.0.1:1: give --executor ray" in capsys.readouterr().err
-
-
-@pytest.mark.slow
-def test_a_command_starts_a_local_ray_for_the_command_and_shuts_it_down(tmp_path) -> None:
-    """`--executor ray` without an address or RAY_ADDRESS: a Ray of its own on 127.0.0.1, gone afterwards."""
-    env = ray_env()
-    env.pop("RAY_ADDRESS", None)
-    cmd = [sys.executable, "-m", "triplanar.cli", "lab-data", "--out", str(tmp_path / "d.csv"), "--loads", "30.3",
-           "--repeats", "2", "--no-progress", "--executor", "ray"]
-    before = ray_daemons()
-    done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr
-    assert "Started a local Ray instance" in done.stderr and (tmp_path / "d.csv").exists()
-    deadline = time.time() + 10
-    while ray_daemons() - before and time.time() < deadline:  # shutdown is asynchronous for a moment
-        time.sleep(0.2)
-    assert not ray_daemons() - before
-
-
-def ray_daemons() -> set[int]:
-    """Process ids of Ray's node daemons (raylet, gcs_server) on this machine."""
-    found = subprocess.run(["pgrep", "-x", "raylet|gcs_server"], capture_output=True, text=True).stdout
-    return {int(pid) for pid in found.split()}

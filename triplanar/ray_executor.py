@@ -84,7 +84,8 @@ class RayExecutor:
             if address:
                 ray.init(address=address, log_to_driver=False)
             else:
-                ray.init(num_cpus=self.num_cpus, object_store_memory=OBJECT_STORE_BYTES, include_dashboard=False,
+                # "local": a new Ray even when another runs on this machine (plain init() would join that one)
+                ray.init(address="local", num_cpus=self.num_cpus, object_store_memory=OBJECT_STORE_BYTES, include_dashboard=False,
                          _node_ip_address=LOOPBACK, log_to_driver=False)
                 self._owns_ray = True
         self._remote = ray.remote(max_retries=self.max_retries, retry_exceptions=False, num_cpus=1)(_run_task)
