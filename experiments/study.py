@@ -76,11 +76,11 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
 
 @dataclass(frozen=True)
 class EvalTask:
-    """One evaluation of the study: a scripted controller, or a PPO run as its (model, vecnormalize) paths, at one
-    load and seed."""
+    """One controller's evaluations at every load (an episode takes milliseconds: a task per episode would cost
+    more in overhead than it computes): a scripted controller, or a PPO run as its (model, vecnormalize) paths."""
 
     controller: object
-    load_N: float
+    loads: tuple[float, ...]
     seed: int
     env_kwargs: dict
 
@@ -91,10 +91,10 @@ def _ppo_controller(model_path: str, vecnormalize_path: str):
     return PPOController.load(model_path, vecnormalize_path, name=PPO_NAME)
 
 
-def run_evaluation(task: EvalTask) -> EpisodeResult:
-    """:func:`agents.evaluate` for one task (a PPO policy is loaded once per worker process)."""
+def run_evaluation(task: EvalTask) -> list[EpisodeResult]:
+    """:func:`agents.evaluate` at each of the task's loads, in order (a PPO policy is loaded once per process)."""
     controller = _ppo_controller(*task.controller) if isinstance(task.controller, tuple) else task.controller
-    return evaluate(controller, task.load_N, seed=task.seed, env_kwargs=task.env_kwargs)
+    return [evaluate(controller, f, seed=task.seed, env_kwargs=task.env_kwargs) for f in task.loads]
 
 
 def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: Sequence[int] = (0, 1, 2),
@@ -132,10 +132,10 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
         runs.append(TrainResult(run_dir, run_dir / "final_model.zip", run_dir / "vecnormalize.pkl",
                                 run_dir / "learning_curve.csv", info["timesteps"], info["wall_s"]))
     started = time.perf_counter()
-    tasks = [EvalTask(controller, f, 0, env_kwargs) for controller in scripted_controllers() for f in loads]
-    tasks += [EvalTask((str(run.model_path), str(run.vecnormalize_path)), f, seed, env_kwargs)
-              for seed, run in zip(seeds, runs) for f in loads]
-    episodes: list[EpisodeResult] = run_tasks(run_evaluation, tasks, executor, desc="evaluations")
+    tasks = [EvalTask(controller, loads, 0, env_kwargs) for controller in scripted_controllers()]
+    tasks += [EvalTask((str(run.model_path), str(run.vecnormalize_path)), loads, seed, env_kwargs)
+              for seed, run in zip(seeds, runs)]
+    episodes: list[EpisodeResult] = [e for batch in run_tasks(run_evaluation, tasks, executor) for e in batch]
     timings["evaluation_s"] = time.perf_counter() - started
     result = StudyResult(out_dir, loads, episodes, runs,
                          {seed: read_curve(run.curve_path) for seed, run in zip(seeds, runs)}, timings)

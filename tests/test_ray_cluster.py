@@ -90,8 +90,9 @@ def test_diagnose_reports_are_the_same_locally_on_a_local_ray_and_on_the_cluster
 def test_a_small_study_sweep_gives_the_serial_numbers_on_the_cluster(cluster) -> None:
     pytest.importorskip("stable_baselines3")
     from experiments.study import EvalTask, run_evaluation, scripted_controllers
-    tasks = [EvalTask(c, f, 0, {}) for c in scripted_controllers()[:1] for f in (30.3, 45.0)]
-    here = run_tasks(run_evaluation, tasks, "serial")
-    there = run_tasks(run_evaluation, tasks, RayExecutor())
+    tasks = [EvalTask(c, (30.3, 45.0), 0, {}) for c in scripted_controllers()[:2]]
+    here = [e for batch in run_tasks(run_evaluation, tasks, "serial") for e in batch]
+    there = [e for batch in run_tasks(run_evaluation, tasks, RayExecutor()) for e in batch]
+    assert len(here) == 4
     key = [(r.controller, r.load_N, r.mimicry_error_mm, r.reason, r.travel_m, r.steps) for r in here]
     assert [(r.controller, r.load_N, r.mimicry_error_mm, r.reason, r.travel_m, r.steps) for r in there] == key
