@@ -67,16 +67,22 @@ def test_an_interrupted_sweep_resumes_without_redoing_finished_tasks(local_ray, 
 
 
 def test_plugin_effects_reach_the_workers(local_ray, tmp_path) -> None:
+    import sys
+
+    from triplanar.effects import REGISTRY, make_effect
     from triplanar.plugins import import_plugins
     plugin = tmp_path / "my_tip.py"
     plugin.write_text(PLUGIN)
     import_plugins([str(plugin)])
-    from triplanar.effects import make_effect
-    effect = make_effect("plugin_tip:phi_deg=8")
-    with pytest.raises(ModuleNotFoundError, match="triplanar_plugin_my_tip"):  # a worker without the plugin
-        run_tasks(effect_seen_by_worker, [effect], RayExecutor())
-    shipped = RayExecutor(plugins=[str(plugin)])
-    assert run_tasks(effect_seen_by_worker, [effect, effect], shipped) == [("triplanar_plugin_my_tip", True)] * 2
+    try:
+        effect = make_effect("plugin_tip:phi_deg=8")
+        with pytest.raises(ModuleNotFoundError, match="triplanar_plugin_my_tip"):  # a worker without the plugin
+            run_tasks(effect_seen_by_worker, [effect], RayExecutor())
+        shipped = RayExecutor(plugins=[str(plugin)])
+        assert run_tasks(effect_seen_by_worker, [effect, effect], shipped) == [("triplanar_plugin_my_tip", True)] * 2
+    finally:  # the registry is global: later tests must not see the plugin's effect
+        REGISTRY.pop("plugin_tip", None)
+        sys.modules.pop("triplanar_plugin_my_tip", None)
 
 
 def test_lab_data_is_the_same_file_serial_and_on_ray(local_ray, tmp_path) -> None:
