@@ -21,9 +21,18 @@ def nothing(x: int) -> int:
     return x
 
 
+def one_simulation(force_N: float) -> str:
+    from triplanar import paper_model, simulate
+    return simulate(paper_model("A", force_N)).status
+
+
 def main() -> None:
     print(f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} CPUs")
     with RayExecutor(num_cpus=2) as ex:
+        for what in ("cold", "warm"):  # first: each worker imports triplanar and loads numba's cache
+            started = time.perf_counter()
+            run_tasks(one_simulation, [32.5, 32.5], ex)
+            print(f"2 simulations on 2 {what} workers: {time.perf_counter() - started:.2f} s")
         run_tasks(nothing, list(range(20)), ex)  # workers up
         for n in (400,):
             started = time.perf_counter()
