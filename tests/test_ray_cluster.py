@@ -96,3 +96,15 @@ def test_a_small_study_sweep_gives_the_serial_numbers_on_the_cluster(cluster) ->
     assert len(here) == 4
     key = [(r.controller, r.load_N, r.mimicry_error_mm, r.reason, r.travel_m, r.steps) for r in here]
     assert [(r.controller, r.load_N, r.mimicry_error_mm, r.reason, r.travel_m, r.steps) for r in there] == key
+
+
+def test_ray_address_from_the_environment_joins_the_cluster(cluster, tmp_path) -> None:
+    env = dict(ray_env(), RAY_ADDRESS=cluster.address)
+    daemons = ray_daemons()
+    cmd = [sys.executable, "-m", "triplanar.cli", "lab-data", "--out", str(tmp_path / "d.csv"), "--loads", "30.3",
+           "--repeats", "1", "--no-progress", "--executor", "ray"]
+    done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert f"Connecting to existing Ray cluster at address: {cluster.address}" in done.stderr
+    assert (tmp_path / "d.csv").exists() and ray_daemons() == daemons  # joined, started nothing, left it running
+    assert len([n for n in ray.nodes() if n["Alive"]]) == 2
