@@ -3,7 +3,8 @@ with ``--workers 1`` and ``--workers 2`` (a local pool of that many processes, o
 
     PYTHONPATH=. python benchmarks/bench_scaling.py [--executor local ray] [--repeats 1]
 
-Prints one row per run: wall seconds, and how busy the machine's CPUs were over the run (from /proc/stat: the
+Prints one row per run: wall seconds, CPU seconds of the command and the processes it started (reaped children:
+the pool's workers; Ray's workers and daemons, if the command's Ray reaped them), and how busy the machine's CPUs were over the run (from /proc/stat: the
 machine is shared, so a busy machine explains a low ratio), then the 1-to-2 ratio per backend. Recorded in
 docs/scaling.md. The reports of all runs are checked to be the same (timing fields aside).
 """
@@ -13,6 +14,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -29,17 +31,23 @@ def cpu_times() -> tuple[int, int]:
     return sum(fields) - idle, sum(fields)
 
 
-def run(executor: str, workers: int, out: Path) -> tuple[float, float]:
+def children_cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def run(executor: str, workers: int, out: Path) -> tuple[float, float, float]:
     env = dict(os.environ, PYTHONPATH=str(ROOT), RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER="0")
     env.pop("RAY_ADDRESS", None)
     cmd = [sys.executable, "-m", "triplanar.cli", "diagnose", str(ROOT / "data" / "lab_traces.csv"), "--out",
            str(out), "--no-progress", "--executor", executor, "--workers", str(workers)]
     busy0, total0 = cpu_times()
+    cpu0 = children_cpu_s()
     started = time.perf_counter()
     subprocess.run(cmd, cwd=ROOT, env=env, check=True, capture_output=True)
     wall = time.perf_counter() - started
     busy1, total1 = cpu_times()
-    return wall, (busy1 - busy0) / max(1, total1 - total0)
+    return wall, (busy1 - busy0) / max(1, total1 - total0), children_cpu_s() - cpu0
 
 
 def report(path: Path) -> dict:
@@ -64,9 +72,10 @@ def main() -> None:
                 best = None
                 for r in range(args.repeats):
                     out = Path(tmp) / f"{executor}-{workers}-{r}"
-                    wall, busy = run(executor, workers, out)
+                    wall, busy, cpu = run(executor, workers, out)
                     reports.append(report(out / "diagnose.json"))
-                    print(f"{executor:6s} {workers} CPU(s)  wall {wall:6.1f} s  machine CPUs busy {busy:4.0%}")
+                    print(f"{executor:6s} {workers} CPU(s)  wall {wall:6.1f} s  CPU of the run {cpu:6.1f} s  "
+                          f"machine CPUs busy {busy:4.0%}")
                     best = wall if best is None else min(best, wall)
                 walls[workers] = best
             print(f"{executor:6s} speed-up 1 -> 2 CPUs: {walls[1] / walls[2]:.2f}x")

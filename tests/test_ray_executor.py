@@ -110,3 +110,18 @@ def test_ray_address_without_the_ray_executor_is_refused(capsys) -> None:
     from triplanar.cli import main
     code = main(["lab-data", "--out", "x.csv", "--ray-address", "127.0.0.1:1", "--executor", "serial"])
     assert code == 2 and "--ray-address 127.0.0.1:1: give --executor ray" in capsys.readouterr().err
+
+
+def test_fit_gives_the_same_result_serial_and_on_ray(local_ray, tmp_path) -> None:
+    import json
+
+    from triplanar.cli import main
+    data = Path(__file__).resolve().parents[1] / "data" / "lab_traces.csv"
+    results = {}
+    for executor in ("serial", "ray"):
+        out = tmp_path / executor
+        assert main(["fit", str(data), "--add", "end_friction", "--no-progress", "--out", str(out),
+                     "--executor", executor]) == 0
+        results[executor] = json.loads((out / "fit.json").read_text())
+    assert results["serial"] == results["ray"]
+    assert results["ray"]["steps"][-1]["added"] == "end_friction"

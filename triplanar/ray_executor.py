@@ -71,9 +71,9 @@ class RayExecutor:
         self.num_cpus = num_cpus
         self.plugins = plugin_sources(plugins)
         self.max_retries = max_retries
-        self._owns_ray = False
+        self._initialised_here = False
         self._remote = None
-        self._pending: list[Any] = []
+        self._pending: set[Any] = set()  # submitted and not finished: cancelled if the sweep fails
 
     # -- lifetime --------------------------------------------------------------------------------------
     def start(self) -> RayExecutor:
@@ -85,24 +85,25 @@ class RayExecutor:
                 ray.init(address=address, log_to_driver=False)
             else:
                 # "local": a new Ray even when another runs on this machine (plain init() would join that one)
-                ray.init(address="local", num_cpus=self.num_cpus, object_store_memory=OBJECT_STORE_BYTES, include_dashboard=False,
-                         _node_ip_address=LOOPBACK, log_to_driver=False)
-                self._owns_ray = True
+                ray.init(address="local", num_cpus=self.num_cpus, object_store_memory=OBJECT_STORE_BYTES,
+                         include_dashboard=False, _node_ip_address=LOOPBACK, log_to_driver=False)
+            self._initialised_here = True  # shutdown() stops a Ray started here, or only disconnects from a cluster
         self._remote = ray.remote(max_retries=self.max_retries, retry_exceptions=False, num_cpus=1)(_run_task)
         return self
 
     def shutdown(self, cancel: bool = False) -> None:
         ray = require_ray()
         if cancel:
-            for ref in self._pending:
+            for ref in list(self._pending):
                 try:
                     ray.cancel(ref, force=True)
                 except Exception:  # noqa: BLE001 (already finished or gone)
                     pass
         self._pending.clear()
-        if self._owns_ray and ray.is_initialized():
+        if self._initialised_here and ray.is_initialized():
             ray.shutdown()
-        self._owns_ray = False
+        self._initialised_here = False
+        self._remote = None
 
     def __enter__(self) -> RayExecutor:
         return self.start()
@@ -116,18 +117,20 @@ class RayExecutor:
             self.start()
         import cloudpickle  # noqa: PLC0415
         ref = self._remote.remote(self.plugins, cloudpickle.dumps((fn, task)))
-        self._pending.append(ref)
+        self._pending.add(ref)
         return ref
 
     def submit(self, fn: Callable, task: Any) -> Future:
         """One task; its result as a :class:`concurrent.futures.Future` (so ``as_completed`` works)."""
-        return self._submit_ref(fn, task).future()
+        ref = self._submit_ref(fn, task)
+        future = ref.future()
+        future.add_done_callback(lambda _: self._pending.discard(ref))  # a finished result is not held here
+        return future
 
     def map(self, fn: Callable, iterable: Iterable[Any]) -> list[Any]:
         """``[fn(t) for t in iterable]`` as Ray tasks, in order."""
         ray = require_ray()
         refs = [self._submit_ref(fn, task) for task in iterable]
         results = ray.get(refs)
-        finished = set(refs)
-        self._pending = [r for r in self._pending if r not in finished]
+        self._pending.difference_update(refs)
         return results
