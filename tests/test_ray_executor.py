@@ -14,6 +14,8 @@ ray = pytest.importorskip("ray")
 from triplanar.executor import TaskCheckpoint, run_tasks  # noqa: E402
 from triplanar.ray_executor import RayExecutor  # noqa: E402
 
+pytestmark = pytest.mark.slow  # a Ray takes seconds to start, and most tests run commands on it
+
 
 @pytest.fixture(scope="module")
 def local_ray():
