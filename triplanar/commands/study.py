@@ -29,7 +29,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "unless --overwrite-doc)")
     parser.add_argument("--overwrite-doc", action="store_true", help="allow --doc to replace an existing file")
     parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
-    add_executor_arguments(parser)  # PPO seeds, then controllers x loads x seeds, are the tasks
+    add_executor_arguments(parser)  # the tasks: one per PPO seed, then one per controller (its episodes at every load)
 
 
 def run(args: argparse.Namespace) -> int:
