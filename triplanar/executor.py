@@ -161,14 +161,31 @@ def executor_scope(executor: ExecutorLike, n_tasks: int = 2) -> Iterator[Executo
         yield executor
 
 
+def _one_thread_for_good() -> None:
+    """Limit BLAS and OpenMP to one thread in this worker process, once (it runs nothing but tasks)."""
+    global _LIMITED
+    if not _LIMITED:
+        from threadpoolctl import threadpool_limits  # noqa: PLC0415
+        threadpool_limits(limits=1)
+        _LIMITED = True
+
+
+_LIMITED = False
+
+
 class OneThreadTask:
     """``fn`` run with BLAS and OpenMP limited to one thread (``threadpoolctl``), so that a task's numbers do not
-    depend on the process it runs in (the caller's, a pool's or a Ray worker's)."""
+    depend on the process it runs in (the caller's, a pool's or a Ray worker's). In a worker process the limit is
+    set once, for good; in the process that made the task, only while it runs."""
 
     def __init__(self, fn: Callable[[T], R]):
         self.fn = fn
+        self.owner = os.getpid()
 
     def __call__(self, task: T) -> R:
+        if os.getpid() != self.owner:
+            _one_thread_for_good()
+            return self.fn(task)
         from threadpoolctl import threadpool_limits  # noqa: PLC0415
         with threadpool_limits(limits=1):
             return self.fn(task)
@@ -265,6 +282,12 @@ def run_tasks(fn: Callable[[T], R], tasks: Sequence[T], executor: ExecutorLike =
                 futures = {ex.submit(call, tasks[i]): i for i in todo}
                 for fut in as_completed(futures):
                     finished(futures[fut], fut.result())
+                return done
+            if isinstance(ex, SerialExecutor):  # in this process: one limit for the whole sweep (it costs ~1 ms)
+                from threadpoolctl import threadpool_limits  # noqa: PLC0415
+                with threadpool_limits(limits=1):
+                    for i in todo:
+                        finished(i, fn(tasks[i]))
                 return done
             for i, result in zip(todo, ex.map(call, [tasks[i] for i in todo])):
                 finished(i, result)
