@@ -39,6 +39,7 @@ import numpy as np
 import yaml
 
 from envs.triplanar_shear import ShearConfig, make_config
+from triplanar.executor import ExecutorLike, run_tasks
 
 DEFAULT_CONFIG = Path(__file__).with_name("ppo.yaml")
 _CHECKPOINT = re.compile(r"ppo_(\d+)_steps\.zip$")
@@ -310,10 +311,36 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     return TrainResult(run_dir, model_path, stats_path, curve_path, int(model.num_timesteps), wall)
 
 
-def run(args: argparse.Namespace) -> int:
-    for seed in args.seed or [0]:
-        result = train_ppo(args.config or DEFAULT_CONFIG, args.out, seed, args.timesteps, resume=not args.no_resume,
-                           verbose=args.verbose)
+@dataclass(frozen=True)
+class SeedRun:
+    """One seed's training, a task of :func:`train_seed_run` (runs on any executor: a pool, Ray)."""
+
+    config: str | Path | dict[str, Any]
+    out_dir: str | Path
+    seed: int
+    total_timesteps: int | None = None
+    resume: bool = True
+    verbose: int = 0
+
+
+def train_seed_run(run: SeedRun) -> TrainResult:
+    return train_ppo(run.config, run.out_dir, run.seed, run.total_timesteps, resume=run.resume, verbose=run.verbose)
+
+
+def train_seeds(config: str | Path | dict[str, Any], out_dir: str | Path, seeds: Sequence[int],
+                total_timesteps: int | None = None, resume: bool = True, verbose: int = 0,
+                executor: ExecutorLike = "serial", progress: bool = False) -> list[TrainResult]:
+    """:func:`train_ppo` for each seed (one task per seed, through ``executor``), results in seed order. A seed
+    whose worker dies (Ray retries it) resumes from its own checkpoints in ``OUT/seed_S``."""
+    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose) for seed in seeds]
+    return run_tasks(train_seed_run, tasks, executor, progress, desc="PPO seeds")
+
+
+def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
+    seeds = args.seed or [0]
+    results = train_seeds(args.config or DEFAULT_CONFIG, args.out, seeds, args.timesteps, not args.no_resume,
+                          args.verbose, executor)
+    for seed, result in zip(seeds, results):
         print(f"seed {seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.model_path}")
     return 0
 

@@ -22,14 +22,16 @@ import csv
 import json
 import time
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
 
 import numpy as np
 
 from agents import EpisodeResult, LowFrictionTip, MomentMatching, SteelTip, TrackingTip, evaluate
-from agents.train_ppo import DEFAULT_CONFIG, TrainResult, eval_loads, load_config, train_ppo
+from agents.train_ppo import DEFAULT_CONFIG, TrainResult, eval_loads, load_config, train_seeds
 from triplanar import PAPER_LOADS_N
+from triplanar.executor import ExecutorLike, run_tasks
 
 PPO_NAME = "PPO"
 
@@ -72,12 +74,36 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
     return out
 
 
+@dataclass(frozen=True)
+class EvalTask:
+    """One controller's evaluations at every load (an episode takes milliseconds: a task per episode would cost
+    more in overhead than it computes): a scripted controller, or a PPO run as its (model, vecnormalize) paths."""
+
+    controller: object
+    loads: tuple[float, ...]
+    seed: int
+    env_kwargs: dict
+
+
+@lru_cache(maxsize=8)
+def _ppo_controller(model_path: str, vecnormalize_path: str):
+    from agents.ppo_controller import PPOController  # noqa: PLC0415
+    return PPOController.load(model_path, vecnormalize_path, name=PPO_NAME)
+
+
+def run_evaluation(task: EvalTask) -> list[EpisodeResult]:
+    """:func:`agents.evaluate` at each of the task's loads, in order (a PPO policy is loaded once per process)."""
+    controller = _ppo_controller(*task.controller) if isinstance(task.controller, tuple) else task.controller
+    return [evaluate(controller, f, seed=task.seed, env_kwargs=task.env_kwargs) for f in task.loads]
+
+
 def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: Sequence[int] = (0, 1, 2),
               config: str | Path = DEFAULT_CONFIG, timesteps: int | None = None, train: bool = True,
               loads: Iterable[float] = PAPER_LOADS_N, doc: str | Path | None = None,
-              log: Callable[[str], None] = print, overwrite_doc: bool = False) -> StudyResult:
-    """Train (or resume) PPO for each seed, evaluate every controller at every load, write the outputs."""
-    from agents.ppo_controller import PPOController  # noqa: PLC0415
+              log: Callable[[str], None] = print, overwrite_doc: bool = False,
+              executor: ExecutorLike = "serial") -> StudyResult:
+    """Train (or resume) PPO for each seed, evaluate every controller at every load, write the outputs. The
+    seeds, then the evaluations (controller x load x seed), are tasks on ``executor`` (:mod:`triplanar.executor`)."""
 
     from . import plots, report  # noqa: PLC0415
     out_dir = Path(out_dir)
@@ -91,28 +117,25 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
     env_kwargs = ppo_config.get("env", {})
     timings: dict[str, float] = {}
     runs: list[TrainResult] = []
-    for seed in seeds:
+    if train:
         started = time.perf_counter()
-        if train:
-            log(f"PPO seed {seed}: training (or resuming) in {ppo_dir}")
-            runs.append(train_ppo(ppo_config, ppo_dir, seed, timesteps))
-        else:
-            run_dir = Path(ppo_dir) / f"seed_{seed}"
-            missing = [n for n in ("done.json", "final_model.zip", "vecnormalize.pkl") if not (run_dir / n).exists()]
-            if missing:
-                raise ValueError(f"--skip-train: {run_dir} is not a finished run (no {', '.join(missing)}); "
-                                 "train it first (without --skip-train)")
-            info = json.loads((run_dir / "done.json").read_text())
-            runs.append(TrainResult(run_dir, run_dir / "final_model.zip", run_dir / "vecnormalize.pkl",
-                                    run_dir / "learning_curve.csv", info["timesteps"], info["wall_s"]))
-        timings[f"ppo_seed_{seed}_this_call_s"] = time.perf_counter() - started
+        log(f"PPO seeds {', '.join(map(str, seeds))}: training (or resuming) in {ppo_dir}")
+        runs = train_seeds(ppo_config, ppo_dir, seeds, timesteps, executor=executor)
+        timings["ppo_training_this_call_s"] = time.perf_counter() - started
+    for seed in seeds if not train else ():
+        run_dir = Path(ppo_dir) / f"seed_{seed}"
+        missing = [n for n in ("done.json", "final_model.zip", "vecnormalize.pkl") if not (run_dir / n).exists()]
+        if missing:
+            raise ValueError(f"--skip-train: {run_dir} is not a finished run (no {', '.join(missing)}); "
+                             "train it first (without --skip-train)")
+        info = json.loads((run_dir / "done.json").read_text())
+        runs.append(TrainResult(run_dir, run_dir / "final_model.zip", run_dir / "vecnormalize.pkl",
+                                run_dir / "learning_curve.csv", info["timesteps"], info["wall_s"]))
     started = time.perf_counter()
-    episodes: list[EpisodeResult] = []
-    for controller in scripted_controllers():
-        episodes += [evaluate(controller, f, seed=0, env_kwargs=env_kwargs) for f in loads]
-    for seed, run in zip(seeds, runs):
-        controller = PPOController.load(run.model_path, run.vecnormalize_path, name=PPO_NAME)
-        episodes += [evaluate(controller, f, seed=seed, env_kwargs=env_kwargs) for f in loads]
+    tasks = [EvalTask(controller, loads, 0, env_kwargs) for controller in scripted_controllers()]
+    tasks += [EvalTask((str(run.model_path), str(run.vecnormalize_path)), loads, seed, env_kwargs)
+              for seed, run in zip(seeds, runs)]
+    episodes: list[EpisodeResult] = [e for batch in run_tasks(run_evaluation, tasks, executor) for e in batch]
     timings["evaluation_s"] = time.perf_counter() - started
     result = StudyResult(out_dir, loads, episodes, runs,
                          {seed: read_curve(run.curve_path) for seed, run in zip(seeds, runs)}, timings)
@@ -144,10 +167,10 @@ def write_tables(result: StudyResult) -> None:
                             + [f"{ppo[:, j].mean():.3f}", f"{ppo[:, j].std():.3f}", ppo.shape[0]])
 
 
-def run(args: argparse.Namespace) -> int:
+def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
     run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, config=args.config or DEFAULT_CONFIG,
               timesteps=args.timesteps, train=not args.skip_train, doc=args.doc or None,
-              overwrite_doc=args.overwrite_doc)
+              overwrite_doc=args.overwrite_doc, executor=executor)
     return 0
 
 

@@ -7,7 +7,9 @@ must not import the commands (data flows triplanar -> workbench -> commands).
 from __future__ import annotations
 
 import argparse
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any, Iterator
 
 from .effects import Effect, EffectError, make_effect
 from .specimen import Foundation, Specimen, load_toml, reference
@@ -48,3 +50,44 @@ def refuse_overwriting(outputs: list[tuple[str, str | None]], inputs: list[tuple
                 if same:
                     raise ValueError(f"{out_option} {out} is the input {in_option} {given}; it would be "
                                      "overwritten. Choose another output path")
+
+
+def add_executor_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--executor local|serial|ray`` and ``--ray-address ADDR``: where a command's sweep runs
+    (``docs/scaling.md``)."""
+    parser.add_argument("--executor", choices=["local", "serial", "ray"], default="local",
+                        help="where the sweep runs: local (a process pool on this machine, default), serial (in "
+                             "this process), ray (Ray tasks: the cluster at --ray-address or RAY_ADDRESS, else a "
+                             "Ray started for this command on 127.0.0.1)")
+    parser.add_argument("--ray-address", metavar="ADDR", default=None,
+                        help="with --executor ray: the Ray cluster to join, e.g. 10.0.0.5:6379 or auto")
+
+
+@contextmanager
+def executor_from_args(args: argparse.Namespace, workers: int | None = None) -> Iterator[Any]:
+    """The executor the flags ask for, shut down on exit: ``workers`` processes (``None``: the default pool) for
+    local, this process for serial, Ray tasks for ray (a local Ray gets ``workers`` CPUs); ``--plugin`` modules
+    reach Ray workers."""
+    import importlib.util  # noqa: PLC0415
+
+    from .executor import SerialExecutor, pool_scope  # noqa: PLC0415
+    backend = getattr(args, "executor", "local") or "local"
+    address = getattr(args, "ray_address", None)
+    if address is not None and backend != "ray":
+        raise ValueError(f"--ray-address {address}: give --executor ray too (the executor is {backend})")
+    if workers is not None and workers < 1:
+        raise ValueError(f"--workers {workers}: give at least 1")
+    if backend == "serial":
+        yield SerialExecutor()
+    elif backend == "ray":
+        if importlib.util.find_spec("ray") is None:
+            raise ValueError("--executor ray: Ray is not installed; pip install 'triplanar-shear[ray]' (or `make` "
+                             "in a clone)")
+        from .ray_executor import RayExecutor  # noqa: PLC0415 (Ray is the optional `ray` extra)
+        with RayExecutor(address, num_cpus=workers, plugins=getattr(args, "plugin", None) or ()) as ex:
+            yield ex
+    elif workers is None:
+        yield "local"  # each sweep makes a pool sized to its tasks (run_tasks), shut down after it
+    else:
+        with pool_scope(workers) as ex:
+            yield ex

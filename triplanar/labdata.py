@@ -46,6 +46,7 @@ import numpy as np
 
 from . import PAPER_LOADS_N
 from .effects import ContactFriction, Effect, EndFriction
+from .executor import ExecutorLike, run_tasks
 from .measurement import (MeasuredTest, MeasurementError, remove_stale_temporaries, temporary_name,
                           write_measurements)
 from .model import Model, paper_model
@@ -171,11 +172,63 @@ def _check_arguments(loads: Sequence[float], repeats: int, noise_m: float, rate_
         raise ValueError(f"stop_range_m must be (low, high) with 0 < low <= high metres, got {stop_range_m}")
 
 
+@dataclass(frozen=True)
+class LabTest:
+    """One test of the campaign, a task of :func:`run_lab_test` (picklable, so any executor runs it)."""
+
+    force_N: float
+    repeat: int
+    seed: int
+    case: str
+    effects: tuple[Effect, ...]
+    specimen: Specimen | None
+    foundation: Foundation | None
+    noise_m: float
+    rate_hz: float
+    scatter_deg: float
+    stop_range_m: tuple[float, float]
+    box: PlanBox
+
+
+def run_lab_test(job: LabTest) -> tuple[dict, MeasuredTest | None]:
+    """Simulate one test: ``(record, test)``, or ``(record with a reason, None)`` when it is skipped. Its random
+    draws come from its own Generator seeded by ``(seed, load in mN, repeat)``: the same wherever it runs."""
+    force, repeat, rate_hz = job.force_N, job.repeat, job.rate_hz
+    nominal = paper_model(job.case, force, specimen=job.specimen, foundation=job.foundation, effects=job.effects)
+    test_id = f"F{force:g}N-r{repeat}"
+    rng = np.random.default_rng(np.random.SeedSequence([job.seed, int(round(force * 1000)), repeat]))
+    nominal_angles = _friction_angles(nominal)
+    angles = np.clip(np.asarray(nominal_angles) + rng.normal(0.0, job.scatter_deg, len(nominal_angles)),
+                     *FRICTION_BOUNDS_DEG)
+    stop = float(rng.uniform(job.stop_range_m[0], job.stop_range_m[1]))
+    model = _with_angles(nominal, angles.tolist())
+    result = simulate(model, travel_m=stop)
+    record = {"test_id": test_id, "shear_force_N": force, "repeat": repeat,
+              "friction_deg": [float(a) for a in angles[:3]],
+              "tip_friction_deg": float(angles[3]) if len(angles) > 3 else None,
+              "stop_travel_m": stop, "status": result.status, "message": result.message}
+    if result.status == "held":
+        return {**record, "reason": "the block never slid"}, None
+    t_s = np.arange(0, int(math.floor(result.t[-1] * rate_hz + 1e-9)) + 1) / rate_hz
+    clean = hermite_in_time(result, t_s)
+    noisy = clean + rng.normal(0.0, job.noise_m, clean.shape)
+    on_plan = (job.box.contains(clean) & job.box.contains(noisy)).all(axis=1)
+    cut = int(np.argmin(on_plan)) if not on_plan.all() else len(t_s)
+    record["cut_at_foundation_edge"] = cut < len(t_s)
+    t_s, clean, noisy = t_s[:cut], clean[:cut], noisy[:cut]
+    if len(t_s) < 3:
+        return {**record, "reason": f"only {len(t_s)} sample(s) at {rate_hz:g} Hz on the foundation block"}, None
+    record.update(n_samples=len(t_s), duration_s=float(t_s[-1]),
+                  final_travel_m=float(clean[-1, 0, 0] - clean[0, 0, 0]))
+    return record, MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=t_s)
+
+
 def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
                       effects: Iterable[Effect] | None = None, noise_m: float = 2e-4, rate_hz: float = 200.0,
                       scatter_deg: float = 0.2, stop_range_m: tuple[float, float] = (0.05, 0.08), seed: int = 0,
                       specimen: Specimen | None = None, foundation: Foundation | None = None,
-                      case: str = "B") -> tuple[list[MeasuredTest], dict]:
+                      case: str = "B", executor: ExecutorLike = "serial",
+                      progress: bool = False) -> tuple[list[MeasuredTest], dict]:
     """Simulate a laboratory campaign of constant-force shear tests (paper section 5.1).
 
     Args:
@@ -189,6 +242,9 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
         seed: the dataset's seed.
         specimen, foundation: default the reference specimen.
         case: the paper case the effects are added to (``"B"``: actuator without end friction).
+        executor: where the tests are simulated (:mod:`triplanar.executor`: ``"serial"``, default; ``None`` or
+            ``"local"``, a process pool; ``"ray"``); every backend gives the same dataset.
+        progress: a progress bar on stderr.
 
     Returns ``(tests, truth)``: the tests in load order then repeat order (ids ``F27.8N-r1``...), and a
     JSON-ready dict with everything used (effects, per-test friction angles and stop travel, noise, rate,
@@ -200,43 +256,19 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
     effects = default_effects() if effects is None else tuple(effects)
     ref_specimen, ref_foundation = reference()
     base_specimen, base_foundation = specimen or ref_specimen, foundation or ref_foundation
+    box = foundation_plan_box(paper_model(case, loads[0], specimen=specimen, foundation=foundation,
+                                          effects=effects).specimen)
+    lab_tests = [LabTest(force, repeat, int(seed), case, tuple(effects), specimen, foundation, noise_m, rate_hz,
+                         scatter_deg, (float(stop_range_m[0]), float(stop_range_m[1])), box)
+                 for force in loads for repeat in range(1, repeats + 1)]
     tests: list[MeasuredTest] = []
     records: list[dict] = []
     skipped: list[dict] = []
-    box: PlanBox | None = None
-    for force in loads:
-        nominal = paper_model(case, force, specimen=specimen, foundation=foundation, effects=effects)
-        box = box or foundation_plan_box(nominal.specimen)
-        nominal_angles = _friction_angles(nominal)
-        for repeat in range(1, repeats + 1):
-            test_id = f"F{force:g}N-r{repeat}"
-            rng = np.random.default_rng(np.random.SeedSequence([int(seed), int(round(force * 1000)), repeat]))
-            angles = np.clip(np.asarray(nominal_angles) + rng.normal(0.0, scatter_deg, len(nominal_angles)),
-                             *FRICTION_BOUNDS_DEG)
-            stop = float(rng.uniform(stop_range_m[0], stop_range_m[1]))
-            model = _with_angles(nominal, angles.tolist())
-            result = simulate(model, travel_m=stop)
-            record = {"test_id": test_id, "shear_force_N": force, "repeat": repeat,
-                      "friction_deg": [float(a) for a in angles[:3]],
-                      "tip_friction_deg": float(angles[3]) if len(angles) > 3 else None,
-                      "stop_travel_m": stop, "status": result.status, "message": result.message}
-            if result.status == "held":
-                skipped.append({**record, "reason": "the block never slid"})
-                continue
-            t_s = np.arange(0, int(math.floor(result.t[-1] * rate_hz + 1e-9)) + 1) / rate_hz
-            clean = hermite_in_time(result, t_s)
-            noisy = clean + rng.normal(0.0, noise_m, clean.shape)
-            on_plan = (box.contains(clean) & box.contains(noisy)).all(axis=1)
-            cut = int(np.argmin(on_plan)) if not on_plan.all() else len(t_s)
-            record["cut_at_foundation_edge"] = cut < len(t_s)
-            t_s, clean, noisy = t_s[:cut], clean[:cut], noisy[:cut]
-            if len(t_s) < 3:
-                skipped.append({**record, "reason": f"only {len(t_s)} sample(s) at {rate_hz:g} Hz on the "
-                                "foundation block"})
-                continue
-            tests.append(MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=t_s))
-            record.update(n_samples=len(t_s), duration_s=float(t_s[-1]),
-                          final_travel_m=float(clean[-1, 0, 0] - clean[0, 0, 0]))
+    for record, test in run_tasks(run_lab_test, lab_tests, executor, progress, desc="lab tests"):
+        if test is None:
+            skipped.append(record)
+        else:
+            tests.append(test)
             records.append(record)
     truth = {
         "format": TRUTH_FORMAT,
@@ -251,7 +283,7 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
         "scatter_applies_to": "each friction angle (CP1..CP3, and the tip when end friction acts), "
                               "normal with sd scatter_deg about its nominal value, clipped to [0, 44] deg",
         "noise_applies_to": "x1, x2 and x3 of every contact point of every sample, independent Gaussian",
-        "foundation_plan_m": box.as_dict() if box else None,
+        "foundation_plan_m": box.as_dict(),
         "tests": records,
         "skipped": skipped,
     }

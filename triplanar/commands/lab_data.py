@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..cli_args import add_executor_arguments, executor_from_args
 from . import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
 
 NAME = "lab-data"
@@ -42,6 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_model_arguments(parser)
     parser.add_argument("--no-effects", action="store_true",
                         help="no effects at all (default without --effect: end_friction:phi_deg=8)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_executor_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -52,10 +55,12 @@ def run(args: argparse.Namespace) -> int:
         raise ValueError("give either --no-effects or --effect, not both")
     effects = () if args.no_effects else (parse_effects(args.effect) if args.effect else None)
     specimen, foundation = load_specimen(args.specimen)
-    tests, truth = generate_lab_data(loads=args.loads, repeats=args.repeats, effects=effects, noise_m=args.noise_m,
-                                     rate_hz=args.rate_hz, scatter_deg=args.scatter_deg,
-                                     stop_range_m=tuple(args.stop_range_m), seed=args.seed, specimen=specimen,
-                                     foundation=foundation, case=args.case)
+    with executor_from_args(args) as executor:
+        tests, truth = generate_lab_data(loads=args.loads, repeats=args.repeats, effects=effects,
+                                         noise_m=args.noise_m, rate_hz=args.rate_hz, scatter_deg=args.scatter_deg,
+                                         stop_range_m=tuple(args.stop_range_m), seed=args.seed, specimen=specimen,
+                                         foundation=foundation, case=args.case, executor=executor,
+                                         progress=not args.no_progress)
     data, truth_file = write_lab_data(args.out, tests, truth, args.truth)
     rows = sum(t.n_samples for t in tests)
     print(f"wrote {data} ({len(tests)} tests, {rows} samples) and {truth_file}")

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import time
 
+from ..cli_args import add_executor_arguments, executor_from_args
 from . import add_model_arguments, load_specimen, parse_effects
 
 NAME = "paper"
@@ -18,16 +19,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--data", metavar="FILE.csv", help="measured traces (default: the shipped "
                         "data/lab_traces.csv)")
     add_model_arguments(parser)
-    parser.add_argument("--workers", type=int, default=None, help="processes drawing figures (default: up to 2)")
+    parser.add_argument("--workers", type=int, default=None, help="processes simulating and drawing figures "
+                        "(default: up to 2; with --executor ray, the CPUs of a Ray started here)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+    add_executor_arguments(parser)
 
 
 def run(args: argparse.Namespace) -> int:
     from ..paper import run_paper
     t0 = time.perf_counter()
     specimen, foundation = load_specimen(args.specimen)
-    rep = run_paper(args.out, args.data, specimen, foundation, parse_effects(args.effect), args.workers,
-                    progress=not args.no_progress)
+    effects = parse_effects(args.effect)
+    with executor_from_args(args, args.workers) as executor:
+        rep = run_paper(args.out, args.data, specimen, foundation, effects, args.workers,
+                        progress=not args.no_progress, executor=executor)
     print(f"dataset {rep.data_path} ({sum(len(v) for v in rep.tests_by_load.values())} tests, "
           f"{len(rep.loads)} loads); wrote figures, tables.md, claims.md, report.md, results.json to {args.out}")
     for claim in rep.claims:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..cli_args import add_executor_arguments, executor_from_args
 from . import require
 from .train import positive_int
 
@@ -28,9 +29,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "unless --overwrite-doc)")
     parser.add_argument("--overwrite-doc", action="store_true", help="allow --doc to replace an existing file")
     parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
+    add_executor_arguments(parser)  # the tasks: one per PPO seed, then one per controller (its episodes at every load)
 
 
 def run(args: argparse.Namespace) -> int:
     require()
     from experiments.study import run as study  # noqa: PLC0415  (the RL stack, only when run)
-    return study(args)
+    with executor_from_args(args) as executor:
+        return study(args, executor)

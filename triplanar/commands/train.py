@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 
+from ..cli_args import add_executor_arguments, executor_from_args
 from . import require
 
 NAME = "train"
@@ -33,9 +34,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-resume", action="store_true",
                         help="start afresh even if checkpoints exist (the previous run's checkpoints are removed)")
     parser.add_argument("--verbose", type=int, default=0)
+    add_executor_arguments(parser)  # the seeds are the tasks (each seed's run directory must be shared on a cluster)
 
 
 def run(args: argparse.Namespace) -> int:
     require()
     from agents.train_ppo import run as train  # noqa: PLC0415  (the RL stack, only when training)
-    return train(args)
+    with executor_from_args(args) as executor:
+        return train(args, executor)

@@ -101,6 +101,10 @@ class Simulator:
             self.results[run.key] = simulate(self.model(run), travel_m=run.travel_m)
         return self.results[run.key]
 
+    def simulate_run(self, run: Run) -> SimulationResult:
+        """The run's simulation to its travel, not cached: a task for an executor (the caller caches)."""
+        return simulate(self.model(run), travel_m=run.travel_m)
+
     def stopped_at(self, run: Run, travel_m: float) -> SimulationResult:
         """The run stopped at ``travel_m`` (not cached): its last row is exactly at that travel."""
         return simulate(self.model(run), travel_m=travel_m)

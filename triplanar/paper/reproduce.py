@@ -1,7 +1,8 @@
 """Regenerate the paper's results section from the model and a laboratory dataset.
 
-:func:`reproduce` simulates cases A-F, computes the tables and the claim verdicts; :func:`write_outputs`
-draws the figures (in a process pool) and writes ``results.json``, ``tables.md``, ``claims.md`` and
+:func:`reproduce` simulates cases A-F (one task per run, through any executor of :mod:`triplanar.executor`),
+computes the tables and the claim verdicts; :func:`write_outputs` draws the figures (one task per figure: the
+worker returns the PNG's bytes and this process writes it, so a Ray worker on another machine works too) and writes ``results.json``, ``tables.md``, ``claims.md`` and
 ``report.md`` into one directory.
 """
 
@@ -10,19 +11,20 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import tempfile
 import time
 from collections import defaultdict
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
-from tqdm import tqdm
 
 from ..effects import Effect
 from ..measurement import MeasuredTest, read_measurements
 from ..specimen import Foundation, Specimen, reference
-from ..workbench.executor import pool_scope
+from ..executor import ExecutorLike, SerialExecutor, executor_scope, pool_scope, run_tasks
 from . import claims as C
 from . import figures as Fg
 from . import tables as T
@@ -57,8 +59,9 @@ def default_data_path() -> Path:
 
 def reproduce(data_path: str | os.PathLike[str] | None = None, specimen: Specimen | None = None,
               foundation: Foundation | None = None, effects: Sequence[Effect] = (),
-              progress: bool = True) -> Reproduction:
-    """Read the dataset, simulate every case, compute tables and claims (no files written)."""
+              progress: bool = True, executor: ExecutorLike = "serial") -> Reproduction:
+    """Read the dataset, simulate every case (through ``executor``; default in this process), compute tables and
+    claims (no files written)."""
     t0 = time.perf_counter()
     ref_specimen, ref_foundation = reference()
     specimen, foundation = specimen or ref_specimen, foundation or ref_foundation
@@ -72,8 +75,9 @@ def reproduce(data_path: str | os.PathLike[str] | None = None, specimen: Specime
     simulator = Simulator(specimen, foundation, tuple(effects))
     runs = reference_runs(loads) + scaled_runs(specimen)
     t1 = time.perf_counter()
-    for run in tqdm(runs, desc="simulating cases A-F", unit="run", disable=not progress):
-        simulator(run)
+    unique = list({run.key: run for run in runs}.values())
+    results = run_tasks(simulator.simulate_run, unique, executor, progress, desc="simulating cases A-F")
+    simulator.results.update((run.key, result) for run, result in zip(unique, results))
     t2 = time.perf_counter()
     case_rows = {case: [T.case_row(r, simulator(r), by_load[r.force_N], rest) for r in runs
                         if r.family == case] for case in "ABC"}
@@ -120,20 +124,29 @@ def figure_specs(rep: Reproduction) -> list[Fg.FigureSpec]:
     return specs
 
 
-def render_figures(specs: list[Fg.FigureSpec], out_dir: Path, workers: int = 2, progress: bool = True) -> list[Path]:
-    """Draw every figure; in ``workers`` processes when > 1 (each figure is independent)."""
-    bar = tqdm(total=len(specs), desc="drawing figures", unit="fig", disable=not progress)
-    paths = []
-    if workers > 1 and len(specs) > 1:
-        with pool_scope(workers) as pool:  # workers die with the command
-            for path in pool.map(Fg.render, specs, [out_dir] * len(specs)):
-                paths.append(path)
-                bar.update()
+def render_png(spec: Fg.FigureSpec) -> bytes:
+    """Draw ``spec`` and return the PNG's bytes (a task: the result, not a file on the worker, comes back)."""
+    with tempfile.TemporaryDirectory(prefix="triplanar-fig-") as tmp:
+        return Fg.render(spec, tmp).read_bytes()
+
+
+def render_figures(specs: list[Fg.FigureSpec], out_dir: Path, workers: int = 2, progress: bool = True,
+                   executor: ExecutorLike = None) -> list[Path]:
+    """Draw every figure (each is independent) through ``executor``, or when ``None`` in ``workers`` processes
+    (in this process for 1); each PNG is written here, atomically."""
+    if executor is None:
+        scope = pool_scope(workers) if workers > 1 and len(specs) > 1 else nullcontext(SerialExecutor())
     else:
-        for spec in specs:
-            paths.append(Fg.render(spec, out_dir))
-            bar.update()
-    bar.close()
+        scope = executor_scope(executor, len(specs))
+    with scope as ex:
+        pngs = run_tasks(render_png, specs, ex, progress, desc="drawing figures")
+    paths = []
+    for spec, png in zip(specs, pngs):
+        path = out_dir / spec.name
+        tmp = path.with_name(f".{path.name}.tmp")
+        tmp.write_bytes(png)
+        tmp.replace(path)
+        paths.append(path)
     return paths
 
 
@@ -191,12 +204,13 @@ def _write_text(path: Path, text: str) -> None:
 
 
 def write_outputs(rep: Reproduction, out_dir: str | os.PathLike[str], workers: int = 2,
-                  progress: bool = True) -> list[Path]:
-    """Figures, ``results.json``, ``tables.md``, ``claims.md``, ``report.md`` in ``out_dir``."""
+                  progress: bool = True, executor: ExecutorLike = None) -> list[Path]:
+    """Figures (through ``executor``, or ``workers`` processes), ``results.json``, ``tables.md``, ``claims.md``,
+    ``report.md`` in ``out_dir``."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    paths = render_figures(figure_specs(rep), out, workers, progress)
+    paths = render_figures(figure_specs(rep), out, workers, progress, executor)
     rep.seconds["figures"] = time.perf_counter() - t0
     _write_text(out / "results.json", json.dumps(results_json(rep), indent=1) + "\n")
     _write_text(out / "tables.md", tables_md(rep))
@@ -207,9 +221,13 @@ def write_outputs(rep: Reproduction, out_dir: str | os.PathLike[str], workers: i
 
 def run_paper(out_dir: str | os.PathLike[str], data_path: str | os.PathLike[str] | None = None,
               specimen: Specimen | None = None, foundation: Foundation | None = None,
-              effects: Sequence[Effect] = (), workers: int | None = None, progress: bool = True) -> Reproduction:
-    """``triplanar paper`` in one call: :func:`reproduce` then :func:`write_outputs` into ``out_dir``."""
+              effects: Sequence[Effect] = (), workers: int | None = None, progress: bool = True,
+              executor: ExecutorLike = None) -> Reproduction:
+    """``triplanar paper`` in one call: :func:`reproduce` then :func:`write_outputs` into ``out_dir``, both
+    through ``executor`` (``None``: a pool of ``workers`` processes, default up to 2, made for the call)."""
     workers = workers if workers is not None else min(2, os.cpu_count() or 1)
-    rep = reproduce(data_path, specimen, foundation, effects, progress)
-    write_outputs(rep, out_dir, workers, progress)
+    scope = pool_scope(workers) if executor is None else executor_scope(executor)
+    with scope as ex:
+        rep = reproduce(data_path, specimen, foundation, effects, progress, ex)
+        write_outputs(rep, out_dir, workers, progress, ex)
     return rep

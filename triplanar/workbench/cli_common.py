@@ -5,11 +5,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..cli_args import add_model_arguments, load_specimen, parse_effects
+from ..cli_args import add_executor_arguments, add_model_arguments, executor_from_args, load_specimen, parse_effects
 from ..effects import REGISTRY, EffectError
+from ..plugins import import_plugins  # noqa: F401 (re-exported: commands and tests import it from here)
 from ..measurement import MeasuredTest
 from .compare import load_tests
-from .executor import DEFAULT_WORKERS, pool_scope
+from .executor import DEFAULT_WORKERS
 from .spec import ModelSpec
 
 
@@ -20,28 +21,6 @@ def add_data_arguments(parser: argparse.ArgumentParser, default_out: str) -> Non
                         help="import this module (a name on the Python path, or a .py file) first, so that the "
                              "effects it registers can be used with --effect and become candidates (repeatable)")
     parser.add_argument("--out", metavar="DIR", default=default_out, help=f"output directory (default {default_out})")
-
-
-def import_plugins(plugins: list[str]) -> None:
-    """Import user modules that register effects (``--plugin``)."""
-    import importlib
-    import importlib.util
-    import sys
-    for plugin in plugins:
-        path = Path(plugin)
-        if plugin.endswith(".py"):
-            if not path.is_file():
-                raise OSError(f"--plugin {plugin}: no such file")
-            name = f"triplanar_plugin_{path.stem}"
-            spec = importlib.util.spec_from_file_location(name, path)
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[name] = module
-            spec.loader.exec_module(module)
-        else:
-            try:
-                importlib.import_module(plugin)
-            except ModuleNotFoundError as err:
-                raise OSError(f"--plugin {plugin}: {err}") from None
 
 
 def add_start_arguments(parser: argparse.ArgumentParser) -> None:
@@ -70,6 +49,7 @@ def add_worker_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--workers", type=int, default=DEFAULT_WORKERS, metavar="N",
                         help=f"processes for the sweep (default {DEFAULT_WORKERS}; 1: in this process)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_executor_arguments(parser)
 
 
 def model_and_tests(args: argparse.Namespace) -> tuple[ModelSpec, list[MeasuredTest]]:
@@ -94,8 +74,8 @@ def check_effect_names(names: list[str]) -> list[str]:
 
 
 def executor_for(args: argparse.Namespace):
-    """The ``--workers`` pool (in this process for 1), shut down on exit."""
-    return pool_scope(max(1, int(args.workers)))
+    """The ``--executor`` (default: the ``--workers`` pool, in this process for 1), shut down on exit."""
+    return executor_from_args(args, max(1, int(args.workers)))
 
 
 def same_file(a: str | Path, b: str | Path) -> bool:

@@ -158,7 +158,7 @@ class Diagnoser:
         candidates: effect names or :class:`Candidate` recipes (default: every registered effect, minus
             those already in the model).
         folds: cross-validation folds over load levels (default 3; fewer if there are fewer levels).
-        executor: ``None`` (2-process pool), ``"serial"``, or any object with ``map`` (e.g. a Ray pool).
+        executor: ``None``/``"local"`` (2-process pool), ``"serial"``, ``"ray"``, or any object with ``map``.
         progress: show a progress bar (tqdm, on stderr).
         max_nfev: least-squares evaluations per fit.
         checkpoint: a :class:`TaskCheckpoint`: finished candidates are kept on disk, so that an interrupted
