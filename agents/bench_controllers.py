@@ -77,6 +77,7 @@ class BenchMomentMatching(BenchController):
     name: str = "moment_matching"
     tip_friction_deg: float = 8.0
     smoothing: int = 8
+    passes: int = 2
     _geometry: tuple | None = None
     _history: list = field(default_factory=list)
 
@@ -98,11 +99,14 @@ class BenchMomentMatching(BenchController):
         self._history.append(float(cps[0, 2]))
         tan_ef = math.tan(math.radians(self.tip_friction_deg))
         offset = u_star
-        if len(self._history) > self.smoothing and tan_ef > 0:
-            v_face = (self._history[-1] - self._history[-1 - self.smoothing]) / (self.smoothing * self.config.dt)
-            v_stage = (u_star - float(obs[B_STAGE])) / self.config.dt
-            slip = v_face - max(-self.config.stage_speed_m_s, min(self.config.stage_speed_m_s, v_stage))
-            if abs(slip) > 1e-3:
+        if tan_ef > 0:
+            k = min(self.smoothing, len(self._history) - 1)
+            v_face = (self._history[-1] - self._history[-1 - k]) / (k * self.config.dt) if k > 0 else 0.0
+            u, dt, v_max = float(obs[B_STAGE]), self.config.dt, self.config.stage_speed_m_s
+            for _ in range(self.passes):  # as agents.controllers.MomentMatching
+                slip = v_face - min(max((offset - u) / dt, -v_max), v_max)
+                if abs(slip) < 1e-4:  # the tip moves with the face: static friction, no moment assumed
+                    break
                 f3 = -thrust * tan_ef * math.copysign(1.0, slip)
                 offset = u_star - lever * f3 / thrust
         return thrust, offset, u_star, lever
@@ -123,9 +127,9 @@ def nominal_reference(load_N: float, travel_m: float) -> tuple[np.ndarray, np.nd
 
 @dataclass
 class BenchPI(BenchMomentMatching):
-    """Feedback: the moment-matching offset (feed-forward, no friction term) plus a PI correction on the block's
+    """Feedback: the moment-matching offset (feed-forward, with its end-friction term) plus a PI correction on the block's
     lateral deviation from the nominal hydrostatic path at the measured travel (mean x3 of the three rangefinders,
-    so the noise averages), ``u = u* - kp e - ki integral(e) dt``. Gains from :func:`agents.heldout.tune_pi`."""
+    so the noise averages), ``u = u_mm - kp e - ki integral(e) dt``. Gains from :func:`agents.heldout.tune_pi`."""
 
     name: str = "pi_feedback"
     kp: float = 1.0
@@ -138,12 +142,12 @@ class BenchPI(BenchMomentMatching):
         self._ref = nominal_reference(round(float(load_N), 6), float(config.travel_m))
 
     def act(self, obs: np.ndarray) -> np.ndarray:
-        thrust, _, u_star, _ = self.law(obs)
+        thrust, offset, _, _ = self.law(obs)
         positions = np.asarray(obs[B_RANGE:B_RANGE + 9], dtype=float).reshape(3, 3)
         travel, lateral = self._ref
         error = float(positions[:, 2].mean() - np.interp(positions[0, 0], travel, lateral))
         self._integral += error * self.config.dt
-        return self.action(thrust, u_star - self.kp * error - self.ki * self._integral)
+        return self.action(thrust, offset - self.kp * error - self.ki * self._integral)
 
 
 @dataclass

@@ -21,7 +21,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from envs.triplanar_shear import EpisodeDraw, StartError, episode_start, make_config, specimen_key
-from envs.triplanar_shear_v1 import Bench, TriPlanarShearV1Env, draw_bench
+from envs.triplanar_shear_v1 import BENCH_FIELDS, Bench, TriPlanarShearV1Env, draw_bench
 from triplanar import PAPER_LOADS_N
 
 HELDOUT_SEED = 10_010
@@ -29,8 +29,13 @@ TUNING_SEED = 20_020
 FAILURE_SCORE_MM = 10.0
 
 
+def _shear_kwargs(env_kwargs: dict[str, Any] | None) -> dict[str, Any]:
+    """The ``ShearConfig`` part of v1's keyword arguments (the bench's own are not needed to draw specimens)."""
+    return {k: v for k, v in (env_kwargs or {}).items() if k not in BENCH_FIELDS}
+
+
 def _startable(bench: Bench, env_kwargs: dict[str, Any]) -> bool:
-    config = make_config(None, **env_kwargs)
+    config = make_config(None, **_shear_kwargs(env_kwargs))
     try:
         episode_start(config, EpisodeDraw(bench.load_N, tuple(bench.specimen.friction_deg),
                                           float(bench.specimen.tip_friction_deg)),
@@ -43,7 +48,7 @@ def _startable(bench: Bench, env_kwargs: dict[str, Any]) -> bool:
 def random_benches(n: int, seed: int, env_kwargs: dict[str, Any] | None = None) -> list[Bench]:
     """The first ``n`` startable draws of the stream ``seed`` (a draw that friction holds at rest is skipped, as a
     laboratory would not run it)."""
-    config = make_config(None, **(env_kwargs or {}))
+    config = make_config(None, **_shear_kwargs(env_kwargs))
     specimen, foundation = config.base_specimen()
     out: list[Bench] = []
     i = 0

@@ -190,7 +190,8 @@ class TriPlanarShearV1Env(gym.Env):
     from the env's seeded generator: contact friction angles +-2 deg, tip friction 3-12 deg, mass +-5 % (inertia
     with it), mass centre +-5 mm on each body axis, each plane's dip +-0.5 deg and dip direction +-5 deg (the
     horizontal plane: dip 0-0.5 deg in any direction), load uniform in 27.8-55.6 N; a draw that friction holds at
-    rest is drawn again. ``reset(options={"bench": Bench(...)})`` runs a given bench (the held-out set does).
+    rest is drawn again. A ``tip_friction_deg`` given to ``gym.make`` is known hardware and is not drawn.
+    ``reset(options={"bench": Bench(...)})`` runs a given bench (the held-out set does).
     ``info`` of reset and of every step has the same keys: v0's step keys plus the bench's (``mass_kg``,
     ``mass_centre_m``, ``plane_dips_deg``, ``friction_deg``, ``tip_friction_deg``).
 
@@ -371,7 +372,11 @@ class TriPlanarShearV1Env(gym.Env):
     # -- helpers ---------------------------------------------------------------------------------
     def _draw(self) -> Bench:
         if self.bench.randomize:
-            return draw_bench(self.np_random, self._specimen, self._foundation)
+            bench = draw_bench(self.np_random, self._specimen, self._foundation)
+            if self.config.tip_friction_deg is not None:  # a chosen tip is known hardware: not drawn
+                bench = replace(bench, specimen=replace(bench.specimen,
+                                                        tip_friction_deg=float(self.config.tip_friction_deg)))
+            return bench
         from .triplanar_shear import draw_episode  # noqa: PLC0415
         draw = draw_episode(self.np_random, self.config, self._specimen, None)
         specimen = replace(self._specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg)
