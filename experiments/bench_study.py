@@ -37,8 +37,8 @@ N_HELDOUT = 50
 TUNING_BENCHES = 20
 TARGET_ERROR_MM = 1.0
 TARGET_SUCCESS = 0.95
-PI_GRID = [(kp, ki) for kp in (-2.0, -1.0, -0.5, 0.5, 1.0, 2.0, 4.0) for ki in (0.0, 5.0, 20.0)]
-ADAPTIVE_GRID = (-8000.0, -2000.0, -500.0, 500.0, 2000.0, 8000.0)
+PI_GRID = [(kp, ki) for kp in (-20.0, -5.0, -1.0, 1.0, 5.0, 20.0, 50.0) for ki in (0.0, 50.0, 200.0)]
+ADAPTIVE_GRID = (-5e5, -1e5, -2e4, 2e4, 1e5, 5e5)
 
 
 @dataclass(frozen=True)
