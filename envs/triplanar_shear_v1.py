@@ -298,6 +298,7 @@ class TriPlanarShearV1Env(gym.Env):
         if start is None:
             raise StartError(f"no startable specimen in {START_ATTEMPTS} draws")
         self._episode, self._start = candidate, start
+        self._episode_info = candidate.info()
         self._y, self._p, self._modes = start.y.copy(), start.p.copy(), start.modes.copy()
         self._armed, self._st = start.armed.copy(), start.st.copy()
         self._ref = start.reference
@@ -319,7 +320,8 @@ class TriPlanarShearV1Env(gym.Env):
     def step(self, action):
         if self._start is None:
             raise gym.error.ResetNeeded("call reset() before step()")
-        agent = np.clip(check_action(action).astype(np.float64), -1.0, 1.0)
+        raw = check_action(action)
+        agent = np.array([min(max(float(raw[0]), -1.0), 1.0), min(max(float(raw[1]), -1.0), 1.0)])
         self._queue.append(agent)
         command = self._queue.popleft()
         cfg, dt = self.config, self.config.dt
@@ -335,7 +337,7 @@ class TriPlanarShearV1Env(gym.Env):
         self._applied[1] = u_end / cfg.offset_range_m if math.isfinite(self.bench.stage_bandwidth_hz) else command[1]
         code = control_step(self._y, self._p, self._modes, self._armed, self._st, self._ref, self._applied,
                             self._cfg, self._obs, self._inf, self._ws)
-        r_rate = -cfg.action_rate_coef * float(np.sum((agent - self._prev) ** 2))
+        r_rate = -cfg.action_rate_coef * ((agent[0] - self._prev[0]) ** 2 + (agent[1] - self._prev[1]) ** 2)
         self._prev = agent
         self._code = code
         reward = float(self._inf[IN_R_DIST] + self._inf[IN_R_TERM]) + r_rate
@@ -400,7 +402,7 @@ class TriPlanarShearV1Env(gym.Env):
 
     def _info(self, code: int) -> dict[str, Any]:
         info = info_dict(self._inf, code)
-        info.update(self._episode.info())
+        info.update(self._episode_info)
         info["thrust_N"] = float(self._inf[IN_THRUST])
         info["load_cell_N"] = self._thrust
         return info
