@@ -1,7 +1,7 @@
 """The bench study on ``TriPlanarShear-v1``: held-out evaluation and the actuator design sweep.
 
 ``python -m experiments.bench_study --out DIR [--ppo-timesteps N] [--design-ppo-timesteps N] [--seeds 0 1 2]``
-(or ``triplanar study --bench --out DIR``). Steps, each resumable (every episode batch and every PPO seed is a task
+(or ``triplanar study --bench --out DIR [--timesteps N] [--design-timesteps N] [--in-sample-run RUN]``). Steps, each resumable (every episode batch and every PPO seed is a task
 of :func:`triplanar.workbench.executor.run_tasks` with a checkpoint directory under DIR/tasks):
 
 1. tune the feedback and adaptive gains on ``TUNING_BENCHES`` tuning benches (never the held-out ones);
