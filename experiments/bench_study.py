@@ -7,7 +7,7 @@ of :func:`triplanar.workbench.executor.run_tasks` with a checkpoint directory un
 1. tune the feedback and adaptive gains on ``TUNING_BENCHES`` tuning benches (never the held-out ones);
 2. train robust PPO (:mod:`agents.train_robust`), one run per seed, on the default bench;
 3. evaluate every controller on the nominal bench (the paper's 12 loads, steel tip) and on the held-out benches
-   -> ``heldout.csv``, ``heldout.png``, ``learning_curves.png``;
+   -> ``heldout.csv``, ``heldout_episodes.csv`` (one row per episode), ``heldout.png``, ``learning_curves.png``;
 4. the design sweep: every design of :data:`DESIGNS`, its scripted controllers and a robust PPO of a shorter budget
    on the held-out benches -> ``designs.csv``, ``designs.png``, ``recommendation.txt``.
 
@@ -219,7 +219,7 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), pp
                     for (name, bench_set), o in pooled.items()]
     _csv(out_dir / "heldout.csv", ["controller", "bench_set", "n_episodes", "success_rate", "mimicry_error_mm",
                                    "score"], [_fmt(r) for r in heldout_rows])
-    _csv(out_dir / "episodes.csv", ["controller", "bench_set", "index", "load_N", "success", "reason",
+    _csv(out_dir / "heldout_episodes.csv", ["controller", "bench_set", "index", "load_N", "success", "reason",
                                     "mimicry_error_mm", "travel_m", "return", "steps"],
          [[o.controller, o.bench_set, o.index, f"{o.load_N:.3f}", int(o.success), o.reason,
            f"{o.mimicry_error_mm:.4f}", f"{o.travel_m:.5f}", f"{o.episode_return:.4f}", o.steps]
