@@ -67,7 +67,7 @@ def curves_plot(out: Path, run_dirs: Sequence[Path]) -> None:
         ax.set_xlabel("timesteps")
         ax.set_ylabel(label)
         ax.legend(fontsize=7)
-    _save(fig, out / "learning_curves.png")
+    _save(fig, out / "robust_learning_curves.png")
 
 
 def write_all(out: Path, heldout_rows, design_rows, run_dirs) -> None:

@@ -7,9 +7,9 @@ of :func:`triplanar.workbench.executor.run_tasks` with a checkpoint directory un
 1. tune the feedback and adaptive gains on ``TUNING_BENCHES`` tuning benches (never the held-out ones);
 2. train robust PPO (:mod:`agents.train_robust`), one run per seed, on the default bench;
 3. evaluate every controller on the nominal bench (the paper's 12 loads, steel tip) and on the held-out benches
-   -> ``heldout.csv``, ``heldout_episodes.csv`` (one row per episode), ``heldout.png``, ``learning_curves.png``;
+   -> ``heldout.csv``, ``heldout_episodes.csv`` (one row per episode), ``heldout.png``, ``robust_learning_curves.png``;
 4. the design sweep: every design of :data:`DESIGNS`, its scripted controllers and a robust PPO of a shorter budget
-   on the held-out benches -> ``designs.csv``, ``designs.png``, ``recommendation.txt``.
+   on the held-out benches -> ``designs.csv``, ``designs.png``, ``recommendation.txt``, ``bench_summary.json``.
 
 All CSV/PNG/text outputs are written to a temporary name and renamed.
 """
@@ -261,7 +261,7 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), pp
     summary = {"pi_gains": pi, "adaptive_gain": adaptive, "timings_s": timings, "seeds": list(seeds),
                "ppo_timesteps": ppo_timesteps, "design_ppo_timesteps": design_ppo_timesteps,
                "n_heldout": N_HELDOUT, "recommendation": recommendation}
-    _write_atomic(out_dir / "summary.json", lambda p: p.write_text(json.dumps(summary, indent=2)))
+    _write_atomic(out_dir / "bench_summary.json", lambda p: p.write_text(json.dumps(summary, indent=2)))
     log(recommendation)
     return summary
 

@@ -53,7 +53,7 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
         header = next(csv.reader(f))
     assert header[:8] == ["design", "tip_friction_deg", "stage_bandwidth_hz", "latency_s", "sensor_noise_m",
                           "controller", "success_rate", "mimicry_error_mm"]
-    for name in ("heldout.png", "designs.png", "learning_curves.png", "recommendation.txt"):
+    for name in ("heldout.png", "designs.png", "robust_learning_curves.png", "recommendation.txt"):
         assert (tmp_path / name).stat().st_size > 0
     stamp = (tmp_path / "ppo_robust" / "seed_0" / "final_model.zip").stat().st_mtime_ns
     bs.run_bench_study(tmp_path, **kwargs)   # resumes: nothing is trained again
