@@ -14,7 +14,7 @@ from functools import lru_cache
 import numpy as np
 
 from envs.triplanar_shear import ShearConfig
-from envs.triplanar_shear_v1 import B_LOAD, B_RANGE, B_STAGE
+from envs.triplanar_shear_v1 import B_RANGE, B_STAGE
 from triplanar import kernel as K
 from triplanar.model import Loading, Model, paper_model
 from triplanar.simulate import simulate

@@ -16,6 +16,7 @@ import numpy as np
 from gymnasium import spaces
 
 from triplanar import kernel as K
+from triplanar.layout import Layout
 from triplanar.specimen import Foundation, Plane, Specimen
 
 from .triplanar_shear import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, N_INFO, OBS_DIM, OBS_POS, OBS_PREV, ST_CP_REST,
@@ -30,9 +31,9 @@ _BENCH_OBS = (("RANGE", 9, 0.5, "rangefinders: CP1..CP3 displacement from rest (
               ("LOAD", 1, 1000.0, "load level of the episode, N"),
               ("TIME", 1, 100.0, "time since the start, s"),
               ("PREV", 2, 1.0, "previous action"))
-BENCH_OBS_DIM = sum(size for _, size, _, _ in _BENCH_OBS)
+BENCH_OBSERVATION = Layout("B_", "BENCH_OBS_DIM", [(name, size, doc) for name, size, _, doc in _BENCH_OBS])
+BENCH_OBSERVATION.export(globals())  # B_RANGE, B_THRUST, B_STAGE, B_LOAD, B_TIME, B_PREV, BENCH_OBS_DIM
 BENCH_HIGH = np.concatenate([np.full(size, bound) for _, size, bound, _ in _BENCH_OBS])
-B_RANGE, B_THRUST, B_STAGE, B_LOAD, B_TIME, B_PREV = 0, 9, 10, 11, 12, 13
 
 # Ranges of the unknown specimens (randomize=True); docs/environment.md gives the reasons.
 RANDOM_FRICTION_DEG = 2.0           # each contact's friction angle, +- around the specimen's
