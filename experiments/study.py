@@ -30,6 +30,7 @@ import numpy as np
 from agents import EpisodeResult, LowFrictionTip, MomentMatching, SteelTip, TrackingTip, evaluate
 from agents.train_ppo import DEFAULT_CONFIG, TrainResult, eval_loads, load_config, train_ppo
 from triplanar import PAPER_LOADS_N
+from triplanar.workbench.executor import ExecutorLike, run_tasks
 
 PPO_NAME = "PPO"
 
@@ -75,8 +76,11 @@ def read_curve(path: Path) -> dict[str, np.ndarray]:
 def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: Sequence[int] = (0, 1, 2),
               config: str | Path = DEFAULT_CONFIG, timesteps: int | None = None, train: bool = True,
               loads: Iterable[float] = PAPER_LOADS_N, doc: str | Path | None = None,
-              log: Callable[[str], None] = print, overwrite_doc: bool = False) -> StudyResult:
-    """Train (or resume) PPO for each seed, evaluate every controller at every load, write the outputs."""
+              log: Callable[[str], None] = print, overwrite_doc: bool = False,
+              executor: ExecutorLike = None) -> StudyResult:
+    """Train (or resume) PPO for each seed, evaluate every controller at every load, write the outputs. The seeds
+    are trained through the project's executor (:func:`triplanar.workbench.executor.run_tasks`; default local
+    processes), each resuming its own checkpoints."""
     from agents.ppo_controller import PPOController  # noqa: PLC0415
 
     from . import plots, report  # noqa: PLC0415
@@ -90,13 +94,15 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
         raise ValueError(f"--doc {doc}: file exists; choose a new name or pass --overwrite-doc")
     env_kwargs = ppo_config.get("env", {})
     timings: dict[str, float] = {}
-    runs: list[TrainResult] = []
-    for seed in seeds:
-        started = time.perf_counter()
-        if train:
-            log(f"PPO seed {seed}: training (or resuming) in {ppo_dir}")
-            runs.append(train_ppo(ppo_config, ppo_dir, seed, timesteps))
-        else:
+    started = time.perf_counter()
+    if train:
+        log(f"PPO seeds {list(seeds)}: training (or resuming) in {ppo_dir}")
+        runs: list[TrainResult] = run_tasks(_train_seed, [(ppo_config, str(ppo_dir), int(seed), timesteps)
+                                                          for seed in seeds],
+                                            executor=executor, progress=True, desc="PPO seeds")
+    else:
+        runs = []
+        for seed in seeds:
             run_dir = Path(ppo_dir) / f"seed_{seed}"
             missing = [n for n in ("done.json", "final_model.zip", "vecnormalize.pkl") if not (run_dir / n).exists()]
             if missing:
@@ -105,7 +111,7 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
             info = json.loads((run_dir / "done.json").read_text())
             runs.append(TrainResult(run_dir, run_dir / "final_model.zip", run_dir / "vecnormalize.pkl",
                                     run_dir / "learning_curve.csv", info["timesteps"], info["wall_s"]))
-        timings[f"ppo_seed_{seed}_this_call_s"] = time.perf_counter() - started
+    timings["ppo_seeds_this_call_s"] = time.perf_counter() - started
     started = time.perf_counter()
     episodes: list[EpisodeResult] = []
     for controller in scripted_controllers():
@@ -124,6 +130,12 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
         report.write_markdown(result, summary, Path(doc))
     log(f"study written to {out_dir}" + (f" and {doc}" if doc else ""))
     return result
+
+
+def _train_seed(task: tuple) -> TrainResult:
+    """One PPO seed (module level, picklable: a task of the executor)."""
+    config, ppo_dir, seed, timesteps = task
+    return train_ppo(config, ppo_dir, seed, timesteps)
 
 
 def write_tables(result: StudyResult) -> None:
@@ -147,7 +159,7 @@ def write_tables(result: StudyResult) -> None:
 def run(args: argparse.Namespace) -> int:
     run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, config=args.config or DEFAULT_CONFIG,
               timesteps=args.timesteps, train=not args.skip_train, doc=args.doc or None,
-              overwrite_doc=args.overwrite_doc)
+              overwrite_doc=args.overwrite_doc, executor=getattr(args, "executor", None))
     return 0
 
 
