@@ -310,10 +310,29 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     return TrainResult(run_dir, model_path, stats_path, curve_path, int(model.num_timesteps), wall)
 
 
+def _train_one(task: tuple) -> TrainResult:
+    """One seed (module level, picklable: a task of the executor)."""
+    config, out_dir, seed, total_timesteps, resume, verbose = task
+    return train_ppo(config, out_dir, seed, total_timesteps, resume=resume, verbose=verbose)
+
+
+def train_seeds(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str | Path = "runs/ppo",
+                seeds: Sequence[int] = (0,), total_timesteps: int | None = None, *, resume: bool = True,
+                verbose: int = 0, executor: Any = None) -> list[TrainResult]:
+    """:func:`train_ppo` for each seed through the project's executor
+    (:func:`triplanar.workbench.executor.run_tasks`; ``executor`` as there: None for local processes, "serial")."""
+    from triplanar.workbench.executor import run_tasks  # noqa: PLC0415
+    tasks = [(str(config) if isinstance(config, Path) else config, str(out_dir), int(seed), total_timesteps, resume,
+              verbose) for seed in seeds]
+    return run_tasks(_train_one, tasks, executor=executor, progress=len(tasks) > 1, desc="PPO seeds")
+
+
 def run(args: argparse.Namespace) -> int:
-    for seed in args.seed or [0]:
-        result = train_ppo(args.config or DEFAULT_CONFIG, args.out, seed, args.timesteps, resume=not args.no_resume,
-                           verbose=args.verbose)
+    seeds = args.seed or [0]
+    # in this process unless the CLI asks for an executor (the --executor flag is the executor layer's)
+    results = train_seeds(args.config or DEFAULT_CONFIG, args.out, seeds, args.timesteps, resume=not args.no_resume,
+                          verbose=args.verbose, executor=getattr(args, "executor", None) or "serial")
+    for seed, result in zip(seeds, results):
         print(f"seed {seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.model_path}")
     return 0
 
