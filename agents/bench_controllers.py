@@ -116,6 +116,24 @@ class BenchMomentMatching(BenchController):
         return self.action(thrust, offset)
 
 
+@dataclass
+class BenchTracking(BenchMomentMatching):
+    """The tracking tip of :class:`agents.controllers.TrackingTip` from the rangefinders: constant thrust at the load
+    level, the stage commanded to the aft-face centreline (``P_CL``'s lateral position from the measured pose and the
+    nominal geometry) plus one period of the face's lateral motion (CP1's x3 differenced, as moment matching does)."""
+
+    name: str = "tracking_tip"
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        rest, _, pcl_b, p0 = self._geometry
+        cps, frame = _pose(rest, obs)
+        pcl = cps[0] + frame @ pcl_b
+        self._history.append(float(cps[0, 2]))
+        k = min(self.smoothing, len(self._history) - 1)
+        v_face = (self._history[-1] - self._history[-1 - k]) / (k * self.config.dt) if k > 0 else 0.0
+        return self.action(self.load_N, pcl[2] - p0[2] + v_face * self.config.dt)
+
+
 @lru_cache(maxsize=64)
 def nominal_reference(load_N: float, travel_m: float) -> tuple[np.ndarray, np.ndarray]:
     """The nominal specimen's hydrostatic path (case C) at ``load_N``: travel (m) and the mean lateral (x3)
@@ -177,7 +195,7 @@ class AdaptiveMomentMatching(BenchMomentMatching):
 def make_controller(name: str, **params: float) -> BenchController:
     """A controller by name (picklable specs for the executor: a name and numbers)."""
     factories = {"fixed_tip": BenchController, "frictionless_tip": BenchController,
-                 "moment_matching": BenchMomentMatching, "pi_feedback": BenchPI, "adaptive": AdaptiveMomentMatching}
+                 "moment_matching": BenchMomentMatching, "tracking_tip": BenchTracking, "pi_feedback": BenchPI, "adaptive": AdaptiveMomentMatching}
     if name not in factories:
         raise ValueError(f"unknown controller {name!r}; choose from {sorted(factories)}")
     controller = factories[name](**params)

@@ -204,7 +204,8 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), pp
     for bench_set in ("nominal", "heldout"):
         batches += [EpisodeBatch("steel_tip", "fixed_tip", (), bench_set),
                     EpisodeBatch("teflon_tip", "fixed_tip", (), bench_set, N_HELDOUT, 3.0),
-                    EpisodeBatch("frictionless_tip", "fixed_tip", (), bench_set, N_HELDOUT, 0.0)]
+                    EpisodeBatch("frictionless_tip", "fixed_tip", (), bench_set, N_HELDOUT, 0.0),
+                    EpisodeBatch("tracking_tip", "tracking_tip", (), bench_set)]
         batches += scripted_batches(pi, adaptive, bench_set, (), None, 8.0)[1:]
         batches += [EpisodeBatch("ppo_robust", f"ppo:{r['run_dir']}", (), bench_set) for r in runs]
         if in_sample_run is not None:
