@@ -15,7 +15,10 @@ from .controllers import Controller
 @dataclass(frozen=True)
 class EpisodeResult:
     """One controlled test. ``mimicry_error_mm``: travel-averaged horizontal distance (mean over the contact points)
-    between the block and the hydrostatic reference at the same travel, over the travel reached."""
+    between the block and the hydrostatic reference at the same travel, for a successful test (8 cm reached); NaN
+    for a failed one, so that no failure is ever averaged into a mimicry error (issue 10: a test arrested at 0 mm
+    scored 0.002 mm). ``mimicry_error_reached_mm`` is the same average over whatever travel was reached, for
+    diagnosis only. :mod:`agents.heldout` summarises with success rate, error over successes and a score."""
 
     controller: str
     load_N: float
@@ -32,6 +35,7 @@ class EpisodeResult:
     actions: np.ndarray         # (steps, 2)
     thrust_N: np.ndarray        # (steps,) thrust command of each period
     offset_m: np.ndarray        # (steps,) tip offset at the end of each period
+    mimicry_error_reached_mm: float = float("nan")
 
 
 def make_env(controller: Controller, load_N: float, env_kwargs: dict[str, Any] | None = None) -> TriPlanarShearEnv:
@@ -57,7 +61,9 @@ def evaluate(controller: Controller, load_N: float, *, seed: int | None = 0,
         total += reward
         if terminated or truncated:
             break
-    return EpisodeResult(controller.name, float(load_N), seed, info["mimicry_error_mm"], info["reason"],
+    success = bool(info["is_success"])
+    return EpisodeResult(controller.name, float(load_N), seed,
+                         info["mimicry_error_mm"] if success else float("nan"), info["reason"],
                          bool(info["is_success"]), info["travel_m"], total, len(actions), info["time_s"],
                          np.array(cps), env.reference_path.copy(), np.array(actions), np.array(thrust),
-                         np.array(offset))
+                         np.array(offset), info["mimicry_error_mm"])

@@ -1,4 +1,5 @@
-"""Throughput of TriPlanarShear-v0 (one core): ``PYTHONPATH=. python benchmarks/bench_env.py [--quick]``.
+"""Throughput of TriPlanarShear-v0 (one core): ``PYTHONPATH=. python benchmarks/bench_env.py [--quick]``; ``--v1``:
+TriPlanarShear-v1 in bench mode with randomisation against v0, in the same process.
 
 Measures, best of ``--repeats`` runs (the machine is shared, so the best run is the least disturbed one):
 
@@ -80,6 +81,37 @@ def single(n: int, policy: str, stats: dict) -> float:
     return rate
 
 
+def single_v1(n: int, stats: dict, **kwargs) -> float:
+    """TriPlanarShear-v1 (default: bench observations, unknown specimens), random actions, autoreset by hand."""
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env  # noqa: PLC0415
+    env = TriPlanarShearV1Env(**{"observation_mode": "bench", "randomize": True, **kwargs})
+    actions = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)
+    env.reset(seed=0)
+    env.step(actions[0])
+    env.reset(seed=1)
+    episodes = 0
+    t0 = time.perf_counter()
+    for i in range(n):
+        _, _, terminated, truncated, _ = env.step(actions[i])
+        if terminated or truncated:
+            episodes += 1
+            env.reset()
+    rate = n / (time.perf_counter() - t0)
+    stats["single_v1_" + "_".join(f"{k}={v}" for k, v in kwargs.items())] = {"mean_episode_steps": n / max(episodes, 1)}
+    return rate
+
+
+def v1_against_v0(repeats: int, n: int, stats: dict) -> dict:
+    """Issue 10's target: v1 in bench mode with randomisation at >= 0.8x v0's single-env random-action throughput,
+    measured in the same process (interleaved, best of ``repeats``)."""
+    out = {"v0_random_steps_per_s": best_of(repeats, lambda: single(n, "random", stats)),
+           "v1_bench_random_steps_per_s": best_of(repeats, lambda: single_v1(n, stats)),
+           "v1_bench_fixed_load_steps_per_s": best_of(repeats, lambda: single_v1(n, stats, randomize=False,
+                                                                                   load_N=27.8))}
+    out["v1_over_v0"] = out["v1_bench_random_steps_per_s"] / out["v0_random_steps_per_s"]
+    return out
+
+
 def vector(num_envs: int, steps: int, policy: str) -> float:
     vec = gym.make_vec("TriPlanarShear-v0", num_envs=num_envs, load_N=27.8)
     vec.reset(seed=0)
@@ -113,7 +145,16 @@ def main() -> int:
     parser.add_argument("--target-mm", type=float, default=None,
                         help="tracking tip's error at 27.8 N (default: evaluated now)")
     parser.add_argument("--json", help="also write the numbers here")
+    parser.add_argument("--v1", action="store_true", help="only the v1-against-v0 comparison (issue 10)")
     args = parser.parse_args()
+    if args.v1:
+        stats_v1: dict = {}
+        result = v1_against_v0(args.repeats, 2_000 if args.quick else 20_000, stats_v1)
+        for key, value in {**result, "stats": stats_v1}.items():
+            print(f"{key}: {value if not isinstance(value, float) else f'{value:,.2f}'}")
+        if args.json:
+            Path(args.json).write_text(json.dumps({**result, "stats": stats_v1}, indent=2))
+        return 0
     scale = 0.1 if args.quick else 1.0
     stats: dict = {}
     results = {"kernel_floor_periods_per_s": best_of(args.repeats, lambda: kernel_floor(int(200_000 * scale)))}

@@ -39,3 +39,7 @@ if ENV_ID not in registry:
              vector_entry_point="envs.vector:TriPlanarShearVectorEnv")
 
 __all__ = ["ENV_ID", "ShearConfig", "TriPlanarShearEnv"]
+
+V1_ID = "TriPlanarShear-v1"
+if V1_ID not in registry:  # 2 s at 200 Hz: 400 periods, the first of which reset runs
+    register(id=V1_ID, entry_point="envs.triplanar_shear_v1:TriPlanarShearV1Env", max_episode_steps=399)

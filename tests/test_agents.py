@@ -86,3 +86,17 @@ def test_study_pipeline_writes_its_outputs(tmp_path) -> None:
     assert len(result.episodes) == 6 * 2
     text = (tmp_path / "study.md").read_text()
     assert "| 27.8 |" in text and "Conclusions" in text
+
+
+def test_a_failed_episode_has_no_mimicry_error() -> None:
+    import math
+
+    from agents.controllers import SteelTip
+
+    class NoThrust(SteelTip):
+        def act(self, obs):
+            return np.array([-1.0, 0.0], dtype=np.float32)
+
+    failed = evaluate(NoThrust(name="no thrust"), 30.3)
+    assert not failed.success and math.isnan(failed.mimicry_error_mm)
+    assert math.isfinite(failed.mimicry_error_reached_mm)

@@ -29,11 +29,25 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "unless --overwrite-doc)")
     parser.add_argument("--overwrite-doc", action="store_true", help="allow --doc to replace an existing file")
     parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
+    parser.add_argument("--bench", action="store_true",
+                        help="the bench study on TriPlanarShear-v1 instead (experiments.bench_study): held-out "
+                             "benches, feedback/adaptive controllers, robust PPO (--timesteps, default 150000), "
+                             "the design sweep; resumable in --out")
+    parser.add_argument("--design-timesteps", type=positive_int, default=40_000,
+                        help="with --bench: robust PPO timesteps per design of the sweep (default 40000)")
+    parser.add_argument("--in-sample-run", help="with --bench: a finished v0 PPO run directory (OUT/seed_S of "
+                        "`triplanar train`) to evaluate on the held-out benches as ppo_in_sample")
     add_executor_arguments(parser)  # the tasks: one per PPO seed, then one per controller (its episodes at every load)
 
 
 def run(args: argparse.Namespace) -> int:
     require()
-    from experiments.study import run as study  # noqa: PLC0415  (the RL stack, only when run)
     with executor_from_args(args) as executor:
+        if args.bench:
+            from experiments.bench_study import run_bench_study  # noqa: PLC0415
+            run_bench_study(args.out, seeds=args.seeds, ppo_timesteps=args.timesteps or 150_000,
+                            design_ppo_timesteps=args.design_timesteps, in_sample_run=args.in_sample_run,
+                            executor=executor)
+            return 0
+        from experiments.study import run as study  # noqa: PLC0415  (the RL stack, only when run)
         return study(args, executor)

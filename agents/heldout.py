@@ -1,0 +1,124 @@
+"""Held-out evaluation on ``TriPlanarShear-v1``: a fixed, seeded set of unknown specimens that no training or
+tuning uses, plus the nominal bench; failures are counted, never averaged into a mimicry error.
+
+* :func:`heldout_benches`: bench ``i`` is drawn from ``np.random.default_rng([HELDOUT_SEED, i])`` (training draws
+  from the env's own seeded generator, tuning from ``TUNING_SEED``: different streams);
+* :func:`run_episode`: one controller on one bench -> :class:`Outcome` (``success``, ``mimicry_error_mm`` only when
+  successful, else NaN);
+* :func:`summarise`: success rate, mimicry error over successful episodes, and the score (below).
+
+**Score** (mm, lower is better): the mean over all episodes of the mimicry error, a failed episode counting
+``FAILURE_SCORE_MM`` (10 mm, ten times the 1 mm target): a controller that fails 1 test in 20 cannot score under
+0.5 mm however well it mimics in the others.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any, Sequence
+
+import numpy as np
+
+from envs.triplanar_shear import EpisodeDraw, StartError, episode_start, make_config, specimen_key
+from envs.triplanar_shear_v1 import BENCH_FIELDS, Bench, TriPlanarShearV1Env, draw_bench
+from triplanar import PAPER_LOADS_N
+
+HELDOUT_SEED = 10_010
+TUNING_SEED = 20_020
+FAILURE_SCORE_MM = 10.0
+
+
+def _shear_kwargs(env_kwargs: dict[str, Any] | None) -> dict[str, Any]:
+    """The ``ShearConfig`` part of v1's keyword arguments (the bench's own are not needed to draw specimens)."""
+    return {k: v for k, v in (env_kwargs or {}).items() if k not in BENCH_FIELDS}
+
+
+def _startable(bench: Bench, env_kwargs: dict[str, Any]) -> bool:
+    config = make_config(None, **_shear_kwargs(env_kwargs))
+    try:
+        episode_start(config, EpisodeDraw(bench.load_N, tuple(bench.specimen.friction_deg),
+                                          float(bench.specimen.tip_friction_deg)),
+                      bench.specimen, bench.foundation, specimen_key(bench.specimen, bench.foundation))
+    except StartError:
+        return False
+    return True
+
+
+def random_benches(n: int, seed: int, env_kwargs: dict[str, Any] | None = None) -> list[Bench]:
+    """The first ``n`` startable draws of the stream ``seed`` (a draw that friction holds at rest is skipped, as a
+    laboratory would not run it)."""
+    config = make_config(None, **_shear_kwargs(env_kwargs))
+    specimen, foundation = config.base_specimen()
+    out: list[Bench] = []
+    i = 0
+    while len(out) < n:
+        bench = draw_bench(np.random.default_rng([seed, i]), specimen, foundation)
+        if _startable(bench, env_kwargs or {}):
+            out.append(bench)
+        i += 1
+    return out
+
+
+def heldout_benches(n: int = 50) -> list[Bench]:
+    return random_benches(n, HELDOUT_SEED)
+
+
+def nominal_benches(loads: Sequence[float] = PAPER_LOADS_N) -> list[Bench]:
+    """The nominal specimen (steel tip, 8 deg) at the paper's load levels."""
+    specimen, foundation = make_config(None).base_specimen()
+    return [Bench(specimen, foundation, float(f)) for f in loads]
+
+
+def with_tip(bench: Bench, tip_friction_deg: float | None) -> Bench:
+    """``bench`` with a given tip (a design's hardware) instead of its drawn tip friction."""
+    if tip_friction_deg is None:
+        return bench
+    from dataclasses import replace  # noqa: PLC0415
+    return replace(bench, specimen=replace(bench.specimen, tip_friction_deg=float(tip_friction_deg)))
+
+
+@dataclass(frozen=True)
+class Outcome:
+    controller: str
+    bench_set: str
+    index: int
+    load_N: float
+    success: bool
+    reason: str
+    mimicry_error_mm: float   # NaN unless success
+    travel_m: float
+    episode_return: float
+    steps: int
+
+
+def run_episode(controller: Any, bench: Bench, *, env_kwargs: dict[str, Any] | None = None, seed: int = 0,
+                bench_set: str = "heldout", index: int = 0, policy: Any = None) -> Outcome:
+    """One episode of ``controller`` (a bench controller with ``reset``/``act``, or ``policy(obs) -> action``
+    with ``controller`` its name) on ``bench``; ``seed`` seeds the sensor noise."""
+    env = TriPlanarShearV1Env(**(env_kwargs or {}))
+    obs, info = env.reset(seed=seed, options={"bench": bench})
+    name = controller if isinstance(controller, str) else controller.name
+    if policy is None:
+        controller.reset(bench.load_N, env.config)
+        policy = controller.act
+    total, steps = 0.0, 0
+    while True:
+        obs, reward, terminated, truncated, info = env.step(np.asarray(policy(obs), dtype=np.float32))
+        total += reward
+        steps += 1
+        if terminated or truncated:
+            break
+    success = bool(info["is_success"])
+    return Outcome(name, bench_set, index, bench.load_N, success, info["reason"],
+                   float(info["mimicry_error_mm"]) if success else math.nan, float(info["travel_m"]), total, steps)
+
+
+def summarise(outcomes: Sequence[Outcome]) -> dict[str, float]:
+    """``n_episodes``, ``success_rate``, ``mimicry_error_mm`` (mean over successful episodes; NaN if none) and
+    ``score`` (failures count ``FAILURE_SCORE_MM``)."""
+    n = len(outcomes)
+    ok = [o.mimicry_error_mm for o in outcomes if o.success]
+    score = (sum(ok) + FAILURE_SCORE_MM * (n - len(ok))) / n if n else math.nan
+    return {"n_episodes": n, "success_rate": len(ok) / n if n else math.nan,
+            "mimicry_error_mm": float(np.mean(ok)) if ok else math.nan, "score": score}

@@ -1,0 +1,438 @@
+"""``TriPlanarShear-v1``: the tri-planar shear test on a bench that could exist (finite servo bandwidths, command
+latency, noisy sensors, unknown specimens). The physics and the reward are v0's compiled control step
+(:func:`envs.triplanar_shear.control_step`); this module adds the bench between the agent and that step.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections import deque
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from triplanar import kernel as K
+from triplanar.layout import Layout
+from triplanar.specimen import Foundation, Plane, Specimen
+
+from .triplanar_shear import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, N_INFO, OBS_DIM, OBS_POS, OBS_PREV, ST_CP_REST,
+                              ST_LOAD, ST_T, EpisodeDraw, ShearConfig, StartError, check_action, control_step,
+                              episode_start, info_dict, make_config, new_workspace, observation_space,
+                              specimen_key)
+
+# Bench observation ("bench" mode): field, size, bound, meaning.
+_BENCH_OBS = (("RANGE", 9, 0.5, "rangefinders: CP1..CP3 displacement from rest (x1, x2, x3 each) + noise, m"),
+              ("THRUST", 1, 1000.0, "load cell: thrust at the period's end, N"),
+              ("STAGE", 1, 0.5, "stage encoder: tip offset, m"),
+              ("LOAD", 1, 1000.0, "load level of the episode, N"),
+              ("TIME", 1, 100.0, "time since the start, s"),
+              ("PREV", 2, 1.0, "previous action"))
+BENCH_OBSERVATION = Layout("B_", "BENCH_OBS_DIM", [(name, size, doc) for name, size, _, doc in _BENCH_OBS])
+BENCH_OBSERVATION.export(globals())  # B_RANGE, B_THRUST, B_STAGE, B_LOAD, B_TIME, B_PREV, BENCH_OBS_DIM
+BENCH_HIGH = np.concatenate([np.full(size, bound) for _, size, bound, _ in _BENCH_OBS])
+
+# Ranges of the unknown specimens (randomize=True); docs/environment.md gives the reasons.
+RANDOM_FRICTION_DEG = 2.0           # each contact's friction angle, +- around the specimen's
+RANDOM_TIP_FRICTION_DEG = (3.0, 12.0)
+RANDOM_MASS = 0.05                  # +- 5 %; the inertia tensor scales with it
+RANDOM_MASS_CENTRE_M = 0.005        # +- 5 mm on each body axis
+RANDOM_TILT_DEG = 0.5               # each plane's dip, +-; the horizontal plane gets a dip in [0, 0.5] deg
+RANDOM_TILT_DIRECTION_DEG = 5.0     # the dipping planes' dip direction, +-
+RANDOM_LOAD_N = (27.8, 55.6)
+START_ATTEMPTS = 20                 # draws before giving up on a specimen that friction holds at rest
+
+
+@dataclass(frozen=True)
+class BenchConfig:
+    """The bench and what the controller sees (v1's own ``gym.make`` arguments; the class docstring of
+    :class:`TriPlanarShearV1Env` has the table and the sources of the defaults)."""
+
+    stage_bandwidth_hz: float = 20.0
+    thrust_bandwidth_hz: float = 30.0
+    latency_s: float = 0.005
+    sensor_noise_m: float = 2e-4
+    observation_mode: str = "bench"
+    randomize: bool = False
+
+    def validate(self, dt: float) -> None:
+        for name in ("stage_bandwidth_hz", "thrust_bandwidth_hz"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and value > 0 and not math.isnan(value)):
+                raise ValueError(f"{name} must be a positive number or math.inf (ideal), got {value!r}")
+        for name in ("latency_s", "sensor_noise_m"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        periods = self.latency_s / dt
+        if abs(periods - round(periods)) > 1e-9:
+            raise ValueError(f"latency_s must be a whole number of control periods ({dt:g} s), got {self.latency_s}")
+        if self.observation_mode not in ("state", "bench"):
+            raise ValueError(f"observation_mode must be 'state' or 'bench', got {self.observation_mode!r}")
+
+    def latency_periods(self, dt: float) -> int:
+        return int(round(self.latency_s / dt))
+
+
+def first_order_step(x: float, target: float, bandwidth_hz: float, dt: float) -> tuple[float, float]:
+    """Exact response of ``dx/dt = 2 pi f (target - x)`` over ``dt``: (value at the end, mean over the period)."""
+    if math.isinf(bandwidth_hz):
+        return target, target
+    tau = 1.0 / (2.0 * math.pi * bandwidth_hz)
+    decay = math.exp(-dt / tau)
+    end = target + (x - target) * decay
+    mean = target + (x - target) * tau / dt * (1.0 - decay)
+    return end, mean
+
+
+@dataclass(frozen=True)
+class Bench:
+    """One episode's specimen and foundation (the nominal ones, or an unknown specimen's draw)."""
+
+    specimen: Specimen
+    foundation: Foundation
+    load_N: float
+
+    def info(self) -> dict[str, Any]:
+        s, f = self.specimen, self.foundation
+        return {"load_N": self.load_N, "friction_deg": tuple(float(v) for v in s.friction_deg),
+                "tip_friction_deg": float(s.tip_friction_deg), "mass_kg": float(s.mass_kg),
+                "mass_centre_m": tuple(float(v) for v in s.mass_centre_m),
+                "plane_dips_deg": tuple(float(p.dip_deg) for p in f.planes)}
+
+
+def draw_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundation) -> Bench:
+    """An unknown specimen: the ranges above, uniform, from ``rng``."""
+    friction = tuple(float(v) for v in np.asarray(specimen.friction_deg)
+                     + rng.uniform(-RANDOM_FRICTION_DEG, RANDOM_FRICTION_DEG, 3))
+    tip = float(rng.uniform(*RANDOM_TIP_FRICTION_DEG))
+    scale = 1.0 + float(rng.uniform(-RANDOM_MASS, RANDOM_MASS))
+    centre = np.asarray(specimen.mass_centre_m) + rng.uniform(-RANDOM_MASS_CENTRE_M, RANDOM_MASS_CENTRE_M, 3)
+    planes = []
+    for plane in foundation.planes:
+        if plane.dip_deg < RANDOM_TILT_DEG:  # a (nearly) horizontal plane tilts a little in any direction
+            planes.append(Plane(float(rng.uniform(0.0, RANDOM_TILT_DEG)), float(rng.uniform(0.0, 360.0))))
+        else:
+            planes.append(Plane(plane.dip_deg + float(rng.uniform(-RANDOM_TILT_DEG, RANDOM_TILT_DEG)),
+                                plane.dip_direction_deg + float(rng.uniform(-RANDOM_TILT_DIRECTION_DEG,
+                                                                            RANDOM_TILT_DIRECTION_DEG))))
+    foundation = Foundation(tuple(planes))
+    # The block sits on the tilted planes: each contact point's rest height follows its plane (a fraction of a mm,
+    # like a machining tolerance of the block).
+    points = np.array(specimen.contact_points_m, dtype=float)
+    for i, plane in enumerate(planes):
+        points[i, 1] = float(plane.height(points[i, 0], points[i, 2]))
+    load = float(rng.uniform(*RANDOM_LOAD_N))
+    new = replace(specimen, contact_points_m=points, friction_deg=friction, tip_friction_deg=tip, mass_kg=specimen.mass_kg * scale,
+                  inertia_kg_m2=np.asarray(specimen.inertia_kg_m2) * scale, mass_centre_m=centre,
+                  name=f"{specimen.name} (random)")
+    return Bench(new, foundation, load)
+
+
+class TriPlanarShearV1Env(gym.Env):
+    """
+    ## Description
+
+    ``TriPlanarShear-v0``'s task (push the block so that it slides as under hydrostatic loading, the paper's case C)
+    on a bench a laboratory could build: the lateral stage is a position servo of finite bandwidth, the thrust
+    follows its command through a force loop, commands arrive after a latency, the controller sees what the
+    bench measures (noisy rangefinders, load cell, stage encoder), and the specimen can be unknown (``randomize``).
+    Physics, reward and episode ends are v0's compiled control step; the bench sits between the agent and it.
+
+    ## Bench dynamics (per control period ``dt``, 5 ms at 200 Hz)
+
+    * **Latency**: a command takes effect ``latency_s`` later, a whole number of control periods (a queue; the
+      queue starts full of the starting command: thrust at the load level, tip at ``tip_offset_m``).
+    * **Stage servo**: the tip offset follows its command ``u*`` as a first-order lag of bandwidth
+      ``stage_bandwidth_hz`` (``tau = 1 / (2 pi f)``). Each period the stage moves at the constant velocity that puts
+      the tip at the exact first-order response at the period's end, still limited to ``stage_speed_m_s`` (v0's
+      rate limit; the servo's state is the actual position, so a saturated stage does not wind up). Done in the env,
+      not the kernel: v0's step already holds the stage velocity constant over a period, so the position at every
+      period end is exact and the kernel stays untouched.
+    * **Force loop**: the thrust follows its command as a first-order lag of bandwidth ``thrust_bandwidth_hz``; the
+      period's constant thrust is the response's mean over the period (the same impulse as the exact response).
+    * ``math.inf`` bandwidths and ``latency_s=0`` give the ideal bench: in ``"state"`` mode without
+      randomisation v1 then reproduces v0's observations and rewards bitwise (``tests/test_env_v1.py``).
+
+    ## Action Space
+
+    ``Box(-1, 1, (2,), float32)`` as v0: thrust command ``(a0 + 1) / 2 * thrust_scale * load`` and tip offset
+    command ``a1 * offset_range_m``; clipped; anything but 2 finite numbers is refused with an error naming it.
+
+    ## Observation Space
+
+    ``observation_mode="state"``: v0's ``Box(34,)`` (exact positions and velocities; for contrast and for the
+    ideal study). ``observation_mode="bench"`` (default): ``Box(15,) float32``, what the laboratory measures:
+
+    | Num  | Observation                                                                       | Bound |
+    |------|-----------------------------------------------------------------------------------|-------|
+    | 0-8  | rangefinders: CP1..CP3 displacement from rest (x1, x2, x3), m, + N(0, ``sensor_noise_m``) each | 0.5 |
+    | 9    | load cell: thrust at the period's end, N                                          | 1000  |
+    | 10   | stage encoder: tip offset, m                                                      | 0.5   |
+    | 11   | load level of the episode, N                                                      | 1000  |
+    | 12   | time since the start, s                                                           | 100   |
+    | 13-14| previous action                                                                   | 1     |
+
+    No velocities: a controller gets history by keeping it (the scripted controllers of :mod:`agents.bench`
+    difference their own past observations), by a frame stack (``gymnasium.wrappers.FrameStackObservation``; the
+    robust PPO uses 4 frames), or by a recurrent policy. The noise is drawn from the env's seeded generator.
+
+    ## Rewards
+
+    v0's (``r_distance + r_action_rate + r_termination``), the action-rate term computed on the agent's actions.
+    The distance is to the hydrostatic reference of the episode's (true) specimen at its load level.
+
+    ## Starting State
+
+    v0's: the first control period runs in ``reset``. With ``randomize=True`` each reset draws an unknown specimen
+    from the env's seeded generator: contact friction angles +-2 deg, tip friction 3-12 deg, mass +-5 % (inertia
+    with it), mass centre +-5 mm on each body axis, each plane's dip +-0.5 deg and dip direction +-5 deg (the
+    horizontal plane: dip 0-0.5 deg in any direction), load uniform in 27.8-55.6 N; a draw that friction holds at
+    rest is drawn again. A ``tip_friction_deg`` given to ``gym.make`` is known hardware and is not drawn.
+    ``reset(options={"bench": Bench(...)})`` runs a given bench (the held-out set does).
+    ``info`` of reset and of every step has the same keys: v0's step keys plus the bench's (``mass_kg``,
+    ``mass_centre_m``, ``plane_dips_deg``, ``friction_deg``, ``tip_friction_deg``).
+
+    ## Episode End
+
+    **Termination** (v0's): ``travel`` (success, ``info["is_success"]``), ``lift_off``, ``mass_centre_outside``,
+    ``left_plane``, ``arrested``, ``failed`` (``info["reason"]``, :class:`triplanar.outcome.Outcome` labels).
+    **Truncation**: ``time_limit`` after ``time_limit_s`` (2 s): 399 agent steps at 200 Hz (the first period runs in
+    reset), the registered ``max_episode_steps``.
+
+    ## Arguments
+
+    ``gym.make("TriPlanarShear-v1", **kwargs)``:
+
+    | name                 | type          | default   | meaning |
+    |----------------------|---------------|-----------|---------|
+    | `observation_mode`   | str           | `"bench"` | `"bench"` (what the laboratory measures) or `"state"` (v0's) |
+    | `randomize`          | bool          | `False`   | an unknown specimen and load each episode (ranges above) |
+    | `stage_bandwidth_hz` | float         | `20.0`    | lateral stage position bandwidth, Hz; `math.inf`: ideal |
+    | `thrust_bandwidth_hz`| float         | `30.0`    | force-loop bandwidth, Hz; `math.inf`: ideal |
+    | `latency_s`          | float         | `0.005`   | command latency, s, a whole number of control periods |
+    | `sensor_noise_m`     | float         | `2e-4`    | rangefinder noise (standard deviation), m |
+    | `render_mode`        | str or None   | `None`    | `"rgb_array"` or `"human"` |
+    | any `ShearConfig` field | (see v0)   | (v0's)    | `load_N`, `load_levels`, `load_range`, `control_hz`, `tip_friction_deg`, `stage_speed_m_s`, `offset_range_m`, `thrust_scale`, `travel_m`, `time_limit_s`, reward terms, `specimen`, `foundation` |
+
+    Defaults: a ball-screw linear stage under closed-loop position control and an electromechanical load actuator
+    under force control typically reach closed-loop bandwidths of tens of Hz (20 and 30 Hz here); a PC or PLC
+    control loop at 200 Hz adds one period of latency; 0.2 mm is the rangefinder noise the issue asks for (a
+    laser triangulation sensor over a ~10 cm range). These are order-of-magnitude values, not one product's data
+    sheet; the design sweep (``docs/actuator-study.md``) varies them.
+
+    ## Rendering
+
+    ``render_fps`` is the control rate (frames play back in real time); a frame is drawn with Pillow (overhead
+    view, a few ms). ``render_mode="human"`` without a display warns once and draws nothing.
+
+    ## Version History
+
+    * v1: bench dynamics (stage servo, force loop, latency), bench observations, unknown specimens, registered
+      ``max_episode_steps``, ``env.dt``, ``render_fps`` = control rate, the same ``info`` keys at reset and step,
+      a fast Pillow renderer.
+    * v0: the ideal, known bench (:class:`envs.triplanar_shear.TriPlanarShearEnv`), unchanged.
+    """
+
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 200}
+
+    def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
+                 stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0, latency_s: float = 0.005,
+                 sensor_noise_m: float = 2e-4, **kwargs: Any):
+        self.config: ShearConfig = make_config(None, **kwargs)
+        self.bench = BenchConfig(stage_bandwidth_hz, thrust_bandwidth_hz, latency_s, sensor_noise_m,
+                                 observation_mode, bool(randomize))
+        self.bench.validate(self.config.dt)
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
+        self.render_mode = render_mode
+        self.metadata = {**self.metadata, "render_fps": int(round(self.config.control_hz))}
+        self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
+        if observation_mode == "state":
+            self.observation_space = observation_space()
+        else:
+            high = BENCH_HIGH.astype(np.float32)
+            self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self._specimen, self._foundation = self.config.base_specimen()
+        self._ws = new_workspace()
+        self._obs = np.zeros(OBS_DIM)
+        self._inf = np.zeros(N_INFO)
+        self._applied = np.zeros(2)
+        self._start = None
+        self._episode: Bench | None = None
+        self._renderer = None
+        self._warned_display = False
+        self._trace: list[np.ndarray] = []
+
+    @property
+    def dt(self) -> float:
+        """The control period, s (Gymnasium's convention, as MuJoCo environments' ``dt``)."""
+        return self.config.dt
+
+    # -- Gymnasium API ---------------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        options = dict(options or {})
+        bench = options.pop("bench", None)
+        if options:
+            raise ValueError(f"unknown reset options {sorted(options)} (v1 takes 'bench')")
+        if bench is not None and not isinstance(bench, Bench):
+            raise TypeError(f"reset option bench must be an envs.triplanar_shear_v1.Bench, got {bench!r}")
+        start = None
+        for _ in range(START_ATTEMPTS):
+            if bench is None:
+                candidate = self._draw()
+            else:
+                candidate = bench
+            try:
+                start = episode_start(self.config, EpisodeDraw(candidate.load_N, tuple(candidate.specimen.friction_deg),
+                                                               float(candidate.specimen.tip_friction_deg)),
+                                      candidate.specimen, candidate.foundation,
+                                      specimen_key(candidate.specimen, candidate.foundation))
+                break
+            except StartError:
+                if bench is not None or not self.bench.randomize:
+                    raise
+        if start is None:
+            raise StartError(f"no startable specimen in {START_ATTEMPTS} draws")
+        self._episode, self._start = candidate, start
+        self._episode_info = candidate.info()
+        self._y, self._p, self._modes = start.y.copy(), start.p.copy(), start.modes.copy()
+        self._armed, self._st = start.armed.copy(), start.st.copy()
+        self._ref = start.reference
+        self._obs[:] = start.obs
+        self._inf = start.inf.copy()
+        cfg = self.config
+        self._cfg = cfg.packed()
+        first = np.array([2.0 / cfg.thrust_scale - 1.0, cfg.tip_offset_m / cfg.offset_range_m])
+        self._queue = deque([first.copy() for _ in range(self.bench.latency_periods(cfg.dt))])
+        self._thrust = float(start.inf[IN_THRUST])   # the force loop's output at the period's end
+        self._prev = first.copy()
+        self._code = 0
+        if self.render_mode is not None:
+            self._trace = [self._contact_points()]
+            if self.render_mode == "human":
+                self.render()
+        return self._observation(), self._info(0)
+
+    def step(self, action):
+        if self._start is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
+        raw = check_action(action)
+        agent = np.array([min(max(float(raw[0]), -1.0), 1.0), min(max(float(raw[1]), -1.0), 1.0)])
+        self._queue.append(agent)
+        command = self._queue.popleft()
+        cfg, dt = self.config, self.config.dt
+        thrust_max = cfg.thrust_scale * self._st[ST_LOAD]
+        thrust_cmd = 0.5 * (command[0] + 1.0) * thrust_max
+        self._thrust, thrust_mean = first_order_step(self._thrust, thrust_cmd, self.bench.thrust_bandwidth_hz, dt)
+        u = float(self._y[K.S_U])
+        u_end, _ = first_order_step(u, command[1] * cfg.offset_range_m, self.bench.stage_bandwidth_hz, dt)
+        # v0's step takes (thrust, end-of-period tip position) as an action; both are convex combinations of
+        # values inside the action range, so its clipping leaves them as they are.
+        self._applied[0] = 2.0 * thrust_mean / thrust_max - 1.0 if math.isfinite(self.bench.thrust_bandwidth_hz) \
+            else command[0]
+        self._applied[1] = u_end / cfg.offset_range_m if math.isfinite(self.bench.stage_bandwidth_hz) else command[1]
+        code = control_step(self._y, self._p, self._modes, self._armed, self._st, self._ref, self._applied,
+                            self._cfg, self._obs, self._inf, self._ws)
+        r_rate = -cfg.action_rate_coef * ((agent[0] - self._prev[0]) ** 2 + (agent[1] - self._prev[1]) ** 2)
+        self._prev = agent
+        self._code = code
+        reward = float(self._inf[IN_R_DIST] + self._inf[IN_R_TERM]) + r_rate
+        if self.render_mode is not None:
+            self._trace.append(self._contact_points())
+            if self.render_mode == "human":
+                self.render()
+        info = self._info(code)
+        info["reward_action_rate"] = r_rate
+        return self._observation(), reward, code > 0, bool(self._inf[IN_TRUNC]), info
+
+    def render(self):
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
+            return None
+        if self.render_mode == "human" and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+            if not self._warned_display:
+                gym.logger.warn("render_mode='human' needs a display (DISPLAY or WAYLAND_DISPLAY); none is set, so "
+                                "nothing is shown. Use render_mode='rgb_array' (e.g. with RecordVideo).")
+                self._warned_display = True
+            return None
+        if self._renderer is None:
+            from .render_v1 import FastRenderer  # noqa: PLC0415 (Pillow only when rendering)
+            self._renderer = FastRenderer(self._foundation, human=self.render_mode == "human")
+        rest = self._st[ST_CP_REST:ST_CP_REST + 9].reshape(3, 3)
+        return self._renderer.draw(np.array(self._trace), rest + self._ref.reshape(-1, 3, 3), self._load_point(),
+                                   self._st[ST_LOAD], self._st[ST_T])
+
+    def close(self) -> None:
+        if self._renderer is not None:
+            self._renderer.close()
+            self._renderer = None
+
+    # -- helpers ---------------------------------------------------------------------------------
+    def _draw(self) -> Bench:
+        if self.bench.randomize:
+            bench = draw_bench(self.np_random, self._specimen, self._foundation)
+            if self.config.tip_friction_deg is not None:  # a chosen tip is known hardware: not drawn
+                bench = replace(bench, specimen=replace(bench.specimen,
+                                                        tip_friction_deg=float(self.config.tip_friction_deg)))
+            return bench
+        from .triplanar_shear import draw_episode  # noqa: PLC0415
+        draw = draw_episode(self.np_random, self.config, self._specimen, None)
+        specimen = replace(self._specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg)
+        return Bench(specimen, self._foundation, draw.load_N)
+
+    def _observation(self) -> np.ndarray:
+        if self.bench.observation_mode == "state":
+            obs = self._obs.copy()
+            obs[OBS_PREV:OBS_PREV + 2] = self._prev
+            return obs.astype(np.float32)
+        out = np.empty(BENCH_OBS_DIM)
+        out[B_RANGE:B_RANGE + 9] = self._obs[OBS_POS:OBS_POS + 9]
+        if self.bench.sensor_noise_m > 0:
+            out[B_RANGE:B_RANGE + 9] += self.np_random.normal(0.0, self.bench.sensor_noise_m, 9)
+        out[B_THRUST] = self._thrust
+        out[B_STAGE] = self._y[K.S_U]
+        out[B_LOAD] = self._st[ST_LOAD]
+        out[B_TIME] = self._st[ST_T]
+        out[B_PREV:B_PREV + 2] = self._prev
+        return np.clip(out, -BENCH_HIGH, BENCH_HIGH).astype(np.float32)
+
+    def _info(self, code: int) -> dict[str, Any]:
+        info = info_dict(self._inf, code)
+        info.update(self._episode_info)
+        info["thrust_N"] = float(self._inf[IN_THRUST])
+        info["load_cell_N"] = self._thrust
+        return info
+
+    def _contact_points(self) -> np.ndarray:
+        cps = np.empty((3, 3))
+        K.contact_points(self._y, self._p, cps)
+        return cps
+
+    def _load_point(self) -> np.ndarray:
+        aux = np.empty(K.N_AUX)
+        K.rhs(self._st[ST_T], self._y, self._p, self._modes, np.empty(K.N_STATE), aux)
+        return aux[K.A_PL:K.A_PL + 3].copy()
+
+    @property
+    def episode_bench(self) -> Bench:
+        """This episode's specimen, foundation and load (the truth a controller does not see)."""
+        if self._episode is None:
+            raise gym.error.ResetNeeded("call reset() first")
+        return self._episode
+
+    @property
+    def reference_path(self) -> np.ndarray:
+        return self._st[ST_CP_REST:ST_CP_REST + 9].reshape(3, 3) + self._ref.reshape(-1, 3, 3)
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = self.__dict__.copy()
+        state["_renderer"] = None
+        return state
+
+
+BENCH_FIELDS = tuple(f.name for f in fields(BenchConfig))
