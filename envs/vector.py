@@ -23,7 +23,6 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numba import njit
 
-from triplanar import kernel as K
 from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
 from . import triplanar_shear as S

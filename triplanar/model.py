@@ -199,16 +199,28 @@ class Model:
         """Decode a kernel state for user code."""
         rot = np.empty((3, 3))
         K.quat_to_matrix(y[K.S_Q:K.S_Q + 4], rot)
+        p = self.kernel_params_cached.copy()  # (writable: numba compiles another version for a read-only array)
         cps = np.empty((3, 3))
-        K.contact_points(y, self.kernel_params_cached.copy(), cps)
+        K.contact_points(y, p, cps)
         v, w = y[K.S_V:K.S_V + 3].copy(), y[K.S_W:K.S_W + 3].copy()
         r = y[K.S_R:K.S_R + 3].copy()
         cpv = v + np.cross(w, cps - r)
         thrust = self.loading.force_N if self.loading.rise_time_s <= 0 else float(y[K.S_F])
         arm = np.empty(3)
-        K.load_arm(y, self.kernel_params_cached.copy(), rot, arm)
+        K.load_arm(y, p, rot, arm)
         direction = np.array([1.0, 0.0, 0.0]) if self.loading.kind == "actuator" else rot[:, 0].copy()
         return BlockState(t, r, rot, v, w, cps, cpv, thrust, r + arm, direction, self.specimen)
+
+    def user_wrench(self, t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The user effects' force at the mass centre and moment about it (world axes) at kernel state ``y``: what
+        the kernel adds through its callback while a run goes on, and the statics at rest."""
+        state = self.block_state(t, y)
+        force, moment = np.zeros(3), np.zeros(3)
+        for effect in self.force_effects:
+            f, m = effect.wrench(t, state)
+            force += np.asarray(f, dtype=float)
+            moment += np.asarray(m, dtype=float)
+        return force, moment
 
     @cached_property
     def kernel_params_cached(self) -> np.ndarray:

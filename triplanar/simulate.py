@@ -137,22 +137,10 @@ class _user_effects:
         self.model = model
 
     def __enter__(self) -> None:
-        effects = self.model.force_effects
-        if not effects:
+        if not self.model.force_effects:
             return
-        model = self.model
-
-        def wrench(t: float, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            state = model.block_state(t, y)
-            force, moment = np.zeros(3), np.zeros(3)
-            for effect in effects:
-                f, m = effect.wrench(t, state)
-                force += np.asarray(f, dtype=float)
-                moment += np.asarray(m, dtype=float)
-            return force, moment
-
         self.previous = K.USER_WRENCH[0]
-        K.USER_WRENCH[0] = wrench
+        K.USER_WRENCH[0] = self.model.user_wrench
 
     def __exit__(self, *exc: object) -> None:
         if self.model.force_effects:

@@ -28,16 +28,11 @@ from .model import Model
 
 def _external_wrench(model: Model, y: np.ndarray, t: float) -> tuple[np.ndarray, np.ndarray]:
     """The user effects' force at the mass centre and moment about it (world axes), seen by a block at rest."""
-    extra_f, extra_m = np.zeros(3), np.zeros(3)
-    if model.force_effects:
-        y = y.copy()
-        y[K.S_V:K.S_V + 6] = 0.0
-        state = model.block_state(t, y)
-        for effect in model.force_effects:
-            f, m = effect.wrench(t, state)
-            extra_f += f
-            extra_m += m
-    return extra_f, extra_m
+    if not model.force_effects:
+        return np.zeros(3), np.zeros(3)
+    rest = y.copy()
+    rest[K.S_V:K.S_V + 6] = 0.0
+    return model.user_wrench(t, rest)
 
 
 def _params(model: Model) -> np.ndarray:
