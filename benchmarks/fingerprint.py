@@ -1,8 +1,9 @@
 """Fingerprint the model's results, to prove that a change of the code's structure changes no result.
 
 Records the six paper traces (cases A, B, C at 27.8 and 55.6 N), four traces with effects (rate friction, a
-rising actuator, tilted planes, a user force through the Python wrench) and 3000 random-action steps of
-``TriPlanarShear-v0`` (seeded), then compares them with an earlier record::
+rising actuator, tilted planes, a user force through the Python wrench), 3000 random-action steps of
+``TriPlanarShear-v0`` and 2000 of ``TriPlanarShear-v1`` in each observation mode with unknown specimens (all
+seeded), then compares them with an earlier record::
 
     .venv/bin/python benchmarks/fingerprint.py --save /tmp/before.npz     # before the change
     .venv/bin/python benchmarks/fingerprint.py --compare /tmp/before.npz  # after it
@@ -44,11 +45,12 @@ def _traces() -> dict[str, np.ndarray]:
     return out
 
 
-def _env_steps(n_steps: int = 3000) -> dict[str, np.ndarray]:
+def _env_steps(env_id: str = "TriPlanarShear-v0", n_steps: int = 3000, prefix: str = "env",
+               **kwargs) -> dict[str, np.ndarray]:
     import gymnasium as gym
     import envs  # noqa: F401  (registers the environment)
 
-    env = gym.make("TriPlanarShear-v0")
+    env = gym.make(env_id, **kwargs)
     rng = np.random.default_rng(2026)
     obs_rows, rewards, ends, numbers = [], [], [], []
     obs, info = env.reset(seed=7)
@@ -62,12 +64,14 @@ def _env_steps(n_steps: int = 3000) -> dict[str, np.ndarray]:
         if terminated or truncated:
             episode += 1
             obs, info = env.reset(seed=7 + episode)
-    return {"env/obs": np.array(obs_rows), "env/reward": np.array(rewards), "env/ends": np.array(ends),
-            "env/info": np.array(numbers)}
+    return {f"{prefix}/obs": np.array(obs_rows), f"{prefix}/reward": np.array(rewards),
+            f"{prefix}/ends": np.array(ends), f"{prefix}/info": np.array(numbers)}
 
 
 def record() -> dict[str, np.ndarray]:
-    return {**_traces(), **_env_steps()}
+    v1 = {f"v1_{mode}": _env_steps("TriPlanarShear-v1", 2000, f"v1_{mode}", observation_mode=mode, randomize=True)
+          for mode in ("state", "bench")}
+    return {**_traces(), **_env_steps(), **v1["v1_state"], **v1["v1_bench"]}
 
 
 def compare(before: dict[str, np.ndarray], after: dict[str, np.ndarray]) -> bool:
