@@ -58,13 +58,14 @@ def bench_control_step(repeats: int = 2000) -> None:
         armed = np.zeros(5, np.bool_)
         bufs = (np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)))
         ws = stepping.new_workspace()
+        K.modes_of(ws)[:] = modes
         log = np.empty((0, 3))
         x1_target = model.specimen.contact_points_m[0, 0] + 0.08
         y, t = y0.copy(), 0.0
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            _, status, _, _, t = stepping.integrate_ws(stepping.METHOD_RK4, t, y, p, modes, 0.005, 0.0, 0.0, t + 0.005,
+            _, status, _, _, t = stepping.integrate_ws(stepping.METHOD_RK4, t, y, p, 0.005, 0.0, 0.0, t + 0.005,
                                                        x1_target, 1e-5, armed, *bufs, False, 0, log, ws)
             times.append(time.perf_counter() - t0)
             if status != Outcome.TIME_LIMIT:  # travel reached: start the episode again

@@ -41,9 +41,10 @@ def _kernel_periods(y0, p, modes, n, x1_target):
     armed = np.zeros(5, np.bool_)
     y = y0.copy()
     ws = stepping.new_workspace()  # as the env: one workspace for the loop
+    K.modes_of(ws)[:] = modes
     for i in range(n):
         y[:] = y0
-        stepping.integrate_ws(stepping.METHOD_RK4, 0.005, y, p, modes, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed,
+        stepping.integrate_ws(stepping.METHOD_RK4, 0.005, y, p, 0.005, 0.0, 0.0, 0.01, x1_target, 1e-5, armed,
                               out_t, out_y, out_y, out_aux, False, 0, np.empty((0, 3)), ws)
 
 

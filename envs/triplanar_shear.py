@@ -384,7 +384,7 @@ def new_workspace() -> np.ndarray:
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
-def _apply_action(y, p, modes, st, action, cfg, ws) -> None:
+def _apply_action(y, p, st, action, cfg, ws) -> None:
     """Thrust and stage velocity for this control period; stuck sites that can no longer stick are released."""
     a0 = min(max(action[0], -1.0), 1.0)
     a1 = min(max(action[1], -1.0), 1.0)
@@ -395,22 +395,23 @@ def _apply_action(y, p, modes, st, action, cfg, ws) -> None:
     p[K.P_FCMD] = thrust
     p[K.P_UDOT] = udot
     t = st[ST_T]
+    modes = K.modes_of(ws)
     if modes[K.M_TIP_STUCK] != 0.0 and changed_udot:
         # A stage that changes speed cannot carry a stuck face along instantly: the face slips on the tip.
-        stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, modes, ws)
+        stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
     if modes[K.M_STUCK] >= 0.0 or modes[K.M_TIP_STUCK] != 0.0:
         aux = ws[W_AUX, :K.N_AUX]
         dy = ws[W_DY, :K.N_STATE]
-        K.rhs_ws(t, y, p, modes, dy, aux, ws)
+        K.rhs_ws(t, y, p, dy, aux, ws)
         if modes[K.M_STUCK] >= 0.0 and aux[K.A_STICK] > 0.0:
-            stepping.apply_mode_event_ws(K.EV_RELEASE, t, y, p, modes, ws)
-            K.rhs_ws(t, y, p, modes, dy, aux, ws)
+            stepping.apply_mode_event_ws(K.EV_RELEASE, t, y, p, ws)
+            K.rhs_ws(t, y, p, dy, aux, ws)
         if modes[K.M_TIP_STUCK] != 0.0 and aux[K.A_TIP_STICK] > 0.0:
-            stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, modes, ws)
+            stepping.apply_mode_event_ws(K.EV_TIP_RELEASE, t, y, p, ws)
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
-def _advance(y, p, modes, armed, st, cfg, inf, ws) -> int:
+def _advance(y, p, armed, st, cfg, inf, ws) -> int:
     """Integrate to the end of the control period or an outcome with the project's one driver
     (:func:`triplanar.driver.drive`: fixed RK4 steps, redone with DOPRI5 where the energy balance is off by more than
     ``energy_tol_J``; arrests decided by the statics LP at the current pose, thrust and tip offset). Returns the
@@ -420,7 +421,7 @@ def _advance(y, p, modes, armed, st, cfg, inf, ws) -> int:
     # Nothing is recorded. Whole workspace rows as the buffers and non-literal arguments give the very signature
     # simulate compiles, so the driver and everything below it are compiled once, not twice.
     no_t, no_rows = ws[W_NO_T, :1], ws[W_NO_Y:W_NO_Y + 1]
-    outcome, _, _, _, t = driver.drive(np.int64(stepping.METHOD_RK4), st[ST_T], y, p, modes, armed, cfg[CF_H], 0.0,
+    outcome, _, _, _, t = driver.drive(np.int64(stepping.METHOD_RK4), st[ST_T], y, p, armed, cfg[CF_H], 0.0,
                                        0.0, (st[ST_STEP] + 1.0) * cfg[CF_DT], st[ST_X1_TARGET], cfg[CF_SLOW],
                                        cfg[CF_ENERGY_TOL], no_t, no_rows, no_rows, no_rows, np.bool_(False),
                                        np.int64(0), ws[W_NO_T:W_NO_T], ws)
@@ -521,9 +522,12 @@ def _finish(y, p, st, ref, action, cfg, code, obs, inf, ws) -> None:
 @njit(cache=True, error_model="numpy")
 def control_step(y, p, modes, armed, st, ref, action, cfg, obs, inf, ws) -> int:
     """One control period: apply ``action``, integrate, observe; returns the outcome code. ``ws`` is a kernel
-    workspace (:func:`new_workspace`), scratch only."""
-    _apply_action(y, p, modes, st, action, cfg, ws)
-    code = _advance(y, p, modes, armed, st, cfg, inf, ws)
+    workspace (:func:`new_workspace`), scratch only: the stick/slip ``modes`` are put in it for the period and taken
+    back."""
+    K.modes_of(ws)[:] = modes
+    _apply_action(y, p, st, action, cfg, ws)
+    code = _advance(y, p, armed, st, cfg, inf, ws)
+    modes[:] = K.modes_of(ws)
     _finish(y, p, st, ref, action, cfg, code, obs, inf, ws)
     return code
 

@@ -53,14 +53,15 @@ def energy_defect(y0: np.ndarray, y1: np.ndarray, p: np.ndarray, ws: np.ndarray)
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
-def _integrate_checked(method, t0, y, p, modes, armed, h, rtol, atol, t_end, x1_target, slow_speed, energy_tol, out_t,
+def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target, slow_speed, energy_tol, out_t,
                        out_y, out_dy, out_aux, record, row0, log, ws):
     """:func:`triplanar.stepping.integrate_ws`, redone with DOPRI5 while the energy balance is off (see the module
     docstring). A redo starts again from the stretch's start (state, modes, arming, recorded rows and event log) and
     hands back the stretch's own step ``h``, so a fixed-step caller keeps its step."""
     count = ws[W_COUNT]
+    modes = K.modes_of(ws)
     y0, modes0, armed0, log0 = y.copy(), modes.copy(), armed.copy(), count[C_NLOG]
-    rows, status, event, h_out, t = stepping.integrate_ws(method, t0, y, p, modes, h, rtol, atol, t_end, x1_target,
+    rows, status, event, h_out, t = stepping.integrate_ws(method, t0, y, p, h, rtol, atol, t_end, x1_target,
                                                           slow_speed, armed, out_t, out_y, out_dy, out_aux, record,
                                                           row0, log, ws)
     for redo_rtol in FALLBACK_RTOLS:
@@ -71,7 +72,7 @@ def _integrate_checked(method, t0, y, p, modes, armed, h, rtol, atol, t_end, x1_
         armed[:] = armed0
         count[C_NLOG] = log0
         count[C_NREDO] += 1.0
-        rows, status, event, _, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, modes, h, redo_rtol,
+        rows, status, event, _, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, h, redo_rtol,
                                                           1e-3 * redo_rtol, t_end, x1_target, slow_speed, armed, out_t,
                                                           out_y, out_dy, out_aux, record, row0, log, ws)
         h_out = h
@@ -88,12 +89,12 @@ def _user_wrench_at_rest(t: float, y: np.ndarray, p: np.ndarray) -> None:
 
 
 @njit(cache=True, error_model="numpy")
-def drive(method: int, t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, armed: np.ndarray, h: float,
+def drive(method: int, t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray, h: float,
           rtol: float, atol: float, t_end: float, x1_target: float, slow_speed: float, energy_tol: float,
           out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool, rows: int,
           log: np.ndarray, ws: np.ndarray):
-    """Integrate from (t, y) until a physical ending, ``t_end`` or a full buffer; ``y``, ``modes`` (the stick/slip
-    modes) and ``armed`` are updated in place.
+    """Integrate from (t, y) until a physical ending, ``t_end`` or a full buffer; ``y``, the stick/slip modes (in the
+    workspace, :func:`triplanar.kernel.modes_of`) and ``armed`` are updated in place.
 
     Arguments are :func:`triplanar.stepping.integrate_ws`'s, plus ``energy_tol`` (J, 0: no check) and ``rows``, the
     rows already recorded (a continuation writes after them). The block must be moving (or started by
@@ -102,7 +103,7 @@ def drive(method: int, t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray
     """
     count = ws[W_COUNT]
     while True:
-        rows, status, event, h, t = _integrate_checked(method, t, y, p, modes, armed, h, rtol, atol, t_end, x1_target,
+        rows, status, event, h, t = _integrate_checked(method, t, y, p, armed, h, rtol, atol, t_end, x1_target,
                                                        slow_speed, energy_tol, out_t, out_y, out_dy, out_aux, record,
                                                        rows, log, ws)
         if status != SLOW:
@@ -114,5 +115,5 @@ def drive(method: int, t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray
             stepping.log_outcome(log, count, t, -1, ARRESTED)
             return ARRESTED, -1, rows, h, t
         count[C_NSTART] += 1.0
-        stepping.start_motion_ws(t, y, p, modes, ws)
+        stepping.start_motion_ws(t, y, p, ws)
         armed[:] = False

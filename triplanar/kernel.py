@@ -86,9 +86,11 @@ KERNEL_SETTINGS = {
 }
 
 # Stick/slip modes: which site sticks and where a site at rest starts to slip. They change as the block moves (the
-# steppers set them at stops and releases, start_motion_ws at a start), so they live in their own vector, apart
-# from the parameters and the controls (thrust command, stage velocity) in p: a stretch redone starts again from
-# the modes it had.
+# steppers set them at stops and releases, start_motion_ws at a start), so they are kept apart from the parameters
+# and the controls (thrust command, stage velocity) in p: a stretch redone starts again from the modes it had. The
+# callers keep them in a vector of their own (sliding_modes()); while compiled code runs they sit in a row of the
+# workspace (W_MODES, modes_of), where every *_ws function reads and sets them: one more array argument on every
+# call below the driver cost ~25 % of a control period (docs/performance.md), the workspace is passed anyway.
 MODES = Layout("M_", "N_MODE", [
     ("D0", 12, "friction directions to use at zero slip (rows: CP1..3, tip)"),
     ("STUCK", 1, "index of the contact point that sticks (0-2), or -1: all three slide"),
@@ -159,20 +161,32 @@ WORKSPACE = Layout("W_", "N_KERNEL_WS_ROWS", [
     ("CPS", 3, "3x3 contact points"),
     *((name, 1, "7-vector") for name in ("BIAS", "B", "X", "RESID", "TARGET", "LAM", "AT")),  # AT: indices as floats
     ("MAT", 7, "7x7 matrix"),
-    ("COUNT", 1, "counters (zeroed by allocate_workspace): what a run cost and what happened, see C_*")])
+    ("COUNT", 1, "counters (zeroed by allocate_workspace): what a run cost and what happened, see C_*"),
+    ("MODES", 1, "the stick/slip modes (MODES layout) while compiled code runs: every *_ws function reads and sets "
+                 "them here (modes_of)")])
 WORKSPACE.export(globals())
 # counters in row W_COUNT: right-hand-side evaluations, accepted and rejected steps, events located, rows of the
 # event log, starts from rest (mode searches), static-equilibrium checks, stretches redone for the energy balance
 C_NFEV, C_NSTEP, C_NREJECT, C_NEVENT, C_NLOG, C_NSTART, C_NLP, C_NREDO = range(8)
-WS_WIDTH = max(N_STATE, N_AUX, N_EVENTS, 12)
+WS_WIDTH = max(N_STATE, N_AUX, N_EVENTS, N_MODE, 12)
 
 
 @njit(cache=True, error_model="numpy")
 def allocate_workspace(rows: int) -> np.ndarray:
-    """A workspace of ``rows`` rows (a module's ``new_workspace`` passes its own last row), counters at zero."""
+    """A workspace of ``rows`` rows (a module's ``new_workspace`` passes its own last row), counters at zero, modes
+    all sliding (:func:`sliding_modes`)."""
     ws = np.empty((rows, WS_WIDTH))
     ws[W_COUNT, :] = 0.0
+    ws[W_MODES, :] = 0.0
+    ws[W_MODES, M_STUCK] = -1.0
     return ws
+
+
+@njit(cache=True, error_model="numpy")
+def modes_of(ws: np.ndarray) -> np.ndarray:
+    """The stick/slip modes in workspace ``ws`` (a view): whoever keeps the modes between calls (simulate, the envs)
+    puts them here before calling a ``*_ws`` function and takes them back after."""
+    return ws[W_MODES, :N_MODE]
 
 
 @njit(cache=True, error_model="numpy")
@@ -297,12 +311,12 @@ def thrust(t: float, p: np.ndarray) -> float:
 
 
 @njit(cache=True, inline="always", error_model="numpy")
-def _friction_direction(v0, v1, v2, speed, modes, k):
-    """Unit slip direction, blended with the incipient direction modes[k:k+3] below SLIP_BLEND."""
+def _friction_direction(v0, v1, v2, speed, d0, d1, d2):
+    """Unit slip direction, blended with the incipient direction (d0, d1, d2) below SLIP_BLEND."""
     if speed >= SLIP_BLEND:
         return v0 / speed, v1 / speed, v2 / speed
     f = 1.0 - speed / SLIP_BLEND
-    return v0 / SLIP_BLEND + f * modes[k], v1 / SLIP_BLEND + f * modes[k + 1], v2 / SLIP_BLEND + f * modes[k + 2]
+    return v0 / SLIP_BLEND + f * d0, v1 / SLIP_BLEND + f * d1, v2 / SLIP_BLEND + f * d2
 
 
 @njit(cache=True, error_model="numpy")
@@ -336,12 +350,14 @@ def _face_rows(R: np.ndarray, w: np.ndarray, a: int, h: np.ndarray) -> tuple:
 
 @njit(cache=True, error_model="numpy")
 def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
-    """:func:`dynamics_ws` with its own scratch memory."""
-    return dynamics_ws(t, y, p, modes, dy, aux, new_workspace())
+    """:func:`dynamics_ws` with its own scratch memory, holding ``modes``."""
+    ws = new_workspace()
+    modes_of(ws)[:] = modes
+    return dynamics_ws(t, y, p, dy, aux, ws)
 
 
 @njit(cache=True, error_model="numpy")
-def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.ndarray, aux: np.ndarray,
+def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray,
                 ws: np.ndarray) -> bool:
     """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
 
@@ -352,7 +368,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
     ``F_T (e1.g1) tan(phi_EF)`` opposing the slip of the aft face relative to the tip (eq. 32-33 in
     continuous time); case C: ``F_T g1`` at the body-fixed ``P_CL``; plus any user force and moment.
 
-    A contact (``modes[M_STUCK]``) or the tip (``modes[M_TIP_STUCK]``) that sticks is held by static friction instead:
+    A contact (``modes[M_STUCK]``) or the tip (``modes[M_TIP_STUCK]``) that sticks is held by static friction instead
     its tangential force becomes an unknown and its slip acceleration a constraint row. The unknowns
     (normal reactions, stuck tangential forces) solve one small linear system: the paper's eq. 39 with
     the rigid-frame multipliers eliminated.
@@ -399,7 +415,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
     # End friction. Slip of the face relative to the tip: the tip moves along e1 (whatever keeps contact)
     # and laterally at udot, so the slip is (v_B - udot e3) projected along e1 onto the face.
     tan_ef = p[P_TANEF] if actuator else 0.0
-    tip_stuck = tan_ef > 0.0 and modes[M_TIP_STUCK] != 0.0
+    tip_stuck = tan_ef > 0.0 and ws[W_MODES, M_TIP_STUCK] != 0.0
     wv0, wv1, wv2 = vb0, vb1, vb2 - udot
     kk = (wv0 * g1x + wv1 * g1y + wv2 * g1z) / g1x
     s0, s1, s2 = wv0 - kk, wv1, wv2
@@ -407,7 +423,8 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
     aux[A_SLIP] = s0; aux[A_SLIP + 1] = s1; aux[A_SLIP + 2] = s2
     tip_limit = F_T * g1x * tan_ef
     if tan_ef > 0.0 and not tip_stuck:
-        d0, d1, d2 = _friction_direction(s0, s1, s2, slip_speed, modes, M_D0 + 9)
+        d0, d1, d2 = _friction_direction(s0, s1, s2, slip_speed, ws[W_MODES, M_D0 + 9],
+                                         ws[W_MODES, M_D0 + 10], ws[W_MODES, M_D0 + 11])
         f0, f1, f2 = -tip_limit * d0, -tip_limit * d1, -tip_limit * d2
         fx[0] += f0; fx[1] += f1; fx[2] += f2
         m0, m1, m2 = _cross(rho[3, 0], rho[3, 1], rho[3, 2], f0, f1, f2)
@@ -427,7 +444,7 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
     # Unknowns u (force direction fu at point `at`) and rows r (constraint direction cr at point `at`,
     # velocity-dependent acceleration `bias`): N_j along f_j = n_j - mu_j d_j (sliding, eq. 21) or n_j
     # (stuck), two tangential forces at a stuck contact, two face forces at a stuck tip.
-    stuck = int(modes[M_STUCK])
+    stuck = int(ws[W_MODES, M_STUCK])
     fu = ws[W_FU:W_FU + 7, :3]
     cr = ws[W_CR:W_CR + 7, :3]
     at = ws[W_AT, :7]
@@ -444,7 +461,9 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: n
         if j == stuck:
             d0, d1, d2 = 0.0, 0.0, 0.0
         else:
-            d0, d1, d2 = _friction_direction(vj0, vj1, vj2, sp, modes, M_D0 + 3 * j)
+            k = M_D0 + 3 * j
+            d0, d1, d2 = _friction_direction(vj0, vj1, vj2, sp, ws[W_MODES, k], ws[W_MODES, k + 1],
+                                             ws[W_MODES, k + 2])
         power_dir[j] = d0 * vj0 + d1 * vj1 + d2 * vj2
         mu_j = p[P_TANPHI + j]
         if p[P_RATE_A] != 0.0:
@@ -600,24 +619,26 @@ def _user_wrench(t: float, y: np.ndarray, p: np.ndarray) -> None:
 
 @njit(cache=True, error_model="numpy")
 def rhs(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.ndarray, aux: np.ndarray) -> bool:
-    """:func:`rhs_ws` with its own scratch memory."""
-    return rhs_ws(t, y, p, modes, dy, aux, new_workspace())
+    """:func:`rhs_ws` with its own scratch memory, holding ``modes``."""
+    ws = new_workspace()
+    modes_of(ws)[:] = modes
+    return rhs_ws(t, y, p, dy, aux, ws)
 
 
 @njit(cache=True, error_model="numpy")
-def rhs_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.ndarray, aux: np.ndarray,
+def rhs_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray,
            ws: np.ndarray) -> bool:
     """The right-hand side every integrator calls: user wrench (if any), then :func:`dynamics`."""
     ws[W_COUNT, C_NFEV] += 1.0
     if p[P_USER] != 0.0:
         _user_wrench(t, y, p)
-    return dynamics_ws(t, y, p, modes, dy, aux, ws)
+    return dynamics_ws(t, y, p, dy, aux, ws)
 
 
 # -- constraint projection ----------------------------------------------------------------------
 
 @njit(cache=True, error_model="numpy")
-def _constraint_rows(y: np.ndarray, p: np.ndarray, modes: np.ndarray, jr: np.ndarray, jth: np.ndarray,
+def _constraint_rows(y: np.ndarray, p: np.ndarray, jr: np.ndarray, jth: np.ndarray,
                      target: np.ndarray, ws: np.ndarray) -> int:
     """Jacobian rows (d/dr, d/dtheta) of the constraints and their velocity targets: n_i . P_i (rows 0-2);
     a stuck contact's two tangential velocities; a stuck tip's two slip components (velocity level only).
@@ -637,13 +658,13 @@ def _constraint_rows(y: np.ndarray, p: np.ndarray, modes: np.ndarray, jr: np.nda
     at = ws[W_AT, :7]
     at[0], at[1], at[2] = 0, 1, 2
     rows = 3
-    stuck = int(modes[M_STUCK])
+    stuck = int(ws[W_MODES, M_STUCK])
     if stuck >= 0:
         tangent_basis(p, stuck, jr[3], jr[4])
         at[3], at[4] = stuck, stuck
         target[3], target[4] = 0.0, 0.0
         rows = 5
-    if modes[M_TIP_STUCK] != 0.0 and p[P_TANEF] > 0.0 and p[P_CASE] == 0.0:
+    if ws[W_MODES, M_TIP_STUCK] != 0.0 and p[P_TANEF] > 0.0 and p[P_CASE] == 0.0:
         w = y[S_W:S_W + 3]
         for a in (1, 2):
             _face_rows(R, w, a, tmp)
@@ -702,12 +723,14 @@ def constraint_residual(y: np.ndarray, p: np.ndarray) -> float:
 
 @njit(cache=True, error_model="numpy")
 def project(y: np.ndarray, p: np.ndarray, modes: np.ndarray) -> bool:
-    """:func:`project_ws` with its own scratch memory."""
-    return project_ws(y, p, modes, new_workspace())
+    """:func:`project_ws` with its own scratch memory, holding ``modes``."""
+    ws = new_workspace()
+    modes_of(ws)[:] = modes
+    return project_ws(y, p, ws)
 
 
 @njit(cache=True, error_model="numpy")
-def project_ws(y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) -> bool:
+def project_ws(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> bool:
     """Put the contact points back on their planes and their velocities in the planes, in place.
 
     Mass-weighted least-squares corrections (the correction of least kinetic energy), Gauss-Newton passes
@@ -732,7 +755,7 @@ def project_ws(y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) 
             worst = max(worst, abs(g))
         if worst < 1e-13:
             break
-        _constraint_rows(y, p, modes, jr, jth, target, ws)
+        _constraint_rows(y, p, jr, jth, target, ws)
         # (np.int64(3), not a literal 3, which numba would compile a second version of the function for)
         if not _mass_weighted_correction(y, p, np.int64(3), jr, jth, resid, dr, dth, ws):
             return False
@@ -747,7 +770,7 @@ def project_ws(y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) 
         qn = math.sqrt(y[S_Q] ** 2 + y[S_Q + 1] ** 2 + y[S_Q + 2] ** 2 + y[S_Q + 3] ** 2)
         for k in range(4):
             y[S_Q + k] /= qn
-    rows = _constraint_rows(y, p, modes, jr, jth, target, ws)
+    rows = _constraint_rows(y, p, jr, jth, target, ws)
     for i in range(rows):
         resid[i] = jr[i, 0] * y[S_V] + jr[i, 1] * y[S_V + 1] + jr[i, 2] * y[S_V + 2] \
             + jth[i, 0] * y[S_W] + jth[i, 1] * y[S_W + 1] + jth[i, 2] * y[S_W + 2] - target[i]
@@ -785,12 +808,14 @@ def _contact_points(y: np.ndarray, p: np.ndarray, out: np.ndarray, R: np.ndarray
 @njit(cache=True, error_model="numpy")
 def event_values(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, x1_target: float, slow_speed: float,
                  out: np.ndarray) -> None:
-    """:func:`event_values_ws` with its own scratch memory."""
-    event_values_ws(y, p, modes, aux, x1_target, slow_speed, out, new_workspace())
+    """:func:`event_values_ws` with its own scratch memory, holding ``modes``."""
+    ws = new_workspace()
+    modes_of(ws)[:] = modes
+    event_values_ws(y, p, aux, x1_target, slow_speed, out, ws)
 
 
 @njit(cache=True, error_model="numpy")
-def event_values_ws(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, x1_target: float,
+def event_values_ws(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: float,
                     slow_speed: float, out: np.ndarray, ws: np.ndarray) -> None:
     """Event functions; an event has happened where its value is > 0 (``aux`` from dynamics at ``y``).
 
@@ -830,7 +855,7 @@ def event_values_ws(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.nda
     for i in range(3):
         out[EV_STOP + i] = 0.1 * slow_speed - aux[A_SPEED + i]
     out[EV_RELEASE] = aux[A_STICK]
-    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and modes[M_TIP_STUCK] == 0.0
+    rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and ws[W_MODES, M_TIP_STUCK] == 0.0
     slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
     out[EV_TIP_STOP] = 0.1 * slow_speed - slip if rubs else -1.0
     out[EV_TIP_RELEASE] = aux[A_TIP_STICK]

@@ -169,11 +169,11 @@ class Model:
         y = self._unseated_state(self.loading.force_N)
         # (the *_ws functions, called with a workspace: their wrappers without one would be compiled too, each with
         # all it calls built in again)
-        modes, ws = K.sliding_modes(), K.new_workspace()
-        if K.project_ws(y, p, modes, ws):
+        ws = K.new_workspace()  # (all contacts sliding: a new workspace's modes)
+        if K.project_ws(y, p, ws):
             aux, events = np.empty(K.N_AUX), np.empty(K.N_EVENTS)
-            K.dynamics_ws(0.0, y, p, modes, np.empty(K.N_STATE), aux, ws)
-            K.event_values_ws(y, p, modes, aux, 0.0, 0.0, events, ws)
+            K.dynamics_ws(0.0, y, p, np.empty(K.N_STATE), aux, ws)
+            K.event_values_ws(y, p, aux, 0.0, 0.0, events, ws)
             crossed = events[K.EV_LEFT_PLANE:K.EV_LEFT_PLANE + 6]
             p[K.P_LEFT0:K.P_LEFT0 + 6] = np.clip(crossed + K.LEFT_PLANE_TOL, 0.0, SEAT_TOLERANCE_M)
         return p
@@ -191,7 +191,7 @@ class Model:
         """The block at rest, seated on the planes; actuator force ``thrust_N`` (default: the command)."""
         y = self._unseated_state(self.loading.force_N if thrust_N is None else thrust_N)
         p = self.kernel_params_cached.copy()  # (writable, as everywhere: numba compiles a version per array flag)
-        if not K.project_ws(y, p, K.sliding_modes(), K.new_workspace()):
+        if not K.project_ws(y, p, K.new_workspace()):
             raise SpecimenError("foundation.planes", "the block cannot be seated on these planes")
         return y
 

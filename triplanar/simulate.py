@@ -89,8 +89,9 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
     modes = K.sliding_modes()
     with _user_effects(model):
         converged, consistency = start_motion(p, modes, y0)
+        K.modes_of(ws)[:] = modes  # (the driver keeps them there)
         while True:
-            code, event, rows, h, t = driver.drive(METHODS[method], t, y, p, modes, armed, h, rtol, atol, t_max_s,
+            code, event, rows, h, t = driver.drive(METHODS[method], t, y, p, armed, h, rtol, atol, t_max_s,
                                                    x1_target, SLOW_SPEED_M_S, 0.0, out_t, out_y, out_dy, out_aux, True,
                                                    rows, log, ws)
             if code != Outcome.BUFFER_FULL or capacity >= max_rows:
@@ -116,8 +117,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
 
 def _held(model: Model, y0: np.ndarray, method: str, message: str) -> SimulationResult:
     aux = np.zeros(K.N_AUX)
-    K.dynamics_ws(0.0, y0, model.kernel_params_cached.copy(), K.sliding_modes(), np.empty(K.N_STATE), aux,
-                  K.new_workspace())
+    K.dynamics_ws(0.0, y0, model.kernel_params_cached.copy(), np.empty(K.N_STATE), aux, K.new_workspace())
     return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), dydt=np.zeros((1, K.N_STATE)), aux=aux[None, :],
                             status=Outcome.HELD.label, message=message, model=model, method=method,
                             t_start_s=math.inf, travel_target_m=0.0, incipient_converged=True,

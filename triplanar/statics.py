@@ -78,5 +78,8 @@ def incipient_directions(p: np.ndarray, modes: np.ndarray, y: np.ndarray, t: flo
 def start_motion(p: np.ndarray, modes: np.ndarray, y: np.ndarray, t: float = 0.0) -> tuple[bool, float]:
     """Choose how a block that cannot hold starts to move, and set its stick/slip ``modes`` for it
     (:func:`triplanar.stepping.start_motion_ws`); returns (accepted, consistency)."""
-    accepted, consistency = stepping.start_motion_ws(t, y, p, modes, stepping.new_workspace())
+    ws = stepping.new_workspace()
+    K.modes_of(ws)[:] = modes
+    accepted, consistency = stepping.start_motion_ws(t, y, p, ws)
+    modes[:] = K.modes_of(ws)
     return bool(accepted), float(consistency)

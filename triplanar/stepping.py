@@ -25,8 +25,8 @@ from .compiled_cache import drop_if_stale, numba_cache_dir
 from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_STICK, C_NEVENT, C_NLOG, C_NREJECT,
                      C_NSTEP, EV_RELEASE, EV_SLOW, EV_STOP, EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS,
                      N_KERNEL_WS_ROWS, N_STATE, M_D0, M_STUCK, M_TIP_STUCK, P_C, P_CASE, P_TANEF, SLIP_BLEND, S_DC,
-                     S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD, W_COUNT, ZERO_SPEED, _cross, _rotate, allocate_workspace,
-                     event_values_ws, kinetic_energy_ws, project_ws, quat_to_matrix, rhs_ws)
+                     S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD, W_COUNT, W_MODES, ZERO_SPEED, _cross, _rotate, allocate_workspace,
+                     event_values_ws, kinetic_energy_ws, modes_of, project_ws, quat_to_matrix, rhs_ws)
 from .layout import Layout
 from .outcome import BUFFER_FULL, EVENT_OUTCOME, FAILED, RELEASED, RUNNING, SLOW, STOPPED, TIME_LIMIT
 
@@ -75,7 +75,7 @@ METHOD_EULER, METHOD_RK4, METHOD_DOPRI5 = 0, 1, 2
 
 
 @njit(cache=True, error_model="numpy")
-def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, modes: np.ndarray, y_new: np.ndarray,
+def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
             err: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """One step of size ``h`` from (t, y) into ``y_new`` (not projected); ``err`` gets DOPRI5's estimate.
     Every method's first stage is f(t, y): the caller keeps it in the workspace's first stage row (``W_STAGES``,
@@ -93,15 +93,15 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, modes
         k3, k4 = ws[W_STAGES + 2, :N_STATE], ws[W_STAGES + 3, :N_STATE]
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k1[i]
-        if not rhs_ws(t + 0.5 * h, tmp, p, modes, k2, aux, ws):
+        if not rhs_ws(t + 0.5 * h, tmp, p, k2, aux, ws):
             return False
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k2[i]
-        if not rhs_ws(t + 0.5 * h, tmp, p, modes, k3, aux, ws):
+        if not rhs_ws(t + 0.5 * h, tmp, p, k3, aux, ws):
             return False
         for i in range(n):
             tmp[i] = y[i] + h * k3[i]
-        if not rhs_ws(t + h, tmp, p, modes, k4, aux, ws):
+        if not rhs_ws(t + h, tmp, p, k4, aux, ws):
             return False
         for i in range(n):
             y_new[i] = y[i] + h / 6.0 * (k1[i] + 2 * k2[i] + 2 * k3[i] + k4[i])
@@ -112,7 +112,7 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, modes
             for j in range(s):
                 acc += _A[s, j] * k[j, i]
             tmp[i] = y[i] + h * acc
-        if not rhs_ws(t + _C[s] * h, tmp, p, modes, ws[W_STAGES + s, :N_STATE], aux, ws):
+        if not rhs_ws(t + _C[s] * h, tmp, p, ws[W_STAGES + s, :N_STATE], aux, ws):
             return False
     for i in range(n):
         y_new[i] = tmp[i]  # stage 7 is the 5th-order solution (FSAL)
@@ -140,14 +140,14 @@ def _error_norm(y: np.ndarray, y_new: np.ndarray, err: np.ndarray, rtol: float, 
 
 
 @njit(cache=True, error_model="numpy")
-def _advance(method, t, y, h, p, modes, y_new, err, aux, ws: np.ndarray) -> bool:
+def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
     """A step followed by projection; then evaluate dynamics at the new state to fill ``aux`` (and f(y_new) in
     ``ws[W_DY]``). The step's first stage f(t, y) must be in ``ws[W_STAGES]`` (see :func:`integrate_ws`)."""
-    if not step_ws(method, t, y, h, p, modes, y_new, err, aux, ws):
+    if not step_ws(method, t, y, h, p, y_new, err, aux, ws):
         return False
-    if not project_ws(y_new, p, modes, ws):
+    if not project_ws(y_new, p, ws):
         return False
-    if not rhs_ws(t + h, y_new, p, modes, ws[W_DY, :N_STATE], aux, ws):
+    if not rhs_ws(t + h, y_new, p, ws[W_DY, :N_STATE], aux, ws):
         return False
     for i in range(y_new.shape[0]):
         if not math.isfinite(y_new[i]):
@@ -159,13 +159,18 @@ def _advance(method, t, y, h, p, modes, y_new, err, aux, ws: np.ndarray) -> bool
 def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, h: float, rtol: float,
               atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
               out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool):
-    """:func:`integrate_ws` with its own scratch memory, recording from row 0, no event log."""
-    return integrate_ws(method, t0, y, p, modes, h, rtol, atol, t_max, x1_target, slow_speed, armed, out_t, out_y,
-                        out_dy, out_aux, record, 0, np.empty((0, 3)), new_workspace())
+    """:func:`integrate_ws` with its own scratch memory, recording from row 0, no event log; ``modes`` are updated
+    in place."""
+    ws = new_workspace()
+    modes_of(ws)[:] = modes
+    out = integrate_ws(method, t0, y, p, h, rtol, atol, t_max, x1_target, slow_speed, armed, out_t, out_y, out_dy,
+                       out_aux, record, 0, np.empty((0, 3)), ws)
+    modes[:] = modes_of(ws)
+    return out
 
 
 @njit(cache=True, error_model="numpy")
-def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, h: float, rtol: float,
+def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float,
                  atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
                  out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool,
                  row0: int, log: np.ndarray, ws: np.ndarray):
@@ -197,11 +202,11 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
     # event searches, starts with it, and the evaluation at a step's end (for aux) provides the next one.
     k1 = ws[W_STAGES, :N_STATE]
     rows = row0
-    if not rhs_ws(t0, y, p, modes, k1, aux, ws):
+    if not rhs_ws(t0, y, p, k1, aux, ws):
         return rows, FAILED, -1, h, t0
     ev_old = ws[W_EVOLD, :N_EVENTS]
     ev_new = ws[W_EVNEW, :N_EVENTS]
-    event_values_ws(y, p, modes, aux, x1_target, slow_speed, ev_old, ws)
+    event_values_ws(y, p, aux, x1_target, slow_speed, ev_old, ws)
     if record and row0 == 0:
         out_t[0] = t0
         out_y[0] = y
@@ -232,16 +237,16 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
         h_try = min(h, t_max - t)
         site = -1
         if fixed:
-            site, tau = _predicted_stop(y, p, modes, aux, armed, slow_speed, missed, ws)
+            site, tau = _predicted_stop(y, p, aux, armed, slow_speed, missed, ws)
             if site < 0 or tau >= h_try:
                 site = -1
             else:
                 tau = max(tau, 1e-6 * h_try)  # (always progress: a huge deceleration must not stall time)
         if site >= 0:
-            h_try = _step_to_stop(method, t, y, tau, h_try, p, modes, site, slow_speed, y_new, err, aux_new, ws)
+            h_try = _step_to_stop(method, t, y, tau, h_try, p, site, slow_speed, y_new, err, aux_new, ws)
             if h_try < 0.0:
                 return rows, FAILED, -1, h, t
-        elif not _advance(method, t, y, h_try, p, modes, y_new, err, aux_new, ws):
+        elif not _advance(method, t, y, h_try, p, y_new, err, aux_new, ws):
             if not fixed and h_try > 1e-12:
                 h = 0.25 * h_try
                 count[C_NREJECT] += 1.0
@@ -257,7 +262,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
                 count[C_NREJECT] += 1.0
                 continue
             h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
-        event_values_ws(y_new, p, modes, aux_new, x1_target, slow_speed, ev_new, ws)
+        event_values_ws(y_new, p, aux_new, x1_target, slow_speed, ev_new, ws)
         hit = -1
         for k in range(N_EVENTS):
             if (k == EV_SLOW and not armed[0]) or (EV_STOP <= k < EV_RELEASE and not armed[k - EV_STOP + 1]) \
@@ -272,7 +277,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
         else:
             missed[:] = 0
         if hit >= 0 and not predicted:  # (a predicted stop is already where it happens)
-            h_ev = _locate(method, t, y, h_try, p, modes, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
+            h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
                            y_new, err, aux_new, ws)
             if h_ev < 0.0:
                 return rows, FAILED, -1, h, t
@@ -286,14 +291,14 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
         if hit >= 0:
             status = EVENT_OUTCOME[hit]
             _log_event(log, count, t, hit)
-        second_stop = status == STOPPED and hit != EV_TIP_STOP and modes[M_STUCK] >= 0.0
+        second_stop = status == STOPPED and hit != EV_TIP_STOP and ws[W_MODES, M_STUCK] >= 0.0
         if status == STOPPED and not second_stop or status == RELEASED:
-            apply_mode_event_ws(hit, t, y, p, modes, ws)
+            apply_mode_event_ws(hit, t, y, p, ws)
             if hit == EV_TIP_STOP:
                 armed[4] = False
             elif hit < EV_RELEASE:
                 armed[hit - EV_STOP + 1] = False
-            if not rhs_ws(t, y, p, modes, dummy, aux_new, ws):
+            if not rhs_ws(t, y, p, dummy, aux_new, ws):
                 return rows, FAILED, -1, h, t
             dy_ready = True
             status = RUNNING
@@ -301,15 +306,15 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np
             status = SLOW
         # (the new d0 enters neither the right-hand side nor the events: it is used only below SLIP_BLEND, where it
         # is not refreshed, so f(t, y) and the event values stay valid)
-        _refresh_directions(y, p, modes, aux_new, ws)
+        _refresh_directions(y, p, aux_new, ws)
         if hit < 0:
             ev_old[:] = ev_new
         else:
-            event_values_ws(y, p, modes, aux_new, x1_target, slow_speed, ev_old, ws)
+            event_values_ws(y, p, aux_new, x1_target, slow_speed, ev_old, ws)
         aux[:] = aux_new
         if dy_ready:
             k1[:] = dummy
-        elif not rhs_ws(t, y, p, modes, k1, aux_new, ws):
+        elif not rhs_ws(t, y, p, k1, aux_new, ws):
             return rows, FAILED, -1, h, t
         if ev_old[EV_SLOW] < -slow_speed:
             armed[0] = True  # arrest can only be detected once the block has really moved
@@ -363,7 +368,7 @@ def _site_velocity(y: np.ndarray, p: np.ndarray, aux: np.ndarray, site: int, ws:
 
 
 @njit(cache=True, error_model="numpy")
-def _predicted_stop(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, armed: np.ndarray,
+def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.ndarray,
                     slow_speed: float, missed: np.ndarray, ws: np.ndarray) -> tuple:
     """The sliding site (contact 0-2 or the tip, 3) that friction will stop first, and when, extrapolating
     its deceleration along its slip: ``|v| / (-a . v/|v|)``; (-1, inf) if none decelerates. Sites that
@@ -373,6 +378,7 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.nda
     Why: a fixed step cannot see a slip that stops and would reverse inside it (friction's direction flips
     with v/|v|, and the step ends with a spurious slip the other way); stepping to the stop instead lets the
     stop event fire where it happens."""
+    modes = ws[W_MODES]
     best, best_tau = -1, math.inf
     v = ws[W_SITE_V, :3]
     stuck = int(modes[M_STUCK])
@@ -396,7 +402,7 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.nda
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
-def _step_to_stop(method, t, y, h, h_max, p, modes, site, slow_speed, y_new, err, aux_new, ws: np.ndarray) -> float:
+def _step_to_stop(method, t, y, h, h_max, p, site, slow_speed, y_new, err, aux_new, ws: np.ndarray) -> float:
     """Step to where the slip of ``site`` along its initial direction d (``ws[W_SITE_D]``) reaches zero, from
     the guess ``h`` (at most ``h_max``): the secant method on u(h) = v(t + h) . d, which (unlike the speed) is
     smooth through the stop. Stops refining when |u| < slow_speed / 50, well inside the stop event's
@@ -407,7 +413,7 @@ def _step_to_stop(method, t, y, h, h_max, p, modes, site, slow_speed, y_new, err
     h0, u0 = 0.0, v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
     h1 = h
     for it in range(6):
-        if not _advance(method, t, y, h1, p, modes, y_new, err, aux_new, ws):
+        if not _advance(method, t, y, h1, p, y_new, err, aux_new, ws):
             return -1.0
         _site_velocity(y_new, p, aux_new, site, ws, v)
         u1 = v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
@@ -421,9 +427,10 @@ def _step_to_stop(method, t, y, h, h_max, p, modes, site, slow_speed, y_new, err
 
 
 @njit(cache=True, error_model="numpy")
-def _refresh_directions(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> None:
+def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> None:
     """At a step boundary, each site sliding faster than SLIP_BLEND gets its current slip direction as d0
     (M_D0), so the low-speed blend of a slowing site mixes with where it is going, not with a stale start."""
+    modes = ws[W_MODES]
     R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
     tmp = ws[W_ARM, :3]
@@ -444,18 +451,19 @@ def _refresh_directions(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np
 
 
 @njit(cache=True, error_model="numpy")
-def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) -> None:
+def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> None:
     """A contact or the tip stopped slipping (it sticks if static friction can hold it, else slips anew
     from rest where the load drives it), or a stuck one's friction gave way (it slips).
 
     A stopping site's last ~1e-6 m/s is removed by the velocity projection (the correction of least
     kinetic energy); that kinetic energy is booked as dissipation at the site, so the balance stays exact.
     """
+    modes = ws[W_MODES]
     if event == EV_RELEASE or event == EV_TIP_RELEASE:
         # Static friction reached its cone: the site slips opposite to the friction force it had, which is
         # the continuous continuation (the slip acceleration starts from zero along that direction).
         aux = ws[W_AUXMODE, :N_AUX]
-        rhs_ws(t, y, p, modes, ws[W_DY, :N_STATE], aux, ws)
+        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
         tip = event == EV_TIP_RELEASE
         site = 3 if tip else int(modes[M_STUCK])
         base = A_TIP_F if tip else A_STICK_F
@@ -475,21 +483,21 @@ def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, mode
             modes[M_TIP_STUCK] = 1.0
         else:
             modes[M_STUCK] = float(event - EV_STOP)
-        project_ws(y, p, modes, ws)
+        project_ws(y, p, ws)
         y[S_DTIP if tip else S_DC + event - EV_STOP] += before - kinetic_energy_ws(y, p, ws)
         aux = ws[W_AUXMODE, :N_AUX]
-        rhs_ws(t, y, p, modes, ws[W_DY, :N_STATE], aux, ws)
+        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
         if aux[A_TIP_STICK if tip else A_STICK] <= 0.0:
             return
         if tip:
             modes[M_TIP_STUCK] = 0.0
         else:
             modes[M_STUCK] = -1.0
-    incipient_directions_ws(t, y, p, modes, 400, ws)
+    incipient_directions_ws(t, y, p, 400, ws)
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
-def _locate(method, t, y, h, p, modes, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux,
+def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux,
             ws: np.ndarray) -> float:
     """Step length in (0, h] at which event ``which`` crosses zero; fills y_new/aux there. -1 on failure."""
     ev = ws[W_EVLOC, :N_EVENTS]
@@ -506,9 +514,9 @@ def _locate(method, t, y, h, p, modes, g_lo, g_hi, which, x1_target, slow_speed,
         mid = (lo * f_hi - hi * f_lo) / (f_hi - f_lo)
         if not (lo < mid < hi):
             mid = 0.5 * (lo + hi)
-        if not _advance(method, t, y, mid, p, modes, y_new, err, aux, ws):
+        if not _advance(method, t, y, mid, p, y_new, err, aux, ws):
             return -1.0
-        event_values_ws(y_new, p, modes, aux, x1_target, slow_speed, ev, ws)
+        event_values_ws(y_new, p, aux, x1_target, slow_speed, ev, ws)
         g = ev[which]
         if g > 0.0:
             hi, f_hi = mid, g
@@ -534,12 +542,16 @@ def _locate(method, t, y, h, p, modes, g_lo, g_hi, which, x1_target, slow_speed,
 
 @njit(cache=True, error_model="numpy")
 def incipient_directions(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, max_iter: int) -> tuple:
-    """:func:`incipient_directions_ws` with its own scratch memory."""
-    return incipient_directions_ws(t, y, p, modes, max_iter, new_workspace())
+    """:func:`incipient_directions_ws` with its own scratch memory; sets ``modes[M_D0:]``."""
+    ws = new_workspace()
+    modes_of(ws)[:] = modes
+    out = incipient_directions_ws(t, y, p, max_iter, ws)
+    modes[:] = modes_of(ws)
+    return out
 
 
 @njit(cache=True, error_model="numpy")
-def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, max_iter: int,
+def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, max_iter: int,
                             ws: np.ndarray) -> tuple:
     """Set ``modes[M_D0:]`` to the directions in which the resting sliding sites begin to slip.
 
@@ -548,11 +560,12 @@ def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.nd
     Returns (converged, consistency): the smallest cosine between a resting site's direction and its
     slip acceleration (1: friction exactly opposes the incipient motion everywhere).
     """
+    modes = ws[W_MODES]
     aux = ws[W_AUXMODE, :N_AUX]
     dy = ws[W_DY, :N_STATE]
     for k in range(12):
         modes[M_D0 + k] = 0.0
-    if not rhs_ws(t, y, p, modes, dy, aux, ws):
+    if not rhs_ws(t, y, p, dy, aux, ws):
         return False, -1.0
     resting = np.zeros(4, np.bool_)
     stuck = int(modes[M_STUCK])
@@ -594,7 +607,7 @@ def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.nd
                 if norm > 0.0:
                     d[3 * s + k] /= norm
                 modes[M_D0 + 3 * s + k] = d[3 * s + k]
-        if not rhs_ws(t, y, p, modes, dy, aux, ws):
+        if not rhs_ws(t, y, p, dy, aux, ws):
             return False, -1.0
     consistency = 1.0
     for s in range(4):
@@ -608,7 +621,7 @@ def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.nd
 
 
 @njit(cache=True, error_model="numpy")
-def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, ws: np.ndarray) -> tuple:
+def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> tuple:
     """Choose how a block that cannot hold starts to move, and set its stick/slip ``modes`` for it.
 
     Tries, in order: all contacts sliding with the tip stuck (if it rubs), all sliding, then one contact
@@ -616,6 +629,7 @@ def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, w
     resting site's incipient slip and every stuck site's friction lies inside its cone. Returns
     (accepted, consistency) of the chosen mode; if none is consistent, the most consistent is used.
     """
+    modes = ws[W_MODES]
     rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0
     n_tip = 2 if rubs else 1
     aux = ws[W_AUXMODE, :N_AUX]
@@ -624,8 +638,8 @@ def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, w
         stuck = float(mode // n_tip - 1)  # -1 (all slide), then a pivot about CP1, CP2, CP3
         tip = 1.0 if rubs and mode % n_tip == 0 else 0.0  # the tip stuck first, when it rubs
         modes[M_STUCK], modes[M_TIP_STUCK] = stuck, tip
-        _, consistency = incipient_directions_ws(t, y, p, modes, 400, ws)
-        rhs_ws(t, y, p, modes, ws[W_DY, :N_STATE], aux, ws)
+        _, consistency = incipient_directions_ws(t, y, p, 400, ws)
+        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
         holds_stuck = aux[A_STICK] <= 0.0 and aux[A_TIP_STICK] <= 0.0
         score = consistency if holds_stuck else -2.0
         if holds_stuck and consistency > 0.9999:
@@ -633,5 +647,5 @@ def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, w
         if score > best_score:
             best_score, best_stuck, best_tip = score, stuck, tip
     modes[M_STUCK], modes[M_TIP_STUCK] = best_stuck, best_tip
-    _, consistency = incipient_directions_ws(t, y, p, modes, 400, ws)
+    _, consistency = incipient_directions_ws(t, y, p, 400, ws)
     return False, consistency
