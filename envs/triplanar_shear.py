@@ -364,7 +364,7 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
 
 # -- the compiled control step (shared by the single and the vector env) -------------------------------
 
-# The env's scratch rows, after the stepping's (see the note on scratch memory in triplanar.kernel).
+# The env's scratch rows, after the driver's (see the note on scratch memory in triplanar.kernel).
 WORKSPACE = Layout("W_", "N_WS_ROWS", [
     ("R", 3, "3x3 rotation matrix"),
     ("CPS", 3, "3x3 contact points"),
@@ -373,7 +373,7 @@ WORKSPACE = Layout("W_", "N_WS_ROWS", [
     ("AUX", 1, "aux vector of the right-hand side at the period's start"),
     ("DY", 1, "its derivative (unused)"),
     ("NO_T", 1, "recording buffers that stay unused (a control period records nothing)"),
-    ("NO_Y", 1, "(rows)")], start=stepping.N_WS_ROWS)
+    ("NO_Y", 1, "(rows)")], start=driver.N_WS_ROWS)
 WORKSPACE.export(globals())
 
 

@@ -27,13 +27,29 @@ from . import equilibrium as E
 from . import kernel as K
 from . import stepping
 from .compiled_cache import drop_if_stale, numba_cache_dir
-from .kernel import C_NLOG, C_NLP, C_NREDO, C_NSTART, P_EXTF, P_EXTM, P_USER, S_V, W_COUNT
+from .kernel import C_NLOG, C_NLP, C_NREDO, C_NSTART, N_MODE, N_STATE, P_EXTF, P_EXTM, P_USER, S_V, W_COUNT, W_MODES
+from .layout import Layout
 from .outcome import ARRESTED, SLOW
 
 drop_if_stale(numba_cache_dir(__file__), "driver.*.nb[ic]",
               [Path(module.__file__) for module in (K, stepping, E)]
               + [Path(__file__).parent / name for name in ("outcome.py", "layout.py")],
               "driver.sources.sha256")
+
+# This module's scratch rows, after the steppers' (see the note on scratch memory in triplanar.kernel): where a
+# stretch started, for a redo (copies here cost no allocation in the env's hot loop).
+WORKSPACE = Layout("W_", "N_WS_ROWS", [
+    ("Y0", 1, "the stretch's initial state"),
+    ("MODES0", 1, "its initial stick/slip modes"),
+    ("ARMED0", 1, "its initial event arming (5 flags as 0/1)")], start=stepping.N_WS_ROWS)
+WORKSPACE.export(globals())
+
+
+@njit(cache=True, error_model="numpy")
+def new_workspace() -> np.ndarray:
+    """Scratch memory for the driver and everything below it."""
+    return K.allocate_workspace(N_WS_ROWS)
+
 
 # DOPRI5 tolerances (rtol; atol = rtol / 1000) of a redo, tried in turn until the energy balance holds; the last is
 # taken as it is (over 6000 random-action env periods: 104 needed it, and its balance was then off by <= 8e-11 J).
@@ -59,8 +75,11 @@ def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target,
     docstring). A redo starts again from the stretch's start (state, modes, arming, recorded rows and event log) and
     hands back the stretch's own step ``h``, so a fixed-step caller keeps its step."""
     count = ws[W_COUNT]
-    modes = K.modes_of(ws)
-    y0, modes0, armed0, log0 = y.copy(), modes.copy(), armed.copy(), count[C_NLOG]
+    y0, log0 = ws[W_Y0, :N_STATE], count[C_NLOG]
+    y0[:] = y
+    ws[W_MODES0, :N_MODE] = ws[W_MODES, :N_MODE]
+    for k in range(5):
+        ws[W_ARMED0, k] = 1.0 if armed[k] else 0.0
     rows, status, event, h_out, t = stepping.integrate_ws(method, t0, y, p, h, rtol, atol, t_end, x1_target,
                                                           slow_speed, armed, out_t, out_y, out_dy, out_aux, record,
                                                           row0, log, ws)
@@ -68,8 +87,9 @@ def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target,
         if energy_tol <= 0.0 or abs(energy_defect(y0, y, p, ws)) <= energy_tol:
             break
         y[:] = y0
-        modes[:] = modes0
-        armed[:] = armed0
+        ws[W_MODES, :N_MODE] = ws[W_MODES0, :N_MODE]
+        for k in range(5):
+            armed[k] = ws[W_ARMED0, k] != 0.0
         count[C_NLOG] = log0
         count[C_NREDO] += 1.0
         rows, status, event, _, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, h, redo_rtol,

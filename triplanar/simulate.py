@@ -78,7 +78,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
         return _held(model, y0, method, f"friction holds the block at {thrust0:g} N: a static equilibrium exists, "
                      "so it never starts to slide")
 
-    ws = stepping.new_workspace()
+    ws = driver.new_workspace()
     log = np.empty((MAX_LOGGED_EVENTS, 3))
     capacity = min(max_rows, DOPRI5_FIRST_ROWS if method == "dopri5" else int(t_max_s / h) + 8)
     out_t, out_aux = np.empty(capacity), np.empty((capacity, K.N_AUX))
