@@ -118,6 +118,15 @@ class Model:
         return math.tan(math.radians(self.specimen.tip_friction_deg))
 
     def validate(self) -> None:
+        """Raise :class:`SpecimenError` naming the first field that cannot be right. A model is immutable, so a
+        model that passed is not checked again (``simulate`` validates the model that ``paper_model`` or the
+        workbench already validated: the check was a sixth of a workbench fit's time)."""
+        if self.__dict__.get("_validated"):
+            return
+        self._validate()
+        self.__dict__["_validated"] = True  # (frozen dataclass: set like functools.cached_property does)
+
+    def _validate(self) -> None:
         s, load = self.specimen, self.loading
         if not (math.isfinite(load.force_N) and load.force_N >= 0):
             raise SpecimenError("loading.force_N", f"must be finite and non-negative, got {load.force_N}")

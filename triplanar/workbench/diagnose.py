@@ -138,14 +138,17 @@ def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
 
     The full fit starts from the candidate's grid scan (or its neutral start); each fold's fit starts from
     the full fit's optimum (a warm start: it converges in a few iterations; the fold's optimum itself depends
-    only on its training levels). All fits share one evaluation cache (folds split by load level, so a
+    only on its training levels), its Jacobian started from the full fit's last Jacobian rows of its training
+    tests and updated by Broyden's secant rule along the steps (an iteration costs one evaluation instead of one
+    per parameter more; the fold's residuals are its own, the Jacobian only steers). All fits share one evaluation cache (folds split by load level, so a
     level's tests are the same in every fit)."""
     cache: dict = {}
     cands = (task.candidate, *task.refit)
     tests = list(task.tests)
     out: dict[str, FitOutcome] = {}
+    rows: dict = {}
     out["all"] = run_fit(FitTask(task.base, cands, tuple(tests), (), None, task.max_nfev, "all", task.warm),
-                         map, cache)
+                         map, cache, rows_out=rows)
     phis = None
     if out["all"].per_test:  # per-test parameters: each training test starts at its value in the full fit
         names = [(c.effect, p) for c in cands for p in c.per_test]
@@ -155,7 +158,7 @@ def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
         held = tuple(t for t in tests if t.shear_force_N in fold)
         train = tuple(t for t in tests if t.shear_force_N not in fold) or held  # one level only: in sample
         out[f"fold{i}"] = run_fit(FitTask(task.base, cands, train, held, out["all"].vector, task.max_nfev,
-                                          f"fold{i}", phi_start=phis), map, cache)
+                                          f"fold{i}", phi_start=phis), map, cache, chord=rows or None)
     return out
 
 

@@ -226,31 +226,74 @@ def sandwich_stderr(problem: Problem, u: np.ndarray, jac: np.ndarray) -> np.ndar
 
 
 def solve(problem: Problem, start: np.ndarray | None = None, max_nfev: int = 30,
-          warm: Mapping[str, Mapping[str, float]] | None = None):
+          warm: Mapping[str, Mapping[str, float]] | None = None, jac: Callable | None = None):
     """Bounded least squares from ``start`` (natural units); else from the warm/neutral start, with the
-    first candidate's parameter taken from the best point of its grid scan when it has one. Returns
-    (u, jac, message)."""
+    first candidate's parameter taken from the best point of its grid scan when it has one. ``jac``: a given
+    Jacobian (d residuals / d scaled parameters) instead of forward differences. Returns (u, jac, message)."""
     if start is not None:
         u0 = problem.scaled(start)
     else:
         u0 = problem.start(warm)
         if problem.candidates[0].grid_values():
             u0 = grid_start(problem, problem.candidates[0], u0)
-    res = least_squares(problem.residuals, u0, bounds=(0.0, 1.0), method="trf", diff_step=DIFF_STEP,
-                        x_scale=1.0, max_nfev=max_nfev, ftol=1e-4, xtol=1e-3, gtol=1e-8)
+    res = least_squares(problem.residuals, u0, jac=jac if jac is not None else "2-point", bounds=(0.0, 1.0),
+                        method="trf", diff_step=DIFF_STEP, x_scale=1.0, max_nfev=max_nfev, ftol=1e-4, xtol=1e-3,
+                        gtol=1e-8)
     return res.x, res.jac, res.message
 
 
-def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None) -> FitOutcome:
+def jacobian_rows(problem: Problem, u: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``jac`` (over the problem's residual vector) split into each test's rows, by test id."""
+    _, found = problem.evaluate(u, problem.tests)   # (cached: not counted as an evaluation of the fit)
+    out, start = {}, 0
+    for d in found:
+        out[d.test_id] = jac[start:start + len(d.residuals)]
+        start += len(d.residuals)
+    return out
+
+
+class BroydenJacobian:
+    """The Jacobian of ``problem`` (d residuals / d scaled parameters) started from another fit's rows per test
+    and updated along every step the solver takes (Broyden's rank-one secant update; for one parameter the
+    secant slope of every residual): no forward differences after the start. Used for the cross-validation
+    folds, which start at the full fit's optimum, where the full fit's last Jacobian is already close."""
+
+    def __init__(self, problem: Problem, rows: Mapping[str, np.ndarray]):
+        order = [t.test_id for ts in group_by_force(problem.tests).values() for t in ts]
+        self.problem = problem
+        self.jac = np.concatenate([rows[k] for k in order], axis=0).copy()
+        self.last: np.ndarray | None = None
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        if self.last is not None:
+            du = u - self.last
+            dd = float(du @ du)
+            if dd > 0:
+                r1 = self.problem.evaluate(u, self.problem.tests)[0]       # both cached: the solver evaluated them
+                r0 = self.problem.evaluate(self.last, self.problem.tests)[0]
+                self.jac += np.outer(r1 - r0 - self.jac @ du, du) / dd
+        self.last = u.copy()
+        return self.jac.copy()
+
+
+def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None,
+            chord: Mapping[str, np.ndarray] | None = None, rows_out: dict | None = None) -> FitOutcome:
     """Fit the task's candidates on its training tests and score its held-out tests (pure; picklable).
-    ``cache``: evaluations shared with other fits over the same tests (see :class:`Problem`). Candidates with
+    ``cache``: evaluations shared with other fits over the same tests (see :class:`Problem`). ``chord``: the
+    Jacobian rows of each training test from another fit (``rows_out`` of the fit on all tests), the start of
+    a Broyden-updated Jacobian instead of forward differences (:class:`BroydenJacobian`; the cross-validation
+    folds, which start at that fit's optimum); ``rows_out``: filled with this fit's final Jacobian rows by test id. Candidates with
     per-test parameters are fitted by profiling (:func:`triplanar.workbench.pertest.run_profiled_fit`)."""
     from .pertest import has_per_test, run_profiled_fit
     if has_per_test(task.candidates):
         return run_profiled_fit(task, mapper)
     began = time.perf_counter()
     problem = Problem(task.base, task.candidates, task.train, mapper, cache)
-    u, jac, message = solve(problem, task.start, task.max_nfev, task.warm)
+    u, jac, message = solve(problem, task.start, task.max_nfev, task.warm,
+                            BroydenJacobian(problem, chord) if chord is not None else None)
+    if rows_out is not None:
+        rows_out.update(jacobian_rows(problem, u, jac))
     neutral = problem.start()
     u = np.where(np.abs(u - neutral) < 1e-6, neutral, u)  # the solver's strictly-feasible nudge off a bound
     x = problem.natural(u)
