@@ -334,6 +334,8 @@ class Diagnoser:
     def _evidence(self, tests: list[MeasuredTest], base: ModelSpec) -> None:
         """Noise, expected scatter and the evidence in time (:mod:`triplanar.workbench.evidence`)."""
         def evaluate(spec: ModelSpec, ts: Sequence[MeasuredTest]) -> list[TestDiscrepancy]:
+            if spec is base and ts is tests:
+                return self.baseline_            # the model as given: evaluated already
             return discrepancies(evaluate_spec(spec, ts))
         self.noise_mm_ = instrument_noise_mm(tests)
         self.noise_floor_mm_ = noise_floor_mm(tests, self.noise_mm_)

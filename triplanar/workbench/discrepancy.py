@@ -132,17 +132,25 @@ def discrepancy_group(tests: list[MeasuredTest] | tuple[MeasuredTest, ...],
     ok = np.array(timed) & (s_end <= reach)
     if arrival_time and _ran(result) and ok.any():
         arrival[ok] = result.time_at_travel(s_end[ok]) - np.array([t.t_s[e] for t, e, k in zip(tests, ends, ok) if k])
-    out, start = [], 0
+    # CP1's modelled travel at every measured instant, for all timed tests at once (one interpolation)
+    lag_all = model_travel_at_time(result, np.concatenate([t.t_s for t in tests if t.t_s is not None])) \
+        if any(timed) else np.zeros(0)
+    out, start, start_t = [], 0, 0
     for test, travel, end, arr in zip(tests, travels, ends, arrival):
         n = len(travel)
         model = model_all[start:start + n]
         start += n
-        out.append(_compare(test, result, travel, end, model, reach, float(arr), rest))
+        at_time = None
+        if test.t_s is not None:
+            at_time = lag_all[start_t:start_t + len(test.t_s)]
+            start_t += len(test.t_s)
+        out.append(_compare(test, result, travel, end, model, reach, float(arr), rest, at_time))
     return out
 
 
 def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.ndarray, end: int,
-             model3: np.ndarray, reach: float, arrival: float, rest: np.ndarray) -> TestDiscrepancy:
+             model3: np.ndarray, reach: float, arrival: float, rest: np.ndarray,
+             model_travel: np.ndarray | None = None) -> TestDiscrepancy:
     n = len(travel)
     measured = test.horizontal                                  # (n, 3, 2)
     model = model3[:, :, ::2]
@@ -160,7 +168,9 @@ def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.nd
     lag = None
     if test.t_s is not None:
         groups = 4
-        lag = (model_travel_at_time(result, test.t_s) - travel) * MM
+        if model_travel is None:
+            model_travel = model_travel_at_time(result, test.t_s)
+        lag = (model_travel - travel) * MM
     sq = (float(np.sum(dist**2)) + float(np.sum(dv**2))) / n + (float(np.sum(lag**2)) / n if lag is not None else 0.0)
     error = math.sqrt(sq / groups)
     scale = 1.0 / math.sqrt(n * groups)

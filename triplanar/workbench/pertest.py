@@ -301,9 +301,12 @@ def solve_profiled(problem: ProfiledProblem, start: Sequence[float] | None = Non
     if problem.n == 0:
         problem.profile(u0)
         return u0, "no shared parameter: every test profiled once"
-    res = least_squares(problem.residuals, u0, jac=problem.jac, bounds=(0.0, 1.0), method="trf", x_scale=1.0,
-                        max_nfev=max_nfev, ftol=1e-4, xtol=1e-3, gtol=1e-8)
-    u = res.x
+    # The solver works on u + 1, in [1, 2]: its first trust region is |x0|, which would be nil for a shared
+    # parameter starting at its neutral lower bound (no grid scan moves it off first, as in the other fits).
+    res = least_squares(lambda v: problem.residuals(v - 1.0), u0 + 1.0, jac=lambda v: problem.jac(v - 1.0),
+                        bounds=(1.0, 2.0), method="trf", x_scale=1.0, max_nfev=max_nfev, ftol=1e-4, xtol=1e-3,
+                        gtol=1e-8)
+    u = np.clip(res.x - 1.0, 0.0, 1.0)
     if float(np.sum(problem.residuals(u) ** 2)) > float(np.sum(problem.residuals(u0) ** 2)):
         u = u0
     return u, res.message
