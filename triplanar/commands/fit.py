@@ -85,9 +85,21 @@ def run(args: argparse.Namespace) -> int:
         write_json(result, args.json)
     plot_error_fall(steps, out / "error_fall.png")
     fitted = compare(tests, current)
-    plot_overhead(fitted, out / "overhead.png", f"measured (black) vs {current.describe()} (grey)")
+    own = None
+    if stop is None and add and fit.per_test_:
+        # per-test parameters: every test against its own fitted model (its own values of those parameters)
+        from dataclasses import replace as _replace
+
+        from ..workbench.fit import safe_evaluate
+        from ..workbench.spec import EvalTask
+        own = {t.test_id: safe_evaluate(EvalTask(fit.spec_for(t.test_id), float(t.shear_force_N), (t,), True))
+               for t in tests}
+        fitted = _replace(fitted, discrepancies=[own[t.test_id].discrepancies[0] for t in tests])
+    note = " (each test with its own per-test values)" if own else ""
+    plot_overhead(fitted, out / "overhead.png", f"measured (black) vs {current.describe()} (grey){note}", own)
     plot_residuals(fitted, out / "residuals.png")
-    plot_deviations(fitted, out / "deviations.png", f"after fitting: deviations from {current.describe()} (mm)")
+    plot_deviations(fitted, out / "deviations.png", f"after fitting: deviations from {current.describe()} (mm){note}",
+                    own)
     from .diagnose import format_param
     print(f"model: {spec.describe()}")
     for s in steps:
