@@ -85,7 +85,7 @@ CASES = {
     "plane_tilt dip2 2.5": (["plane_tilt:dip2_deg=2.5"], None, ["plane_tilt:dip2_deg=2.5"], "path"),
     "contact_friction 15/17/10": (["contact_friction:phi1_deg=15,phi2_deg=17,phi3_deg=10"], None,
                                   ["contact_friction:phi1_deg=15,phi2_deg=17,phi3_deg=10"], "path"),
-    "cohesion 0.4 N": (["cohesion:c_N=0.4"], None, ["cohesion:c_N=0.4"], "path"),
+    "cohesion 0.4 N": (["cohesion:c_N=0.4"], None, ["cohesion:c_N=0.4"], "time"),
     "end_friction 8": ([END], None, [END], "path"),
     "ripple 30 % 10 Hz, random phase": ([END, "threshold_ripple:frac=0.3,freq_hz=10"],
                                         {"threshold_ripple": {"phase_rad": (-math.pi, math.pi)}}, [END], "periodic"),
@@ -94,6 +94,8 @@ CASES = {
     "ripple 15 % 10 Hz, random phase": ([END, "threshold_ripple:frac=0.15,freq_hz=10"],
                                         {"threshold_ripple": {"phase_rad": (-math.pi, math.pi)}}, [END], "periodic"),
     "force ripple 6 N 6 Hz": ([END, "threshold_force_ripple:amplitude_N=6,freq_hz=6"], None, [END], "periodic"),
+    "ripple 30 % 10 Hz, locked phase": ([END, "threshold_ripple:frac=0.3,freq_hz=10,phase_rad=1"], None, [END],
+                                        "periodic"),
 }
 
 
@@ -157,12 +159,14 @@ def main() -> None:
         peaks = [p for r in rows for p in r["peaks"]]
         tr = np.array([r["time_ratio_B"] for r in rows])
         freqs = [r["dominant_hz"] for r in rows if r["dominant_hz"] is not None]
+        anyflag = sum((r["scatter_ratio"] > 2) or (r["dominant_hz"] is not None) for r in rows)
         print(f"{name:34s} {kind:8s} {np.median(sr):6.2f} ({sr.min():4.2f}-{sr.max():5.2f}) "
               f"{int((sr > 2).sum()):3d}/{len(rows)} {np.mean(pf):6.0%} (max {pf.max():3.0%}) "
               f"{dom:3d}/{len(rows)}{'' if not freqs else f' ~{np.median(freqs):.1f} Hz':>0s} "
               f"{max(peaks) if peaks else math.nan:8.1f}; {np.median(peaks) if peaks else math.nan:5.1f} "
               f"{(np.array(peaks) > PEAK_FACTOR).mean() if peaks else math.nan:5.0%}>{PEAK_FACTOR:g} "
-              f"{tr.min():7.1f}-{tr.max():6.1f} {int((tr > MOSTLY_IN_TIME).sum()):3d}/{len(rows)}", flush=True)
+              f"{tr.min():7.1f}-{tr.max():6.1f} {int((tr > MOSTLY_IN_TIME).sum()):3d}/{len(rows)}   "
+              f"scatter or periodic flag: {anyflag}/{len(rows)}", flush=True)
     print(f"({time.perf_counter() - began:.0f} s; load average {os.getloadavg()[0]:.2f})")
 
 

@@ -396,7 +396,11 @@ class Diagnoser:
         self.missing_effect_, self.confidence_, self.verdict_ = None, "none", "outside_library"
         scatter_ok = not (math.isfinite(scatter) and math.isfinite(expected) and scatter > self.scatter_factor * expected)
         periodic = self.time_domain_after_.get("dominant_frequency_hz") is not None
-        if math.isfinite(scatter) and base <= self.quiet_factor * scatter:
+        # a candidate with per-test parameters that brings the error down to what noise and the specimen explain
+        # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter
+        per_test_explains = (self.best_ is not None and bool(self.best_.per_test) and math.isfinite(expected)
+                             and self.best_.fit_error_mm <= self.scatter_factor * expected)
+        if math.isfinite(scatter) and base <= self.quiet_factor * scatter and not per_test_explains:
             self.unexplained_mm_ = base
             if scatter_ok and not periodic:
                 self.verdict_ = "none_missing"
@@ -436,7 +440,12 @@ class Diagnoser:
                 if best.kind == "refit" else best.effect)
         why = [f"{what} removes {best.improvement:.0%} of the error on held-out loads"]
         if math.isfinite(scatter):
-            why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {scatter:.2f} mm")
+            if best.per_test and math.isfinite(expected):
+                why.append(f"leaving {best.cv_error_mm:.2f} mm against the {expected:.2f} mm that noise and the "
+                           f"specimen explain (its per-test {', '.join(best.per_test)} absorb the repeats' scatter of "
+                           f"{self.repeat_scatter_mm_:.2f} mm)")
+            else:
+                why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {scatter:.2f} mm")
         if runner is not None:
             why.append(f"runner-up {runner.effect}{' (refit)' if runner.kind == 'refit' else ''} leaves "
                        f"{runner.cv_error_mm:.2f} mm")
