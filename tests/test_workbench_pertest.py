@@ -104,3 +104,38 @@ def test_the_generator_draws_per_test_values_reproducibly_and_leaves_other_data_
     with pytest.raises(ValueError, match="must lie within"):
         generate_lab_data(effects=[make_effect("tip_offset:offset_m=0")],
                           per_test={"tip_offset": {"offset_m": (0.0, 1.0)}}, **kw)
+
+
+@pytest.mark.slow
+def test_diagnose_names_a_per_test_candidate_and_the_cli_fits_one(tmp_path, capsys) -> None:
+    """The repeats scatter 8 x what noise explains (every test has its own offset): a per-test offset explains it,
+    and diagnose judges what it leaves against what noise and the specimen explain."""
+    import json
+
+    from triplanar.cli import main
+    from triplanar.labdata import write_lab_data
+    from triplanar.workbench import Diagnoser
+    tests, truth = offset_data()
+    model = ModelSpec.from_effects([make_effect("end_friction:phi_deg=8")])
+    report = Diagnoser(["tip_offset", "rate_friction"], folds=2, executor="serial", progress=False,
+                       refit_given=False, per_test={"tip_offset": ["offset_m"]}).fit(tests, model).report_
+    print("\n[diagnose per-test]", report["verdict"], report["reason"])
+    assert report["verdict"] == "library_effect" and report["missing_effect"] == "tip_offset"
+    best = report["candidates"][0]
+    assert best["effect"] == "tip_offset" and best["per_test"]["offset_m"]["n"] == len(tests)
+    assert "absorb the repeats' scatter" in report["reason"]
+    # the same from the command line: fit with --per-test
+    data = tmp_path / "lab.csv"
+    write_lab_data(data, tests, truth)
+    assert main(["fit", str(data), "--effect", "end_friction:phi_deg=8", "--add", "tip_offset", "--per-test",
+                 "tip_offset:offset_m", "--out", str(tmp_path / "fit"), "--workers", "1", "--no-progress"]) == 0
+    out = capsys.readouterr().out
+    assert "offset_m per test (6 values" in out
+    step = json.loads((tmp_path / "fit" / "fit.json").read_text())["steps"][1]
+    assert step["param_status"]["tip_offset"]["offset_m"] == "per_test"
+    assert set(step["per_test"]["tip_offset"]["offset_m"]["values"]) == {t.test_id for t in tests}
+    assert step["error_mm"] < 0.2 * json.loads((tmp_path / "fit" / "fit.json").read_text())["steps"][0]["error_mm"]
+    # a per-test declaration for an effect that is not fitted is refused, naming it
+    assert main(["fit", str(data), "--add", "end_friction", "--per-test", "tip_offset:offset_m",
+                 "--out", str(tmp_path / "bad"), "--workers", "1"]) == 2
+    assert "--per-test tip_offset" in capsys.readouterr().err
