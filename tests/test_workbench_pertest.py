@@ -94,7 +94,8 @@ def test_the_generator_draws_per_test_values_reproducibly_and_leaves_other_data_
     plain, _ = generate_lab_data(**kw)
     again, _ = generate_lab_data(**kw)
     assert all(np.array_equal(a.positions, b.positions) for a, b in zip(plain, again))
-    made, truth = generate_lab_data(effects=[make_effect("end_friction:phi_deg=8"), make_effect("tip_offset:offset_m=0")],
+    made, truth = generate_lab_data(effects=[make_effect("end_friction:phi_deg=8"),
+                                             make_effect("tip_offset:offset_m=0")],
                                     per_test={"tip_offset": {"offset_m": (-0.005, 0.005)}}, **kw)
     drawn = [r["per_test"]["tip_offset"]["offset_m"] for r in truth["tests"]]
     assert len(set(drawn)) == 2 and all(-0.005 <= d <= 0.005 for d in drawn)
@@ -149,7 +150,8 @@ def test_shared_intervals_cover_the_truth_with_per_test_parameters() -> None:
     hits, widths = 0, []
     for seed in range(30):
         tests, _ = generate_lab_data(loads=(35.0, 45.0, 55.6), repeats=2, seed=300 + seed,
-                                     effects=[make_effect("end_friction:phi_deg=8"), make_effect("tip_offset:offset_m=0")],
+                                     effects=[make_effect("end_friction:phi_deg=8"),
+                                              make_effect("tip_offset:offset_m=0")],
                                      per_test={"tip_offset": {"offset_m": (-0.008, 0.008)}})
         fit = EffectFit(["end_friction", "tip_offset"], ModelSpec(), executor="serial",
                         per_test={"tip_offset": ["offset_m"]}).fit(tests)

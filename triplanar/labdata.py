@@ -276,7 +276,8 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
     for name, params in (per_test or {}).items():
         effect = next((e for e in effects if e.name == name), None)
         if effect is None:
-            raise ValueError(f"per_test: effect {name!r} is not among the effects ({', '.join(e.name for e in effects)})")
+            raise ValueError(f"per_test: effect {name!r} is not among the effects "
+                             f"({', '.join(e.name for e in effects)})")
         for param, (lo, hi) in params.items():
             spec = effect.parameters.get(param)
             if spec is None:
@@ -311,7 +312,8 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
         "loads_N": loads, "repeats": int(repeats), "seed": int(seed),
         "noise_m": float(noise_m), "rate_hz": float(rate_hz), "scatter_deg": float(scatter_deg),
         "stop_range_m": [float(stop_range_m[0]), float(stop_range_m[1])],
-        **({"per_test": {n: {p: [lo, hi] for m, p, lo, hi in draws if m == n} for n, *_ in draws}} if draws else {}),
+        **({"per_test": {n: {p: [lo, hi] for m, p, lo, hi in draws if m == n} for n, *_ in draws}}
+           if draws else {}),
         "scatter_applies_to": "each friction angle (CP1..CP3, and the tip when end friction acts), "
                               "normal with sd scatter_deg about its nominal value, clipped to [0, 44] deg",
         "noise_applies_to": "x1, x2 and x3 of every contact point of every sample, independent Gaussian",

@@ -140,8 +140,8 @@ def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
     the full fit's optimum (a warm start: it converges in a few iterations; the fold's optimum itself depends
     only on its training levels), its Jacobian started from the full fit's last Jacobian rows of its training
     tests and updated by Broyden's secant rule along the steps (an iteration costs one evaluation instead of one
-    per parameter more; the fold's residuals are its own, the Jacobian only steers). All fits share one evaluation cache (folds split by load level, so a
-    level's tests are the same in every fit)."""
+    per parameter more; the fold's residuals are its own, the Jacobian only steers). All fits share one
+    evaluation cache (folds split by load level, so a level's tests are the same in every fit)."""
     cache: dict = {}
     cands = (task.candidate, *task.refit)
     tests = list(task.tests)

@@ -283,8 +283,9 @@ def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None,
     ``cache``: evaluations shared with other fits over the same tests (see :class:`Problem`). ``chord``: the
     Jacobian rows of each training test from another fit (``rows_out`` of the fit on all tests), the start of
     a Broyden-updated Jacobian instead of forward differences (:class:`BroydenJacobian`; the cross-validation
-    folds, which start at that fit's optimum); ``rows_out``: filled with this fit's final Jacobian rows by test id. Candidates with
-    per-test parameters are fitted by profiling (:func:`triplanar.workbench.pertest.run_profiled_fit`)."""
+    folds, which start at that fit's optimum); ``rows_out``: filled with this fit's final Jacobian rows by test
+    id. Candidates with per-test parameters are fitted by profiling
+    (:func:`triplanar.workbench.pertest.run_profiled_fit`)."""
     from .pertest import has_per_test, run_profiled_fit
     if has_per_test(task.candidates):
         return run_profiled_fit(task, mapper)

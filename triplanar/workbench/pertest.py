@@ -341,8 +341,8 @@ def run_profiled_fit(task, mapper: Callable = map):
     shared_iter = iter(x)
     for c in task.candidates:
         shared = {p: float(next(shared_iter)) for p in c.shared}
-        values[c.effect] = {k: v for k, v in c.values({**shared, **{p: c.start_values()[p] for p in c.per_test}}).items()
-                            if k not in c.per_test}
+        own = {p: c.start_values()[p] for p in c.per_test}
+        values[c.effect] = {k: v for k, v in c.values({**shared, **own}).items() if k not in c.per_test}
     errs: dict[str, dict[str, float]] = {}
     for (effect, param), se in zip(problem.names, stderr):
         errs.setdefault(effect, {})[param] = float(se)
