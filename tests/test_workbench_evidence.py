@@ -143,3 +143,23 @@ def test_diagnose_start_values_move_a_candidates_start_and_widen_its_range() -> 
     assert cand.bounds["offset_m"][1] == 0.03                      # the plausible range now contains the start
     with pytest.raises(ValueError, match="not a free parameter"):
         Diagnoser(start={"rate_friction": {"v0_m_s": 0.1}})._with_start(default_candidate("rate_friction"))
+
+
+def test_expected_scatter_shifts_the_angles_a_contact_friction_effect_sets() -> None:
+    """With contact_friction in the model, shifting the specimen's angles would change nothing and the repeats'
+    scatter would look unexplained (found by benchmarks/threshold_check.py): the angles in use are shifted."""
+    from triplanar import make_effect
+    from triplanar.labdata import generate_lab_data
+    from triplanar.workbench import ModelSpec, evaluate_spec
+    from triplanar.workbench.evidence import expected_scatter_mm
+    from triplanar.workbench.fit import discrepancies
+    tests, _ = generate_lab_data(loads=(40.0,), repeats=2, seed=1)
+    def evaluate(spec, ts):
+        return discrepancies(evaluate_spec(spec, ts))
+    plain = expected_scatter_mm(ModelSpec.from_effects([make_effect("end_friction:phi_deg=8")]), tests, 0.2, 0.2,
+                                evaluate)
+    same = ModelSpec.from_effects([make_effect("end_friction:phi_deg=8"),
+                                   make_effect("contact_friction:phi1_deg=15,phi2_deg=17,phi3_deg=10")])
+    floor = noise_floor_mm(tests, 0.2)
+    assert plain > 1.2 * floor
+    assert expected_scatter_mm(same, tests, 0.2, 0.2, evaluate) == pytest.approx(plain, rel=0.2)

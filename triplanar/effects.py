@@ -60,6 +60,12 @@ class Parameter:
     * ``start``: where a fit starts instead of ``neutral`` (``None``: the neutral value). For a parameter at
       whose neutral value the fit cannot see a gradient: an oscillating force's amplitude of 0 makes its
       frequency and phase invisible, and with them the amplitude's own direction of descent.
+    * ``per_test``: the parameter takes its own value in every test (fitted for each test; the effect's other
+      parameters are shared by all tests), e.g. the phase of a ripple that is not locked to the actuator's
+      start. A fit profiles it: for given shared values each test's own values are fitted alone (a scan of
+      ``grid``, default 12 points, then polishing), ``triplanar/workbench/pertest.py``.
+    * ``period``: the effect repeats itself when the parameter changes by this much (a phase: 2 pi). A per-test
+      fit then moves it freely and wraps it into the period centred on its fit range (no bound to get stuck at).
     """
 
     default: float
@@ -74,6 +80,8 @@ class Parameter:
     grid: int | tuple[float, ...] | None = None
     snap: float = 0.0
     start: float | None = None
+    per_test: bool = False
+    period: float | None = None
 
     @property
     def neutral_value(self) -> float:

@@ -28,8 +28,13 @@ contact points' rest span along e1 over the reference's 0.14 m, x3 sizes by thei
 sample still on it (the laboratory would have to stop there); the truth records this. With 0.2 mm noise
 and centimetres of margin the noisy samples stay on it too (the tests check every sample).
 
+* parameters that differ from test to test (``per_test``, e.g. the phase of a ripple that is not locked to the
+  actuator's start): each test draws its own value of each, uniformly over the given range; the truth records
+  them.
+
 Determinism: every test draws from its own ``numpy`` Generator seeded by ``(seed, load in mN, repeat)``,
-so a test is the same whichever other loads are generated with it.
+so a test is the same whichever other loads are generated with it (the per-test parameters come from a
+separate stream, ``(seed, load in mN, repeat, 1)``, so a dataset without them is unchanged).
 """
 
 from __future__ import annotations
@@ -188,13 +193,20 @@ class LabTest:
     scatter_deg: float
     stop_range_m: tuple[float, float]
     box: PlanBox
+    per_test: tuple[tuple[str, str, float, float], ...] = ()   # (effect, parameter, low, high)
 
 
 def run_lab_test(job: LabTest) -> tuple[dict, MeasuredTest | None]:
     """Simulate one test: ``(record, test)``, or ``(record with a reason, None)`` when it is skipped. Its random
     draws come from its own Generator seeded by ``(seed, load in mN, repeat)``: the same wherever it runs."""
     force, repeat, rate_hz = job.force_N, job.repeat, job.rate_hz
-    nominal = paper_model(job.case, force, specimen=job.specimen, foundation=job.foundation, effects=job.effects)
+    effects, drawn = job.effects, {}
+    if job.per_test:
+        own = np.random.default_rng(np.random.SeedSequence([job.seed, int(round(force * 1000)), repeat, 1]))
+        for name, param, lo, hi in job.per_test:
+            drawn.setdefault(name, {})[param] = float(own.uniform(lo, hi))
+        effects = tuple(type(e)(**{**e.values, **drawn[e.name]}) if e.name in drawn else e for e in effects)
+    nominal = paper_model(job.case, force, specimen=job.specimen, foundation=job.foundation, effects=effects)
     test_id = f"F{force:g}N-r{repeat}"
     rng = np.random.default_rng(np.random.SeedSequence([job.seed, int(round(force * 1000)), repeat]))
     nominal_angles = _friction_angles(nominal)
@@ -206,7 +218,8 @@ def run_lab_test(job: LabTest) -> tuple[dict, MeasuredTest | None]:
     record = {"test_id": test_id, "shear_force_N": force, "repeat": repeat,
               "friction_deg": [float(a) for a in angles[:3]],
               "tip_friction_deg": float(angles[3]) if len(angles) > 3 else None,
-              "stop_travel_m": stop, "status": result.status, "message": result.message}
+              "stop_travel_m": stop, "status": result.status, "message": result.message,
+              **({"per_test": drawn} if drawn else {})}
     if result.status == "held":
         return {**record, "reason": "the block never slid"}, None
     t_s = np.arange(0, int(math.floor(result.t[-1] * rate_hz + 1e-9)) + 1) / rate_hz
@@ -228,7 +241,9 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
                       scatter_deg: float = 0.2, stop_range_m: tuple[float, float] = (0.05, 0.08), seed: int = 0,
                       specimen: Specimen | None = None, foundation: Foundation | None = None,
                       case: str = "B", executor: ExecutorLike = "serial",
-                      progress: bool = False) -> tuple[list[MeasuredTest], dict]:
+                      progress: bool = False,
+                      per_test: dict[str, dict[str, tuple[float, float]]] | None = None
+                      ) -> tuple[list[MeasuredTest], dict]:
     """Simulate a laboratory campaign of constant-force shear tests (paper section 5.1).
 
     Args:
@@ -245,6 +260,9 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
         executor: where the tests are simulated (:mod:`triplanar.executor`: ``"serial"``, default; ``None`` or
             ``"local"``, a process pool; ``"ray"``); every backend gives the same dataset.
         progress: a progress bar on stderr.
+        per_test: ``{effect: {parameter: (low, high)}}``: parameters of ``effects`` that each test draws anew,
+            uniformly over the range (e.g. ``{"thrust_ripple": {"phase_rad": (-math.pi, math.pi)}}``); each
+            test's values are in ``truth["tests"][i]["per_test"]``.
 
     Returns ``(tests, truth)``: the tests in load order then repeat order (ids ``F27.8N-r1``...), and a
     JSON-ready dict with everything used (effects, per-test friction angles and stop travel, noise, rate,
@@ -254,12 +272,26 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
     loads = [float(f) for f in loads]
     _check_arguments(loads, repeats, noise_m, rate_hz, scatter_deg, tuple(stop_range_m))
     effects = default_effects() if effects is None else tuple(effects)
+    draws = []
+    for name, params in (per_test or {}).items():
+        effect = next((e for e in effects if e.name == name), None)
+        if effect is None:
+            raise ValueError(f"per_test: effect {name!r} is not among the effects "
+                             f"({', '.join(e.name for e in effects)})")
+        for param, (lo, hi) in params.items():
+            spec = effect.parameters.get(param)
+            if spec is None:
+                raise ValueError(f"per_test: effect {name!r} has no parameter {param!r}")
+            if not (math.isfinite(lo) and math.isfinite(hi) and spec.lower <= lo <= hi <= spec.upper):
+                raise ValueError(f"per_test: {name}.{param} range ({lo}, {hi}) must lie within "
+                                 f"[{spec.lower}, {spec.upper}]")
+            draws.append((name, param, float(lo), float(hi)))
     ref_specimen, ref_foundation = reference()
     base_specimen, base_foundation = specimen or ref_specimen, foundation or ref_foundation
     box = foundation_plan_box(paper_model(case, loads[0], specimen=specimen, foundation=foundation,
                                           effects=effects).specimen)
     lab_tests = [LabTest(force, repeat, int(seed), case, tuple(effects), specimen, foundation, noise_m, rate_hz,
-                         scatter_deg, (float(stop_range_m[0]), float(stop_range_m[1])), box)
+                         scatter_deg, (float(stop_range_m[0]), float(stop_range_m[1])), box, tuple(draws))
                  for force in loads for repeat in range(1, repeats + 1)]
     tests: list[MeasuredTest] = []
     records: list[dict] = []
@@ -280,6 +312,8 @@ def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,
         "loads_N": loads, "repeats": int(repeats), "seed": int(seed),
         "noise_m": float(noise_m), "rate_hz": float(rate_hz), "scatter_deg": float(scatter_deg),
         "stop_range_m": [float(stop_range_m[0]), float(stop_range_m[1])],
+        **({"per_test": {n: {p: [lo, hi] for m, p, lo, hi in draws if m == n} for n, *_ in draws}}
+           if draws else {}),
         "scatter_applies_to": "each friction angle (CP1..CP3, and the tip when end friction acts), "
                               "normal with sd scatter_deg about its nominal value, clipped to [0, 44] deg",
         "noise_applies_to": "x1, x2 and x3 of every contact point of every sample, independent Gaussian",

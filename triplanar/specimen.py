@@ -139,7 +139,16 @@ class Specimen:
     # -- validation -------------------------------------------------------------------------
     def validate(self, foundation: Foundation, source: str | None = None,
                  plane_tolerance_m: float = PLANE_TOLERANCE_M) -> None:
-        """Raise :class:`SpecimenError` naming the first field that cannot be right."""
+        """Raise :class:`SpecimenError` naming the first field that cannot be right. A specimen is immutable: one
+        that passed with this very ``foundation`` object and tolerance is not checked again (the workbench builds
+        thousands of models on the same reference specimen)."""
+        passed = self.__dict__.get("_validated_with")
+        if passed is not None and passed[0] is foundation and passed[1] == plane_tolerance_m:
+            return
+        self._validate(foundation, source, plane_tolerance_m)
+        self.__dict__["_validated_with"] = (foundation, plane_tolerance_m)  # (frozen: as cached_property does)
+
+    def _validate(self, foundation: Foundation, source: str | None, plane_tolerance_m: float) -> None:
         self._check_finite(source)
         foundation.validate(source)
         if self.contact_points_m.shape != (3, 3):

@@ -50,6 +50,9 @@ def format_report(report: dict) -> str:
     for i, (_, label, c) in enumerate(ranked, start=1):
         params = ", ".join(format_param(k, v, c.get("param_ci95", {}).get(k), c.get("param_status", {}).get(k))
                            for k, v in c["params"].items())
+        if c.get("per_test"):
+            from ..workbench.pertest import describe
+            params = ", ".join([params, *(describe(k, summary) for k, summary in c["per_test"].items())])
         given = (" (given " + ", ".join(f"{k} = {v:.4g}" for k, v in c["given"].items()) + ")") if c.get("given") else ""
         flag = "" if c["plausible"] else f"  [implausible: {', '.join(c['at_bound'])} at the edge of its range]"
         lines.append(f"  {i:4d}  {label:24s}  {c['cv_error_mm']:11.3f}  {c['improvement']:10.0%}   "
@@ -70,8 +73,8 @@ def format_report(report: dict) -> str:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from ..workbench.cli_common import (check_effect_names, executor_for, model_and_tests, out_dir, parse_starts,
-                                        refuse_overwriting_inputs)
+    from ..workbench.cli_common import (check_effect_names, executor_for, model_and_tests, out_dir, parse_per_test,
+                                        parse_starts, refuse_overwriting_inputs)
     from ..workbench.diagnose import Diagnoser
     from ..workbench.executor import TaskCheckpoint
     from ..workbench.report import plot_candidates, plot_time_residuals, write_json
@@ -81,6 +84,7 @@ def run(args: argparse.Namespace) -> int:
         ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png", "time_residuals.png")])
     spec, tests = model_and_tests(args)
     starts = parse_starts(args.start)
+    per_test = parse_per_test(args.per_test)
     names = None
     if args.candidates is not None:
         names = check_effect_names([n.strip() for n in args.candidates.split(",") if n.strip()])
@@ -93,7 +97,8 @@ def run(args: argparse.Namespace) -> int:
     partial = TaskCheckpoint(out / ".diagnose-partial")  # an interrupted run resumes from the finished candidates
     with executor_for(args) as ex:
         diag = Diagnoser(names, folds=args.folds, executor=ex, progress=not args.no_progress,
-                         checkpoint=partial, refit_given=not args.no_refit, start=starts).fit(tests, spec)
+                         checkpoint=partial, refit_given=not args.no_refit, start=starts,
+                         per_test=per_test).fit(tests, spec)
     report = diag.report_
     write_json(report, out / "diagnose.json")
     if args.json:

@@ -31,7 +31,7 @@ def run(args: argparse.Namespace) -> int:
     from ..workbench.cli_common import check_effect_names, executor_for, model_and_tests, out_dir
     from ..workbench.compare import compare
     from ..workbench.fit import EffectFit
-    from ..workbench.cli_common import parse_starts
+    from ..workbench.cli_common import parse_per_test, parse_starts
     from ..workbench.report import plot_deviations, plot_error_fall, plot_overhead, plot_residuals, write_json
     from ..workbench.select import ForwardSelection
     from pathlib import Path
@@ -47,14 +47,19 @@ def run(args: argparse.Namespace) -> int:
         ("--out", Path(args.out) / name) for name in ("fit.json", "error_fall.png", "overhead.png", "residuals.png", "deviations.png")])
     spec, tests = model_and_tests(args)
     starts = parse_starts(args.start)
+    per_test = parse_per_test(args.per_test)
     add = check_effect_names(args.add)
+    missing = sorted(set(per_test) - set(add))
+    if missing:
+        raise EffectError(f"--per-test {missing[0]}: that effect is not fitted; add it with --add {missing[0]}")
     out = out_dir(args)
     steps: list[dict] = []
     values: dict[str, dict[str, float]] = {}
     with executor_for(args) as ex:
         current = spec
         for i in range(len(add)):
-            fit = EffectFit(add[:i + 1], spec, {**starts, **values}, ex).fit(tests)
+            fit = EffectFit(add[:i + 1], spec, {**starts, **values}, ex,
+                            per_test={k: v for k, v in per_test.items() if k in add[:i + 1]}).fit(tests)
             if not steps:
                 steps.append({"added": None, "effects": {}, "param_stderr": {}, "error_mm": fit.baseline_error_mm_,
                               "error_by_load_mm": {f"{k:g}": v for k, v in fit.baseline_by_load_.items()}})
@@ -64,6 +69,7 @@ def run(args: argparse.Namespace) -> int:
                           "given": fit.refitted_.get(add[i]), "effects": fit.params_, "param_stderr": fit.stderr_,
                           "param_ci95": fit.ci95_, "param_status": fit.status_,
                           "at_bound": list(fit.at_bound_), "error_mm": fit.error_mm_,
+                          **({"per_test": fit.per_test_summary_} if fit.per_test_ else {}),
                           "error_by_load_mm": {f"{k:g}": v for k, v in fit.error_by_load_.items()}})
         stop = None
         if args.forward:
@@ -79,9 +85,21 @@ def run(args: argparse.Namespace) -> int:
         write_json(result, args.json)
     plot_error_fall(steps, out / "error_fall.png")
     fitted = compare(tests, current)
-    plot_overhead(fitted, out / "overhead.png", f"measured (black) vs {current.describe()} (grey)")
+    own = None
+    if stop is None and add and fit.per_test_:
+        # per-test parameters: every test against its own fitted model (its own values of those parameters)
+        from dataclasses import replace as _replace
+
+        from ..workbench.fit import safe_evaluate
+        from ..workbench.spec import EvalTask
+        own = {t.test_id: safe_evaluate(EvalTask(fit.spec_for(t.test_id), float(t.shear_force_N), (t,), True))
+               for t in tests}
+        fitted = _replace(fitted, discrepancies=[own[t.test_id].discrepancies[0] for t in tests])
+    note = " (each test with its own per-test values)" if own else ""
+    plot_overhead(fitted, out / "overhead.png", f"measured (black) vs {current.describe()} (grey){note}", own)
     plot_residuals(fitted, out / "residuals.png")
-    plot_deviations(fitted, out / "deviations.png", f"after fitting: deviations from {current.describe()} (mm)")
+    plot_deviations(fitted, out / "deviations.png", f"after fitting: deviations from {current.describe()} (mm){note}",
+                    own)
     from .diagnose import format_param
     print(f"model: {spec.describe()}")
     for s in steps:
@@ -92,6 +110,10 @@ def run(args: argparse.Namespace) -> int:
             format_param(k, v, cis.get(e, {}).get(k), status.get(e, {}).get(k)) if cis else
             (f"{k} = {v:.4g} +- {errs[e][k]:.2g}" if k in errs.get(e, {}) else f"{k} = {v:.4g} (fixed)")
             for k, v in ps.items()) for e, ps in s["effects"].items())
+        if s.get("per_test"):
+            from ..workbench.pertest import describe
+            params += "; " + "; ".join(f"{e}: {describe(p, summary)}" for e, ps in s["per_test"].items()
+                                       for p, summary in ps.items())
         print(f"  {what:24s} RMS discrepancy {s['error_mm']:8.3f} mm   {params}")
     if stop:
         print(f"forward selection stopped: {stop}")

@@ -44,6 +44,10 @@ class Candidate:
             points over the range, or the values themselves; 0: none.
         snap: values closer than this to the start value are set to it (a parameter whose small values are
             unresolvable, or that the core integrates badly, like a rise time of microseconds).
+        per_test: free parameters that take their own value in every test (the others are shared by all
+            tests); a fit profiles them (:mod:`triplanar.workbench.pertest`).
+        per_test_grid: the scan of each per-test parameter, per test, before polishing (a number of points
+            over its range or the values; missing: the parameter's ``grid``, else 12 points).
     """
 
     effect: str
@@ -53,6 +57,8 @@ class Candidate:
     fixed: Mapping[str, float] = field(default_factory=dict)
     grid: int | tuple[float, ...] = 0
     snap: Mapping[str, float] = field(default_factory=dict)
+    per_test: tuple[str, ...] = ()
+    per_test_grid: Mapping[str, int | tuple[float, ...]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.effect not in REGISTRY:
@@ -68,6 +74,47 @@ class Candidate:
             if not (spec.lower <= lo < hi <= spec.upper):
                 raise EffectError(f"candidate {self.effect!r}: fit range of {name} ({lo}, {hi}) must lie within "
                                   f"the effect's bounds [{spec.lower}, {spec.upper}]")
+        for name in self.per_test:
+            if name not in self.free:
+                raise EffectError(f"candidate {self.effect!r}: per-test parameter {name!r} is not a free parameter "
+                                  f"(free: {', '.join(self.free) or 'none'})")
+
+    @property
+    def shared(self) -> tuple[str, ...]:
+        """The free parameters common to all tests (the free ones that are not per test)."""
+        return tuple(p for p in self.free if p not in self.per_test)
+
+    def with_per_test(self, names: Iterable[str]) -> Candidate:
+        """This recipe with ``names`` (also) fitted per test (a parameter held by the recipe is freed)."""
+        from dataclasses import replace
+        params = REGISTRY[self.effect].parameters
+        names = list(names)
+        for name in names:
+            if name not in params:
+                raise EffectError(f"per-test parameter {self.effect}.{name}: effect {self.effect!r} has no parameter "
+                                  f"{name!r} (its parameters: {', '.join(params) or 'none'})")
+        free = self.free + tuple(n for n in names if n not in self.free)
+        bounds = dict(self.bounds)
+        for n in names:
+            bounds.setdefault(n, params[n].fit_range(params[n].start_value))
+        per_test = self.per_test + tuple(n for n in names if n not in self.per_test)
+        fixed = {k: v for k, v in self.fixed.items() if k not in names}
+        grid = self.grid if len(free) - len(per_test) == 1 and not per_test else 0
+        return replace(self, free=free, bounds=bounds, per_test=per_test, fixed=fixed, grid=grid)
+
+    def per_test_grid_values(self, name: str, periodic: bool = False) -> list[float]:
+        """The per-test scan of per-test parameter ``name`` (natural units); ``periodic``: over one period centred
+        on its range, without repeating the end."""
+        param = REGISTRY[self.effect].parameters[name]
+        spec = self.per_test_grid.get(name, param.grid)
+        lo, hi = self.bounds[name]
+        spec = 12 if spec is None else spec
+        if periodic and param.period is not None and isinstance(spec, int):
+            mid = 0.5 * (lo + hi)
+            return [mid - 0.5 * param.period + param.period * i / spec for i in range(spec)]
+        if isinstance(spec, int):
+            return [lo + (hi - lo) * i / (spec - 1) for i in range(spec)] if spec > 1 else [lo]
+        return [float(v) for v in spec]
 
     def start_values(self) -> dict[str, float]:
         params = REGISTRY[self.effect].parameters
@@ -89,7 +136,7 @@ class Candidate:
 
     def grid_values(self) -> list[float]:
         """The grid scan's values of the (single) free parameter, in natural units ([] for none)."""
-        if not self.grid or len(self.free) != 1:
+        if not self.grid or len(self.free) != 1 or self.per_test:
             return []
         lo, hi = self.bounds[self.free[0]]
         if isinstance(self.grid, int):
@@ -104,14 +151,15 @@ def default_candidate(name: str, specimen: Specimen | None = None) -> Candidate:
     cls = REGISTRY[name]
     params = cls.parameters
     start = cls.fit_start(specimen if specimen is not None else reference()[0])
-    free = tuple(k for k, p in params.items() if p.free)
+    free = tuple(k for k, p in params.items() if p.free or p.per_test)
+    per_test = tuple(k for k in free if params[k].per_test)
     grid: int | tuple[float, ...] = 0
-    if len(free) == 1:
+    if len(free) == 1 and not per_test:
         spec = params[free[0]].grid
         grid = 7 if spec is None else spec
     return Candidate(name, free, {k: params[k].fit_range(start[k]) for k in free}, {k: start[k] for k in free},
-                     fixed={k: p.default for k, p in params.items() if not p.free}, grid=grid,
-                     snap={k: params[k].snap for k in free if params[k].snap})
+                     fixed={k: p.default for k, p in params.items() if not (p.free or p.per_test)}, grid=grid,
+                     snap={k: params[k].snap for k in free if params[k].snap}, per_test=per_test)
 
 
 def builtin_candidates(specimen: Specimen | None = None) -> dict[str, Candidate]:

@@ -27,6 +27,10 @@ def add_start_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--start", action="append", default=[], metavar="NAME:P=V[,P=V...]",
                         help="start the fit of effect NAME's parameters P at V (repeatable), instead of the neutral "
                              "value where the effect does nothing (e.g. an oscillating force's amplitude)")
+    parser.add_argument("--per-test", action="append", default=[], metavar="NAME:P[,P...]",
+                        help="fit effect NAME's parameters P for each test separately (the others are shared by all "
+                             "tests), e.g. the phase of a ripple that is not locked to the actuator's start "
+                             "(repeatable; an effect may also declare them, Parameter(per_test=True))")
 
 
 def parse_starts(specs: list[str]) -> dict[str, dict[str, float]]:
@@ -42,6 +46,31 @@ def parse_starts(specs: list[str]) -> dict[str, dict[str, float]]:
             raise EffectError(f"--start {effect.name} given twice; give each effect once")
         keys = [item.partition("=")[0].strip() for item in rest.split(",") if item.strip()]
         out[effect.name] = {k: effect.values[k] for k in keys}
+    return out
+
+
+def parse_per_test(specs: list[str]) -> dict[str, list[str]]:
+    """``--per-test`` values as ``{effect: [param, ...]}``; a bad one raises :class:`EffectError` naming it."""
+    out: dict[str, list[str]] = {}
+    for spec in specs:
+        name, _, rest = spec.partition(":")
+        name = name.strip()
+        params = [p.strip() for p in rest.split(",") if p.strip()]
+        if not params:
+            raise EffectError(f"--per-test {spec!r}: give NAME:PARAM[,PARAM...]")
+        if name not in REGISTRY:
+            raise EffectError(f"--per-test {spec!r}: unknown effect {name!r}; known effects: "
+                              f"{', '.join(sorted(REGISTRY))}")
+        known = REGISTRY[name].parameters
+        for p in params:
+            if p not in known:
+                raise EffectError(f"--per-test {spec!r}: effect {name!r} has no parameter {p!r} (its parameters: "
+                                  f"{', '.join(known) or 'none'})")
+            if "=" in p:
+                raise EffectError(f"--per-test {spec!r}: give parameter names only, not values")
+        if name in out:
+            raise EffectError(f"--per-test {name} given twice; give each effect once")
+        out[name] = params
     return out
 
 

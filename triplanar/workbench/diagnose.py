@@ -81,9 +81,12 @@ class CandidateResult:
     param_ci95: dict[str, list[float] | None] = field(default_factory=dict)
     param_status: dict[str, str] = field(default_factory=dict)
     fixed: dict[str, float] = field(default_factory=dict)
+    per_test: dict[str, dict[str, Any]] = field(default_factory=dict)   # param -> summary (pertest.summarize)
+    per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
 
     def as_json(self) -> dict[str, Any]:
         return {"effect": self.effect, "params": self.params, "param_ci95": self.param_ci95,
+                **({"per_test": self.per_test} if self.per_test else {}),
                 "param_stderr": self.param_stderr,
                 "cv_error_mm": self.cv_error_mm, "improvement": self.improvement, "kind": self.kind,
                 "param_status": self.param_status, "fixed": self.fixed,
@@ -135,19 +138,27 @@ def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
 
     The full fit starts from the candidate's grid scan (or its neutral start); each fold's fit starts from
     the full fit's optimum (a warm start: it converges in a few iterations; the fold's optimum itself depends
-    only on its training levels). All fits share one evaluation cache (folds split by load level, so a
-    level's tests are the same in every fit)."""
+    only on its training levels), its Jacobian started from the full fit's last Jacobian rows of its training
+    tests and updated by Broyden's secant rule along the steps (an iteration costs one evaluation instead of one
+    per parameter more; the fold's residuals are its own, the Jacobian only steers). All fits share one
+    evaluation cache (folds split by load level, so a level's tests are the same in every fit)."""
     cache: dict = {}
     cands = (task.candidate, *task.refit)
     tests = list(task.tests)
     out: dict[str, FitOutcome] = {}
+    rows: dict = {}
     out["all"] = run_fit(FitTask(task.base, cands, tuple(tests), (), None, task.max_nfev, "all", task.warm),
-                         map, cache)
+                         map, cache, rows_out=rows)
+    phis = None
+    if out["all"].per_test:  # per-test parameters: each training test starts at its value in the full fit
+        names = [(c.effect, p) for c in cands for p in c.per_test]
+        phis = {t.test_id: tuple(out["all"].per_test[e][p][t.test_id] for e, p in names) for t in tests
+                if all(t.test_id in out["all"].per_test[e][p] for e, p in names)}
     for i, fold in enumerate(task.folds):
         held = tuple(t for t in tests if t.shear_force_N in fold)
         train = tuple(t for t in tests if t.shear_force_N not in fold) or held  # one level only: in sample
         out[f"fold{i}"] = run_fit(FitTask(task.base, cands, train, held, out["all"].vector, task.max_nfev,
-                                          f"fold{i}"), map, cache)
+                                          f"fold{i}", phi_start=phis), map, cache, chord=rows or None)
     return out
 
 
@@ -161,6 +172,9 @@ class Diagnoser:
         executor: ``None``/``"local"`` (2-process pool), ``"serial"``, ``"ray"``, or any object with ``map``.
         progress: show a progress bar (tqdm, on stderr).
         max_nfev: least-squares evaluations per fit.
+        per_test: ``{effect: [param, ...]}``: candidate parameters fitted for each test (the others shared), in
+            addition to those declared ``Parameter(per_test=True)`` (:mod:`~triplanar.workbench.pertest`); such a
+            candidate's leftover error is judged against the scatter noise and the specimen explain.
         checkpoint: a :class:`TaskCheckpoint`: finished candidates are kept on disk, so that an interrupted
             diagnosis run again resumes instead of starting over (the ``diagnose`` command uses
             ``DIR/.diagnose-partial`` and removes it when done).
@@ -183,7 +197,9 @@ class Diagnoser:
     def __init__(self, candidates: Sequence[str | Candidate] | None = None, folds: int = 3,
                  executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30,
                  checkpoint: TaskCheckpoint | None = None, refit_given: bool = True,
-                 start: Mapping[str, Mapping[str, float]] | None = None):
+                 start: Mapping[str, Mapping[str, float]] | None = None,
+                 per_test: Mapping[str, Sequence[str]] | None = None):
+        self.per_test = {k: list(v) for k, v in (per_test or {}).items()}
         self.checkpoint = checkpoint
         self.refit_given = refit_given
         self.start = {k: dict(v) for k, v in (start or {}).items()}
@@ -213,7 +229,11 @@ class Diagnoser:
         # the user's given effects, each freed in turn (the others and any forward-selection refits kept)
         given = [(name, dict(values)) for name, values in base.effects if REGISTRY[name].parameters
                  and any(p.free for p in REGISTRY[name].parameters.values())] if self.refit_given else []
-        cands = [self._with_start(c) for c in cands]
+        cands = [self._with_start(c.with_per_test(self.per_test[c.effect]) if c.effect in self.per_test else c)
+                 for c in cands]
+        unknown = sorted(set(self.per_test) - {c.effect for c in cands})
+        if unknown:
+            raise ValueError(f"per-test parameters of {unknown[0]!r}: that effect is not a candidate")
         if not cands and not given:
             raise ValueError("no candidate effects to try (all are already in the model)")
         self.user_base_ = base
@@ -260,15 +280,15 @@ class Diagnoser:
         for i in range(k):
             out = by_label[f"{task.key}/fold{i}"]
             held.update(out.held_out_errors)
-            fold_params.append({p: out.values[cand.effect][p] for p in cand.free})
+            fold_params.append({p: out.values[cand.effect][p] for p in cand.shared})
         cv = rms([e for _, e in held.values()])
         by_load: dict[float, list[float]] = {}
         for force, err in held.values():
             by_load.setdefault(force, []).append(err)
-        params = {p: full.values[cand.effect][p] for p in cand.free}
+        params = {p: full.values[cand.effect][p] for p in cand.shared}
         sandwich = full.stderr.get(cand.effect, {})
         jack = _jackknife(fold_params) if k > 1 else {}
-        stderr = {p: float(max(sandwich.get(p, 0.0), jack.get(p, 0.0))) for p in cand.free}
+        stderr = {p: float(max(sandwich.get(p, 0.0), jack.get(p, 0.0))) for p in cand.shared}
         base = self.baseline_error_mm_
         improvement = 1.0 - cv / base if base > 0 and math.isfinite(cv) else 0.0
         implausible = [a.split(".", 1)[1] for a in full.at_bound if a.split(".", 1)[0] == cand.effect]
@@ -276,18 +296,21 @@ class Diagnoser:
         nfev = full.nfev + sum(by_label[f"{task.key}/fold{i}"].nfev for i in range(k))
         start = cand.start_values()
         ci, status = {}, {}
-        for p in cand.free:
+        for p in cand.shared:
             lo, hi = REGISTRY[cand.effect].parameters[p].lower, REGISTRY[cand.effect].parameters[p].upper
             ci[p], status[p] = interval95(params[p], sandwich.get(p, math.nan), jack.get(p, 0.0), n_tests,
-                                          len(cand.free), full.train_error_mm, self.repeat_scatter_mm_,
+                                          len(cand.shared), full.train_error_mm, self.repeat_scatter_mm_,
                                           (lo, hi), start[p], cand.bounds[p])
             if p in implausible:
                 status[p] = "at_bound"
         given = dict(cand.start or {}) if task.kind == "refit" else {}
+        from .pertest import summarize
+        per_test = {p: summarize(v) for p, v in full.per_test.get(cand.effect, {}).items()}
         return CandidateResult(cand.effect, params, stderr, cv, full.train_error_mm, improvement,
                                not implausible, implausible,
                                {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
-                               full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed))
+                               full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed),
+                               per_test, full.per_test)
 
     def _with_start(self, cand: Candidate) -> Candidate:
         """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""
@@ -311,6 +334,8 @@ class Diagnoser:
     def _evidence(self, tests: list[MeasuredTest], base: ModelSpec) -> None:
         """Noise, expected scatter and the evidence in time (:mod:`triplanar.workbench.evidence`)."""
         def evaluate(spec: ModelSpec, ts: Sequence[MeasuredTest]) -> list[TestDiscrepancy]:
+            if spec is base and ts is tests:
+                return self.baseline_            # the model as given: evaluated already
             return discrepancies(evaluate_spec(spec, ts))
         self.noise_mm_ = instrument_noise_mm(tests)
         self.noise_floor_mm_ = noise_floor_mm(tests, self.noise_mm_)
@@ -321,7 +346,11 @@ class Diagnoser:
         self.best_ = explaining[0] if explaining else None
         self.after_, self.best_label_ = None, None
         if self.best_ is not None:
-            after = discrepancies(evaluate_spec(self._spec_of(self.best_), tests))
+            if self.best_.per_test_values:
+                from .pertest import evaluate_per_test
+                after = evaluate_per_test(self._spec_of(self.best_), self.best_.per_test_values, tests)
+            else:
+                after = discrepancies(evaluate_spec(self._spec_of(self.best_), tests))
             self.after_ = after
             self.best_label_ = f"{'refitted ' if self.best_.kind == 'refit' else '+ '}{self.best_.effect}"
             self.time_domain_after_ = time_domain(after)
@@ -367,7 +396,11 @@ class Diagnoser:
         self.missing_effect_, self.confidence_, self.verdict_ = None, "none", "outside_library"
         scatter_ok = not (math.isfinite(scatter) and math.isfinite(expected) and scatter > self.scatter_factor * expected)
         periodic = self.time_domain_after_.get("dominant_frequency_hz") is not None
-        if math.isfinite(scatter) and base <= self.quiet_factor * scatter:
+        # a candidate with per-test parameters that brings the error down to what noise and the specimen explain
+        # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter
+        per_test_explains = (self.best_ is not None and bool(self.best_.per_test) and math.isfinite(expected)
+                             and self.best_.fit_error_mm <= self.scatter_factor * expected)
+        if math.isfinite(scatter) and base <= self.quiet_factor * scatter and not per_test_explains:
             self.unexplained_mm_ = base
             if scatter_ok and not periodic:
                 self.verdict_ = "none_missing"
@@ -393,6 +426,11 @@ class Diagnoser:
         self.unexplained_mm_ = best.cv_error_mm
         others = [c for c in self.ranked_ if c is not best]
         runner = others[0] if others else None
+        if best.per_test and math.isfinite(expected):
+            # per-test parameters explain test-to-test differences: what they leave is judged against what noise
+            # and the specimen explain, not against the repeats' scatter (which they are meant to absorb)
+            scatter = min(scatter, expected) if math.isfinite(scatter) else expected
+            scatter_ok = best.fit_error_mm <= self.scatter_factor * expected
         explained = (not math.isfinite(scatter)) or best.cv_error_mm <= self.explained_factor * scatter
         separated = runner is None or not math.isfinite(runner.cv_error_mm) or \
             runner.cv_error_mm >= self.margin * best.cv_error_mm
@@ -402,7 +440,12 @@ class Diagnoser:
                 if best.kind == "refit" else best.effect)
         why = [f"{what} removes {best.improvement:.0%} of the error on held-out loads"]
         if math.isfinite(scatter):
-            why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {scatter:.2f} mm")
+            if best.per_test and math.isfinite(expected):
+                why.append(f"leaving {best.cv_error_mm:.2f} mm against the {expected:.2f} mm that noise and the "
+                           f"specimen explain (its per-test {', '.join(best.per_test)} absorb the repeats' scatter of "
+                           f"{self.repeat_scatter_mm_:.2f} mm)")
+            else:
+                why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {scatter:.2f} mm")
         if runner is not None:
             why.append(f"runner-up {runner.effect}{' (refit)' if runner.kind == 'refit' else ''} leaves "
                        f"{runner.cv_error_mm:.2f} mm")

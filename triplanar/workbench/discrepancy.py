@@ -120,7 +120,9 @@ def discrepancy(test: MeasuredTest, result: SimulationResult | NoRun) -> TestDis
 def discrepancy_group(tests: list[MeasuredTest] | tuple[MeasuredTest, ...],
                       result: SimulationResult | NoRun, arrival_time: bool = True) -> list[TestDiscrepancy]:
     """Compare several measured tests at one force with the model run at that force (one resampling of
-    the run for all of them: the fits call this for every parameter vector)."""
+    the run for all of them: the fits call this for every parameter vector). ``arrival_time`` False (the fits):
+    no arrival times and no summary figures beyond ``error_mm``, ``residuals`` and the mean distance
+    (:func:`_compare`)."""
     rest = specimen_rest(result)
     travels = [np.maximum(path_travel(t.positions, rest), 0.0) for t in tests]
     ends = [int(np.argmax(s)) for s in travels]
@@ -132,17 +134,27 @@ def discrepancy_group(tests: list[MeasuredTest] | tuple[MeasuredTest, ...],
     ok = np.array(timed) & (s_end <= reach)
     if arrival_time and _ran(result) and ok.any():
         arrival[ok] = result.time_at_travel(s_end[ok]) - np.array([t.t_s[e] for t, e, k in zip(tests, ends, ok) if k])
-    out, start = [], 0
+    # CP1's modelled travel at every measured instant, for all timed tests at once (one interpolation)
+    lag_all = model_travel_at_time(result, np.concatenate([t.t_s for t in tests if t.t_s is not None])) \
+        if any(timed) else np.zeros(0)
+    out, start, start_t = [], 0, 0
     for test, travel, end, arr in zip(tests, travels, ends, arrival):
         n = len(travel)
         model = model_all[start:start + n]
         start += n
-        out.append(_compare(test, result, travel, end, model, reach, float(arr), rest))
+        at_time = None
+        if test.t_s is not None:
+            at_time = lag_all[start_t:start_t + len(test.t_s)]
+            start_t += len(test.t_s)
+        out.append(_compare(test, result, travel, end, model, reach, float(arr), rest, at_time, arrival_time))
     return out
 
 
 def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.ndarray, end: int,
-             model3: np.ndarray, reach: float, arrival: float, rest: np.ndarray) -> TestDiscrepancy:
+             model3: np.ndarray, reach: float, arrival: float, rest: np.ndarray,
+             model_travel: np.ndarray | None = None, summary: bool = True) -> TestDiscrepancy:
+    """One test's discrepancy. ``summary`` False (a fit's evaluations, which need only ``error_mm`` and
+    ``residuals``): the end-of-travel dilation and rotation errors, the max and vertical figures are NaN."""
     n = len(travel)
     measured = test.horizontal                                  # (n, 3, 2)
     model = model3[:, :, ::2]
@@ -152,15 +164,20 @@ def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.nd
     has_v = np.isfinite(dv)
     dv = np.where(has_v, dv, 0.0)
     s_end = float(travel[end])
-    model_rest = result.contact_points[0]
-    dilation = lateral_dilation(test.positions[end], rest) - lateral_dilation(model3[end], model_rest)
-    rotation = rotation_deg(test.positions[end], rest) - rotation_deg(model3[end], model_rest)
+    if summary:
+        model_rest = result.contact_points[0]
+        dilation = lateral_dilation(test.positions[end], rest) - lateral_dilation(model3[end], model_rest)
+        rotation = rotation_deg(test.positions[end], rest) - rotation_deg(model3[end], model_rest)
+    else:
+        dilation, rotation = np.full(3, math.nan), math.nan
     coverage = 1.0 if s_end <= 0 else min(1.0, reach / s_end)
     groups = 3
     lag = None
     if test.t_s is not None:
         groups = 4
-        lag = (model_travel_at_time(result, test.t_s) - travel) * MM
+        if model_travel is None:
+            model_travel = model_travel_at_time(result, test.t_s)
+        lag = (model_travel - travel) * MM
     sq = (float(np.sum(dist**2)) + float(np.sum(dv**2))) / n + (float(np.sum(lag**2)) / n if lag is not None else 0.0)
     error = math.sqrt(sq / groups)
     scale = 1.0 / math.sqrt(n * groups)
@@ -168,11 +185,15 @@ def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.nd
     if lag is not None:
         parts.append(lag[:, None] * scale)
     residuals = np.concatenate([p.ravel() for p in parts])
-    counts = has_v.sum(axis=0)
-    vertical = np.where(counts > 0, np.sqrt(np.sum(dv**2, axis=0) / np.maximum(counts, 1)), math.nan)
+    if summary:
+        counts = has_v.sum(axis=0)
+        vertical = np.where(counts > 0, np.sqrt(np.sum(dv**2, axis=0) / np.maximum(counts, 1)), math.nan)
+        largest = dist.max(axis=0)
+    else:
+        vertical = largest = np.full(3, math.nan)
     return TestDiscrepancy(
         test_id=test.test_id, force_N=float(test.shear_force_N), status=result.status, message=result.message,
-        mean_mm=dist.mean(axis=0), max_mm=dist.max(axis=0), dilation_error_mm=dilation * MM,
+        mean_mm=dist.mean(axis=0), max_mm=largest, dilation_error_mm=dilation * MM,
         rotation_error_deg=float(rotation), arrival_error_s=arrival,
         lag_rms_mm=float(np.sqrt(np.mean(lag**2))) if lag is not None else math.nan,
         coverage=coverage, error_mm=error, travel_m=travel, lateral_mm=d[..., 1], residuals=residuals,

@@ -77,11 +77,24 @@ def expected_scatter_mm(spec: Any, tests: Sequence[MeasuredTest], noise_mm: floa
     specimen = spec.specimen or reference()[0]
     base = {d.test_id: d.residuals for d in evaluate(spec, tests)}
     sens = {k: 0.0 for k in base}
+    # the angles the model uses: an effect of the model may set them (contact_friction), and then shifting the
+    # specimen's would change nothing (the scatter would seem unexplained); such a model is shifted by one more
+    # contact_friction effect on top, which replaces the angles it set
+    names = [name for name, _ in getattr(spec, "effects", ())]
+    in_use = None
+    if "contact_friction" in names and tests:
+        in_use = tuple(float(a) for a in spec.build(float(tests[0].shear_force_N)).specimen.friction_deg)
     for i in range(3):
-        angles = list(specimen.friction_deg)
-        angles[i] += STEP_DEG
-        shifted = replace(spec, specimen=replace(specimen, friction_deg=tuple(angles)),
-                          foundation=spec.foundation or reference()[1])
+        if in_use is not None:
+            angles = list(in_use)
+            angles[i] += STEP_DEG
+            shifted = spec.with_effects([("contact_friction", tuple((f"phi{j + 1}_deg", a)
+                                                                    for j, a in enumerate(angles)))])
+        else:
+            angles = list(specimen.friction_deg)
+            angles[i] += STEP_DEG
+            shifted = replace(spec, specimen=replace(specimen, friction_deg=tuple(angles)),
+                              foundation=spec.foundation or reference()[1])
         for d in evaluate(shifted, tests):
             r0 = base[d.test_id]
             if len(r0) == len(d.residuals):

@@ -90,12 +90,15 @@ class FitTask:
     max_nfev: int = 30
     label: str = ""
     warm: Mapping[str, Mapping[str, float]] | None = None
+    phi_start: Mapping[str, tuple[float, ...]] | None = None   # per-test parameters: each test's start
 
 
 @dataclass(frozen=True)
 class FitOutcome:
     """The result of one fit. ``values``/``stderr``: ``{effect: {param: value}}``; ``train_errors`` and
-    ``held_out_errors``: ``{test_id: (force_N, error_mm)}``."""
+    ``held_out_errors``: ``{test_id: (force_N, error_mm)}``; ``per_test``: ``{effect: {param: {test_id: value}}}``
+    for per-test parameters (training and held-out tests; :mod:`triplanar.workbench.pertest`), whose values are
+    then absent from ``values``; ``vector``: the shared free values."""
 
     label: str
     effects: tuple[str, ...]
@@ -109,6 +112,7 @@ class FitOutcome:
     seconds: float
     message: str
     vector: tuple[float, ...] = field(default=(), repr=False)
+    per_test: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
 
     @property
     def held_out_error_mm(self) -> float:
@@ -222,27 +226,75 @@ def sandwich_stderr(problem: Problem, u: np.ndarray, jac: np.ndarray) -> np.ndar
 
 
 def solve(problem: Problem, start: np.ndarray | None = None, max_nfev: int = 30,
-          warm: Mapping[str, Mapping[str, float]] | None = None):
+          warm: Mapping[str, Mapping[str, float]] | None = None, jac: Callable | None = None):
     """Bounded least squares from ``start`` (natural units); else from the warm/neutral start, with the
-    first candidate's parameter taken from the best point of its grid scan when it has one. Returns
-    (u, jac, message)."""
+    first candidate's parameter taken from the best point of its grid scan when it has one. ``jac``: a given
+    Jacobian (d residuals / d scaled parameters) instead of forward differences. Returns (u, jac, message)."""
     if start is not None:
         u0 = problem.scaled(start)
     else:
         u0 = problem.start(warm)
         if problem.candidates[0].grid_values():
             u0 = grid_start(problem, problem.candidates[0], u0)
-    res = least_squares(problem.residuals, u0, bounds=(0.0, 1.0), method="trf", diff_step=DIFF_STEP,
-                        x_scale=1.0, max_nfev=max_nfev, ftol=1e-4, xtol=1e-3, gtol=1e-8)
+    res = least_squares(problem.residuals, u0, jac=jac if jac is not None else "2-point", bounds=(0.0, 1.0),
+                        method="trf", diff_step=DIFF_STEP, x_scale=1.0, max_nfev=max_nfev, ftol=1e-4, xtol=1e-3,
+                        gtol=1e-8)
     return res.x, res.jac, res.message
 
 
-def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None) -> FitOutcome:
+def jacobian_rows(problem: Problem, u: np.ndarray, jac: np.ndarray) -> dict[str, np.ndarray]:
+    """``jac`` (over the problem's residual vector) split into each test's rows, by test id."""
+    _, found = problem.evaluate(u, problem.tests)   # (cached: not counted as an evaluation of the fit)
+    out, start = {}, 0
+    for d in found:
+        out[d.test_id] = jac[start:start + len(d.residuals)]
+        start += len(d.residuals)
+    return out
+
+
+class BroydenJacobian:
+    """The Jacobian of ``problem`` (d residuals / d scaled parameters) started from another fit's rows per test
+    and updated along every step the solver takes (Broyden's rank-one secant update; for one parameter the
+    secant slope of every residual): no forward differences after the start. Used for the cross-validation
+    folds, which start at the full fit's optimum, where the full fit's last Jacobian is already close."""
+
+    def __init__(self, problem: Problem, rows: Mapping[str, np.ndarray]):
+        order = [t.test_id for ts in group_by_force(problem.tests).values() for t in ts]
+        self.problem = problem
+        self.jac = np.concatenate([rows[k] for k in order], axis=0).copy()
+        self.last: np.ndarray | None = None
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        u = np.asarray(u, dtype=float)
+        if self.last is not None:
+            du = u - self.last
+            dd = float(du @ du)
+            if dd > 0:
+                r1 = self.problem.evaluate(u, self.problem.tests)[0]       # both cached: the solver evaluated them
+                r0 = self.problem.evaluate(self.last, self.problem.tests)[0]
+                self.jac += np.outer(r1 - r0 - self.jac @ du, du) / dd
+        self.last = u.copy()
+        return self.jac.copy()
+
+
+def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None,
+            chord: Mapping[str, np.ndarray] | None = None, rows_out: dict | None = None) -> FitOutcome:
     """Fit the task's candidates on its training tests and score its held-out tests (pure; picklable).
-    ``cache``: evaluations shared with other fits over the same tests (see :class:`Problem`)."""
+    ``cache``: evaluations shared with other fits over the same tests (see :class:`Problem`). ``chord``: the
+    Jacobian rows of each training test from another fit (``rows_out`` of the fit on all tests), the start of
+    a Broyden-updated Jacobian instead of forward differences (:class:`BroydenJacobian`; the cross-validation
+    folds, which start at that fit's optimum); ``rows_out``: filled with this fit's final Jacobian rows by test
+    id. Candidates with per-test parameters are fitted by profiling
+    (:func:`triplanar.workbench.pertest.run_profiled_fit`)."""
+    from .pertest import has_per_test, run_profiled_fit
+    if has_per_test(task.candidates):
+        return run_profiled_fit(task, mapper)
     began = time.perf_counter()
     problem = Problem(task.base, task.candidates, task.train, mapper, cache)
-    u, jac, message = solve(problem, task.start, task.max_nfev, task.warm)
+    u, jac, message = solve(problem, task.start, task.max_nfev, task.warm,
+                            BroydenJacobian(problem, chord) if chord is not None else None)
+    if rows_out is not None:
+        rows_out.update(jacobian_rows(problem, u, jac))
     neutral = problem.start()
     u = np.where(np.abs(u - neutral) < 1e-6, neutral, u)  # the solver's strictly-feasible nudge off a bound
     x = problem.natural(u)
@@ -279,13 +331,19 @@ class EffectFit:
         start: optional ``{effect: {param: value}}`` start values (warm start).
         executor: runs the per-force simulations of each evaluation (``None``: 2-process pool).
         max_nfev: least-squares evaluations allowed.
+        per_test: ``{effect: [param, ...]}``: parameters fitted for each test (the others shared by all tests), in
+            addition to those the effect declares ``Parameter(per_test=True)``; fitted by profiling
+            (:mod:`~triplanar.workbench.pertest`).
 
     Fitted attributes: ``params_``, ``stderr_``, ``at_bound_``, ``spec_`` (base plus the fitted effects),
     ``effects_`` (Effect objects), ``baseline_error_mm_``, ``error_mm_``, ``baseline_by_load_``,
     ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``, ``ci95_`` (``{effect:
     {param: [low, high] or None}}``, :mod:`~triplanar.workbench.intervals`; the jackknife part is absent here, there
     are no folds), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
-    (effects of the model that were freed: ``{name: values the user gave}``).
+    (effects of the model that were freed: ``{name: values the user gave}``), ``per_test_`` (``{effect: {param:
+    {test_id: value}}}``, empty without per-test parameters; ``params_`` then holds the shared values, and the
+    per-test parameters have the status ``per_test`` and no interval), ``per_test_summary_`` (``{effect: {param:
+    {n, mean, sd, min, max, values}}}``); :meth:`spec_for` gives one test's model.
 
     An ``add`` name that the model already has is *refitted*: its parameters are freed, starting at the values
     the model gave them.
@@ -293,8 +351,9 @@ class EffectFit:
 
     def __init__(self, add: Sequence[str | Candidate], base: ModelSpec | None = None,
                  start: Mapping[str, Mapping[str, float]] | None = None, executor: ExecutorLike = None,
-                 max_nfev: int = 40):
+                 max_nfev: int = 40, per_test: Mapping[str, Sequence[str]] | None = None):
         self.add = list(add)
+        self.per_test = {k: list(v) for k, v in (per_test or {}).items()}
         self.base = base or ModelSpec()
         self.start = start
         self.executor = executor
@@ -314,10 +373,15 @@ class EffectFit:
             raise EffectError(f"effect {sorted(duplicate)[0]!r} is already in the model; add each effect once")
         if not cands:
             raise EffectError("nothing to add: give at least one effect name")
-        return cands
+        unknown = sorted(set(self.per_test) - set(names))
+        if unknown:
+            raise EffectError(f"per-test parameters of {unknown[0]!r}: that effect is not fitted (fitted: "
+                              f"{', '.join(names)})")
+        return [c.with_per_test(self.per_test[c.effect]) if c.effect in self.per_test else c for c in cands]
 
     def fit(self, tests: Sequence[MeasuredTest]) -> EffectFit:
         cands = self._candidates()
+        self.candidates_ = cands
         tests = list(tests)
         with executor_scope(self.executor, len(group_by_force(tests))) as ex:
             mapper = ex.map
@@ -325,13 +389,18 @@ class EffectFit:
             start = None
             if self.start:
                 start = tuple(float(self.start.get(c.effect, {}).get(p, c.start_values()[p]))
-                              for c in cands for p in c.free)
+                              for c in cands for p in c.shared)
             task = FitTask(self.fit_base_, tuple(cands), tuple(tests), (), start, self.max_nfev, "fit")
             self.outcome_ = run_fit(task, mapper)
             self.spec_ = self.fit_base_
             for name, values in self.outcome_.values.items():
                 self.spec_ = spec_with_values(self.spec_, name, values)
-            self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
+            self.per_test_ = self.outcome_.per_test
+            if self.per_test_:
+                from .pertest import evaluate_per_test
+                self.discrepancies_ = evaluate_per_test(self.spec_, self.per_test_, tests, mapper)
+            else:
+                self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
         self.params_ = self.outcome_.values
         self.stderr_ = self.outcome_.stderr
         self.at_bound_ = self.outcome_.at_bound
@@ -339,28 +408,43 @@ class EffectFit:
         scatter = repeat_scatter_mm(tests, self.base.rest_positions)
         for c in cands:
             params = REGISTRY[c.effect].parameters
-            starts = c.start_values() if start is None else dict(zip(c.free, start[:len(c.free)]))
+            starts = c.start_values() if start is None else dict(zip(c.shared, start[:len(c.shared)]))
             ci, status = {}, {}
-            for p in c.free:
+            for p in c.shared:
                 ci[p], status[p] = interval95(self.params_[c.effect][p], self.stderr_[c.effect][p], 0.0, len(tests),
-                                              len(c.free), self.outcome_.train_error_mm, scatter,
+                                              len(c.shared), self.outcome_.train_error_mm, scatter,
                                               (params[p].lower, params[p].upper), float(starts[p]), c.bounds[p])
                 if f"{c.effect}.{p}" in self.at_bound_:
                     status[p] = "at_bound"
+            for p in c.per_test:
+                ci[p], status[p] = None, "per_test"
             for p in c.fixed:
                 status[p] = "fixed"
             self.ci95_[c.effect], self.status_[c.effect] = ci, status
             if start is not None:
-                start = start[len(c.free):]
+                start = start[len(c.shared):]
         self.effects_: list[Effect] = self.spec_.build_effects()[len(self.fit_base_.effects):]
         self.baseline_error_mm_ = overall_error(self.baseline_)
         self.error_mm_ = overall_error(self.discrepancies_)
         self.baseline_by_load_ = errors_by_load(self.baseline_)
         self.error_by_load_ = errors_by_load(self.discrepancies_)
+        from .pertest import summarize
+        self.per_test_summary_ = {e: {p: summarize(v) for p, v in ps.items()} for e, ps in self.per_test_.items()}
         return self
 
+    def spec_for(self, test_id: str) -> ModelSpec:
+        """The fitted model of one test (its own values of the per-test parameters; ``spec_`` without any)."""
+        from .pertest import spec_for_test
+        return spec_for_test(self.spec_, self.per_test_, test_id)
+
     def error_mm(self, tests: Sequence[MeasuredTest]) -> float:
-        """RMS discrepancy of the fitted model on ``tests``."""
+        """RMS discrepancy of the fitted model on ``tests`` (per-test parameters: each test's own values are
+        fitted with the shared ones held, as for held-out tests in diagnose)."""
+        if self.per_test_:
+            from .pertest import ProfiledProblem
+            problem = ProfiledProblem(self.fit_base_, self.candidates_, [], map)
+            found = problem.profile(problem.scaled(self.outcome_.vector), list(tests))
+            return rms([p.error_mm for p in found])
         return overall_error(discrepancies(evaluate_spec(self.spec_, tests)))
 
     def score(self, tests: Sequence[MeasuredTest]) -> float:

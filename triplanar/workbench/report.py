@@ -32,26 +32,31 @@ def _load_colours(loads: Sequence[float]):
     return (lambda f: cmap(0.0 if hi == lo else (f - lo) / (hi - lo))), cmap, lo, hi
 
 
-def plot_overhead(cmp: Comparison, path: str | Path, title: str | None = None) -> Path:
-    """One panel per load level: measured traces (black, all repeats) and the model (grey)."""
+def plot_overhead(cmp: Comparison, path: str | Path, title: str | None = None,
+                  runs_by_test: dict | None = None) -> Path:
+    """One panel per load level: measured traces (black, all repeats) and the model (grey). ``runs_by_test``
+    (``{test_id: EvalResult}``, a fit with per-test parameters): each test's own model run instead of one per
+    load."""
     foundation = cmp.spec.foundation or reference()[1]
     loads = sorted(cmp.runs)
     fig, axes = panel_grid(len(loads), ncols=min(4, len(loads)))
     points = [t.horizontal.reshape(-1, 2) for t in cmp.tests]
     for ax, f in zip(axes, loads):
         overhead_axes(ax, foundation, f"{f:g} N")
-        run = cmp.runs[f].result
-        for test in cmp.tests:
-            if test.shear_force_N == f:
-                plot_traces(ax, test.positions, color=MEASURED, lw=0.7, marker_start=False)
-        if run is not None and len(run.t) > 1:
-            rest = run.model.specimen.contact_points_m
-            reach = max(float(np.max(travel(t.positions, rest))) for t in cmp.tests if t.shear_force_N == f)
-            keep = run.travel <= reach + 1e-9
-            plot_traces(ax, run.contact_points[keep], color=MODEL, lw=1.6)
-            points.append(run.contact_points[keep][:, :, ::2].reshape(-1, 2))
-        elif run is not None:
-            plot_traces(ax, run.contact_points, color=MODEL, lw=1.6)
+        mine = [t for t in cmp.tests if t.shear_force_N == f]
+        for test in mine:
+            plot_traces(ax, test.positions, color=MEASURED, lw=0.7, marker_start=False)
+        runs = ([(runs_by_test[t.test_id].result, [t]) for t in mine] if runs_by_test
+                else [(cmp.runs[f].result, mine)])
+        for run, its in runs:
+            if run is not None and len(run.t) > 1:
+                rest = run.model.specimen.contact_points_m
+                reach = max(float(np.max(travel(t.positions, rest))) for t in its)
+                keep = run.travel <= reach + 1e-9
+                plot_traces(ax, run.contact_points[keep], color=MODEL, lw=1.6)
+                points.append(run.contact_points[keep][:, :, ::2].reshape(-1, 2))
+            elif run is not None:
+                plot_traces(ax, run.contact_points, color=MODEL, lw=1.6)
     # Zoom on the traces (the intersection lines would otherwise set the scale), same window in every panel.
     allp = np.concatenate(points)
     lo, hi = allp.min(axis=0) - 0.02, allp.max(axis=0) + 0.02
@@ -188,7 +193,8 @@ def plot_time_residuals(before: Sequence, after: Sequence | None, path: str | Pa
     return save_figure(fig, path)
 
 
-def plot_deviations(cmp: Comparison, path: str | Path, title: str | None = None) -> Path:
+def plot_deviations(cmp: Comparison, path: str | Path, title: str | None = None,
+                    runs_by_test: dict | None = None) -> Path:
     """Where millimetres show: each contact point's horizontal deviation from the model (measured - model, x1
     and x3 in mm) against CP1 travel, one line per test coloured by load: an overhead view of the deviations,
     relative to the model, at a scale where the post-fit agreement (tenths of a millimetre) is visible."""
@@ -199,7 +205,7 @@ def plot_deviations(cmp: Comparison, path: str | Path, title: str | None = None)
     for cp in range(3):
         for d in cmp.discrepancies:
             test = next(t for t in cmp.tests if t.test_id == d.test_id)
-            run = cmp.runs[d.force_N].result
+            run = (runs_by_test[d.test_id] if runs_by_test else cmp.runs[d.force_N]).result
             if run is None or len(run.t) < 2:
                 continue
             from ..paths import model_at_travel
