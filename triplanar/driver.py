@@ -108,7 +108,7 @@ def _user_wrench_at_rest(t: float, y: np.ndarray, p: np.ndarray) -> None:
     K._user_wrench(t, rest, p)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")  # (compiled into the env's control step: no call boundary)
 def drive(method: int, t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray, h: float,
           rtol: float, atol: float, t_end: float, x1_target: float, slow_speed: float, energy_tol: float,
           out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool, rows: int,
