@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from envs import triplanar_shear as S
-from triplanar import kernel as K, stepping
+from triplanar import driver, kernel as K, stepping
 from triplanar.layout import Layout
 
 
@@ -35,7 +35,11 @@ def test_fields_tile_the_array(layout: Layout) -> None:
 
 def test_each_module_extends_the_workspace_of_the_one_below() -> None:
     assert stepping.WORKSPACE.fields["STAGES"].offset == K.N_KERNEL_WS_ROWS
-    assert S.WORKSPACE.fields["R"].offset == stepping.N_WS_ROWS
+    assert driver.WORKSPACE.fields["Y0"].offset == stepping.N_WS_ROWS
+    assert S.WORKSPACE.fields["R"].offset == driver.N_WS_ROWS
     assert stepping.new_workspace().shape == (stepping.N_WS_ROWS, K.WS_WIDTH)
-    assert (S.new_workspace()[K.W_COUNT] == 0.0).all()
+    assert driver.new_workspace().shape == (driver.N_WS_ROWS, K.WS_WIDTH)
+    ws = S.new_workspace()
+    assert (ws[K.W_COUNT] == 0.0).all()
+    assert (K.modes_of(ws) == K.sliding_modes()).all()  # a new workspace holds all-sliding modes
     assert S.OBS_HIGH.shape == (S.OBS_DIM,) and len(S.INFO_KEYS) == len(S.INFO_SLOTS)
