@@ -139,7 +139,12 @@ class Specimen:
     # -- validation -------------------------------------------------------------------------
     def validate(self, foundation: Foundation, source: str | None = None,
                  plane_tolerance_m: float = PLANE_TOLERANCE_M) -> None:
-        """Raise :class:`SpecimenError` naming the first field that cannot be right."""
+        """Raise :class:`SpecimenError` naming the first field that cannot be right. A specimen is a value (its
+        arrays are read-only), so a success is remembered per foundation and tolerance and not checked again (a
+        model, its reference run and the simulation of it validate the same specimen)."""
+        key = (foundation, plane_tolerance_m)
+        if key in self.__dict__.get("_valid_on", ()):
+            return
         self._check_finite(source)
         foundation.validate(source)
         if self.contact_points_m.shape != (3, 3):
@@ -165,6 +170,7 @@ class Specimen:
         if bary.min() <= 0.0:
             raise SpecimenError("mass_centre_m", "the mass centre does not project inside the contact triangle "
                                 f"(barycentric coordinates {np.round(bary, 4).tolist()})", source)
+        self.__dict__.setdefault("_valid_on", set()).add(key)  # (as cached_property writes: the class is frozen)
 
     def _check_finite(self, source: str | None) -> None:
         values = {"contact_points_m": self.contact_points_m, "mass_kg": self.mass_kg,
