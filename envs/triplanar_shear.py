@@ -294,7 +294,7 @@ _MAX_STARTS = 2048
 
 def specimen_key(specimen: Specimen, foundation: Foundation) -> tuple:
     arrays = (specimen.contact_points_m, specimen.mass_centre_m, specimen.inertia_kg_m2, foundation.normals)
-    return tuple(float(v) for a in arrays for v in np.ravel(a)) + (
+    return tuple(np.concatenate([np.ravel(a) for a in arrays]).astype(float).tolist()) + (
         specimen.mass_kg, specimen.load_point_A_m, specimen.load_point_B_m)
 
 

@@ -180,14 +180,16 @@ class Specimen:
                   "load_point_A_m": self.load_point_A_m, "load_point_B_m": self.load_point_B_m,
                   "friction_deg": self.friction_deg, "tip_friction_deg": self.tip_friction_deg}
         for name, value in values.items():
-            if not np.all(np.isfinite(np.asarray(value, dtype=float))):
+            finite = math.isfinite(value) if isinstance(value, float) else \
+                bool(np.isfinite(np.asarray(value, dtype=float)).all())
+            if not finite:
                 raise SpecimenError(name, "contains NaN or infinity", source)
 
     def _check_inertia(self, source: str | None) -> None:
         inertia = self.inertia_kg_m2
         if inertia.shape != (3, 3):
             raise SpecimenError("inertia_kg_m2", f"must be 3x3, got shape {inertia.shape}", source)
-        if not np.allclose(inertia, inertia.T, rtol=0, atol=1e-12 * max(1.0, np.abs(inertia).max())):
+        if not np.abs(inertia - inertia.T).max() <= 1e-12 * max(1.0, np.abs(inertia).max()):  # (np.allclose, rtol 0)
             raise SpecimenError("inertia_kg_m2", "must be symmetric", source)
         principal = np.linalg.eigvalsh(inertia)
         if principal.min() <= 0:
