@@ -122,6 +122,59 @@ def v1_against_v0(repeats: int, n: int, stats: dict) -> dict:
     return out
 
 
+def v1_reset_cost(n: int) -> dict:
+    """CPU microseconds per randomised v1 reset (fresh specimens), and how much of it is compiled physics that no
+    restructuring of the Python around it can remove: the start-mode search (``start_motion_ws``: the actuator
+    start of every draw, the hydrostatic start of the reference run), the reference run's integration
+    (``driver.drive``), the statics LP and the first control period(s). Wraps those entry points with timers
+    (a few hundred ns each)."""
+    import sys  # noqa: PLC0415
+
+    import envs.triplanar_shear as v0  # noqa: PLC0415
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env  # noqa: PLC0415
+    from triplanar import equilibrium  # noqa: PLC0415
+    simulate_module = sys.modules["triplanar.simulate"]
+    spent: dict[str, float] = {}
+    calls: dict[str, int] = {}
+    originals = []
+
+    def timed(module, name: str) -> None:
+        fn = getattr(module, name)
+        originals.append((module, name, fn))
+
+        def wrapper(*args, **kwargs):
+            t0 = time.process_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent[name] = spent.get(name, 0.0) + time.process_time() - t0
+                calls[name] = calls.get(name, 0) + 1
+        setattr(module, name, wrapper)
+
+    timed(stepping, "start_motion_ws")
+    timed(simulate_module.driver, "drive")   # (the env's own periods call it inside compiled code: not counted)
+    timed(equilibrium, "holds")
+    timed(v0, "control_step")
+    try:
+        env = TriPlanarShearV1Env(observation_mode="bench", randomize=True)
+        env.reset(seed=0)
+        for _ in range(10):
+            env.reset()
+        spent.clear()
+        calls.clear()
+        t0 = time.process_time()
+        for _ in range(n):
+            env.reset()
+        total = time.process_time() - t0
+    finally:
+        for module, name, fn in originals:
+            setattr(module, name, fn)
+    out = {"reset_cpu_us": 1e6 * total / n, "compiled_cpu_us": 1e6 * sum(spent.values()) / n}
+    out.update({f"{name}_us_per_reset": 1e6 * spent[name] / n for name in spent})
+    out.update({f"{name}_calls_per_reset": calls[name] / n for name in calls})
+    return out
+
+
 def vector(num_envs: int, steps: int, policy: str) -> float:
     vec = gym.make_vec("TriPlanarShear-v0", num_envs=num_envs, load_N=27.8)
     vec.reset(seed=0)
@@ -165,6 +218,7 @@ def main() -> int:
     if args.v1:
         stats_v1: dict = {}
         result = v1_against_v0(args.repeats, 2_000 if args.quick else 20_000, stats_v1)
+        result["v1_reset"] = v1_reset_cost(40 if args.quick else 400)
         for key, value in {**result, "stats": stats_v1}.items():
             print(f"{key}: {value if not isinstance(value, float) else f'{value:,.2f}'}")
         if args.json:
