@@ -288,7 +288,8 @@ class TriPlanarShearV1Env(gym.Env):
 
     No velocities: a controller gets history by keeping it (the scripted controllers of :mod:`agents.bench`
     difference their own past observations), by a frame stack (``gymnasium.wrappers.FrameStackObservation``; the
-    robust PPO uses 4 frames), or by a recurrent policy. The noise is drawn from the env's seeded generator.
+    robust PPO ``ppo_robust`` uses 4 frames), or by a recurrent policy (``ppo_recurrent``: sb3-contrib's RecurrentPPO,
+    an LSTM; :mod:`agents.train_robust`). The noise is drawn from the env's seeded generator.
 
     ## Rewards
 
