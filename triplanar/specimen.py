@@ -44,11 +44,13 @@ class Plane:
     dip_deg: float
     dip_direction_deg: float = 0.0
 
-    @property
+    @cached_property
     def normal(self) -> np.ndarray:
-        """Upward unit normal ``(sin d cos a, cos d, sin d sin a)``."""
+        """Upward unit normal ``(sin d cos a, cos d, sin d sin a)`` (computed once; read-only)."""
         d, a = math.radians(self.dip_deg), math.radians(self.dip_direction_deg)
-        return np.array([math.sin(d) * math.cos(a), math.cos(d), math.sin(d) * math.sin(a)])
+        normal = np.array([math.sin(d) * math.cos(a), math.cos(d), math.sin(d) * math.sin(a)])
+        normal.setflags(write=False)
+        return normal
 
     def height(self, x1: np.ndarray | float, x3: np.ndarray | float) -> np.ndarray | float:
         """Elevation ``x2`` of the plane above the horizontal point ``(x1, x3)``."""
