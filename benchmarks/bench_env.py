@@ -48,6 +48,9 @@ def _kernel_periods(y0, p, modes, n, x1_target):
                               out_t, out_y, out_y, out_aux, False, 0, np.empty((0, 3)), ws)
 
 
+CLOCK = [time.perf_counter]  # --cpu-time: time.process_time (this process's CPU time; the machine is shared)
+
+
 def best_of(repeats: int, fn) -> float:
     return max(fn() for _ in range(repeats))
 
@@ -57,9 +60,9 @@ def kernel_floor(n: int) -> float:
     env.reset(seed=0)
     y, p, modes = env._y.copy(), env._p.copy(), env._modes.copy()
     _kernel_periods(y, p, modes, 10, 1.0)
-    t0 = time.perf_counter()
+    t0 = CLOCK[0]()
     _kernel_periods(y, p, modes, n, 1.0)
-    return n / (time.perf_counter() - t0)
+    return n / (CLOCK[0]() - t0)
 
 
 def single(n: int, policy: str, stats: dict) -> float:
@@ -70,34 +73,41 @@ def single(n: int, policy: str, stats: dict) -> float:
     env.step(actions[0])  # compiled code loaded (or compiled) before timing
     env.reset(seed=0)
     adaptive = episodes = 0
-    t0 = time.perf_counter()
+    t0 = CLOCK[0]()
     for i in range(n):
         _, _, terminated, truncated, info = env.step(actions[i])
         adaptive += info["adaptive_steps"] > 0
         if terminated or truncated:
             episodes += 1
             env.reset()
-    rate = n / (time.perf_counter() - t0)
+    rate = n / (CLOCK[0]() - t0)
     stats[f"single_{policy}"] = {"adaptive_fraction": adaptive / n, "mean_episode_steps": n / max(episodes, 1)}
     return rate
 
 
+_V1_RUNS = [0]
+
+
 def single_v1(n: int, stats: dict, **kwargs) -> float:
-    """TriPlanarShear-v1 (default: bench observations, unknown specimens), random actions, autoreset by hand."""
+    """TriPlanarShear-v1 (default: bench observations, unknown specimens), random actions, autoreset by hand.
+
+    Each call starts from a seed of its own: with the same seed a repeat would draw the same specimens and find
+    their starts in the start cache (``envs.triplanar_shear.episode_start``), which training never does."""
     from envs.triplanar_shear_v1 import TriPlanarShearV1Env  # noqa: PLC0415
     env = TriPlanarShearV1Env(**{"observation_mode": "bench", "randomize": True, **kwargs})
     actions = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)
     env.reset(seed=0)
     env.step(actions[0])
-    env.reset(seed=1)
+    _V1_RUNS[0] += 1
+    env.reset(seed=1000 + _V1_RUNS[0])
     episodes = 0
-    t0 = time.perf_counter()
+    t0 = CLOCK[0]()
     for i in range(n):
         _, _, terminated, truncated, _ = env.step(actions[i])
         if terminated or truncated:
             episodes += 1
             env.reset()
-    rate = n / (time.perf_counter() - t0)
+    rate = n / (CLOCK[0]() - t0)
     stats["single_v1_" + "_".join(f"{k}={v}" for k, v in kwargs.items())] = {"mean_episode_steps": n / max(episodes, 1)}
     return rate
 
@@ -113,6 +123,59 @@ def v1_against_v0(repeats: int, n: int, stats: dict) -> dict:
     return out
 
 
+def v1_reset_cost(n: int) -> dict:
+    """CPU microseconds per randomised v1 reset (fresh specimens), and how much of it is compiled physics that no
+    restructuring of the Python around it can remove: the start-mode search (``start_motion_ws``: the actuator
+    start of every draw, the hydrostatic start of the reference run), the reference run's integration
+    (``driver.drive``), the statics LP and the first control period(s). Wraps those entry points with timers
+    (a few hundred ns each)."""
+    import sys  # noqa: PLC0415
+
+    import envs.triplanar_shear as v0  # noqa: PLC0415
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env  # noqa: PLC0415
+    from triplanar import equilibrium  # noqa: PLC0415
+    simulate_module = sys.modules["triplanar.simulate"]
+    spent: dict[str, float] = {}
+    calls: dict[str, int] = {}
+    originals = []
+
+    def timed(module, name: str) -> None:
+        fn = getattr(module, name)
+        originals.append((module, name, fn))
+
+        def wrapper(*args, **kwargs):
+            t0 = time.process_time()
+            try:
+                return fn(*args, **kwargs)
+            finally:
+                spent[name] = spent.get(name, 0.0) + time.process_time() - t0
+                calls[name] = calls.get(name, 0) + 1
+        setattr(module, name, wrapper)
+
+    timed(stepping, "start_motion_ws")
+    timed(simulate_module.driver, "drive")   # (the env's own periods call it inside compiled code: not counted)
+    timed(equilibrium, "holds")
+    timed(v0, "control_step")
+    try:
+        env = TriPlanarShearV1Env(observation_mode="bench", randomize=True)
+        env.reset(seed=0)
+        for _ in range(10):
+            env.reset()
+        spent.clear()
+        calls.clear()
+        t0 = time.process_time()
+        for _ in range(n):
+            env.reset()
+        total = time.process_time() - t0
+    finally:
+        for module, name, fn in originals:
+            setattr(module, name, fn)
+    out = {"reset_cpu_us": 1e6 * total / n, "compiled_cpu_us": 1e6 * sum(spent.values()) / n}
+    out.update({f"{name}_us_per_reset": 1e6 * spent[name] / n for name in spent})
+    out.update({f"{name}_calls_per_reset": calls[name] / n for name in calls})
+    return out
+
+
 def vector(num_envs: int, steps: int, policy: str) -> float:
     vec = gym.make_vec("TriPlanarShear-v0", num_envs=num_envs, load_N=27.8)
     vec.reset(seed=0)
@@ -120,10 +183,10 @@ def vector(num_envs: int, steps: int, policy: str) -> float:
     shape = (steps + 1, num_envs, 2)
     batches = rng.uniform(-1, 1, shape).astype(np.float32) if policy == "random" else np.zeros(shape, np.float32)
     vec.step(batches[0])
-    t0 = time.perf_counter()
+    t0 = CLOCK[0]()
     for i in range(1, steps + 1):
         vec.step(batches[i])
-    return num_envs * steps / (time.perf_counter() - t0)
+    return num_envs * steps / (CLOCK[0]() - t0)
 
 
 def ppo_time_to_target(runs: Path, target_mm: float = 7.73, load: str = "27.8") -> list[dict]:
@@ -147,10 +210,16 @@ def main() -> int:
                         help="tracking tip's error at 27.8 N (default: evaluated now)")
     parser.add_argument("--json", help="also write the numbers here")
     parser.add_argument("--v1", action="store_true", help="only the v1-against-v0 comparison (issue 10)")
+    parser.add_argument("--cpu-time", action="store_true",
+                        help="steps per CPU-second of this process instead of per wall-clock second (less disturbed "
+                             "by other work on a shared machine)")
     args = parser.parse_args()
+    if args.cpu_time:
+        CLOCK[0] = time.process_time
     if args.v1:
         stats_v1: dict = {}
         result = v1_against_v0(args.repeats, 2_000 if args.quick else 20_000, stats_v1)
+        result["v1_reset"] = v1_reset_cost(40 if args.quick else 400)
         for key, value in {**result, "stats": stats_v1}.items():
             print(f"{key}: {value if not isinstance(value, float) else f'{value:,.2f}'}")
         if args.json:

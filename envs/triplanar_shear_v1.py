@@ -7,13 +7,13 @@ from __future__ import annotations
 
 import math
 import os
-from collections import deque
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from triplanar import kernel as K
 from triplanar.layout import Layout
@@ -23,6 +23,9 @@ from .triplanar_shear import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, N_INFO,
                               ST_LOAD, ST_T, EpisodeDraw, ShearConfig, StartError, check_action, control_step,
                               episode_start, info_dict, make_config, new_workspace, observation_space,
                               specimen_key)
+
+# (This module's compiled functions read the kernel's and v0's layouts; envs/__init__.py drops the package's numba
+# cache when those change.)
 
 # Bench observation ("bench" mode): field, size, bound, meaning.
 _BENCH_OBS = (("RANGE", 9, 0.5, "rangefinders: CP1..CP3 displacement from rest (x1, x2, x3 each) + noise, m"),
@@ -34,6 +37,22 @@ _BENCH_OBS = (("RANGE", 9, 0.5, "rangefinders: CP1..CP3 displacement from rest (
 BENCH_OBSERVATION = Layout("B_", "BENCH_OBS_DIM", [(name, size, doc) for name, size, _, doc in _BENCH_OBS])
 BENCH_OBSERVATION.export(globals())  # B_RANGE, B_THRUST, B_STAGE, B_LOAD, B_TIME, B_PREV, BENCH_OBS_DIM
 BENCH_HIGH = np.concatenate([np.full(size, bound) for _, size, bound, _ in _BENCH_OBS])
+BENCH_HIGH.setflags(write=False)
+
+# The bench's constants for the compiled bench step (set once per env from BenchConfig and ShearConfig).
+BENCH_CONSTANTS = Layout("BC_", "N_BC", [
+    ("THRUST_SCALE", 1, "ShearConfig.thrust_scale"),
+    ("RANGE", 1, "ShearConfig.offset_range_m"),
+    ("DT", 1, "control period, s"),
+    ("STAGE", 3, "stage servo: finite (1/0), tau (s), decay over a period (servo_constants)"),
+    ("FORCE", 3, "force loop: the same")])
+BENCH_CONSTANTS.export(globals())  # BC_THRUST_SCALE, BC_RANGE, BC_DT, BC_STAGE, BC_FORCE, N_BC
+# The bench's state between steps (the latency queue is an array of its own).
+BENCH_STATE = Layout("BS_", "N_BS", [
+    ("THRUST", 1, "the force loop's output (the load cell) at the period's end, N"),
+    ("PREV", 2, "the agent's previous action, clipped"),
+    ("HEAD", 1, "the latency queue's oldest row")])
+BENCH_STATE.export(globals())  # BS_THRUST, BS_PREV, BS_HEAD, N_BS
 
 # Ranges of the unknown specimens (randomize=True); docs/environment.md gives the reasons.
 RANDOM_FRICTION_DEG = 2.0           # each contact's friction angle, +- around the specimen's
@@ -77,15 +96,106 @@ class BenchConfig:
         return int(round(self.latency_s / dt))
 
 
+def servo_constants(bandwidth_hz: float, dt: float) -> tuple[float, float]:
+    """``(tau, decay)`` of a first-order lag of bandwidth ``bandwidth_hz`` (finite) over ``dt``."""
+    tau = 1.0 / (2.0 * math.pi * bandwidth_hz)
+    return tau, math.exp(-dt / tau)
+
+
+@njit(cache=True, error_model="numpy")
+def first_order_response(x: float, target: float, tau: float, decay: float, dt: float) -> tuple[float, float]:
+    """Exact response of ``dx/dt = (target - x) / tau`` over ``dt``: (value at the end, mean over the period)."""
+    end = target + (x - target) * decay
+    mean = target + (x - target) * tau / dt * (1.0 - decay)
+    return end, mean
+
+
 def first_order_step(x: float, target: float, bandwidth_hz: float, dt: float) -> tuple[float, float]:
     """Exact response of ``dx/dt = 2 pi f (target - x)`` over ``dt``: (value at the end, mean over the period)."""
     if math.isinf(bandwidth_hz):
         return target, target
-    tau = 1.0 / (2.0 * math.pi * bandwidth_hz)
-    decay = math.exp(-dt / tau)
-    end = target + (x - target) * decay
-    mean = target + (x - target) * tau / dt * (1.0 - decay)
-    return end, mean
+    tau, decay = servo_constants(bandwidth_hz, dt)
+    return first_order_response(x, target, tau, decay, dt)
+
+
+def bench_constants(bench: BenchConfig, config: ShearConfig) -> np.ndarray:
+    """The ``BC_*`` vector of an env."""
+    bc = np.zeros(N_BC)
+    bc[BC_THRUST_SCALE], bc[BC_RANGE], bc[BC_DT] = config.thrust_scale, config.offset_range_m, config.dt
+    for slot, bandwidth in ((BC_STAGE, bench.stage_bandwidth_hz), (BC_FORCE, bench.thrust_bandwidth_hz)):
+        if math.isfinite(bandwidth):
+            bc[slot] = 1.0
+            bc[slot + 1], bc[slot + 2] = servo_constants(bandwidth, config.dt)
+    return bc
+
+
+@njit(cache=True, error_model="numpy")
+def bench_command(raw: np.ndarray, bc: np.ndarray, bs: np.ndarray, queue: np.ndarray, y: np.ndarray,
+                  st: np.ndarray, applied: np.ndarray) -> tuple[float, float]:
+    """The bench between the agent's action ``raw`` and v0's step: the action clipped, delayed by the latency
+    queue (``queue``, one row per period of latency, oldest at ``bs[BS_HEAD]``), the thrust through the force loop
+    and the tip offset through the stage servo. Writes the (thrust, end-of-period tip position) action for v0's step
+    into ``applied`` and updates ``bs``; returns the change of the agent's (clipped) action since the previous step,
+    for the action-rate reward term. (The env squares it in Python: ``x ** 2`` there is the C library's ``pow``,
+    which can differ from the product ``x * x`` that compiled code makes of it in the last bit.)"""
+    a0 = min(max(np.float64(raw[0]), -1.0), 1.0)
+    a1 = min(max(np.float64(raw[1]), -1.0), 1.0)
+    latency = queue.shape[0]
+    if latency == 0:
+        c0, c1 = a0, a1
+    else:
+        head = int(bs[BS_HEAD])
+        c0, c1 = queue[head, 0], queue[head, 1]
+        queue[head, 0], queue[head, 1] = a0, a1
+        bs[BS_HEAD] = (head + 1) % latency
+    dt = bc[BC_DT]
+    thrust_max = bc[BC_THRUST_SCALE] * st[ST_LOAD]
+    thrust_cmd = 0.5 * (c0 + 1.0) * thrust_max
+    if bc[BC_FORCE] != 0.0:
+        bs[BS_THRUST], thrust_mean = first_order_response(bs[BS_THRUST], thrust_cmd, bc[BC_FORCE + 1],
+                                                          bc[BC_FORCE + 2], dt)
+        # v0's step takes (thrust, end-of-period tip position) as an action; both are convex combinations of
+        # values inside the action range, so its clipping leaves them as they are.
+        applied[0] = 2.0 * thrust_mean / thrust_max - 1.0
+    else:
+        bs[BS_THRUST] = thrust_cmd
+        applied[0] = c0
+    if bc[BC_STAGE] != 0.0:
+        u_end, _ = first_order_response(y[K.S_U], c1 * bc[BC_RANGE], bc[BC_STAGE + 1], bc[BC_STAGE + 2], dt)
+        applied[1] = u_end / bc[BC_RANGE]
+    else:
+        applied[1] = c1
+    d0, d1 = a0 - bs[BS_PREV], a1 - bs[BS_PREV + 1]
+    bs[BS_PREV], bs[BS_PREV + 1] = a0, a1
+    return d0, d1
+
+
+@njit(cache=True, error_model="numpy")
+def bench_observation(obs: np.ndarray, noise: np.ndarray, bs: np.ndarray, y: np.ndarray, st: np.ndarray,
+                      high: np.ndarray) -> np.ndarray:
+    """The bench observation (``B_*``, float32) from v0's observation ``obs`` (its exact positions), the
+    rangefinders' ``noise`` (9 values, or none), the bench state and the block's state; clipped to ``high``."""
+    out = np.empty(BENCH_OBS_DIM)
+    for i in range(9):
+        out[B_RANGE + i] = obs[OBS_POS + i]
+    if noise.shape[0] > 0:
+        for i in range(9):
+            out[B_RANGE + i] += noise[i]
+    out[B_THRUST] = bs[BS_THRUST]
+    out[B_STAGE] = y[K.S_U]
+    out[B_LOAD] = st[ST_LOAD]
+    out[B_TIME] = st[ST_T]
+    out[B_PREV] = bs[BS_PREV]
+    out[B_PREV + 1] = bs[BS_PREV + 1]
+    result = np.empty(BENCH_OBS_DIM, np.float32)
+    for i in range(BENCH_OBS_DIM):
+        v = out[i]
+        if v < -high[i]:
+            v = -high[i]
+        elif v > high[i]:
+            v = high[i]
+        result[i] = np.float32(v)
+    return result
 
 
 @dataclass(frozen=True)
@@ -178,7 +288,8 @@ class TriPlanarShearV1Env(gym.Env):
 
     No velocities: a controller gets history by keeping it (the scripted controllers of :mod:`agents.bench`
     difference their own past observations), by a frame stack (``gymnasium.wrappers.FrameStackObservation``; the
-    robust PPO uses 4 frames), or by a recurrent policy. The noise is drawn from the env's seeded generator.
+    robust PPO ``ppo_robust`` uses 4 frames), or by a recurrent policy (``ppo_recurrent``: sb3-contrib's RecurrentPPO,
+    an LSTM; :mod:`agents.train_robust`). The noise is drawn from the env's seeded generator.
 
     ## Rewards
 
@@ -258,6 +369,10 @@ class TriPlanarShearV1Env(gym.Env):
             self.observation_space = spaces.Box(-high, high, dtype=np.float32)
         self._specimen, self._foundation = self.config.base_specimen()
         self._ws = new_workspace()
+        self._bc = bench_constants(self.bench, self.config)
+        self._bs = np.zeros(N_BS)
+        self._queue = np.zeros((self.bench.latency_periods(self.config.dt), 2))
+        self._no_noise = np.zeros(0)
         self._obs = np.zeros(OBS_DIM)
         self._inf = np.zeros(N_INFO)
         self._applied = np.zeros(2)
@@ -308,9 +423,10 @@ class TriPlanarShearV1Env(gym.Env):
         cfg = self.config
         self._cfg = cfg.packed()
         first = np.array([2.0 / cfg.thrust_scale - 1.0, cfg.tip_offset_m / cfg.offset_range_m])
-        self._queue = deque([first.copy() for _ in range(self.bench.latency_periods(cfg.dt))])
-        self._thrust = float(start.inf[IN_THRUST])   # the force loop's output at the period's end
-        self._prev = first.copy()
+        self._queue[:] = first   # the latency queue starts full of the starting command
+        self._bs[BS_HEAD] = 0.0
+        self._bs[BS_THRUST] = start.inf[IN_THRUST]   # the force loop's output at the period's end
+        self._bs[BS_PREV:BS_PREV + 2] = first
         self._code = 0
         if self.render_mode is not None:
             self._trace = [self._contact_points()]
@@ -322,24 +438,12 @@ class TriPlanarShearV1Env(gym.Env):
         if self._start is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         raw = check_action(action)
-        agent = np.array([min(max(float(raw[0]), -1.0), 1.0), min(max(float(raw[1]), -1.0), 1.0)])
-        self._queue.append(agent)
-        command = self._queue.popleft()
-        cfg, dt = self.config, self.config.dt
-        thrust_max = cfg.thrust_scale * self._st[ST_LOAD]
-        thrust_cmd = 0.5 * (command[0] + 1.0) * thrust_max
-        self._thrust, thrust_mean = first_order_step(self._thrust, thrust_cmd, self.bench.thrust_bandwidth_hz, dt)
-        u = float(self._y[K.S_U])
-        u_end, _ = first_order_step(u, command[1] * cfg.offset_range_m, self.bench.stage_bandwidth_hz, dt)
-        # v0's step takes (thrust, end-of-period tip position) as an action; both are convex combinations of
-        # values inside the action range, so its clipping leaves them as they are.
-        self._applied[0] = 2.0 * thrust_mean / thrust_max - 1.0 if math.isfinite(self.bench.thrust_bandwidth_hz) \
-            else command[0]
-        self._applied[1] = u_end / cfg.offset_range_m if math.isfinite(self.bench.stage_bandwidth_hz) else command[1]
+        if raw.dtype != np.float32 and raw.dtype != np.float64:  # (ints, float16: as exact in float64)
+            raw = raw.astype(np.float64)
+        d0, d1 = bench_command(raw, self._bc, self._bs, self._queue, self._y, self._st, self._applied)
         code = control_step(self._y, self._p, self._modes, self._armed, self._st, self._ref, self._applied,
                             self._cfg, self._obs, self._inf, self._ws)
-        r_rate = -cfg.action_rate_coef * ((agent[0] - self._prev[0]) ** 2 + (agent[1] - self._prev[1]) ** 2)
-        self._prev = agent
+        r_rate = -self.config.action_rate_coef * (d0 ** 2 + d1 ** 2)
         self._code = code
         reward = float(self._inf[IN_R_DIST] + self._inf[IN_R_TERM]) + r_rate
         if self.render_mode is not None:
@@ -388,24 +492,17 @@ class TriPlanarShearV1Env(gym.Env):
     def _observation(self) -> np.ndarray:
         if self.bench.observation_mode == "state":
             obs = self._obs.copy()
-            obs[OBS_PREV:OBS_PREV + 2] = self._prev
+            obs[OBS_PREV:OBS_PREV + 2] = self._bs[BS_PREV:BS_PREV + 2]
             return obs.astype(np.float32)
-        out = np.empty(BENCH_OBS_DIM)
-        out[B_RANGE:B_RANGE + 9] = self._obs[OBS_POS:OBS_POS + 9]
-        if self.bench.sensor_noise_m > 0:
-            out[B_RANGE:B_RANGE + 9] += self.np_random.normal(0.0, self.bench.sensor_noise_m, 9)
-        out[B_THRUST] = self._thrust
-        out[B_STAGE] = self._y[K.S_U]
-        out[B_LOAD] = self._st[ST_LOAD]
-        out[B_TIME] = self._st[ST_T]
-        out[B_PREV:B_PREV + 2] = self._prev
-        return np.clip(out, -BENCH_HIGH, BENCH_HIGH).astype(np.float32)
+        noise = self.np_random.normal(0.0, self.bench.sensor_noise_m, 9) if self.bench.sensor_noise_m > 0 \
+            else self._no_noise
+        return bench_observation(self._obs, noise, self._bs, self._y, self._st, BENCH_HIGH)
 
     def _info(self, code: int) -> dict[str, Any]:
         info = info_dict(self._inf, code)
         info.update(self._episode_info)
         info["thrust_N"] = float(self._inf[IN_THRUST])
-        info["load_cell_N"] = self._thrust
+        info["load_cell_N"] = float(self._bs[BS_THRUST])
         return info
 
     def _contact_points(self) -> np.ndarray:

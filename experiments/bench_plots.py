@@ -55,14 +55,16 @@ def designs_plot(out: Path, rows: Sequence[Sequence[Any]]) -> None:
 
 
 def curves_plot(out: Path, run_dirs: Sequence[Path]) -> None:
-    """Robust PPO's learning curves on the tuning benches: success rate, error over successes, score."""
+    """Robust PPO's learning curves on the tuning benches: success rate, error over successes, score (one line per
+    run, named ``kind/seed_S``: ``ppo_robust`` frame stack, ``ppo_recurrent`` LSTM)."""
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
     for run in run_dirs:
         with open(run / "learning_curve.csv") as f:
             rows = list(csv.DictReader(f))
         t = [float(r["timesteps"]) for r in rows]
         for ax, key in zip(axes, ("success_rate", "mimicry_error_mm", "score")):
-            ax.plot(t, [float(r[key]) for r in rows], marker=".", label=run.name)
+            ax.plot(t, [float(r[key]) for r in rows], marker=".", label=f"{run.parent.name}/{run.name}",
+                    ls="--" if "recurrent" in run.parent.name else "-")
     for ax, label in zip(axes, ("success rate", "mimicry error over successes, mm", "score (failure = 10 mm), mm")):
         ax.set_xlabel("timesteps")
         ax.set_ylabel(label)

@@ -1,11 +1,13 @@
 """The bench study on ``TriPlanarShear-v1``: held-out evaluation and the actuator design sweep.
 
-``python -m experiments.bench_study --out DIR [--ppo-timesteps N] [--design-ppo-timesteps N] [--seeds 0 1 2]``
-(or ``triplanar study --bench --out DIR [--timesteps N] [--design-timesteps N] [--in-sample-run RUN]``). Steps, each resumable (every episode batch and every PPO seed is a task
+``python -m experiments.bench_study --out DIR [--ppo-timesteps N] [--recurrent-timesteps N] [--design-ppo-timesteps N]
+[--seeds 0 1 2]`` (or ``triplanar study --bench --out DIR [--timesteps N] [--recurrent-timesteps N]
+[--design-timesteps N] [--in-sample-run RUN]``). Steps, each resumable (every episode batch and every PPO seed is a task
 of :func:`triplanar.workbench.executor.run_tasks` with a checkpoint directory under DIR/tasks):
 
 1. tune the feedback and adaptive gains on ``TUNING_BENCHES`` tuning benches (never the held-out ones);
-2. train robust PPO (:mod:`agents.train_robust`), one run per seed, on the default bench;
+2. train robust PPO (:mod:`agents.train_robust`) on the default bench, one run per seed and kind: with a 4-frame stack
+   (``ppo_robust``) and recurrent (``ppo_recurrent``, sb3-contrib's RecurrentPPO, an LSTM), all in one executor call;
 3. evaluate every controller on the nominal bench (the paper's 12 loads, steel tip) and on the held-out benches
    -> ``heldout.csv``, ``heldout_episodes.csv`` (one row per episode), ``heldout.png``, ``robust_learning_curves.png``;
 4. the design sweep: every design of :data:`DESIGNS`, its scripted controllers and a robust PPO of a shorter budget
@@ -90,7 +92,8 @@ class EpisodeBatch:
     """One controller on a list of benches under one bench configuration."""
 
     label: str                       # the name written to the tables
-    controller: str                  # agents.bench_controllers name, or "ppo:<run_dir>" / "ppo_state:<run_dir>"
+    controller: str                  # agents.bench_controllers name, or "ppo:<run_dir>" (frame stack),
+    #                                  "ppo_recurrent:<run_dir>" (LSTM) or "ppo_state:<run_dir>" (v0, exact state)
     params: tuple = ()
     bench_set: str = "heldout"       # heldout, nominal or tuning
     n: int = N_HELDOUT
@@ -110,8 +113,11 @@ def run_batch(batch: EpisodeBatch) -> list[Outcome]:
     env_kwargs = dict(batch.env_kwargs)
     benches = [with_tip(b, batch.tip_friction_deg) for b in _benches(batch)]
     if batch.controller.startswith("ppo:"):
-        from agents.train_robust import RobustPolicy  # noqa: PLC0415
-        controller: Any = RobustPolicy.load(batch.controller[4:], name=batch.label)
+        from agents.train_robust import load_policy  # noqa: PLC0415
+        controller: Any = load_policy(batch.controller[4:], "ppo", name=batch.label)
+    elif batch.controller.startswith("ppo_recurrent:"):
+        from agents.train_robust import load_policy  # noqa: PLC0415
+        controller = load_policy(batch.controller[len("ppo_recurrent:"):], "recurrent", name=batch.label)
     elif batch.controller.startswith("ppo_state:"):
         from agents.ppo_controller import PPOController  # noqa: PLC0415
         run = Path(batch.controller[len("ppo_state:"):])
@@ -178,11 +184,12 @@ def scripted_batches(pi: dict[str, float], adaptive: dict[str, float], bench_set
             EpisodeBatch("adaptive", "adaptive", tuple(adaptive.items()), bench_set, n, tip, env_kwargs)]
 
 
-def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), ppo_timesteps: int = 200_000,
-                    design_ppo_timesteps: int = 50_000, in_sample_run: str | Path | None = None,
-                    designs: Sequence[Design] = DESIGNS, executor: ExecutorLike = None,
-                    log=print) -> dict[str, Any]:
-    from agents.train_robust import train_seeds  # noqa: PLC0415
+def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), ppo_timesteps: int = 300_000,
+                    recurrent_timesteps: int | None = 150_000, design_ppo_timesteps: int = 40_000,
+                    in_sample_run: str | Path | None = None, designs: Sequence[Design] = DESIGNS,
+                    executor: ExecutorLike = None, log=print) -> dict[str, Any]:
+    """The whole study (resumable in ``out_dir``); ``recurrent_timesteps=None`` leaves the recurrent PPO out."""
+    from agents.train_robust import seed_tasks, train_robust  # noqa: PLC0415
 
     from . import bench_plots  # noqa: PLC0415
     out_dir = Path(out_dir)
@@ -195,8 +202,15 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), pp
     timings["tuning_s"] = time.perf_counter() - started
 
     started = time.perf_counter()
-    runs = train_seeds(out_dir / "ppo_robust", seeds, ppo_timesteps, executor=executor)
-    timings["ppo_robust_s"] = time.perf_counter() - started
+    tasks = seed_tasks(out_dir / "ppo_robust", seeds, ppo_timesteps)
+    if recurrent_timesteps is not None:
+        tasks += seed_tasks(out_dir / "ppo_recurrent", seeds, recurrent_timesteps, algo="recurrent")
+    trained = run_tasks(train_robust, tasks, executor=executor, progress=True, desc="robust PPO seeds",
+                        checkpoint=TaskCheckpoint(out_dir / "tasks"))
+    runs = [r for t, r in zip(tasks, trained) if t.algo == "ppo"]
+    recurrent_runs = [r for t, r in zip(tasks, trained) if t.algo == "recurrent"]
+    timings["ppo_robust_s"] = time.perf_counter() - started  # (both kinds: they share the executor's workers)
+    timings["ppo_training_wall_s_per_seed"] = {f"{r['algo']}_seed_{r['seed']}": r["wall_s"] for r in trained}
 
     # held-out and nominal evaluation on the default bench
     started = time.perf_counter()
@@ -208,6 +222,8 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), pp
                     EpisodeBatch("tracking_tip", "tracking_tip", (), bench_set)]
         batches += scripted_batches(pi, adaptive, bench_set, (), None, 8.0)[1:]
         batches += [EpisodeBatch("ppo_robust", f"ppo:{r['run_dir']}", (), bench_set) for r in runs]
+        batches += [EpisodeBatch("ppo_recurrent", f"ppo_recurrent:{r['run_dir']}", (), bench_set)
+                    for r in recurrent_runs]
         if in_sample_run is not None:
             batches.append(EpisodeBatch("ppo_in_sample", f"ppo_state:{in_sample_run}", (), bench_set))
     results = run_tasks(run_batch, batches, executor=executor, progress=True, desc="held-out evaluation",
@@ -258,9 +274,11 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), pp
     timings["design_sweep_s"] = time.perf_counter() - started
     recommendation = recommend(rows_out)
     _write_atomic(out_dir / "recommendation.txt", lambda p: p.write_text(recommendation + "\n"))
-    bench_plots.write_all(out_dir, heldout_rows, rows_out, [Path(r["run_dir"]) for r in runs])
+    bench_plots.write_all(out_dir, heldout_rows, rows_out, [Path(r["run_dir"]) for r in runs + recurrent_runs])
     summary = {"pi_gains": pi, "adaptive_gain": adaptive, "timings_s": timings, "seeds": list(seeds),
-               "ppo_timesteps": ppo_timesteps, "design_ppo_timesteps": design_ppo_timesteps,
+               "ppo_timesteps": ppo_timesteps, "recurrent_timesteps": recurrent_timesteps,
+               "trained_timesteps": {f"{r['algo']}_seed_{r['seed']}": r["timesteps"] for r in trained},
+               "design_ppo_timesteps": design_ppo_timesteps,
                "n_heldout": N_HELDOUT, "recommendation": recommendation}
     _write_atomic(out_dir / "bench_summary.json", lambda p: p.write_text(json.dumps(summary, indent=2)))
     log(recommendation)
@@ -307,16 +325,21 @@ def main(argv: Iterable[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m experiments.bench_study", description=__doc__.splitlines()[0])
     parser.add_argument("--out", required=True, help="output directory (resumes what is there)")
     parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
-    parser.add_argument("--ppo-timesteps", type=int, default=200_000)
-    parser.add_argument("--design-ppo-timesteps", type=int, default=50_000)
+    parser.add_argument("--ppo-timesteps", type=int, default=300_000, help="frame-stacked robust PPO, per seed")
+    parser.add_argument("--recurrent-timesteps", type=int, default=150_000,
+                        help="recurrent PPO (RecurrentPPO, LSTM), per seed; 0 leaves it out")
+    parser.add_argument("--design-ppo-timesteps", type=int, default=40_000)
     parser.add_argument("--in-sample-run", help="a finished v0 PPO run directory (agents.train_ppo) to evaluate")
     args = parser.parse_args(None if argv is None else list(argv))
+    if args.recurrent_timesteps < 0:
+        parser.error("--recurrent-timesteps must be >= 0")
     for name in ("ppo_timesteps", "design_ppo_timesteps"):
         if getattr(args, name) <= 0:
             parser.error(f"--{name.replace('_', '-')} must be positive")
     if args.in_sample_run and not (Path(args.in_sample_run) / "final_model.zip").exists():
         parser.error(f"--in-sample-run {args.in_sample_run}: no final_model.zip there")
     run_bench_study(args.out, seeds=args.seeds, ppo_timesteps=args.ppo_timesteps,
+                    recurrent_timesteps=args.recurrent_timesteps or None,
                     design_ppo_timesteps=args.design_ppo_timesteps, in_sample_run=args.in_sample_run)
     return 0
 

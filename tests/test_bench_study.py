@@ -42,19 +42,25 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(bs, "TUNING_BENCHES", 2)
     monkeypatch.setattr(bs, "PI_GRID", [(1.0, 0.0)])
     monkeypatch.setattr(bs, "ADAPTIVE_GRID", (1e4,))
-    kwargs = dict(seeds=[0], ppo_timesteps=512, design_ppo_timesteps=512, designs=bs.DESIGNS[:1],
-                  executor="serial", log=lambda s: None)
+    kwargs = dict(seeds=[0], ppo_timesteps=512, recurrent_timesteps=512, design_ppo_timesteps=512,
+                  designs=bs.DESIGNS[:1], executor="serial", log=lambda s: None)
     bs.run_bench_study(tmp_path, **kwargs)
     with open(tmp_path / "heldout.csv") as f:
         rows = list(csv.DictReader(f))
     assert {r["bench_set"] for r in rows} == {"nominal", "heldout"}
-    assert {"steel_tip", "frictionless_tip", "pi_feedback", "adaptive", "ppo_robust"} <= {r["controller"] for r in rows}
+    assert {"steel_tip", "frictionless_tip", "pi_feedback", "adaptive", "ppo_robust",
+            "ppo_recurrent"} <= {r["controller"] for r in rows}
+    recurrent = [r for r in rows if r["controller"] == "ppo_recurrent"]
+    assert {r["bench_set"] for r in recurrent} == {"nominal", "heldout"}
+    assert all(int(r["n_episodes"]) > 0 for r in recurrent)
     with open(tmp_path / "designs.csv") as f:
         header = next(csv.reader(f))
     assert header[:8] == ["design", "tip_friction_deg", "stage_bandwidth_hz", "latency_s", "sensor_noise_m",
                           "controller", "success_rate", "mimicry_error_mm"]
     for name in ("heldout.png", "designs.png", "robust_learning_curves.png", "recommendation.txt"):
         assert (tmp_path / name).stat().st_size > 0
-    stamp = (tmp_path / "ppo_robust" / "seed_0" / "final_model.zip").stat().st_mtime_ns
+    stamps = {kind: (tmp_path / kind / "seed_0" / "final_model.zip").stat().st_mtime_ns
+              for kind in ("ppo_robust", "ppo_recurrent")}
     bs.run_bench_study(tmp_path, **kwargs)   # resumes: nothing is trained again
-    assert (tmp_path / "ppo_robust" / "seed_0" / "final_model.zip").stat().st_mtime_ns == stamp
+    assert stamps == {kind: (tmp_path / kind / "seed_0" / "final_model.zip").stat().st_mtime_ns
+                      for kind in ("ppo_robust", "ppo_recurrent")}

@@ -191,7 +191,7 @@ class Model:
         s = self.specimen
         y = np.zeros(K.N_STATE)
         y[K.S_R:K.S_R + 3] = s.mass_centre_world
-        y[K.S_Q:K.S_Q + 4] = quaternion_from_matrix(s.body_axes)
+        y[K.S_Q:K.S_Q + 4] = self._rest_quaternion
         y[K.S_F] = thrust_N
         y[K.S_U] = self.loading.tip_offset_m
         return y
@@ -234,6 +234,11 @@ class Model:
             force += np.asarray(f, dtype=float)
             moment += np.asarray(m, dtype=float)
         return force, moment
+
+    @cached_property
+    def _rest_quaternion(self) -> np.ndarray:
+        """The specimen's rest orientation as a quaternion (computed once per model)."""
+        return quaternion_from_matrix(self.specimen.body_axes)
 
     @cached_property
     def kernel_params_cached(self) -> np.ndarray:

@@ -44,11 +44,13 @@ class Plane:
     dip_deg: float
     dip_direction_deg: float = 0.0
 
-    @property
+    @cached_property
     def normal(self) -> np.ndarray:
-        """Upward unit normal ``(sin d cos a, cos d, sin d sin a)``."""
+        """Upward unit normal ``(sin d cos a, cos d, sin d sin a)`` (computed once; read-only)."""
         d, a = math.radians(self.dip_deg), math.radians(self.dip_direction_deg)
-        return np.array([math.sin(d) * math.cos(a), math.cos(d), math.sin(d) * math.sin(a)])
+        normal = np.array([math.sin(d) * math.cos(a), math.cos(d), math.sin(d) * math.sin(a)])
+        normal.setflags(write=False)
+        return normal
 
     def height(self, x1: np.ndarray | float, x3: np.ndarray | float) -> np.ndarray | float:
         """Elevation ``x2`` of the plane above the horizontal point ``(x1, x3)``."""
@@ -62,10 +64,12 @@ class Foundation:
 
     planes: tuple[Plane, Plane, Plane]
 
-    @property
+    @cached_property
     def normals(self) -> np.ndarray:
-        """(3, 3) array whose row i is the upward unit normal of FP(i+1)."""
-        return np.array([p.normal for p in self.planes])
+        """(3, 3) array whose row i is the upward unit normal of FP(i+1) (computed once; read-only)."""
+        normals = np.array([p.normal for p in self.planes])
+        normals.setflags(write=False)
+        return normals
 
     def validate(self, source: str | None = None) -> None:
         if len(self.planes) != 3:
@@ -117,9 +121,9 @@ class Specimen:
         """Rest body frame as columns ``[g1 g2 g3]`` (paper section 3.1), world coordinates."""
         p1, p2, p3 = self.contact_points_m
         g1 = (p2 - p1) / np.linalg.norm(p2 - p1)
-        g2 = np.cross(p2 - p1, p3 - p1)
+        g2 = cross3(p2 - p1, p3 - p1)
         g2 /= np.linalg.norm(g2)
-        return np.column_stack([g1, g2, np.cross(g1, g2)])
+        return np.column_stack([g1, g2, cross3(g1, g2)])
 
     @cached_property
     def mass_centre_world(self) -> np.ndarray:
@@ -163,7 +167,7 @@ class Specimen:
         if not 0.0 <= self.tip_friction_deg < 45.0:
             raise SpecimenError("tip_friction_deg", f"must lie in [0, 45), got {self.tip_friction_deg}", source)
         p = self.contact_points_m
-        if np.linalg.norm(np.cross(p[1] - p[0], p[2] - p[0])) < 1e-9:
+        if np.linalg.norm(cross3(p[1] - p[0], p[2] - p[0])) < 1e-9:
             raise SpecimenError("contact_points_m", "the three contact points are collinear", source)
         for i, (n, point) in enumerate(zip(foundation.normals, p)):
             off = float(n @ point)
@@ -181,14 +185,16 @@ class Specimen:
                   "load_point_A_m": self.load_point_A_m, "load_point_B_m": self.load_point_B_m,
                   "friction_deg": self.friction_deg, "tip_friction_deg": self.tip_friction_deg}
         for name, value in values.items():
-            if not np.all(np.isfinite(np.asarray(value, dtype=float))):
+            finite = math.isfinite(value) if isinstance(value, float) else \
+                bool(np.isfinite(np.asarray(value, dtype=float)).all())
+            if not finite:
                 raise SpecimenError(name, "contains NaN or infinity", source)
 
     def _check_inertia(self, source: str | None) -> None:
         inertia = self.inertia_kg_m2
         if inertia.shape != (3, 3):
             raise SpecimenError("inertia_kg_m2", f"must be 3x3, got shape {inertia.shape}", source)
-        if not np.allclose(inertia, inertia.T, rtol=0, atol=1e-12 * max(1.0, np.abs(inertia).max())):
+        if not np.abs(inertia - inertia.T).max() <= 1e-12 * max(1.0, np.abs(inertia).max()):  # (np.allclose, rtol 0)
             raise SpecimenError("inertia_kg_m2", "must be symmetric", source)
         principal = np.linalg.eigvalsh(inertia)
         if principal.min() <= 0:
@@ -198,6 +204,14 @@ class Specimen:
         if a + b < c * (1 - 1e-12):
             raise SpecimenError("inertia_kg_m2", f"principal moments {principal.tolist()} violate the triangle "
                                 "inequality I1 + I2 >= I3 (no real mass distribution has them)", source)
+
+
+def cross3(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of two 3-vectors, the same operations in the same order (so the same bits), without
+    ``np.cross``'s general-shape machinery (tens of microseconds per call)."""
+    a0, a1, a2 = float(a[0]), float(a[1]), float(a[2])
+    b0, b1, b2 = float(b[0]), float(b[1]), float(b[2])
+    return np.array([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0])
 
 
 def barycentric_horizontal(point: np.ndarray, triangle: np.ndarray) -> np.ndarray:

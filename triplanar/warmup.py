@@ -44,6 +44,10 @@ def warm_envs() -> bool:
     env.unwrapped._contact_points()
     env.unwrapped._tip_line()
     env.close()
+    env = gym.make("TriPlanarShear-v1")  # its bench layer (envs.triplanar_shear_v1.bench_command, bench_observation)
+    env.reset(seed=0)
+    env.step(np.zeros(2, np.float32))
+    env.close()
     try:
         vec = gym.make_vec("TriPlanarShear-v0", num_envs=2)
     except ImportError:  # the vector env's stable-baselines3 adapter is missing

@@ -31,8 +31,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
     parser.add_argument("--bench", action="store_true",
                         help="the bench study on TriPlanarShear-v1 instead (experiments.bench_study): held-out "
-                             "benches, feedback/adaptive controllers, robust PPO (--timesteps, default 150000), "
+                             "benches, feedback/adaptive controllers, robust PPO (--timesteps, default 300000; "
+                             "recurrent: --recurrent-timesteps), "
                              "the design sweep; resumable in --out")
+    parser.add_argument("--recurrent-timesteps", type=int, default=150_000,
+                        help="with --bench: recurrent PPO (sb3-contrib RecurrentPPO, LSTM) timesteps per seed "
+                             "(default 150000; 0 leaves it out)")
     parser.add_argument("--design-timesteps", type=positive_int, default=40_000,
                         help="with --bench: robust PPO timesteps per design of the sweep (default 40000)")
     parser.add_argument("--in-sample-run", help="with --bench: a finished v0 PPO run directory (OUT/seed_S of "
@@ -45,7 +49,10 @@ def run(args: argparse.Namespace) -> int:
     with executor_from_args(args) as executor:
         if args.bench:
             from experiments.bench_study import run_bench_study  # noqa: PLC0415
-            run_bench_study(args.out, seeds=args.seeds, ppo_timesteps=args.timesteps or 150_000,
+            if args.recurrent_timesteps < 0:
+                raise SystemExit("--recurrent-timesteps must be >= 0")
+            run_bench_study(args.out, seeds=args.seeds, ppo_timesteps=args.timesteps or 300_000,
+                            recurrent_timesteps=args.recurrent_timesteps or None,
                             design_ppo_timesteps=args.design_timesteps, in_sample_run=args.in_sample_run,
                             executor=executor)
             return 0
