@@ -34,43 +34,20 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from triplanar import Effect, Parameter, make_effect  # noqa: E402
+from triplanar import make_effect  # noqa: E402
 from triplanar.labdata import generate_lab_data  # noqa: E402
 from triplanar.workbench import ModelSpec, evaluate_spec, repeat_scatter_mm  # noqa: E402
 from triplanar.workbench.evidence import (MOSTLY_IN_TIME, PEAK_FACTOR, dominant_frequency,  # noqa: E402
                                           expected_scatter_mm, instrument_noise_mm, time_domain)
 from triplanar.workbench.fit import discrepancies  # noqa: E402
+from triplanar.workbench.scenarios import ForceRipple, ThrustRipple  # noqa: E402
 
 LOADS = (27.8, 35.0, 45.0, 55.6)
 
 
-class Ripple(Effect):
-    """Thrust ripple F_T (1 + frac sin(2 pi f t + phase)) along the thrust (outside the library; not registered)."""
-
-    name = "threshold_ripple"
-    parameters = {"frac": Parameter(0.0, 0.0, 1.0, "", "amplitude / F_T"),
-                  "freq_hz": Parameter(10.0, 0.1, 100.0, "Hz", "frequency"),
-                  "phase_rad": Parameter(0.0, -10.0, 10.0, "rad", "phase at t = 0")}
-
-    def wrench(self, t, state):
-        f = self["frac"] * state.thrust_N * math.sin(2 * math.pi * self["freq_hz"] * t + self["phase_rad"])
-        return f * state.thrust_direction, np.zeros(3)
-
-
-class ForceRipple(Effect):
-    """A steady force ripple of amplitude_N along e1 (outside the library; not registered)."""
-
-    name = "threshold_force_ripple"
-    parameters = {"amplitude_N": Parameter(0.0, 0.0, 50.0, "N", "amplitude"),
-                  "freq_hz": Parameter(6.0, 0.1, 100.0, "Hz", "frequency")}
-
-    def wrench(self, t, state):
-        return np.array([self["amplitude_N"] * math.sin(2 * math.pi * self["freq_hz"] * t), 0.0, 0.0]), np.zeros(3)
-
-
 def register_locals() -> None:
     from triplanar import EFFECTS
-    EFFECTS[Ripple.name] = Ripple
+    EFFECTS[ThrustRipple.name] = ThrustRipple  # (by name, for the worker processes)
     EFFECTS[ForceRipple.name] = ForceRipple
 
 
@@ -87,14 +64,14 @@ CASES = {
                                   ["contact_friction:phi1_deg=15,phi2_deg=17,phi3_deg=10"], "path"),
     "cohesion 0.4 N": (["cohesion:c_N=0.4"], None, ["cohesion:c_N=0.4"], "time"),
     "end_friction 8": ([END], None, [END], "path"),
-    "ripple 30 % 10 Hz, random phase": ([END, "threshold_ripple:frac=0.3,freq_hz=10"],
-                                        {"threshold_ripple": {"phase_rad": (-math.pi, math.pi)}}, [END], "periodic"),
-    "ripple 40 % 4 Hz, random phase": ([END, "threshold_ripple:frac=0.4,freq_hz=4"],
-                                       {"threshold_ripple": {"phase_rad": (-math.pi, math.pi)}}, [END], "periodic"),
-    "ripple 15 % 10 Hz, random phase": ([END, "threshold_ripple:frac=0.15,freq_hz=10"],
-                                        {"threshold_ripple": {"phase_rad": (-math.pi, math.pi)}}, [END], "periodic"),
-    "force ripple 6 N 6 Hz": ([END, "threshold_force_ripple:amplitude_N=6,freq_hz=6"], None, [END], "periodic"),
-    "ripple 30 % 10 Hz, locked phase": ([END, "threshold_ripple:frac=0.3,freq_hz=10,phase_rad=1"], None, [END],
+    "ripple 30 % 10 Hz, random phase": ([END, "outside_thrust_ripple:frac=0.3,freq_hz=10"],
+                                        {"outside_thrust_ripple": {"phase_rad": (-math.pi, math.pi)}}, [END], "periodic"),
+    "ripple 40 % 4 Hz, random phase": ([END, "outside_thrust_ripple:frac=0.4,freq_hz=4"],
+                                       {"outside_thrust_ripple": {"phase_rad": (-math.pi, math.pi)}}, [END], "periodic"),
+    "ripple 15 % 10 Hz, random phase": ([END, "outside_thrust_ripple:frac=0.15,freq_hz=10"],
+                                        {"outside_thrust_ripple": {"phase_rad": (-math.pi, math.pi)}}, [END], "periodic"),
+    "force ripple 6 N 6 Hz": ([END, "outside_force_ripple:amp_N=6,freq_hz=6"], None, [END], "periodic"),
+    "ripple 30 % 10 Hz, locked phase": ([END, "outside_thrust_ripple:frac=0.3,freq_hz=10,phase_rad=1"], None, [END],
                                         "periodic"),
 }
 

@@ -13,13 +13,12 @@ dataset it lands within 15 % (docs/workbench.md).
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
-from triplanar import Effect, Parameter, make_effect
+from triplanar import make_effect
 from triplanar.labdata import generate_lab_data
 from triplanar.workbench import Diagnoser, ForwardSelection
-from triplanar.workbench.scenarios import HIDDEN_EFFECTS
+from triplanar.workbench.scenarios import HIDDEN_EFFECTS, ForceRipple
 
 pytestmark = pytest.mark.slow  # each test fits models to datasets: seconds to tens of seconds
 
@@ -71,17 +70,6 @@ def test_no_hidden_effect_gives_null() -> None:
     show("none", report)
     assert report["missing_effect"] is None
     assert report["confidence"] == "none"
-
-
-class ForceRipple(Effect):
-    """Outside the library (not registered): a thrust ripple, F_ripple sin(2 pi f t) along e1."""
-
-    name = "force_ripple"
-    parameters = {"amp_N": Parameter(0.0, 0.0, 20.0, "N", "amplitude"),
-                  "freq_hz": Parameter(6.0, 0.1, 100.0, "Hz", "frequency")}
-
-    def wrench(self, t, state):
-        return np.array([self["amp_N"] * np.sin(2 * np.pi * self["freq_hz"] * t), 0.0, 0.0]), np.zeros(3)
 
 
 def test_effect_outside_the_library_is_not_claimed_with_high_confidence() -> None:

@@ -18,9 +18,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from triplanar import Effect, Parameter, make_effect
+from triplanar import make_effect
 from triplanar.labdata import generate_lab_data
 from triplanar.workbench import Diagnoser, EffectFit, ModelSpec, compare, load_tests
+from triplanar.workbench.scenarios import ThrustRipple
 
 pytestmark = pytest.mark.slow  # each test simulates and fits datasets: seconds to a minute
 
@@ -44,19 +45,6 @@ def check_contract(report: dict) -> None:
         assert {"effect", "param", "given", "fitted", "ci95", "cv_error_mm", "improvement"} <= set(r)
     assert {"instrument_noise_mm", "repeat_scatter_mm", "unexplained_error_mm"} <= set(report["noise"])
     assert {"arrival_error_s", "lag_rms_mm", "dominant_frequency_hz"} <= set(report["time_domain"])
-
-
-class ThrustRipple(Effect):
-    """Outside the library (never registered): the thrust oscillates, F_T (1 + a sin(2 pi f t + phase))."""
-
-    name = "thrust_ripple_hidden"
-    parameters = {"frac": Parameter(0.0, 0.0, 1.0, "", "amplitude as a fraction of F_T"),
-                  "freq_hz": Parameter(10.0, 0.1, 100.0, "Hz", "frequency"),
-                  "phase_rad": Parameter(0.0, -10.0, 10.0, "rad", "phase at t = 0")}
-
-    def wrench(self, t, state):
-        force = self["frac"] * state.thrust_N * math.sin(2 * math.pi * self["freq_hz"] * t + self["phase_rad"])
-        return force * state.thrust_direction, np.zeros(3)
 
 
 def ripple_data(frac: float, freq_hz: float, seed: int = 1) -> list:
