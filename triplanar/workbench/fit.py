@@ -119,7 +119,26 @@ class FitOutcome:
         return rms([e for _, e in self.held_out_errors.values()])
 
 
-class Problem:
+class ScaledBox:
+    """Free parameters ``names`` scaled to [0, 1] over their fitting bounds ``lo``-``hi``: the optimisers work in
+    the scaled box (a joint fit, :class:`Problem`, and a profiled one, ``pertest.ProfiledProblem``)."""
+
+    names: list[tuple[str, str]]
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return len(self.names)
+
+    def natural(self, u: np.ndarray) -> np.ndarray:
+        return self.lo + np.clip(u, 0.0, 1.0) * (self.hi - self.lo)
+
+    def scaled(self, x: Sequence[float]) -> np.ndarray:
+        return np.clip((np.asarray(x, dtype=float) - self.lo) / (self.hi - self.lo), 0.0, 1.0)
+
+
+class Problem(ScaledBox):
     """Scaling, packing and the residual function of a joint fit of several candidates.
 
     Evaluations are cached per (parameter vector, load level) in ``cache``, which several problems over
@@ -135,16 +154,6 @@ class Problem:
         self.hi = np.array([c.bounds[p][1] for c in self.candidates for p in c.free], dtype=float)
         self.cache: dict[tuple, tuple[TestDiscrepancy, ...]] = {} if cache is None else cache
         self.nfev = 0
-
-    @property
-    def n(self) -> int:
-        return len(self.names)
-
-    def natural(self, u: np.ndarray) -> np.ndarray:
-        return self.lo + np.clip(u, 0.0, 1.0) * (self.hi - self.lo)
-
-    def scaled(self, x: np.ndarray) -> np.ndarray:
-        return np.clip((np.asarray(x, dtype=float) - self.lo) / (self.hi - self.lo), 0.0, 1.0)
 
     def start(self, warm: Mapping[str, Mapping[str, float]] | None = None) -> np.ndarray:
         """Scaled start: ``warm[effect][param]`` where given, else each candidate's neutral start."""

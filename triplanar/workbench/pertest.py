@@ -41,6 +41,7 @@ from scipy.optimize import least_squares
 from ..measurement import MeasuredTest
 from .candidates import Candidate
 from .discrepancy import TestDiscrepancy
+from .fit import ScaledBox
 from .spec import EvalTask, ModelSpec, spec_with_values
 
 #: Finite-difference step, as a fraction of each parameter's fit range (as :data:`fit.DIFF_STEP`).
@@ -198,7 +199,7 @@ def projected(jac_shared: np.ndarray, jac_phi: np.ndarray) -> np.ndarray:
     return jac_shared - jac_phi @ coef
 
 
-class ProfiledProblem:
+class ProfiledProblem(ScaledBox):
     """The outer problem over the shared parameters (scaled to [0, 1]); residuals are the tests' profiled
     residuals. Keeps each test's latest profile at the best point seen (the warm start of the next)."""
 
@@ -215,16 +216,6 @@ class ProfiledProblem:
         self.profiles: dict[tuple, list[TestProfile]] = {}
         self.nfev = 0
         self.simulations = 0
-
-    @property
-    def n(self) -> int:
-        return len(self.names)
-
-    def natural(self, u: np.ndarray) -> np.ndarray:
-        return self.lo + np.clip(u, 0.0, 1.0) * (self.hi - self.lo)
-
-    def scaled(self, x: Sequence[float]) -> np.ndarray:
-        return np.clip((np.asarray(x, dtype=float) - self.lo) / (self.hi - self.lo), 0.0, 1.0)
 
     def start(self, warm: Mapping[str, Mapping[str, float]] | None = None) -> np.ndarray:
         warm = warm or {}
