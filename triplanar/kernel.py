@@ -148,9 +148,9 @@ EVENTS.export(globals())
 # arrays, and pass it down: one array keeps calls cheap (a tuple of arrays costs a reference count per member per
 # call) and row slices are free views. Each module owns its rows: the kernel's come first (below), then
 # triplanar.stepping's, then triplanar.driver's, then the env's (each layout starts where the one it extends
-# ends), and a module's new_workspace() allocates up to its own last row. The public functions without a workspace argument allocate
-# their own, for callers outside hot loops. Kernel functions that never run nested inside one another share rows
-# (each rewrites what it reads).
+# ends), and a module's new_workspace() allocates up to its own last row. The public functions without a workspace
+# argument allocate their own, for callers outside hot loops. Kernel functions that never run nested inside one
+# another share rows (each rewrites what it reads).
 WORKSPACE = Layout("W_", "N_KERNEL_WS_ROWS", [
     ("R", 3, "3x3 rotation matrix"),
     ("RHO", 4, "4x3 points of action relative to the mass centre"),
