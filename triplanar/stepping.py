@@ -25,8 +25,9 @@ from .compiled_cache import drop_if_stale, numba_cache_dir
 from .kernel import (A_ACC, A_SLIP, A_SPEED, A_STICK, A_STICK_F, A_TIP_F, A_TIP_STICK, C_NEVENT, C_NLOG, C_NREJECT,
                      C_NSTEP, EV_RELEASE, EV_SLOW, EV_STOP, EV_TIP_RELEASE, EV_TIP_STOP, N_AUX, N_EVENTS,
                      N_KERNEL_WS_ROWS, N_STATE, M_D0, M_STUCK, M_TIP_STUCK, P_C, P_CASE, P_TANEF, SLIP_BLEND, S_DC,
-                     S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD, W_COUNT, W_MODES, ZERO_SPEED, _cross, _rotate, allocate_workspace,
-                     event_values_ws, kinetic_energy_ws, modes_of, project_ws, quat_to_matrix, rhs_ws)
+                     S_DTIP, S_F, S_Q, S_V, S_W, S_WLOAD, W_COUNT, W_MODES, ZERO_SPEED, _cross, _rotate,
+                     allocate_workspace, event_values_ws, kinetic_energy_ws, modes_of, project_ws, quat_to_matrix,
+                     rhs_ws)
 from .layout import Layout
 from .outcome import BUFFER_FULL, EVENT_OUTCOME, FAILED, RELEASED, RUNNING, SLOW, STOPPED, TIME_LIMIT
 
