@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Iterable
 
 PACKAGES = ("triplanar", "envs", "agents", "experiments")  # whose compiled functions the notice is about
-COMPILE_SECONDS = 40  # simulate, env and vector env from an empty cache, one core (docs/performance.md)
+COMPILE_SECONDS = 60  # simulate, env and vector env from an empty cache, one core: ~50 s of CPU (docs/performance.md)
 NOTICE = (f"triplanar: compiling the physics kernels, once (up to about {COMPILE_SECONDS} s; later runs load them "
           "from numba's cache, and `make install` or `python -m triplanar.warmup` compiles them ahead)...")
 
