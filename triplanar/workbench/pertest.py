@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from ..measurement import MeasuredTest
 from .candidates import Candidate
 from .discrepancy import TestDiscrepancy
-from .fit import ScaledBox
+from .fit import AT_BOUND, FitOutcome, ScaledBox, overall_error, safe_evaluate
 from .spec import EvalTask, ModelSpec, spec_with_values
 
 #: Finite-difference step, as a fraction of each parameter's fit range (as :data:`fit.DIFF_STEP`).
@@ -76,7 +76,6 @@ def spec_at(base: ModelSpec, candidates: Sequence[Candidate], shared: Sequence[f
 
 
 def _evaluate_one(spec: ModelSpec, test: MeasuredTest, report: bool = False) -> TestDiscrepancy:
-    from .fit import safe_evaluate
     return safe_evaluate(EvalTask(spec, float(test.shear_force_N), (test,), report=report)).discrepancies[0]
 
 
@@ -314,7 +313,6 @@ def solve_profiled(problem: ProfiledProblem, start: Sequence[float] | None = Non
 
 def run_profiled_fit(task, mapper: Callable = map):
     """:func:`triplanar.workbench.fit.run_fit` for candidates with per-test parameters (module doc)."""
-    from .fit import AT_BOUND, FitOutcome, overall_error
     began = time.perf_counter()
     problem = ProfiledProblem(task.base, task.candidates, task.train, mapper, getattr(task, "phi_start", None))
     u, message = solve_profiled(problem, task.start, task.max_nfev, task.warm)
@@ -381,7 +379,6 @@ def evaluate_per_test(spec: ModelSpec, per_test: Mapping[str, Mapping[str, Mappi
                       tests: Sequence[MeasuredTest], mapper: Callable = map) -> list[TestDiscrepancy]:
     """Discrepancies of every test against ``spec`` with its own per-test values (one simulation per test;
     tests without values are evaluated with ``spec`` as it is)."""
-    from .fit import safe_evaluate
     tasks = [EvalTask(spec_for_test(spec, per_test, t.test_id), float(t.shear_force_N), (t,)) for t in tests]
     return [r.discrepancies[0] for r in mapper(safe_evaluate, tasks)]
 
