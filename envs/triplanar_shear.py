@@ -540,6 +540,20 @@ def control_step(y, p, modes, armed, st, ref, action, cfg, obs, inf, ws) -> int:
     return code
 
 
+def contact_points_of(y: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """The three contact points (world, 3x3) of state ``y``: what a rendered trace records."""
+    cps = np.empty((3, 3))
+    K.contact_points(y, p, cps)
+    return cps
+
+
+def load_point_of(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray) -> np.ndarray:
+    """The instantaneous load point (world) at (t, y): where a rendering draws the tip."""
+    aux = np.empty(K.N_AUX)
+    K.rhs(t, y, p, modes, np.empty(K.N_STATE), aux)
+    return aux[K.A_PL:K.A_PL + 3].copy()
+
+
 def observation_space() -> spaces.Box:
     high = OBS_HIGH.astype(np.float32)
     return spaces.Box(-high, high, dtype=np.float32)
@@ -744,15 +758,11 @@ class TriPlanarShearEnv(gym.Env):
 
     # -- helpers ---------------------------------------------------------------------------------
     def _contact_points(self) -> np.ndarray:
-        cps = np.empty((3, 3))
-        K.contact_points(self._y, self._p, cps)
-        return cps
+        return contact_points_of(self._y, self._p)
 
     def _tip_line(self) -> np.ndarray:
         """Overhead (x1, x3) of the load point and the tip line's lateral position."""
-        aux = np.empty(K.N_AUX)
-        K.rhs(self._st[ST_T], self._y, self._p, self._modes, np.empty(K.N_STATE), aux)
-        return aux[K.A_PL:K.A_PL + 3].copy()
+        return load_point_of(self._st[ST_T], self._y, self._p, self._modes)
 
     @property
     def state(self) -> np.ndarray:

@@ -20,9 +20,9 @@ from triplanar.layout import Layout
 from triplanar.specimen import Foundation, Plane, Specimen
 
 from .triplanar_shear import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, N_INFO, OBS_DIM, OBS_POS, OBS_PREV, ST_CP_REST,
-                              ST_LOAD, ST_T, EpisodeDraw, ShearConfig, StartError, check_action, control_step,
-                              episode_start, info_dict, make_config, new_workspace, observation_space,
-                              specimen_key)
+                              ST_LOAD, ST_T, EpisodeDraw, ShearConfig, StartError, check_action, contact_points_of,
+                              control_step, episode_start, info_dict, load_point_of, make_config, new_workspace,
+                              observation_space, specimen_key)
 
 # (This module's compiled functions read the kernel's and v0's layouts; envs/__init__.py drops the package's numba
 # cache when those change.)
@@ -506,14 +506,10 @@ class TriPlanarShearV1Env(gym.Env):
         return info
 
     def _contact_points(self) -> np.ndarray:
-        cps = np.empty((3, 3))
-        K.contact_points(self._y, self._p, cps)
-        return cps
+        return contact_points_of(self._y, self._p)
 
     def _load_point(self) -> np.ndarray:
-        aux = np.empty(K.N_AUX)
-        K.rhs(self._st[ST_T], self._y, self._p, self._modes, np.empty(K.N_STATE), aux)
-        return aux[K.A_PL:K.A_PL + 3].copy()
+        return load_point_of(self._st[ST_T], self._y, self._p, self._modes)
 
     @property
     def episode_bench(self) -> Bench:
