@@ -23,6 +23,7 @@ import math
 from typing import Any
 
 import numpy as np
+from scipy.stats import norm
 
 CONFIDENCE = 0.95
 BOOTSTRAP_RESAMPLES = 2000
@@ -89,7 +90,7 @@ def cvar(errors: Any, fraction: float = CVAR_FRACTION) -> float:
     values = values[np.isfinite(values)]
     if not values.size:
         return math.nan
-    k = max(1, int(math.ceil(fraction * values.size - 1e-9)))
+    k = max(1, math.ceil(fraction * values.size - 1e-9))
     return float(values[-k:].mean())
 
 
@@ -97,8 +98,6 @@ def wilson(successes: int, n: int, confidence: float = CONFIDENCE) -> tuple[floa
     """Wilson's score interval of a binomial proportion ``successes / n``."""
     if n <= 0:
         return math.nan, math.nan
-    from scipy.stats import norm  # noqa: PLC0415
-
     z = float(norm.ppf(0.5 + confidence / 2.0))
     p = successes / n
     centre = (p + z * z / (2 * n)) / (1 + z * z / n)
