@@ -95,6 +95,8 @@ def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = 
              seeds: Sequence[int] | None = None, executor: ExecutorLike = None, zoo_dir: Path | None = None,
              progress: bool = True) -> Evaluation:
     """Run ``controller`` on ``n`` benches of ``bench_set`` (the nominal set has its 12 loads) for each seed."""
+    from agents import zoo  # noqa: PLC0415
+    zoo_dir = Path(zoo_dir or zoo.ZOO_DIR)   # named explicitly in every task
     names = controller_names(zoo_dir)
     if controller not in names:
         raise ValueError(f"unknown controller {controller!r}; choose from {names}")
