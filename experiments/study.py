@@ -168,7 +168,7 @@ def write_tables(result: StudyResult) -> None:
 
 
 def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
-    run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, config=args.config or DEFAULT_CONFIG,
+    run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds or (0, 1, 2), config=args.config or DEFAULT_CONFIG,
               timesteps=args.timesteps, train=not args.skip_train, doc=args.doc or None,
               overwrite_doc=args.overwrite_doc, executor=executor)
     return 0
