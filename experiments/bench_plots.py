@@ -25,12 +25,18 @@ def _errors(outcomes: Sequence[Sequence[Any]]) -> np.ndarray:
     return values[np.isfinite(values)]
 
 
+def _xerr(value: float, low: float, high: float) -> list[list[float]]:
+    """Error-bar lengths; a percentile interval need not contain the point estimate (small, skewed samples), so
+    a side that would be negative is drawn as zero."""
+    return [[max(0.0, value - low)], [max(0.0, high - value)]]
+
+
 def rows_plot(path: Path, rows: Sequence[Row], title: str) -> None:
     """One line per row (controller and bench set), labels on the left: error distribution with the mean's
     interval (left panel, log scale: the errors span 0.1-20 mm) and success rate with its interval (right)."""
     n = len(rows)
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 1.2 + 0.32 * n), sharey=True,
-                                 gridspec_kw={"width_ratios": [3, 1]})
+                                 gridspec_kw={"width_ratios": [3, 1]}, layout="constrained")
     rng = np.random.default_rng(0)  # jitter only
     y = np.arange(n)[::-1]
     seen: set[str] = set()
@@ -41,12 +47,12 @@ def rows_plot(path: Path, rows: Sequence[Row], title: str) -> None:
                    label=None if bench_set in seen else bench_set)
         seen.add(bench_set)
         if np.isfinite(s["mimicry_error_mm"]):
-            a1.errorbar(s["mimicry_error_mm"], yi, xerr=[[s["mimicry_error_mm"] - s["error_low_mm"]],
-                                                         [s["error_high_mm"] - s["mimicry_error_mm"]]],
+            a1.errorbar(s["mimicry_error_mm"], yi, xerr=_xerr(s["mimicry_error_mm"], s["error_low_mm"],
+                                                              s["error_high_mm"]),
                         fmt="D", color="k", ms=4, capsize=3, lw=1.2)
             a1.plot(s["cvar10_mm"], yi, marker="|", color="k", ms=9)
         rate = 100 * s["success_rate"]
-        a2.errorbar(rate, yi, xerr=[[rate - 100 * s["success_low"]], [100 * s["success_high"] - rate]], fmt="o",
+        a2.errorbar(rate, yi, xerr=_xerr(rate, 100 * s["success_low"], 100 * s["success_high"]), fmt="o",
                     color=colour, capsize=3)
     a1.axvline(TARGET_MM, color="k", lw=0.8, ls="--")
     a1.set_xscale("log")
@@ -66,16 +72,17 @@ def designs_plot(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     """The design sweep: one line per design and controller, sorted by hardware demand, labels on the left; mean
     error with its 95 % interval and the success rate with its interval."""
     n = len(rows)
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 1.2 + 0.3 * n), sharey=True, gridspec_kw={"width_ratios": [3, 1]})
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 1.2 + 0.3 * n), sharey=True, gridspec_kw={"width_ratios": [3, 1]},
+                                 layout="constrained")
     y = np.arange(n)[::-1]
     for yi, r in zip(y, rows):
         colour = "tab:orange" if r["controller"].startswith("ppo") else "tab:blue"
         if np.isfinite(r["mimicry_error_mm"]):
-            a1.errorbar(r["mimicry_error_mm"], yi, xerr=[[r["mimicry_error_mm"] - r["error_low_mm"]],
-                                                         [r["error_high_mm"] - r["mimicry_error_mm"]]],
+            a1.errorbar(r["mimicry_error_mm"], yi, xerr=_xerr(r["mimicry_error_mm"], r["error_low_mm"],
+                                                              r["error_high_mm"]),
                         fmt="D", color=colour, ms=4, capsize=3)
         rate = 100 * r["success_rate"]
-        a2.errorbar(rate, yi, xerr=[[rate - 100 * r["success_low"]], [100 * r["success_high"] - rate]], fmt="o",
+        a2.errorbar(rate, yi, xerr=_xerr(rate, 100 * r["success_low"], 100 * r["success_high"]), fmt="o",
                     color=colour, capsize=3)
     a1.axvline(TARGET_MM, color="k", lw=0.8, ls="--")
     a1.set_yticks(y, [f"{r['design']} (demand {r['demand']}): {r['controller']}" for r in rows], fontsize=7)

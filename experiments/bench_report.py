@@ -48,7 +48,9 @@ def budgets(summary: dict[str, Any]) -> list[str]:
         f"* benches: {summary['n_heldout']} held-out, {summary['n_stress']} stress, the nominal 12 loads; scripted "
         f"controllers: {len(summary['scripted_seeds'])} sensor-noise replicates",
         f"* tuned gains: PI {summary['pi_gains']}, adaptive {summary['adaptive_gain']}",
-        f"* wall time: tuning {_minutes(t['tuning_s'])}, PPO training {_minutes(t['ppo_training_s'])} (per run: "
+        "* wall time of the command that wrote this report (a phase resumed from finished tasks reads them back and "
+        "takes almost none; each training run's own time is from its run directory): "
+        f"tuning {_minutes(t['tuning_s'])}, PPO training {_minutes(t['ppo_training_s'])} (per run: "
         f"{per_seed}), evaluation {_minutes(t['evaluation_s'])}, design sweep {_minutes(t['design_sweep_s'])}",
     ]
 
