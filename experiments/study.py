@@ -87,7 +87,7 @@ class EvalTask:
 
 @lru_cache(maxsize=8)
 def _ppo_controller(model_path: str, vecnormalize_path: str):
-    from agents.ppo_controller import PPOController  # noqa: PLC0415
+    from agents.ppo_controller import PPOController
     return PPOController.load(model_path, vecnormalize_path, name=PPO_NAME)
 
 
@@ -105,7 +105,7 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
     """Train (or resume) PPO for each seed, evaluate every controller at every load, write the outputs. The
     seeds, then the evaluations (controller x load x seed), are tasks on ``executor`` (:mod:`triplanar.executor`)."""
 
-    from . import plots, report  # noqa: PLC0415
+    from . import plots, report
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     loads = tuple(float(f) for f in loads)
@@ -175,7 +175,7 @@ def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
 
 
 def main(argv: Iterable[str] | None = None) -> int:
-    from triplanar.commands.study import add_arguments  # noqa: PLC0415  (the options are the CLI's)
+    from triplanar.commands.study import add_arguments  # the options are the CLI's
     parser = argparse.ArgumentParser(prog="python -m experiments.study", description=__doc__.splitlines()[0])
     add_arguments(parser)
     return run(parser.parse_args(None if argv is None else list(argv)))

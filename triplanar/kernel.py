@@ -367,9 +367,11 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.n
     return dynamics_ws(t, y, p, dy, aux, ws)
 
 
+# Over the complexity limit (pyproject.toml) knowingly: a compiled kernel, whose split into helpers must be
+# shown to keep results bitwise (benchmarks/fingerprint.py) and speed (benchmarks/bench_speed_ab.py).
 @njit(cache=True, error_model="numpy")
-def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray,
-                ws: np.ndarray) -> bool:
+def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray,  # noqa: C901 (see above)
+                aux: np.ndarray, ws: np.ndarray) -> bool:
     """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
 
     Forces (paper section 3.3-3.4, ``docs/physics.md``): weight ``-W e2`` at the mass centre; at each

@@ -47,6 +47,7 @@ import secrets
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -328,38 +329,16 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
         If the file cannot be opened.
     """
     spath = os.fspath(path)
-    rest = None
-    if rest_positions is not None:
-        rest = np.asarray(rest_positions, dtype=np.float64)
-        if rest.shape != (3, 3) or not np.all(np.isfinite(rest)):
-            raise ValueError(f"rest_positions must be a finite (3, 3) array, got shape {rest.shape}")
-        if not (math.isfinite(tolerance_m) and tolerance_m > 0):
-            raise ValueError(f"tolerance_m must be a positive finite number, got {tolerance_m!r}")
-
+    rest = _rest_argument(rest_positions, tolerance_m)
     text = _decode(spath, Path(path).read_bytes())
     if not text.strip():
         raise MeasurementError(spath, None, None, "file is empty (expected a header row and data rows)")
 
     reader = csv.reader(_lines(text), strict=True)
-    try:
-        header = next(reader)
-    except csv.Error as exc:
-        raise MeasurementError(spath, 1, None, f"header row is not valid CSV: {exc}") from None
-    if _is_blank(header):
-        raise MeasurementError(spath, 1, None,
-                               "line 1 is blank; the header row must be the first line of the file")
-    col = _check_header(spath, header)
-    n_fields = len(header)
-    i_id = col["test_id"]
-    i_force = col["shear_force_N"]
-    i_t = col.get("t_s")
-    i_pos = [[col.get(c) for c in cp] for cp in POSITION_COLUMNS]  # x2 entries may be None
-    pos_names = POSITION_COLUMNS
-
+    n_fields, columns = _read_header(spath, reader)
     tests: dict[str, _TestBuilder] = {}
     stripped_ids: dict[str, tuple[str, int]] = {}
     pending_blank: int | None = None  # line of the first blank line not yet followed by data
-    n_data = 0
     line_end = reader.line_num
     while True:
         row = line_end + 1  # first line of the next record (records may span lines inside quotes)
@@ -383,79 +362,15 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
             raise MeasurementError(
                 spath, row, None,
                 f"row has {len(fields)} field(s) but the header has {n_fields}")
-        n_data += 1
+        _add_sample(spath, row, fields, columns, tests, stripped_ids)
 
-        test_id = fields[i_id]
-        if not test_id.strip():
-            raise MeasurementError(spath, row, "test_id", "test_id is empty")
-        if test_id.strip()[0] in FORMULA_STARTS or test_id[0] in FORMULA_STARTS:
-            raise MeasurementError(spath, row, "test_id", f"test_id {_describe(test_id)} starts with "
-                                   f"{test_id[0]!r}, which spreadsheets run as a formula; rename the test")
-        force = _parse_number(spath, row, "shear_force_N", fields[i_force], allow_empty=False)
-        t = (_parse_number(spath, row, "t_s", fields[i_t], allow_empty=False)
-             if i_t is not None else None)
-        sample = []
-        for k in range(3):
-            for a in range(3):
-                idx = i_pos[k][a]
-                if idx is None:
-                    sample.append(math.nan)
-                    continue
-                name = pos_names[k][a]
-                v = _parse_number(spath, row, name, fields[idx], allow_empty=(a == 1))
-                if abs(v) > MAX_ABS_POSITION_M:
-                    raise MeasurementError(
-                        spath, row, name,
-                        f"value {fields[idx].strip()} cannot be a position in metres "
-                        f"(|value| > {MAX_ABS_POSITION_M:g} m); it looks like millimetres - "
-                        "positions must be given in metres")
-                sample.append(v)
-
-        b = tests.get(test_id)
-        if b is None:
-            twin = stripped_ids.setdefault(test_id.strip(), (test_id, row))
-            if twin[0] != test_id:
-                raise MeasurementError(
-                    spath, row, "test_id",
-                    f"test_id {test_id!r} differs from {twin[0]!r} (row {twin[1]}) only by surrounding "
-                    "whitespace; use one spelling (two spellings would be two tests)")
-            b = tests[test_id] = _TestBuilder(test_id, force, row)
-        elif force != b.shear:
-            raise MeasurementError(
-                spath, row, "shear_force_N",
-                f"shear force {force!r} N of test {test_id!r} differs from {b.shear!r} N on row "
-                f"{b.shear_row}; the shear force must be the same on all rows of a test")
-        if t is not None:
-            if b.t and not t > b.t[-1]:
-                raise MeasurementError(
-                    spath, row, "t_s",
-                    f"time {t!r} s of test {test_id!r} does not increase (previous sample of the test, "
-                    f"row {b.rows[-1]}, has t_s = {b.t[-1]!r} s); time must strictly increase within a test")
-            b.t.append(t)
-        b.pos.extend(sample)
-        b.rows.append(row)
-
-    if n_data == 0:
+    if not tests:
         raise MeasurementError(spath, None, None, "file has a header row but no data rows")
-
-    for b in tests.values():
-        if len(b.rows) < MIN_SAMPLES:
-            raise MeasurementError(
-                spath, b.rows[0], "test_id",
-                f"test {b.test_id!r} has {len(b.rows)} sample(s) (rows {', '.join(map(str, b.rows))}); "
-                f"at least {MIN_SAMPLES} are required")
-
-    for b in tests.values():
-        if b.t:
-            problem = _time_problem(b.test_id, b.t[0], b.t[-1])
-            if problem:
-                column_row = b.rows[0] if "first" in problem else b.rows[-1]
-                raise MeasurementError(spath, column_row, "t_s", problem)
-
+    _check_tests(spath, tests)
     result = [
         MeasuredTest(test_id=b.test_id, shear_force_N=b.shear,
                      positions=np.frombuffer(b.pos, dtype=np.float64).reshape(-1, 3, 3),
-                     t_s=np.asarray(b.t, dtype=np.float64) if i_t is not None else None,
+                     t_s=np.asarray(b.t, dtype=np.float64) if columns.t is not None else None,
                      rows=np.asarray(b.rows, dtype=np.int64))
         for b in tests.values()
     ]
@@ -464,6 +379,121 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
         for mt in result:
             _check_rest(spath, mt, rest, tolerance_m)
     return result
+
+
+def _rest_argument(rest_positions: np.ndarray | None, tolerance_m: float) -> np.ndarray | None:
+    """``rest_positions`` as a checked (3, 3) array (or None), after checking ``tolerance_m``."""
+    if rest_positions is None:
+        return None
+    rest = np.asarray(rest_positions, dtype=np.float64)
+    if rest.shape != (3, 3) or not np.all(np.isfinite(rest)):
+        raise ValueError(f"rest_positions must be a finite (3, 3) array, got shape {rest.shape}")
+    if not (math.isfinite(tolerance_m) and tolerance_m > 0):
+        raise ValueError(f"tolerance_m must be a positive finite number, got {tolerance_m!r}")
+    return rest
+
+
+class _Columns(NamedTuple):
+    """Where each known column sits in a row (``None``: the optional column is absent)."""
+    test_id: int
+    force: int
+    t: int | None
+    positions: list[list[int | None]]  # [CP][axis]; x2 entries may be None
+
+
+def _read_header(path: str, reader: Any) -> tuple[int, _Columns]:
+    """The header row's number of fields and the known columns' indices."""
+    try:
+        header = next(reader)
+    except csv.Error as exc:
+        raise MeasurementError(path, 1, None, f"header row is not valid CSV: {exc}") from None
+    if _is_blank(header):
+        raise MeasurementError(path, 1, None,
+                               "line 1 is blank; the header row must be the first line of the file")
+    col = _check_header(path, header)
+    return len(header), _Columns(col["test_id"], col["shear_force_N"], col.get("t_s"),
+                                 [[col.get(c) for c in cp] for cp in POSITION_COLUMNS])
+
+
+def _parse_test_id(path: str, row: int, test_id: str) -> None:
+    if not test_id.strip():
+        raise MeasurementError(path, row, "test_id", "test_id is empty")
+    if test_id.strip()[0] in FORMULA_STARTS or test_id[0] in FORMULA_STARTS:
+        raise MeasurementError(path, row, "test_id", f"test_id {_describe(test_id)} starts with "
+                               f"{test_id[0]!r}, which spreadsheets run as a formula; rename the test")
+
+
+def _parse_positions(path: str, row: int, fields: list[str], columns: _Columns) -> list[float]:
+    """The row's nine contact-point coordinates, metres (NaN where the x2 column is absent)."""
+    sample = []
+    for k in range(3):
+        for a in range(3):
+            idx = columns.positions[k][a]
+            if idx is None:
+                sample.append(math.nan)
+                continue
+            name = POSITION_COLUMNS[k][a]
+            v = _parse_number(path, row, name, fields[idx], allow_empty=(a == 1))
+            if abs(v) > MAX_ABS_POSITION_M:
+                raise MeasurementError(
+                    path, row, name,
+                    f"value {fields[idx].strip()} cannot be a position in metres "
+                    f"(|value| > {MAX_ABS_POSITION_M:g} m); it looks like millimetres - "
+                    "positions must be given in metres")
+            sample.append(v)
+    return sample
+
+
+def _add_sample(path: str, row: int, fields: list[str], columns: _Columns, tests: dict[str, _TestBuilder],
+                stripped_ids: dict[str, tuple[str, int]]) -> None:
+    """Parse one data row and append it to its test in ``tests`` (created at its first row)."""
+    test_id = fields[columns.test_id]
+    _parse_test_id(path, row, test_id)
+    force = _parse_number(path, row, "shear_force_N", fields[columns.force], allow_empty=False)
+    t = (_parse_number(path, row, "t_s", fields[columns.t], allow_empty=False)
+         if columns.t is not None else None)
+    sample = _parse_positions(path, row, fields, columns)
+
+    b = tests.get(test_id)
+    if b is None:
+        twin = stripped_ids.setdefault(test_id.strip(), (test_id, row))
+        if twin[0] != test_id:
+            raise MeasurementError(
+                path, row, "test_id",
+                f"test_id {test_id!r} differs from {twin[0]!r} (row {twin[1]}) only by surrounding "
+                "whitespace; use one spelling (two spellings would be two tests)")
+        b = tests[test_id] = _TestBuilder(test_id, force, row)
+    elif force != b.shear:
+        raise MeasurementError(
+            path, row, "shear_force_N",
+            f"shear force {force!r} N of test {test_id!r} differs from {b.shear!r} N on row "
+            f"{b.shear_row}; the shear force must be the same on all rows of a test")
+    if t is not None:
+        if b.t and not t > b.t[-1]:
+            raise MeasurementError(
+                path, row, "t_s",
+                f"time {t!r} s of test {test_id!r} does not increase (previous sample of the test, "
+                f"row {b.rows[-1]}, has t_s = {b.t[-1]!r} s); time must strictly increase within a test")
+        b.t.append(t)
+    b.pos.extend(sample)
+    b.rows.append(row)
+
+
+def _check_tests(path: str, tests: dict[str, _TestBuilder]) -> None:
+    """Every test has enough samples, and its times (when given) are seconds from load onset."""
+    for b in tests.values():
+        if len(b.rows) < MIN_SAMPLES:
+            raise MeasurementError(
+                path, b.rows[0], "test_id",
+                f"test {b.test_id!r} has {len(b.rows)} sample(s) (rows {', '.join(map(str, b.rows))}); "
+                f"at least {MIN_SAMPLES} are required")
+
+    for b in tests.values():
+        if b.t:
+            problem = _time_problem(b.test_id, b.t[0], b.t[-1])
+            if problem:
+                column_row = b.rows[0] if "first" in problem else b.rows[-1]
+                raise MeasurementError(path, column_row, "t_s", problem)
 
 
 def _time_problem(test_id: str, first: float, last: float) -> str | None:

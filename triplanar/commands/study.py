@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     require()
     with executor_from_args(args) as executor:
         if args.bench:
-            from experiments.bench_study import run_bench_study  # noqa: PLC0415
+            from experiments.bench_study import run_bench_study
             if args.recurrent_timesteps < 0:
                 raise SystemExit("--recurrent-timesteps must be >= 0")
             run_bench_study(args.out, seeds=args.seeds, ppo_timesteps=args.timesteps or 300_000,
@@ -56,5 +56,5 @@ def run(args: argparse.Namespace) -> int:
                             design_ppo_timesteps=args.design_timesteps, in_sample_run=args.in_sample_run,
                             executor=executor)
             return 0
-        from experiments.study import run as study  # noqa: PLC0415  (the RL stack, only when run)
+        from experiments.study import run as study  # the RL stack, only when run
         return study(args, executor)
