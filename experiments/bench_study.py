@@ -120,7 +120,7 @@ def evaluate_default_bench(out_dir: Path, pi, adaptive, n: int, runs, scripted_s
                      [[r["controller"], r["bench_set"], *tables.stats_cells(r)] for r in rows])
     tables.write_csv(out_dir / "heldout_episodes.csv", tables.EPISODE_FIELDS,
                      [tables.episode_cells(o, b.seed) for b, outcomes in zip(batches, results) for o in outcomes])
-    from . import bench_plots  # noqa: PLC0415
+    from . import bench_plots
     bench_plots.rows_plot(out_dir / "heldout.png", [(r["controller"], r["bench_set"], r, r["_outcomes"])
                                                     for r in rows],
                           "TriPlanarShear-v1, default bench: nominal specimen, held-out and stress specimens")
@@ -158,7 +158,7 @@ def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design],
     rows = best_rows(rows)
     tables.write_csv(out_dir / "designs.csv", [*DESIGN_FIELDS, *tables.STATS_FIELDS],
                      [[tables.fmt(r[k]) for k in DESIGN_FIELDS] + tables.stats_cells(r) for r in rows])
-    from . import bench_plots  # noqa: PLC0415
+    from . import bench_plots
     bench_plots.designs_plot(out_dir / "designs.png", sorted(rows, key=lambda r: (r["demand"], r["design"])))
     return rows
 
@@ -168,7 +168,7 @@ DESIGN_FIELDS = ("design", "tip_friction_deg", "stage_bandwidth_hz", "latency_s"
 
 
 def _design_ppo(task: tuple[str, Design, int, int]) -> dict[str, Any]:
-    from agents.train_robust import RobustTask, train_robust  # noqa: PLC0415
+    from agents.train_robust import RobustTask, train_robust
     out, design, timesteps, seed = task
     kwargs = {**design.env_kwargs(), "tip_friction_deg": design.tip_friction_deg}
     return train_robust(RobustTask(out, seed, timesteps, tuple(sorted(kwargs.items())), max(timesteps // 2, 1)))
@@ -224,9 +224,9 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
                     designs: Sequence[Design] = DESIGNS, executor: ExecutorLike = None, doc: str | Path | None = None,
                     log=print) -> dict[str, Any]:
     """The whole study (resumable in ``out_dir``); ``recurrent_timesteps=None`` leaves the recurrent PPO out."""
-    from agents.train_robust import seed_tasks, train_robust  # noqa: PLC0415
+    from agents.train_robust import seed_tasks, train_robust
 
-    from . import bench_plots, bench_report  # noqa: PLC0415
+    from . import bench_plots, bench_report
     n = N_HELDOUT if n_heldout is None else int(n_heldout)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

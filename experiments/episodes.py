@@ -64,15 +64,15 @@ def controller_of(batch: EpisodeBatch) -> tuple[Any, dict[str, Any], bool]:
     env_kwargs = dict(batch.env_kwargs)
     kind, _, rest = batch.controller.partition(":")
     if kind in ("ppo", "ppo_recurrent"):
-        from agents.train_robust import load_policy  # noqa: PLC0415
+        from agents.train_robust import load_policy
         return load_policy(rest, "ppo" if kind == "ppo" else "recurrent", name=batch.label), env_kwargs, True
     if kind == "ppo_state":
-        from agents.ppo_controller import PPOController  # noqa: PLC0415
+        from agents.ppo_controller import PPOController
         run = Path(rest)
         ppo = PPOController.load(run / "final_model.zip", run / "vecnormalize.pkl", name=batch.label)
         return _Named(batch.label, ppo.act), {**env_kwargs, "observation_mode": "state"}, True
     if kind == "shipped":
-        from agents.zoo import check_layout, load_shipped, read_card  # noqa: PLC0415
+        from agents.zoo import check_layout, load_shipped, read_card
         zoo = Path(batch.zoo_dir) if batch.zoo_dir else None
         card = read_card(rest, zoo)
         env_kwargs = {**card["env_kwargs"], **env_kwargs}

@@ -35,12 +35,12 @@ SCRIPTED = {"steel_tip": ("fixed_tip", None, False), "teflon_tip": ("fixed_tip",
 
 def controller_names(zoo_dir: Path | None = None) -> list[str]:
     """Every controller ``evaluate`` knows: the scripted ones, then the shipped agents."""
-    from agents.zoo import shipped_names  # noqa: PLC0415
+    from agents.zoo import shipped_names
     return list(SCRIPTED) + shipped_names(zoo_dir)
 
 
 def design_names() -> list[str]:
-    from .designs import DESIGNS  # noqa: PLC0415
+    from .designs import DESIGNS
     return [DEFAULT_DESIGN] + [d.name for d in DESIGNS]
 
 
@@ -68,7 +68,7 @@ def batches_for(controller: str, design: Design | None, bench_set: str, n: int, 
     seeds, default all of its card's)."""
     if controller in SCRIPTED:
         return [scripted_batch(controller, design, bench_set, n, s) for s in (seeds or [0])]
-    from agents.zoo import read_card  # noqa: PLC0415
+    from agents.zoo import read_card
     card = read_card(controller, zoo_dir)
     chosen = list(seeds) if seeds else list(card["seeds"])
     unknown = [s for s in chosen if s not in card["seeds"]]
@@ -95,7 +95,7 @@ def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = 
              seeds: Sequence[int] | None = None, executor: ExecutorLike = None, zoo_dir: Path | None = None,
              progress: bool = True) -> Evaluation:
     """Run ``controller`` on ``n`` benches of ``bench_set`` (the nominal set has its 12 loads) for each seed."""
-    from agents import zoo  # noqa: PLC0415
+    from agents import zoo
     zoo_dir = Path(zoo_dir or zoo.ZOO_DIR)   # named explicitly in every task
     names = controller_names(zoo_dir)
     if controller not in names:
@@ -117,7 +117,7 @@ def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = 
 
 def write(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
     """The CSV, episodes CSV, JSON and PNG of an evaluation (each atomic)."""
-    from . import bench_plots  # noqa: PLC0415
+    from . import bench_plots
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     e, stem = evaluation, evaluation.bench_set

@@ -30,7 +30,7 @@ SHIPPED_SETS = ("heldout", "stress")
 
 def default_hyperparameters(algo: str) -> dict[str, Any]:
     """What :mod:`agents.train_robust` trains with (its constants), for the card."""
-    from agents import train_robust as tr  # noqa: PLC0415
+    from agents import train_robust as tr
     kwargs = tr.RECURRENT_KWARGS if algo == "recurrent" else tr.PPO_KWARGS
     return {"algorithm": "RecurrentPPO" if algo == "recurrent" else "PPO", **kwargs, "n_envs": tr.N_ENVS,
             "frames": 1 if algo == "recurrent" else tr.FRAMES,

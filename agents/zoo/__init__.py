@@ -70,10 +70,10 @@ def model_files(seed: int) -> tuple[str, str]:
 def observation_layout(env_kwargs: dict[str, Any], algo: str) -> dict[str, Any]:
     """The observation an agent trained with ``algo`` on ``TriPlanarShear-v1(**env_kwargs)`` sees: the mode, the
     fields of one observation (name, size) and the number of stacked frames."""
-    from envs.triplanar_shear import OBSERVATION  # noqa: PLC0415
-    from envs.triplanar_shear_v1 import BENCH_OBSERVATION  # noqa: PLC0415
+    from envs.triplanar_shear import OBSERVATION
+    from envs.triplanar_shear_v1 import BENCH_OBSERVATION
 
-    from ..train_robust import FRAMES  # noqa: PLC0415
+    from ..train_robust import FRAMES
     mode = env_kwargs.get("observation_mode", "bench")
     layout = BENCH_OBSERVATION if mode == "bench" else OBSERVATION
     return {"observation_mode": mode, "fields": [[f.name, f.size] for f in layout.fields.values()],
@@ -100,7 +100,7 @@ def check_layout(card: dict[str, Any], env_kwargs: dict[str, Any]) -> None:
 def load_shipped(name: str, seed: int, zoo_dir: Path | None = None) -> Any:
     """The shipped agent ``name``'s policy of training seed ``seed`` as a bench controller (``reset``/``act``),
     after checking its files' SHA-256 against the card (trusted input: see the module docstring)."""
-    from ..train_robust import RecurrentPolicy, RobustPolicy  # noqa: PLC0415
+    from ..train_robust import RecurrentPolicy, RobustPolicy
     card = read_card(name, zoo_dir)
     if seed not in card["seeds"]:
         raise ShippedAgentError(f"shipped agent {name!r} has no seed {seed}; its seeds: {card['seeds']}")
@@ -112,9 +112,9 @@ def load_shipped(name: str, seed: int, zoo_dir: Path | None = None) -> Any:
     with open(root / norm_rel, "rb") as f:
         normalizer = pickle.load(f)
     if card["algo"] == "recurrent":
-        from sb3_contrib import RecurrentPPO  # noqa: PLC0415
+        from sb3_contrib import RecurrentPPO
         return RecurrentPolicy(RecurrentPPO.load(str(root / model_rel), device="cpu"), normalizer, name)
-    from stable_baselines3 import PPO  # noqa: PLC0415
+    from stable_baselines3 import PPO
     return RobustPolicy(PPO.load(str(root / model_rel), device="cpu"), normalizer, name)
 
 

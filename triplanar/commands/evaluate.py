@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     require()
-    from experiments.evaluate import evaluate, write  # noqa: PLC0415  (the RL stack, only when run)
+    from experiments.evaluate import evaluate, write  # (the RL stack, only when run)
     with executor_from_args(args) as executor:
         result = evaluate(args.controller, design=args.design, bench_set=args.benches, n=args.n, seeds=args.seeds,
                           executor=executor)

@@ -1,7 +1,7 @@
 """``triplanar study --out DIR``: the actuator design study (thin wrapper over :mod:`experiments.study`).
 
 The options are declared here and :mod:`experiments` is imported only in :func:`run`, so building the CLI needs
-neither the agents nor torch; ``python -m experiments.study`` uses the same options.
+neither the agents nor torch; :func:`run` calls :func:`experiments.study.run_study` with plain arguments.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     require()
     with executor_from_args(args) as executor:
         if args.bench:
-            from experiments.bench_study import SEEDS, run_bench_study  # noqa: PLC0415
+            from experiments.bench_study import SEEDS, run_bench_study
             timesteps = args.timesteps or 2_000_000
             recurrent = timesteps if args.recurrent_timesteps is None else args.recurrent_timesteps
             if recurrent < 0:
@@ -67,6 +67,8 @@ def run(args: argparse.Namespace) -> int:
                             n_heldout=args.n_heldout, in_sample_run=args.in_sample_run, doc=args.doc,
                             executor=executor)
             return 0
-        args.seeds = args.seeds or [0, 1, 2]
-        from experiments.study import run as study  # noqa: PLC0415  (the RL stack, only when run)
-        return study(args, executor)
+        from experiments.study import run_study  # the RL stack, only when run
+        run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds or [0, 1, 2], timesteps=args.timesteps,
+                  train=not args.skip_train, doc=args.doc or None, overwrite_doc=args.overwrite_doc,
+                  executor=executor, **({"config": args.config} if args.config else {}))
+        return 0
