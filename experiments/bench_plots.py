@@ -1,7 +1,8 @@
 """Plots of the bench study (:mod:`experiments.bench_study`) and of ``triplanar evaluate``, written next to their
 tables: distributions and intervals, never bars that hide them. Every row is one controller on one bench set:
 its successful episodes' errors as points (one per episode and seed), the mean error with its 95 % interval
-(hierarchical bootstrap), the worst decile's mean (CVaR 10 %), and the success rate with its Wilson interval."""
+(hierarchical bootstrap), the worst decile's mean (CVaR 10 %), and the success rate with its interval
+(:func:`experiments.stats.success_ci`)."""
 
 from __future__ import annotations
 
@@ -62,7 +63,7 @@ def rows_plot(path: Path, rows: Sequence[Row], title: str) -> None:
     a1.set_xlabel("mimicry error of successful episodes, mm (points: episodes; diamond: mean with 95 % CI; "
                   "bar: worst-decile mean)", fontsize=8)
     a1.legend(fontsize=7, loc="lower right", markerscale=3)
-    a2.set_xlabel("success rate, % (95 % Wilson interval)", fontsize=8)
+    a2.set_xlabel("success rate, % (95 % CI)", fontsize=8)
     a2.set_xlim(min(50.0, min(100 * r[2]["success_low"] for r in rows) - 5), 101)
     fig.suptitle(title, fontsize=10)
     save_figure(fig, path, dpi=110)

@@ -61,7 +61,8 @@ def markdown(summary: dict[str, Any], heldout_rows: Sequence[dict[str, Any]],
     lines = ["# Bench study report (TriPlanarShear-v1)", "",
              f"Generated {datetime.now(timezone.utc).strftime('%Y-%m-%d %H:%M UTC')} by "
              "`experiments.bench_study` (`triplanar study --bench`). Intervals: 95 %, the error's and score's by "
-             "hierarchical bootstrap over seeds and benches, the success rate's by Wilson's score interval "
+             "hierarchical bootstrap over seeds and benches, the success rate's as the union of Wilson's score interval "
+             "and the hierarchical bootstrap's "
              "(`experiments/stats.py`). Errors are over successful episodes only; the score counts a failure as "
              "10 mm.", "", "## Budgets and wall times", "", *budgets(summary), "",
              "## Default bench: nominal, held-out and stress benches", "", f"![held-out]({images}heldout.png)", "",

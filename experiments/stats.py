@@ -11,6 +11,9 @@ benches.
 * :func:`cvar`: the mean of the worst decile (CVaR 10 %) of the errors of successful episodes;
 * :func:`wilson`: Wilson's score interval of a success rate (it stays inside [0, 1] and is not empty at 0 or n
   successes, unlike the normal approximation);
+* :func:`success_ci`: the success rate's interval, the union of Wilson's (over all episodes: not empty when every
+  episode succeeded, where a bootstrap collapses to a point) and the hierarchical bootstrap's (which sees that
+  seeds differ; Wilson treats every episode as independent);
 * :func:`row_stats`: all of the above for one row, plus the per-seed means (the seeds' spread).
 
 Failed episodes have a NaN error and are never averaged into an error; they count in the success rate and in the
@@ -105,9 +108,18 @@ def wilson(successes: int, n: int, confidence: float = CONFIDENCE) -> tuple[floa
     return max(0.0, centre - half), min(1.0, centre + half)
 
 
+def success_ci(success: Any, **kwargs: Any) -> tuple[float, float, float]:
+    """``(rate, low, high)`` of a ``(seeds, benches)`` table of successes: the union of Wilson's interval and the
+    hierarchical bootstrap's."""
+    table = _table(np.asarray(success, dtype=float))
+    rate, b_low, b_high = bootstrap_ci(table, lambda t: float(t.mean()), **kwargs)
+    w_low, w_high = wilson(int(table.sum()), int(table.size))
+    return rate, min(w_low, b_low), max(w_high, b_high)
+
+
 def row_stats(errors: Any, success: Any, failure_score_mm: float) -> dict[str, Any]:
     """Everything a table row gives, from ``errors`` (seeds x benches, mm, NaN where failed) and ``success``
-    (the same shape, bool): episodes, seeds, benches, success rate with its Wilson interval, mean error over
+    (the same shape, bool): episodes, seeds, benches, success rate with its interval (:func:`success_ci`), mean error over
     successes with its hierarchical bootstrap interval, CVaR 10 %, the score (failure = ``failure_score_mm``)
     with its interval, and the per-seed means of error and score (``seed_errors_mm``, ``seed_scores_mm``)."""
     table = _table(errors)
@@ -118,7 +130,7 @@ def row_stats(errors: Any, success: Any, failure_score_mm: float) -> dict[str, A
     mean, low, high = mean_error_ci(table)
     scores = np.where(ok, table, failure_score_mm)
     score, score_low, score_high = bootstrap_ci(scores, lambda t: float(t.mean()))
-    s_low, s_high = wilson(k, n)
+    _, s_low, s_high = success_ci(ok)
     return {"n_episodes": n, "n_seeds": table.shape[0], "n_benches": table.shape[1],
             "success_rate": k / n, "success_low": s_low, "success_high": s_high,
             "mimicry_error_mm": mean, "error_low_mm": low, "error_high_mm": high,

@@ -74,3 +74,19 @@ def test_indistinguishable_rows_overlap_the_best_interval():
     rows = [{"error_low_mm": 0.8, "error_high_mm": 1.2}, {"error_low_mm": 0.5, "error_high_mm": 0.9},
             {"error_low_mm": 0.95, "error_high_mm": 1.4}, {"error_low_mm": 0.85, "error_high_mm": 1.0}]
     assert stats.indistinguishable(rows) == [0, 1, 3]
+
+
+def test_success_interval_widens_when_seeds_disagree():
+    # 10 seeds x 20 benches, 150 successes either way: spread evenly over seeds and benches (every seed 15 of 20,
+    # every bench 7 or 8 of 10), the interval is close to Wilson's (it always contains it); concentrated (half the
+    # seeds always succeed), the seeds' clustering makes it several times wider.
+    s, b = np.meshgrid(np.arange(10), np.arange(20), indexing="ij")
+    even = (b + 2 * s) % 20 < 15
+    clustered = np.zeros((10, 20), dtype=bool)
+    clustered[:5] = True
+    clustered[5:, :10] = True
+    w_low, w_high = stats.wilson(150, 200)
+    rate, low, high = stats.success_ci(even)
+    assert rate == 0.75 and low <= w_low and high >= w_high and high - low < 1.3 * (w_high - w_low)
+    rate, low, high = stats.success_ci(clustered)
+    assert rate == 0.75 and high - low > 2.5 * (w_high - w_low)
