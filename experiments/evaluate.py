@@ -68,8 +68,9 @@ def batches_for(controller: str, design: Design | None, bench_set: str, n: int, 
     seeds, default all of its card's)."""
     if controller in SCRIPTED:
         return [scripted_batch(controller, design, bench_set, n, s) for s in (seeds or [0])]
-    from agents.zoo import read_card
+    from agents.zoo import check_layout, read_card
     card = read_card(controller, zoo_dir)
+    check_layout(card, {**card["env_kwargs"], **(design.env_kwargs() if design is not None else {})})  # before any work
     chosen = list(seeds) if seeds else list(card["seeds"])
     unknown = [s for s in chosen if s not in card["seeds"]]
     if unknown:

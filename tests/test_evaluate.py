@@ -90,7 +90,8 @@ def test_evaluate_on_a_shipped_agent_reproduces_its_card(tiny_zoo, tmp_path, mon
 
 
 @pytest.mark.slow
-def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_files(tiny_zoo, monkeypatch):
+def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_files(tiny_zoo, monkeypatch, tmp_path,
+                                                                                     capsys):
     card = zoo.read_card("tiny_ppo", tiny_zoo)
     assert zoo.check_layout(card, {"observation_mode": "bench"}) is None
     with pytest.raises(zoo.ShippedAgentError, match="observation_mode"):
@@ -99,6 +100,15 @@ def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_fil
                                           fields=[["RANGE", 9], ["THRUST", 1], ["STAGE", 2]]))
     with pytest.raises(zoo.ShippedAgentError, match="'STAGE'"):
         zoo.check_layout(altered, {})
+    card_path = tiny_zoo / "tiny_ppo" / "card.json"
+    monkeypatch.setattr(zoo, "ZOO_DIR", tiny_zoo)
+    card_path.write_text(json.dumps(altered))
+    try:
+        assert cli.main(["evaluate", "--controller", "tiny_ppo", "--n", "2", "--out", str(tmp_path)]) == 2
+    finally:
+        card_path.write_text(json.dumps(card))
+    assert "observation field 'STAGE' differs" in capsys.readouterr().err
+    assert not (tmp_path / "heldout.csv").exists()
     with pytest.raises(zoo.ShippedAgentError, match="no seed 0"):
         zoo.load_shipped("tiny_ppo", 0, tiny_zoo)
     policy = zoo.load_shipped("tiny_ppo", 3, tiny_zoo)
