@@ -120,3 +120,12 @@ def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_fil
             zoo.load_shipped("tiny_ppo", 3, tiny_zoo)
     finally:
         (tiny_zoo / "tiny_ppo" / "card.json").write_text(json.dumps(card))
+
+
+def test_help_texts_format(capsys):
+    for argv in (["--help"], ["evaluate", "--help"], ["study", "--help"]):
+        with pytest.raises(SystemExit) as exit_:
+            cli.main(argv)
+        assert exit_.value.code == 0
+    out = capsys.readouterr().out
+    assert "stress" in out and "agents/zoo" in out

@@ -16,7 +16,7 @@ from .train import positive_int
 
 NAME = "evaluate"
 HELP = ("evaluate a scripted or shipped controller on TriPlanarShear-v1's held-out, stress or nominal benches: CSV, "
-        "JSON and plot with 95 % intervals")
+        "JSON and plot with confidence intervals")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
