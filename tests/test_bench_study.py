@@ -79,3 +79,30 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     bs.run_bench_study(tmp_path, **kwargs)   # resumes: nothing is trained again
     assert stamps == {kind: (tmp_path / kind / "seed_0" / "final_model.zip").stat().st_mtime_ns
                       for kind in ("ppo_robust", "ppo_recurrent")}
+
+
+def test_report_and_plots_take_a_row_without_successes(tmp_path):
+    import numpy as np
+
+    from agents.heldout import Outcome
+    from experiments import bench_plots, bench_report
+    from experiments.stats import row_stats
+
+    failed = np.full((2, 3), np.nan)
+    stats = row_stats(failed, np.zeros((2, 3), bool), 10.0)
+    assert stats["success_rate"] == 0.0 and stats["score"] == 10.0 and math.isnan(stats["cvar10_mm"])
+    good = np.array([[0.5, 0.7, 0.9], [0.6, 0.8, 1.0]])
+    ok = row_stats(good, np.ones((2, 3), bool), 10.0)
+    outcomes = [[Outcome("x", "heldout", i, 30.0, False, "lift_off", math.nan, 0.01, -1.0, 5) for i in range(3)]] * 2
+    rows = [{"controller": "never", "bench_set": "heldout", **stats}, {"controller": "fine", "bench_set": "stress", **ok}]
+    bench_plots.rows_plot(tmp_path / "rows.png", [(r["controller"], r["bench_set"], r, outcomes) for r in rows], "t")
+    design_rows = [{"design": "d", "demand": 1, "controller": "ppo_robust", **stats},
+                   {"design": "d", "demand": 1, "controller": "best_scripted:adaptive", **ok}]
+    bench_plots.designs_plot(tmp_path / "designs.png", design_rows)
+    summary = {"timings_s": {"tuning_s": 1.0, "ppo_training_s": 2.0, "evaluation_s": 3.0, "design_sweep_s": 4.0},
+               "recurrent_timesteps": None, "seeds": [0], "ppo_timesteps": 10, "trained_timesteps": {},
+               "designs": ["d"], "design_seeds": [0], "design_ppo_timesteps": 5, "n_heldout": 3, "n_stress": 3,
+               "scripted_seeds": [0], "pi_gains": {}, "adaptive_gain": {}, "recommendation": "none named"}
+    text = bench_report.markdown(summary, rows, design_rows)
+    assert "| `never` | heldout | 3 x 2 | 0.0 (" in text and "| - | - | 10.00 (10.00-10.00) | -, - |" in text
+    assert "recurrent PPO: none" in text and (tmp_path / "rows.png").stat().st_size > 0
