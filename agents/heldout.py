@@ -20,7 +20,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from envs.triplanar_shear import EpisodeDraw, StartError, episode_start, make_config, specimen_key
+from envs.core import EpisodeDraw, StartError, episode_start, make_config, specimen_key
 from envs.triplanar_shear_v1 import BENCH_FIELDS, Bench, TriPlanarShearV1Env, draw_bench
 from triplanar import PAPER_LOADS_N
 

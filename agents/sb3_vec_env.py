@@ -12,7 +12,7 @@ import gymnasium as gym
 import numpy as np
 from stable_baselines3.common.vec_env import VecEnv
 
-from envs import triplanar_shear as S
+from envs import core as S
 from envs.vector import ShearBatch
 from triplanar.outcome import TRAVEL
 

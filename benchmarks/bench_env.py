@@ -92,7 +92,7 @@ def single_v1(n: int, stats: dict, **kwargs) -> float:
     """TriPlanarShear-v1 (default: bench observations, unknown specimens), random actions, autoreset by hand.
 
     Each call starts from a seed of its own: with the same seed a repeat would draw the same specimens and find
-    their starts in the start cache (``envs.triplanar_shear.episode_start``), which training never does."""
+    their starts in the start cache (``envs.core.episode_start``), which training never does."""
     from envs.triplanar_shear_v1 import TriPlanarShearV1Env  # noqa: PLC0415
     env = TriPlanarShearV1Env(**{"observation_mode": "bench", "randomize": True, **kwargs})
     actions = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)
@@ -131,7 +131,7 @@ def v1_reset_cost(n: int) -> dict:
     (a few hundred ns each)."""
     import sys  # noqa: PLC0415
 
-    import envs.triplanar_shear as v0  # noqa: PLC0415
+    import envs.core as v0  # noqa: PLC0415
     from envs.triplanar_shear_v1 import TriPlanarShearV1Env  # noqa: PLC0415
     from triplanar import equilibrium  # noqa: PLC0415
     simulate_module = sys.modules["triplanar.simulate"]

@@ -1,6 +1,6 @@
 """N TriPlanarShear environments in state arrays, stepped by one compiled loop (as Gymnasium's CartPoleVectorEnv).
 
-Each environment runs exactly the single env's compiled control step (:func:`envs.triplanar_shear.control_step`)
+Each environment runs exactly the single env's compiled control step (:func:`envs.core.control_step`)
 on its row of the state arrays, so env ``i`` of a batch seeded ``s`` is bitwise identical to a single env seeded
 ``s + i`` given the same actions. Three layers:
 
@@ -25,7 +25,7 @@ from numba import njit
 
 from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
-from . import triplanar_shear as S
+from . import core as S
 
 
 @njit(cache=True, error_model="numpy")
@@ -54,7 +54,7 @@ def _load_starts(rows, kidx, KIDX, Y, P, MODES, ARMED, ST, OBS, INF, BY, BP, BMO
 
 
 class ShearBatch:
-    """State arrays of ``num_envs`` environments sharing one :class:`~envs.triplanar_shear.ShearConfig`.
+    """State arrays of ``num_envs`` environments sharing one :class:`~envs.core.ShearConfig`.
 
     Distinct starting states (load level x friction draw) live in a bank; each row points at its entry (for the
     hydrostatic reference) through ``kidx``.

@@ -112,7 +112,8 @@ def test_randomisation_is_seeded_and_within_its_ranges():
 
 def test_conventions():
     env = gym.make("TriPlanarShear-v1")
-    assert env.spec.max_episode_steps == round(2.0 * 200) - 1
+    assert env.spec.max_episode_steps is None   # one truncation, the env's own time_limit_s: no TimeLimit wrapper
+    assert not any(spec.name == "TimeLimit" for spec in env.spec.additional_wrappers)
     assert env.unwrapped.dt == 0.005 and env.metadata["render_fps"] == 200
     _, reset_info = env.reset(seed=0)
     _, _, _, _, step_info = env.step(env.action_space.sample())

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agents.sb3_vec_env import ShearSB3VecEnv
-from envs import triplanar_shear as S
+from envs import core as S
 from envs.triplanar_shear import TriPlanarShearEnv
 from test_env_vector import N, actions
 
