@@ -16,7 +16,6 @@ from collections import OrderedDict
 from dataclasses import dataclass, replace
 from typing import Any
 
-import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from numba import njit

@@ -21,7 +21,7 @@ from triplanar.specimen import Foundation, Plane, Specimen
 
 from .base import ShearEnvBase
 from .core import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, OBS_POS, OBS_PREV, ST_LOAD, ST_T, EpisodeDraw,
-                   ShearConfig, StartError, check_action, draw_episode, episode_start, info_dict, make_config,
+                   EpisodeStart, ShearConfig, StartError, check_action, draw_episode, episode_start, info_dict, make_config,
                    observation_space, specimen_key)
 
 # (This module's compiled functions read the kernel's and v0's layouts; envs/__init__.py drops the package's numba
@@ -245,6 +245,77 @@ def draw_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundat
     return Bench(new, foundation, load)
 
 
+def draw_bench_for(rng: np.random.Generator, config: ShearConfig, randomize: bool, specimen: Specimen,
+                   foundation: Foundation) -> Bench:
+    """One episode's bench from ``rng``: an unknown specimen (``randomize``; a ``tip_friction_deg`` given to the env
+    is known hardware and is not drawn), else v0's draw (load level, friction noise) of the configured specimen."""
+    if randomize:
+        bench = draw_bench(rng, specimen, foundation)
+        if config.tip_friction_deg is not None:
+            bench = replace(bench, specimen=replace(bench.specimen, tip_friction_deg=float(config.tip_friction_deg)))
+        return bench
+    draw = draw_episode(rng, config, specimen, None)
+    return Bench(replace(specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg),
+                 foundation, draw.load_N)
+
+
+def bench_start(config: ShearConfig, bench: Bench) -> EpisodeStart:
+    """The cached start of ``bench`` (:func:`envs.core.episode_start`; StartError if it cannot start)."""
+    specimen = bench.specimen
+    return episode_start(config, EpisodeDraw(bench.load_N, tuple(specimen.friction_deg),
+                                             float(specimen.tip_friction_deg)),
+                         specimen, bench.foundation, specimen_key(specimen, bench.foundation))
+
+
+def draw_start(rng: np.random.Generator, config: ShearConfig, randomize: bool, specimen: Specimen,
+               foundation: Foundation) -> tuple[Bench, EpisodeStart]:
+    """What a reset draws from ``rng`` and its start; an unknown specimen that friction holds at rest is drawn
+    again (up to ``START_ATTEMPTS`` draws). The single and the batched v1 both call it, so they draw alike."""
+    for _ in range(START_ATTEMPTS):
+        bench = draw_bench_for(rng, config, randomize, specimen, foundation)
+        try:
+            return bench, bench_start(config, bench)
+        except StartError:
+            if not randomize:
+                raise
+    raise StartError(f"no startable specimen in {START_ATTEMPTS} draws")
+
+
+def reset_bench_state(config: ShearConfig, start: EpisodeStart, bs: np.ndarray, queue: np.ndarray) -> None:
+    """The bench's state at an episode's start: the latency queue full of the starting command, the force loop's
+    output the thrust at the first period's end."""
+    first = np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
+    queue[:] = first
+    bs[BS_HEAD] = 0.0
+    bs[BS_THRUST] = start.inf[IN_THRUST]
+    bs[BS_PREV:BS_PREV + 2] = first
+
+
+def bench_option(options: dict[str, Any] | None) -> Bench | None:
+    """The ``bench`` of v1's reset options (its only one), or a named error."""
+    options = dict(options or {})
+    bench = options.pop("bench", None)
+    if options:
+        raise ValueError(f"unknown reset options {sorted(options)} (v1 takes 'bench')")
+    if bench is not None and not isinstance(bench, Bench):
+        raise TypeError(f"reset option bench must be an envs.triplanar_shear_v1.Bench, got {bench!r}")
+    return bench
+
+
+def observation_space_of(observation_mode: str) -> spaces.Box:
+    """One v1 env's observation space in ``observation_mode`` (``"bench"``: ``B_*``; ``"state"``: v0's)."""
+    if observation_mode == "state":
+        return observation_space()
+    high = BENCH_HIGH.astype(np.float32)
+    return spaces.Box(-high, high, dtype=np.float32)
+
+
+def action_rate_reward(coef: float, d0: float, d1: float) -> float:
+    """The action-rate term on the agent's actions (``x ** 2`` in Python, the C library's ``pow``: see
+    :func:`bench_command`); the single and the batched env both call it, so their rewards are bitwise equal."""
+    return -coef * (d0 ** 2 + d1 ** 2)
+
+
 class TriPlanarShearV1Env(ShearEnvBase):
     """
     ## Description
@@ -364,11 +435,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
         self.bench.validate(self.config.dt)
         self._init_core(render_mode)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        if observation_mode == "state":
-            self.observation_space = observation_space()
-        else:
-            high = BENCH_HIGH.astype(np.float32)
-            self.observation_space = spaces.Box(-high, high, dtype=np.float32)
+        self.observation_space = observation_space_of(observation_mode)
         self._bc = bench_constants(self.bench, self.config)
         self._bs = np.zeros(N_BS)
         self._queue = np.zeros((self.bench.latency_periods(self.config.dt), 2))
@@ -379,37 +446,15 @@ class TriPlanarShearV1Env(ShearEnvBase):
     # -- Gymnasium API ---------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = dict(options or {})
-        bench = options.pop("bench", None)
-        if options:
-            raise ValueError(f"unknown reset options {sorted(options)} (v1 takes 'bench')")
-        if bench is not None and not isinstance(bench, Bench):
-            raise TypeError(f"reset option bench must be an envs.triplanar_shear_v1.Bench, got {bench!r}")
-        start = None
-        for _ in range(START_ATTEMPTS):
-            if bench is None:
-                candidate = self._draw()
-            else:
-                candidate = bench
-            try:
-                start = episode_start(self.config, EpisodeDraw(candidate.load_N, tuple(candidate.specimen.friction_deg),
-                                                               float(candidate.specimen.tip_friction_deg)),
-                                      candidate.specimen, candidate.foundation,
-                                      specimen_key(candidate.specimen, candidate.foundation))
-                break
-            except StartError:
-                if bench is not None or not self.bench.randomize:
-                    raise
-        if start is None:
-            raise StartError(f"no startable specimen in {START_ATTEMPTS} draws")
-        self._episode = candidate
-        self._episode_info = candidate.info()
-        cfg = self.config
-        first = np.array([2.0 / cfg.thrust_scale - 1.0, cfg.tip_offset_m / cfg.offset_range_m])
-        self._queue[:] = first   # the latency queue starts full of the starting command
-        self._bs[BS_HEAD] = 0.0
-        self._bs[BS_THRUST] = start.inf[IN_THRUST]   # the force loop's output at the period's end
-        self._bs[BS_PREV:BS_PREV + 2] = first
+        bench = bench_option(options)
+        if bench is None:
+            bench, start = draw_start(self.np_random, self.config, self.bench.randomize, self._specimen,
+                                      self._foundation)
+        else:
+            start = bench_start(self.config, bench)
+        self._episode = bench
+        self._episode_info = bench.info()
+        reset_bench_state(self.config, start, self._bs, self._queue)
         self._load_start(start)
         return self._observation(), self._info(0)
 
@@ -421,24 +466,13 @@ class TriPlanarShearV1Env(ShearEnvBase):
             raw = raw.astype(np.float64)
         d0, d1 = bench_command(raw, self._bc, self._bs, self._queue, self._y, self._st, self._applied)
         code = self._control_step(self._applied)
-        r_rate = -self.config.action_rate_coef * (d0 ** 2 + d1 ** 2)
+        r_rate = action_rate_reward(self.config.action_rate_coef, d0, d1)
         reward = float(self._inf[IN_R_DIST] + self._inf[IN_R_TERM]) + r_rate
         info = self._info(code)
         info["reward_action_rate"] = r_rate
         return self._observation(), reward, code > 0, bool(self._inf[IN_TRUNC]), info
 
     # -- helpers ---------------------------------------------------------------------------------
-    def _draw(self) -> Bench:
-        if self.bench.randomize:
-            bench = draw_bench(self.np_random, self._specimen, self._foundation)
-            if self.config.tip_friction_deg is not None:  # a chosen tip is known hardware: not drawn
-                bench = replace(bench, specimen=replace(bench.specimen,
-                                                        tip_friction_deg=float(self.config.tip_friction_deg)))
-            return bench
-        draw = draw_episode(self.np_random, self.config, self._specimen, None)
-        specimen = replace(self._specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg)
-        return Bench(specimen, self._foundation, draw.load_N)
-
     def _observation(self) -> np.ndarray:
         if self.bench.observation_mode == "state":
             obs = self._obs.copy()
