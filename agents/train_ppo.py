@@ -1,4 +1,4 @@
-"""Train PPO on TriPlanarShear-v0: ``python -m agents.train_ppo --out runs/ppo --seed 0`` (or ``triplanar train``).
+"""Train PPO on TriPlanarShear-v0: ``triplanar train --out runs/ppo --seed 0`` (:mod:`agents.training`).
 
 Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run directory ``OUT/seed_S`` holds:
 
@@ -24,7 +24,6 @@ Resuming loads the checkpoints with pickle/cloudpickle, which runs the code in t
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import os
@@ -33,7 +32,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import yaml
@@ -239,7 +238,7 @@ def _truncate_curve(curve_path: Path, timesteps: int) -> None:
 
 def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str | Path = "runs/ppo", seed: int = 0,
               total_timesteps: int | None = None, resume: bool = True, callbacks: Sequence[Any] = (),
-              verbose: int = 0) -> TrainResult:
+              verbose: int = 0, progress: bool = False) -> TrainResult:
     """Train (or resume) one PPO run; see the module docstring for what it writes."""
     import torch  # noqa: PLC0415
     from stable_baselines3 import PPO  # noqa: PLC0415
@@ -300,6 +299,9 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     saver = _checkpoint_callback(max(1, int(train_cfg.get("checkpoint_freq", 50_000)) // n_envs),
                                  run_dir / "checkpoints")
     remaining = max(0, total - done)
+    if progress:
+        from .training import progress_callback  # noqa: PLC0415
+        callbacks = [*callbacks, progress_callback(total, f"PPO seed {seed}")]
     if remaining:
         model.learn(total_timesteps=remaining, callback=CallbackList([saver, evaluation, *callbacks]),
                     reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
@@ -321,10 +323,12 @@ class SeedRun:
     total_timesteps: int | None = None
     resume: bool = True
     verbose: int = 0
+    progress: bool = False
 
 
 def train_seed_run(run: SeedRun) -> TrainResult:
-    return train_ppo(run.config, run.out_dir, run.seed, run.total_timesteps, resume=run.resume, verbose=run.verbose)
+    return train_ppo(run.config, run.out_dir, run.seed, run.total_timesteps, resume=run.resume, verbose=run.verbose,
+                     progress=run.progress)
 
 
 def train_seeds(config: str | Path | dict[str, Any], out_dir: str | Path, seeds: Sequence[int],
@@ -332,25 +336,5 @@ def train_seeds(config: str | Path | dict[str, Any], out_dir: str | Path, seeds:
                 executor: ExecutorLike = "serial", progress: bool = False) -> list[TrainResult]:
     """:func:`train_ppo` for each seed (one task per seed, through ``executor``), results in seed order. A seed
     whose worker dies (Ray retries it) resumes from its own checkpoints in ``OUT/seed_S``."""
-    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose) for seed in seeds]
+    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose, progress) for seed in seeds]
     return run_tasks(train_seed_run, tasks, executor, progress, desc="PPO seeds")
-
-
-def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
-    seeds = args.seed or [0]
-    results = train_seeds(args.config or DEFAULT_CONFIG, args.out, seeds, args.timesteps, not args.no_resume,
-                          args.verbose, executor)
-    for seed, result in zip(seeds, results):
-        print(f"seed {seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.model_path}")
-    return 0
-
-
-def main(argv: Iterable[str] | None = None) -> int:
-    from triplanar.commands.train import add_arguments  # noqa: PLC0415  (the options are the CLI's)
-    parser = argparse.ArgumentParser(prog="python -m agents.train_ppo", description=__doc__.splitlines()[0])
-    add_arguments(parser)
-    return run(parser.parse_args(None if argv is None else list(argv)))
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -59,7 +59,7 @@ class ShearEnvBase(gym.Env):
         self._obs[:] = start.obs
         self._inf[:] = start.inf
         if self.render_mode is not None:
-            self._trace = [contact_points_of(self._y, self._p)]
+            self._trace = [self.contact_points()]
             if self.render_mode == "human":
                 self.render()
 
@@ -70,7 +70,7 @@ class ShearEnvBase(gym.Env):
         code = control_step(self._y, self._p, self._modes, self._armed, self._st, self._ref, applied, self._cfg,
                             self._obs, self._inf, self._ws)
         if self.render_mode is not None:
-            self._trace.append(contact_points_of(self._y, self._p))
+            self._trace.append(self.contact_points())
             if self.render_mode == "human":
                 self.render()
         return code
@@ -97,6 +97,10 @@ class ShearEnvBase(gym.Env):
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+    def contact_points(self) -> np.ndarray:
+        """The three contact points (world, 3x3) now: what a rendered trace records."""
+        return contact_points_of(self._y, self._p)
 
     def _load_point(self) -> np.ndarray:
         """Overhead (x1, x3) of the load point: where the rendering draws the tip."""

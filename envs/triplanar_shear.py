@@ -117,8 +117,9 @@ class TriPlanarShearEnv(ShearEnvBase):
     ``tip_friction_deg`` (the specimen's, 8), ``friction_noise_deg`` and ``tip_friction_noise_deg`` (0),
     ``travel_m`` (0.08), ``time_limit_s`` (2), ``action_rate_coef``, ``failure_penalty_mm``, ``reward_weighting``,
     ``specimen``/``foundation`` (default the reference specimen), and ``render_mode`` (``"rgb_array"``,
-    ``"human"``; ``render_fps`` is the control rate, a frame per period: videos play in real time). ``reset(options=...)`` accepts ``load_N``, ``load_range``, ``load_levels``,
-    ``friction_noise_deg``, ``tip_friction_noise_deg`` for that episode.
+    ``"human"``; ``render_fps`` is the control rate, a frame per period: videos play in real time).
+    ``reset(options=...)`` accepts ``load_N``, ``load_range``, ``load_levels``, ``friction_noise_deg``,
+    ``tip_friction_noise_deg`` for that episode.
 
     ## Version History
 

@@ -21,8 +21,8 @@ from triplanar.specimen import Foundation, Plane, Specimen
 
 from .base import ShearEnvBase
 from .core import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, OBS_POS, OBS_PREV, ST_LOAD, ST_T, EpisodeDraw,
-                   EpisodeStart, ShearConfig, StartError, check_action, draw_episode, episode_start, info_dict, make_config,
-                   observation_space, specimen_key)
+                   EpisodeStart, ShearConfig, StartError, check_action, draw_episode, episode_start, info_dict,
+                   make_config, observation_space, specimen_key)
 
 # (This module's compiled functions read the kernel's and v0's layouts; envs/__init__.py drops the package's numba
 # cache when those change.)

@@ -42,9 +42,8 @@ from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
 from . import core as S
 from .triplanar_shear_v1 import (BENCH_HIGH, BENCH_OBS_DIM, BS_PREV, BS_THRUST, N_BS, Bench, BenchConfig,
-                                 action_rate_reward, bench_command, bench_constants,
-                                 bench_observation, bench_option, bench_start, draw_bench_for, draw_start, observation_space_of,
-                                 reset_bench_state)
+                                 action_rate_reward, bench_command, bench_constants, bench_observation, bench_option,
+                                 bench_start, draw_bench_for, draw_start, observation_space_of, reset_bench_state)
 from .vector import seed_list
 
 BANK_STREAM = 30_030   # the first entry of the start bank's seed sequences (agents.heldout uses 10_010, 20_020)
