@@ -156,6 +156,32 @@ def test_render_is_fast_and_human_without_display_warns_once(monkeypatch):
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("env_id", ["TriPlanarShear-v0", "TriPlanarShear-v1"])
+def test_recorded_video_lasts_as_long_as_the_episode(tmp_path, env_id):
+    from gymnasium.wrappers import RecordVideo
+    from moviepy import VideoFileClip
+    env = RecordVideo(gym.make(env_id, render_mode="rgb_array", load_N=30.3), str(tmp_path),
+                      episode_trigger=lambda e: True, disable_logger=True)
+    _, info = env.reset(seed=0)
+    start = info["time_s"]   # the first control period runs in reset, before the first frame
+    frames = 1
+    while True:
+        _, _, terminated, truncated, info = env.step(np.zeros(2, np.float32))
+        frames += 1
+        if terminated or truncated:
+            break
+    duration = info["time_s"] - start   # the episode the agent saw
+    fps = env.metadata["render_fps"]
+    env.close()
+    assert frames > 20 and abs(frames / fps - duration) <= 1.5 / fps   # one frame per control period
+    (video,) = tmp_path.glob("*.mp4")
+    clip = VideoFileClip(str(video))
+    # plays in real time: to the reset's frame (one more than the steps) and moviepy's duration (to 0.01 s)
+    assert clip.fps == fps and abs(clip.duration - duration) <= 1.5 / fps + 0.005
+    clip.close()
+
+
+@pytest.mark.slow
 def test_record_video_works(tmp_path):
     from gymnasium.wrappers import RecordVideo
     env = RecordVideo(gym.make("TriPlanarShear-v1", render_mode="rgb_array", load_N=30.3), str(tmp_path),
