@@ -111,5 +111,5 @@ def test_start_bank_reuses_each_specimen_and_never_holds_a_heldout_one() -> None
         seen += [b.specimen for b in batch.benches]
     names = {(s.mass_kg, s.tip_friction_deg) for s in seen}
     assert len(names) == 16 and batch._bank_drawn == 16
-    protected = heldout_benches(50) + random_benches(10, TUNING_SEED + 1)
+    protected = heldout_benches(200) + random_benches(10, TUNING_SEED + 1)
     assert not names & {(b.specimen.mass_kg, b.specimen.tip_friction_deg) for b in protected}
