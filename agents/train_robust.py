@@ -60,7 +60,7 @@ def _positive_int(value: Any, where: str) -> int:
 def load_robust_config(path: str | Path = ROBUST_CONFIG, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """The training YAML at ``path`` with ``overrides`` (``{"hyperparams.n_steps": 64}`` style), checked: a
     ValueError names the file and the key."""
-    import yaml  # noqa: PLC0415
+    import yaml
     try:
         with open(path) as f:
             config = yaml.safe_load(f)
@@ -110,16 +110,16 @@ def check_robust_config(config: dict[str, Any], source: str = "config") -> None:
 def make_vec_env(config: dict[str, Any], seed: int, check_only: bool = False) -> Any:
     """The training env of ``config``: ``n_envs`` batched v1 envs as one SB3 ``VecEnv``, env ``i`` seeded
     ``seed + i`` (``check_only``: the batch's arguments checked, no SB3 adapter built)."""
-    from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig  # noqa: PLC0415
-    from envs.vector_v1 import BenchBatch  # noqa: PLC0415
-    from envs.core import make_config  # noqa: PLC0415
+    from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
+    from envs.vector_v1 import BenchBatch
+    from envs.core import make_config
     env = dict(config.get("env") or {})
     batch_kwargs = {k: env.pop(k) for k in ("frame_stack", "start_bank", "bank_reuse") if k in env}
     bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
     batch = BenchBatch(int(config.get("n_envs", 16)), make_config(None, **env), bench, **batch_kwargs)
     if check_only:
         return batch
-    from .sb3_vec_env import ShearSB3VecEnv  # noqa: PLC0415
+    from .sb3_vec_env import ShearSB3VecEnv
     return ShearSB3VecEnv(batch.num_envs, seed=seed, batch=batch)
 
 
@@ -129,9 +129,9 @@ def frame_stack_of(config: dict[str, Any]) -> int:
 
 def _algo_class(algo: str):
     if algo == "recurrent":
-        from sb3_contrib import RecurrentPPO  # noqa: PLC0415
+        from sb3_contrib import RecurrentPPO
         return RecurrentPPO
-    from stable_baselines3 import PPO  # noqa: PLC0415
+    from stable_baselines3 import PPO
     return PPO
 
 
@@ -145,7 +145,7 @@ class RobustPolicy:
 
     @classmethod
     def load(cls, run_dir: str | Path, name: str = "ppo_robust") -> RobustPolicy:
-        from stable_baselines3 import PPO  # noqa: PLC0415
+        from stable_baselines3 import PPO
         run_dir = Path(run_dir)
         with open(run_dir / "vecnormalize.pkl", "rb") as f:
             normalizer = pickle.load(f)
@@ -206,7 +206,7 @@ def load_policy(run_dir: str | Path, algo: str = "ppo", name: str | None = None)
 
 def evaluate_policy_on(policy: RobustPolicy | RecurrentPolicy, benches: Sequence[Any], env_kwargs: dict[str, Any] | None = None,
                        bench_set: str = "heldout", tip_friction_deg: float | None = None) -> list[Any]:
-    from .heldout import run_episode, with_tip  # noqa: PLC0415
+    from .heldout import run_episode, with_tip
     return [run_episode(policy, with_tip(b, tip_friction_deg), env_kwargs=env_kwargs, seed=i, bench_set=bench_set,
                         index=i) for i, b in enumerate(benches)]
 
@@ -263,11 +263,11 @@ def _new_model(config: dict[str, Any], venv: Any, seed: int) -> Any:
 def train_robust(task: RobustTask) -> dict[str, Any]:
     """Train one seed (module-level and picklable for the executor); returns its summary. Resumes from the run's
     checkpoint if there is one."""
-    import torch  # noqa: PLC0415
-    from stable_baselines3.common.callbacks import BaseCallback  # noqa: PLC0415
-    from stable_baselines3.common.vec_env import VecNormalize  # noqa: PLC0415
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.vec_env import VecNormalize
 
-    from .heldout import TUNING_SEED, random_benches, summarise  # noqa: PLC0415
+    from .heldout import TUNING_SEED, random_benches, summarise
 
     config = task.resolved()
     algo = config.get("algo", "ppo")
@@ -282,7 +282,7 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
     run_dir.mkdir(parents=True, exist_ok=True)
     done = run_dir / "done.json"
     if not task.resume:
-        import shutil  # noqa: PLC0415
+        import shutil
         for name in ("done.json", "final_model.zip", "vecnormalize.pkl", "learning_curve.csv"):
             (run_dir / name).unlink(missing_ok=True)
         shutil.rmtree(run_dir / "checkpoint", ignore_errors=True)
@@ -344,7 +344,7 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
     if remaining > 0:
         callbacks = [Curve()]
         if task.progress:
-            from .training import progress_callback  # noqa: PLC0415
+            from .progress import progress_callback
             callbacks.append(progress_callback(timesteps, f"{ALGOS[algo]} seed {task.seed}"))
         model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=model.num_timesteps == 0)
     evaluate()

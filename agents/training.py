@@ -61,34 +61,15 @@ def train(request: TrainRequest, executor: ExecutorLike = "serial") -> list[Trai
     """Train (or resume) one run per seed of ``request`` through ``executor``; results in seed order."""
     request.check()
     if request.env_id == "TriPlanarShear-v0":
-        from .train_ppo import DEFAULT_CONFIG, load_config, train_seeds  # noqa: PLC0415
+        from .train_ppo import DEFAULT_CONFIG, load_config, train_seeds
         overrides = {**request.overrides, **{f"env.{k}": v for k, v in request.env_kwargs.items()}}
         config = load_config(request.config or DEFAULT_CONFIG, overrides)
         results = train_seeds(config, request.out_dir, request.seeds, request.timesteps, request.resume,
                               request.verbose, executor, progress=request.progress)
         return [TrainedRun(seed, r.timesteps, r.wall_s, r.run_dir) for seed, r in zip(request.seeds, results)]
-    from .train_robust import train_seeds as train_robust_seeds  # noqa: PLC0415
+    from .train_robust import train_seeds as train_robust_seeds
     summaries = train_robust_seeds(request.out_dir, request.seeds, request.timesteps or 0,
                                    env_kwargs=request.env_kwargs, executor=executor, algo=request.algo or "",
                                    config=request.config or "", overrides=request.overrides,
                                    progress=request.progress, resume=request.resume)
     return [TrainedRun(s["seed"], s["timesteps"], s["wall_s"], Path(s["run_dir"])) for s in summaries]
-
-
-def progress_callback(total: int, desc: str) -> Any:
-    """A tqdm bar over the run's env steps (stable-baselines3's own needs ``rich``, which the project does not pin)."""
-    from stable_baselines3.common.callbacks import BaseCallback  # noqa: PLC0415
-    from tqdm import tqdm  # noqa: PLC0415
-
-    class Progress(BaseCallback):
-        def _on_training_start(self) -> None:
-            self.bar = tqdm(total=total, initial=self.model.num_timesteps, desc=desc, unit="step", unit_scale=True)
-
-        def _on_step(self) -> bool:
-            self.bar.update(self.model.num_timesteps - self.bar.n)
-            return True
-
-        def _on_training_end(self) -> None:
-            self.bar.close()
-
-    return Progress()

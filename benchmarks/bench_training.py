@@ -25,20 +25,20 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _ppo_settings() -> tuple[dict[str, Any], int]:
-    from agents.train_ppo import load_config  # noqa: PLC0415
+    from agents.train_ppo import load_config
     config = load_config(ROOT / "agents" / "ppo.yaml")
     return dict(config["ppo"]), int(config["n_envs"])
 
 
 def _v1_env(n_envs: int, seed: int, start_bank: int) -> Any:
-    from agents.sb3_vec_env import bench_vec_env  # noqa: PLC0415
+    from agents.sb3_vec_env import bench_vec_env
     return bench_vec_env(n_envs, seed, frame_stack=4, start_bank=start_bank, observation_mode="bench",
                          randomize=True)
 
 
 def _cartpole_env(n_envs: int, seed: int) -> Any:
-    import gymnasium as gym  # noqa: PLC0415
-    from stable_baselines3.common.vec_env import DummyVecEnv  # noqa: PLC0415
+    import gymnasium as gym
+    from stable_baselines3.common.vec_env import DummyVecEnv
     venv = DummyVecEnv([lambda: gym.make("CartPole-v1") for _ in range(n_envs)])
     venv.seed(seed)
     return venv
@@ -46,9 +46,9 @@ def _cartpole_env(n_envs: int, seed: int) -> Any:
 
 def train_rate(make_env: Callable[[], Any], steps: int) -> float:
     """Env-steps/s of PPO's ``learn`` for ``steps`` steps (rollouts and updates), after one warm-up rollout."""
-    import torch  # noqa: PLC0415
-    from stable_baselines3 import PPO  # noqa: PLC0415
-    from stable_baselines3.common.vec_env import VecNormalize  # noqa: PLC0415
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.vec_env import VecNormalize
     torch.set_num_threads(1)
     ppo, _ = _ppo_settings()
     policy = ppo.pop("policy", "MlpPolicy")
@@ -69,7 +69,7 @@ def main() -> int:
                         help="start bank of the v1 run (default: agents/robust.yaml's)")
     parser.add_argument("--json", help="also write the numbers here")
     args = parser.parse_args()
-    from agents.train_robust import ROBUST_CONFIG, load_robust_config  # noqa: PLC0415
+    from agents.train_robust import ROBUST_CONFIG, load_robust_config
     bank = args.start_bank if args.start_bank is not None else \
         int(load_robust_config(ROBUST_CONFIG)["env"].get("start_bank", 0))
     _, n_envs = _ppo_settings()

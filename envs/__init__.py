@@ -32,7 +32,7 @@ def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | N
 
 _drop_stale_compiled_code()
 
-from .triplanar_shear import ShearConfig, TriPlanarShearEnv  # noqa: E402 (after the stale cache is dropped)
+from .triplanar_shear import ShearConfig, TriPlanarShearEnv  # after the stale cache is dropped
 
 ENV_ID = "TriPlanarShear-v0"
 

@@ -88,7 +88,7 @@ class ShearEnvBase(gym.Env):
         if self._start is None:
             raise gym.error.ResetNeeded("call reset() before render()")
         if self._renderer is None:
-            from .render import Renderer  # noqa: PLC0415 (Pillow only when rendering)
+            from .render import Renderer  # Pillow only when rendering
             self._renderer = Renderer(self._foundation, human=self.render_mode == "human")
         return self._renderer.draw(np.array(self._trace), self.reference_path, self._load_point(),
                                    self._st[ST_LOAD], self._st[ST_T])

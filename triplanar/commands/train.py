@@ -36,7 +36,7 @@ def key_value(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep or not key.strip():
         raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    import yaml  # noqa: PLC0415 (the rl extra; checked by require() before any value is used)
+    import yaml  # the rl extra; checked by require() before any value is used
     try:
         return key.strip(), yaml.safe_load(value)
     except yaml.YAMLError as err:
@@ -68,7 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     require()
-    from agents.training import TrainRequest, train  # noqa: PLC0415  (the RL stack, only when training)
+    from agents.training import TrainRequest, train  # the RL stack, only when training
     if args.algo is not None and args.env == "TriPlanarShear-v0":
         raise ValueError("--algo is for --env TriPlanarShear-v1 (v0 trains PPO with agents/ppo.yaml)")
     seeds = tuple(args.seed or [0])
