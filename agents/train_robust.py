@@ -31,7 +31,7 @@ import os
 import pickle
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -49,6 +49,7 @@ DEFAULT_CONFIGS = {"ppo": ROBUST_CONFIG, "recurrent": RECURRENT_CONFIG}
 ENV_ID = "TriPlanarShear-v1"
 CONFIG_KEYS = ("env_id", "algo", "env", "n_envs", "normalize", "policy", "hyperparams", "train")
 TRAIN_KEYS = ("total_timesteps", "eval_freq", "checkpoint_freq", "torch_threads")
+BATCH_KEYS = ("frame_stack", "start_bank", "bank_reuse")   # the batched env's own arguments (envs.vector_v1)
 
 
 def _positive_int(value: Any, where: str) -> int:
@@ -110,11 +111,15 @@ def check_robust_config(config: dict[str, Any], source: str = "config") -> None:
 def make_vec_env(config: dict[str, Any], seed: int, check_only: bool = False) -> Any:
     """The training env of ``config``: ``n_envs`` batched v1 envs as one SB3 ``VecEnv``, env ``i`` seeded
     ``seed + i`` (``check_only``: the batch's arguments checked, no SB3 adapter built)."""
+    from envs.core import ShearConfig, make_config
     from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
     from envs.vector_v1 import BenchBatch
-    from envs.core import make_config
     env = dict(config.get("env") or {})
-    batch_kwargs = {k: env.pop(k) for k in ("frame_stack", "start_bank", "bank_reuse") if k in env}
+    known = {f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS)
+    unknown = sorted(set(env) - known)
+    if unknown:
+        raise ValueError(f"unknown env argument(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+    batch_kwargs = {k: env.pop(k) for k in BATCH_KEYS if k in env}
     bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
     batch = BenchBatch(int(config.get("n_envs", 16)), make_config(None, **env), bench, **batch_kwargs)
     if check_only:
@@ -276,8 +281,7 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
     timesteps, eval_freq, checkpoint_freq = train["total_timesteps"], train["eval_freq"], train["checkpoint_freq"]
     torch.set_num_threads(int(train["torch_threads"]))
     # the single env's arguments (evaluation episodes): the batch's own keys left out
-    env_kwargs = {k: v for k, v in (config.get("env") or {}).items() if k not in ("frame_stack", "start_bank",
-                                                                                  "bank_reuse")}
+    env_kwargs = {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS}
     run_dir = Path(task.out_dir) / f"seed_{task.seed}"
     run_dir.mkdir(parents=True, exist_ok=True)
     done = run_dir / "done.json"
