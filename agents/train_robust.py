@@ -31,7 +31,7 @@ import os
 import pickle
 import time
 from collections import deque
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -390,8 +390,9 @@ def seed_tasks(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps:
                         algo, checkpoint_freq, str(config), tuple(sorted((overrides or {}).items())), progress,
                         resume)
              for s in seeds]
-    if tasks:
-        tasks[0].resolved()
+    if tasks:  # checked now, and each task names its algorithm (callers sort the runs by it)
+        resolved_algo = tasks[0].resolved().get("algo", "ppo")
+        tasks = [replace(task, algo=resolved_algo) for task in tasks]
     return tasks
 
 
