@@ -43,7 +43,7 @@ from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 from . import core as S
 from .triplanar_shear_v1 import (BENCH_HIGH, BENCH_OBS_DIM, BS_PREV, BS_THRUST, N_BS, Bench, BenchConfig,
                                  action_rate_reward, bench_command, bench_constants, bench_observation, bench_option,
-                                 bench_start, draw_bench_for, draw_start, observation_space_of, reset_bench_state)
+                                 bench_start, draw_start, observation_space_of, reset_bench_state)
 from .vector import seed_list
 
 BANK_STREAM = 30_030   # the first entry of the start bank's seed sequences (agents.heldout uses 10_010, 20_020)
@@ -107,13 +107,12 @@ class BenchBatch:
         self.ws = S.new_workspace()
         self.rngs: list[np.random.Generator] = [seeding.np_random(None)[0] for _ in range(n)]
         self.benches: list[Bench | None] = [None] * n
-        self.starts: list[S.EpisodeStart | None] = [None] * n
         self._bank_size = int(start_bank) if bench.randomize else 0
         self._bank_reuse = int(bank_reuse)
         self._bank: list[list[Any]] = []   # [bench, start, episodes left]
         self._bank_next = 0
         self._bank_drawn = 0
-        self._bank_seed = 0
+        self._bank_seed = int(np.random.SeedSequence().entropy)   # until seed() gives one
 
     @property
     def obs_dim(self) -> int:
@@ -133,7 +132,7 @@ class BenchBatch:
         seeds = list(seeds)
         for i, seed in zip(rows, seeds):
             self.rngs[i] = seeding.np_random(seed)[0]
-        if seeds and seeds[0] is not None:
+        if seeds and seeds[0] is not None:   # the bank's streams follow the batch's first seed
             self._bank_seed = int(seeds[0])
 
     def _bank_take(self) -> tuple[Bench, S.EpisodeStart]:
@@ -166,7 +165,7 @@ class BenchBatch:
             else:
                 episode, start = draw_start(self.rngs[i], self.config, self.bench.randomize, self.specimen,
                                             self.foundation)
-            self.benches[i], self.starts[i] = episode, start
+            self.benches[i] = episode
             reset_bench_state(self.config, start, self.BS[i], self.QUEUE[i])
             self.Y[i], self.P[i], self.MODES[i], self.ARMED[i] = start.y, start.p, start.modes, start.armed
             self.ST[i], self.REF[i], self.OBS[i], self.INF[i] = start.st, start.reference, start.obs, start.inf
@@ -174,10 +173,6 @@ class BenchBatch:
         self.R_RATE[rows] = 0.0
         self._observe(rows)
         self.FRAMES[rows] = self._single[rows][:, None, :]
-
-    def draw_bench(self, i: int) -> Bench:
-        """A bench as row ``i``'s next reset would draw it (for callers that pick benches themselves)."""
-        return draw_bench_for(self.rngs[i], self.config, self.bench.randomize, self.specimen, self.foundation)
 
     # -- steps -----------------------------------------------------------------------------------
     def step(self, actions: np.ndarray, active: np.ndarray) -> np.ndarray:
