@@ -265,6 +265,20 @@ def _new_model(config: dict[str, Any], venv: Any, seed: int) -> Any:
                              **(config.get("hyperparams") or {}))
 
 
+def _refuse_another_configuration(run_dir: Path, config: dict[str, Any]) -> None:
+    """A run directory continues only the run it holds: what it trained (``config.json``) must match ``config`` but
+    for the step budget and the evaluation and checkpoint intervals."""
+    path = run_dir / "config.json"
+    if not path.exists():
+        return
+    before = json.loads(path.read_text())
+    now = json.loads(json.dumps(config))   # as JSON keeps it (tuples become lists)
+    for key in CONFIG_KEYS:
+        if key != "train" and before.get(key) != now.get(key):
+            raise ValueError(f"{run_dir} holds a run trained with another {key} ({before.get(key)!r}, now "
+                             f"{now.get(key)!r}): give another --out, or --no-resume to replace it")
+
+
 def train_robust(task: RobustTask) -> dict[str, Any]:
     """Train one seed (module-level and picklable for the executor); returns its summary. Resumes from the run's
     checkpoint if there is one."""
@@ -290,6 +304,7 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
         for name in ("done.json", "final_model.zip", "vecnormalize.pkl", "learning_curve.csv"):
             (run_dir / name).unlink(missing_ok=True)
         shutil.rmtree(run_dir / "checkpoint", ignore_errors=True)
+    _refuse_another_configuration(run_dir, config)
     if done.exists():
         return json.loads(done.read_text())
     _atomic(lambda p: p.write_text(json.dumps(config, indent=2)), run_dir / "config.json")

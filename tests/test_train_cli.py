@@ -58,3 +58,6 @@ def test_a_killed_v1_run_continues_from_its_checkpoint(tmp_path) -> None:
     assert ran["n_envs"] == 2 and ran["env"]["start_bank"] == 4 and ran["env_id"] == "TriPlanarShear-v1"
     curve = (tmp_path / "seed_5" / "learning_curve.csv").read_text().splitlines()
     assert int(curve[1].split(",")[0]) < resumed_from   # the row from before the kill is kept
+    other = subprocess.run([*args, "--set", "hyperparams.learning_rate=0.001"], cwd=ROOT, env=env,
+                           capture_output=True, text=True, timeout=600)
+    assert other.returncode == 2 and "another hyperparams" in other.stderr   # not silently mixed with the run

@@ -17,7 +17,7 @@ NAME = "train"
 HELP = ("train PPO on TriPlanarShear-v0, or robust/recurrent PPO on TriPlanarShear-v1 (hyperparameters in a YAML "
         "file; resumes from checkpoints)")
 ENV_IDS = ("TriPlanarShear-v0", "TriPlanarShear-v1")
-DEFAULT_OUT = {"TriPlanarShear-v0": "runs/ppo", "TriPlanarShear-v1": "runs/robust"}
+DEFAULT_OUT = {"TriPlanarShear-v0": "runs/ppo", "TriPlanarShear-v1": "runs/robust", "recurrent": "runs/recurrent"}
 
 
 def positive_int(text: str) -> int:
@@ -56,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         dest="overrides", help="any YAML value (repeatable), e.g. hyperparams.learning_rate=1e-4 "
                                                "(v1) or ppo.learning_rate=1e-4 (v0)")
     parser.add_argument("--out", help="output directory; the run goes to OUT/seed_S (default runs/ppo for v0, "
-                                      "runs/robust for v1)")
+                                      "runs/robust for v1, runs/recurrent with --algo recurrent)")
     parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
     parser.add_argument("--timesteps", type=positive_int, help="total environment steps (default: the YAML's)")
     parser.add_argument("--no-resume", action="store_true",
@@ -74,7 +74,8 @@ def run(args: argparse.Namespace) -> int:
     seeds = tuple(args.seed or [0])
     request = TrainRequest(env_id=args.env, config=args.config, algo=args.algo, env_kwargs=dict(args.env_arg),
                            overrides=dict(args.overrides), seeds=seeds, timesteps=args.timesteps,
-                           out_dir=args.out or DEFAULT_OUT[args.env], resume=not args.no_resume,
+                           out_dir=args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env],
+                           resume=not args.no_resume,
                            verbose=args.verbose, progress=not args.no_progress)
     with executor_from_args(args) as executor:
         results = train(request, executor)
