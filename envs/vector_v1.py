@@ -14,7 +14,8 @@ The stable-baselines3 ``VecEnv`` over either version's batch is :class:`agents.s
 
 **Start bank** (``start_bank=C``, with ``randomize=True`` only; default 0: off). An unknown specimen's start costs a
 start-mode search and a hydrostatic reference run (about 1.7 ms a reset, draws that cannot start included). With a
-bank, a reset takes the next of ``C`` precomputed unknown specimens in turn, and an entry is replaced by a fresh draw
+bank, a reset takes the next of ``C`` precomputed unknown specimens in turn (the first reset computes all ``C``), and an
+entry is replaced by a fresh draw
 after ``bank_reuse`` episodes (default 8): a reset then costs about ``1 / bank_reuse`` of a fresh start. What it does
 to the training distribution: the specimens are drawn from the same ranges (the same :func:`draw_bench`, the same
 rejection of specimens that cannot start), but each specimen serves ``bank_reuse`` episodes (each with its own
@@ -135,18 +136,19 @@ class BenchBatch:
         if seeds and seeds[0] is not None:   # the bank's streams follow the batch's first seed
             self._bank_seed = int(seeds[0])
 
+    def _bank_draw(self) -> list[Any]:
+        bench, start = draw_start(np.random.default_rng([BANK_STREAM, self._bank_seed, self._bank_drawn]),
+                                  self.config, True, self.specimen, self.foundation)
+        self._bank_drawn += 1
+        return [bench, start, self._bank_reuse]
+
     def _bank_take(self) -> tuple[Bench, S.EpisodeStart]:
-        """The next banked specimen and its start (a fresh draw where the entry has served its episodes)."""
-        if len(self._bank) < self._bank_size or self._bank[self._bank_next][2] == 0:
-            bench, start = draw_start(np.random.default_rng([BANK_STREAM, self._bank_seed, self._bank_drawn]),
-                                      self.config, True, self.specimen, self.foundation)
-            self._bank_drawn += 1
-            entry = [bench, start, self._bank_reuse]
-            if len(self._bank) < self._bank_size:
-                self._bank.append(entry)
-                self._bank_next = len(self._bank) - 1
-            else:
-                self._bank[self._bank_next] = entry
+        """The next banked specimen and its start (a fresh draw where the entry has served its episodes). The first
+        reset fills the whole bank, so that every episode comes from a full bank."""
+        if not self._bank:
+            self._bank = [self._bank_draw() for _ in range(self._bank_size)]
+        if self._bank[self._bank_next][2] == 0:
+            self._bank[self._bank_next] = self._bank_draw()
         entry = self._bank[self._bank_next]
         entry[2] -= 1
         self._bank_next = (self._bank_next + 1) % self._bank_size

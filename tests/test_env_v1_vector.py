@@ -106,10 +106,11 @@ def test_start_bank_reuses_each_specimen_and_never_holds_a_heldout_one() -> None
     batch = BenchBatch(4, config, bench, start_bank=8, bank_reuse=3)
     batch.seed([0, 1, 2, 3])
     seen = []
-    for _ in range(12):  # 48 episodes: 8 specimens x 3 episodes, then 8 fresh ones x 3
+    for _ in range(12):  # 48 episodes: the first reset fills the bank (8), each serves 3, then 8 fresh ones x 3
         batch.reset_rows(np.arange(4))
-        seen += [b.specimen for b in batch.benches]
-    names = {(s.mass_kg, s.tip_friction_deg) for s in seen}
-    assert len(names) == 16 and batch._bank_drawn == 16
+        seen += [(b.specimen.mass_kg, b.specimen.tip_friction_deg) for b in batch.benches]
+    assert batch._bank_drawn == 16 and len(set(seen)) == 16
+    assert all(seen.count(key) == 3 for key in set(seen))
+    names = set(seen)
     protected = heldout_benches(200) + random_benches(10, TUNING_SEED + 1)
     assert not names & {(b.specimen.mass_kg, b.specimen.tip_friction_deg) for b in protected}
