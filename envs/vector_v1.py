@@ -14,13 +14,13 @@ The stable-baselines3 ``VecEnv`` over either version's batch is :class:`agents.s
 
 **Start bank** (``start_bank=C``, with ``randomize=True`` only; default 0: off). An unknown specimen's start costs a
 start-mode search and a hydrostatic reference run (about 1.7 ms a reset, draws that cannot start included). With a
-bank, a reset takes the next of ``C`` precomputed unknown specimens in turn (the first reset computes all ``C``), and an
-entry is replaced by a fresh draw
-after ``bank_reuse`` episodes (default 8): a reset then costs about ``1 / bank_reuse`` of a fresh start. What it does
-to the training distribution: the specimens are drawn from the same ranges (the same :func:`draw_bench`, the same
-rejection of specimens that cannot start), but each specimen serves ``bank_reuse`` episodes (each with its own
-sensor noise, and in whatever state the policy leaves it): the number of distinct specimens seen in training is the
-number of episodes divided by ``bank_reuse``, and episodes that share a specimen are correlated. The bank draws from
+bank, a reset takes the next of ``C`` precomputed unknown specimens in turn (the first reset computes all ``C``), and
+an entry is replaced by a fresh draw after ``bank_reuse`` episodes (default 8): a reset then costs about
+``1 / bank_reuse`` of a fresh start. What it does to the training distribution: the specimens are drawn from the
+same ranges (the same :func:`draw_bench`, the same rejection of specimens that cannot start), but each specimen
+serves ``bank_reuse`` episodes (each with its own sensor noise, and in whatever state the policy leaves it): the
+number of distinct specimens seen in training is the number of episodes divided by ``bank_reuse``, and episodes
+that share a specimen are correlated. The bank draws from
 its own streams, ``np.random.default_rng([BANK_STREAM, seed, k])`` for its ``k``-th specimen, which no held-out or
 tuning set uses (theirs are ``[seed, i]`` pairs of other seeds: :mod:`agents.heldout`). Rows of a banked batch are
 not the single env's episodes (the bitwise equality above holds without a bank).
