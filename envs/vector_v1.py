@@ -20,10 +20,10 @@ an entry is replaced by a fresh draw after ``bank_reuse`` episodes (default 8): 
 same ranges (the same :func:`draw_bench`, the same rejection of specimens that cannot start), but each specimen
 serves ``bank_reuse`` episodes (each with its own sensor noise, and in whatever state the policy leaves it): the
 number of distinct specimens seen in training is the number of episodes divided by ``bank_reuse``, and episodes
-that share a specimen are correlated. The bank draws from
-its own streams, ``np.random.default_rng([BANK_STREAM, seed, k])`` for its ``k``-th specimen, which no held-out or
-tuning set uses (theirs are ``[seed, i]`` pairs of other seeds: :mod:`agents.heldout`). Rows of a banked batch are
-not the single env's episodes (the bitwise equality above holds without a bank).
+that share a specimen are correlated. The bank draws from its own streams,
+``np.random.default_rng([BANK_STREAM, seed, k])`` for its ``k``-th specimen, which no held-out or tuning set uses
+(theirs are ``[seed, i]`` pairs of other seeds: :mod:`agents.heldout`). Rows of a banked batch are not the single
+env's episodes (the bitwise equality above holds without a bank).
 """
 
 from __future__ import annotations
