@@ -54,7 +54,8 @@ class TrainResult:
     wall_s: float
 
 
-CONFIG_KEYS = ("env", "n_envs", "normalize", "ppo", "train", "eval_loads")
+CONFIG_KEYS = ("env_id", "env", "n_envs", "normalize", "ppo", "train", "eval_loads")
+ENV_ID = "TriPlanarShear-v0"
 TRAIN_KEYS = ("total_timesteps", "eval_freq", "checkpoint_freq", "torch_threads")
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs_keys")
 
@@ -88,6 +89,9 @@ def _positive_int(value: Any, where: str) -> int:
 
 def check_config(config: dict[str, Any], source: str = "config") -> None:
     """Refuse unknown keys and values that would fail only after training (ValueError naming the key)."""
+    if config.get("env_id", ENV_ID) != ENV_ID:
+        raise ValueError(f"{source}: env_id is {config['env_id']!r}: this trainer runs {ENV_ID} (give --env "
+                         f"{config['env_id']} to train on it)")
     for key in config:
         if key not in CONFIG_KEYS:
             raise ValueError(f"{source}: unknown key {key!r}; known keys: {', '.join(CONFIG_KEYS)}")

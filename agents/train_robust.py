@@ -85,12 +85,12 @@ def load_robust_config(path: str | Path = ROBUST_CONFIG, overrides: dict[str, An
 
 def check_robust_config(config: dict[str, Any], source: str = "config") -> None:
     """Refuse unknown keys and values that would fail only after training starts (ValueError naming the key)."""
+    if config.get("env_id", ENV_ID) != ENV_ID:
+        raise ValueError(f"{source}: env_id is {config['env_id']!r}: robust training runs {ENV_ID} (give --env "
+                         f"{config['env_id']} to train on it; TriPlanarShear-v0 trains with agents/ppo.yaml)")
     for key in config:
         if key not in CONFIG_KEYS:
             raise ValueError(f"{source}: unknown key {key!r}; known keys: {', '.join(CONFIG_KEYS)}")
-    if config.get("env_id", ENV_ID) != ENV_ID:
-        raise ValueError(f"{source}: env_id: robust training runs on {ENV_ID}, got {config['env_id']!r} "
-                         "(TriPlanarShear-v0 trains with agents/ppo.yaml)")
     if config.get("algo", "ppo") not in ALGOS:
         raise ValueError(f"{source}: algo: expected one of {', '.join(ALGOS)}, got {config['algo']!r}")
     for section in ("env", "normalize", "hyperparams", "train"):

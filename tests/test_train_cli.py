@@ -26,6 +26,8 @@ TINY = ["--set", "n_envs=2", "--set", "hyperparams.n_steps=64", "--set", "hyperp
     (["--env", "TriPlanarShear-v1", "--env-arg", "lateny_s=0.01"], "unknown env argument(s) lateny_s"),
     (["--env", "TriPlanarShear-v1", "--set", "hyperparms.n_steps=8"], "unknown key 'hyperparms'"),
     (["--env", "TriPlanarShear-v1", "--algo", "recurrent", "--config", "agents/robust.yaml"], "algo is 'ppo'"),
+    (["--config", "agents/robust.yaml"], "env_id is 'TriPlanarShear-v1'"),
+    (["--env", "TriPlanarShear-v1", "--config", "agents/ppo.yaml"], "env_id is 'TriPlanarShear-v0'"),
 ])
 def test_bad_input_is_refused_with_the_option_named(args, message, tmp_path, capsys) -> None:
     assert cli.main(["train", *args, "--out", str(tmp_path), "--executor", "serial", "--no-progress"]) == 2
