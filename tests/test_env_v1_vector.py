@@ -114,3 +114,15 @@ def test_start_bank_reuses_each_specimen_and_never_holds_a_heldout_one() -> None
     names = set(seen)
     protected = heldout_benches(200) + random_benches(10, TUNING_SEED + 1)
     assert not names & {(b.specimen.mass_kg, b.specimen.tip_friction_deg) for b in protected}
+
+
+def test_banked_vector_env_autoresets_within_its_spaces() -> None:
+    vec = TriPlanarShearV1VectorEnv(4, randomize=True, frame_stack=2, start_bank=3, bank_reuse=2)
+    obs, _ = vec.reset(seed=9)
+    assert vec.batch._bank_drawn == 3   # the first reset filled the bank
+    ends = 0
+    for batch in np.clip(np.random.default_rng(1).normal(0.0, 0.9, (150, 4, 2)), -1, 1):
+        obs, rewards, terminated, truncated, _ = vec.step(batch)
+        assert vec.observation_space.contains(obs) and np.all(np.isfinite(rewards))
+        ends += int(np.count_nonzero(terminated | truncated))
+    assert ends >= 8 and vec.batch._bank_drawn > 3   # entries that served their episodes were replaced
