@@ -19,7 +19,10 @@ dissipation at the tip, work of user forces. Parameters ``p`` (``N_PARAM`` float
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -71,7 +74,7 @@ PARAMS = Layout("P_", "N_PARAM", [
     ("RATE_V0", 1, "its reference slip speed v0, m/s"),
     ("EXTF", 3, "extra force at the mass centre (world), user effects, N"),
     ("EXTM", 3, "extra moment about the mass centre (world), N m"),
-    ("USER", 1, "1: call the user effects' Python wrench (slow path) before each evaluation"),
+    ("USER", 1, "handle of the run's user force function (slow path, user_force), called before each evaluation; 0: none"),
     ("F0", 1, "actuator force when sliding starts (t = 0); with P_TAU > 0 it rises from there to P_FCMD"),
     ("LEFT0", 6, "how far each CP starts across another plane's line (re-seated tilted planes), m"),
     ("COHESION", 1, "Mohr-Coulomb cohesion c at each contact, N: shear strength mu N + c")])
@@ -612,14 +615,36 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray,  # noqa:
 
 
 # -- user effects (slow path) ----------------------------------------------------------------
-# User-written effects are Python objects; the compiled RHS reaches them through objmode. The callable
-# in USER_WRENCH[0] maps (t, y) to (force, moment) about the mass centre, world axes; simulate() sets it
-# for the duration of one run (so runs in one process must not overlap, as in a process pool).
-USER_WRENCH: list = [None]
+# User-written effects are Python objects, which compiled code cannot hold: numba's nopython mode types no Python
+# object, and its first-class function type takes compiled functions only. So a run passes its user force
+# function down as a handle in its own parameter vector (``p[P_USER]``, 0: none), which every compiled function
+# already gets; :func:`user_force` registers the function under a fresh handle for the duration of the run, and the
+# compiled right-hand side calls it through objmode. Each run has its own handle, so runs may overlap (threads,
+# nested runs); the cost is one dictionary look-up per call of a path that is already Python.
+_USER_FORCES: dict[int, Callable[[float, np.ndarray], tuple]] = {}
+_USER_FORCE_HANDLES = itertools.count(1)  # (next() is atomic under the GIL: handles are never shared)
+
+
+@contextmanager
+def user_force(p: np.ndarray, fn: Callable[[float, np.ndarray], tuple] | None) -> Iterator[np.ndarray]:
+    """Pass the user force function ``fn`` (``(t, y) -> (force, moment)`` about the mass centre, world axes) to the
+    compiled code that runs with parameters ``p`` inside the ``with`` block: ``p[P_USER]`` gets its handle (0 and
+    nothing registered when ``fn`` is None). Yields ``p``."""
+    if fn is None:
+        p[P_USER] = 0.0
+        yield p
+        return
+    handle = next(_USER_FORCE_HANDLES)
+    _USER_FORCES[handle] = fn
+    p[P_USER] = float(handle)
+    try:
+        yield p
+    finally:
+        del _USER_FORCES[handle]
 
 
 def _call_user_wrench(t: float, y: np.ndarray, p: np.ndarray) -> None:
-    force, moment = USER_WRENCH[0](t, y)
+    force, moment = _USER_FORCES[int(p[P_USER])](t, y)
     p[P_EXTF:P_EXTF + 3] = force
     p[P_EXTM:P_EXTM + 3] = moment
 

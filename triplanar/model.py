@@ -170,7 +170,7 @@ class Model:
         p[K.P_TIP0:K.P_TIP0 + 3] = s.load_point_world
         for name, (slot, _, _, _) in K.KERNEL_SETTINGS.items():
             p[slot] = self.setting(name)
-        p[K.P_USER] = 1.0 if self.force_effects else 0.0
+        p[K.P_USER] = 0.0  # (no user force function: a run passes its own, kernel.user_force)
         # Re-seated on tilted planes, a contact point that rests on a line where two planes meet may start
         # a hair across it; the plane-crossing events count only what lies beyond that start, up to
         # SEAT_TOLERANCE_M. Deeper than that the tilted planes put the point under another plane (it would

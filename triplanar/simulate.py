@@ -87,7 +87,7 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
     x1_target = _cp1_x1(y0, p) + travel_m
     armed = np.zeros(5, dtype=np.bool_)
     modes = K.sliding_modes()
-    with _user_effects(model):
+    with K.user_force(p, model.user_wrench if model.force_effects else None):
         converged, consistency = start_motion(p, modes, y0)
         K.modes_of(ws)[:] = modes  # (the driver keeps them there)
         while True:
@@ -128,21 +128,4 @@ def _cp1_x1(y: np.ndarray, p: np.ndarray) -> float:
     cps = np.empty((3, 3))
     K.contact_points(y, p, cps)
     return float(cps[0, 0])
-
-
-class _user_effects:
-    """Install the model's user-written forces as the kernel's callback for the duration of a run."""
-
-    def __init__(self, model: Model):
-        self.model = model
-
-    def __enter__(self) -> None:
-        if not self.model.force_effects:
-            return
-        self.previous = K.USER_WRENCH[0]
-        K.USER_WRENCH[0] = self.model.user_wrench
-
-    def __exit__(self, *exc: object) -> None:
-        if self.model.force_effects:
-            K.USER_WRENCH[0] = self.previous
 
