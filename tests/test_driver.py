@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import threading
 
 import numpy as np
 import pytest
@@ -59,6 +60,49 @@ def test_an_arrest_is_decided_by_the_statics_and_recorded() -> None:
     assert result.events[-1].name == "arrested"
     assert any(e.outcome is Outcome.SLOW or e.outcome is Outcome.STOPPED for e in result.events[:-1])
     assert simulate(paper_model("B", 40.0), t_max_s=0.05).outcome is Outcome.TIME_LIMIT
+
+
+_MEETING: dict[str, threading.Barrier] = {}  # test-only: where two runs wait for each other
+
+
+class _MeetingPulse(_Pulse):
+    """Test-only: a :class:`_Pulse` that, at its first call inside a run, waits until another run in another thread
+    has reached the same point, so that both runs are under way at once."""
+    name = "meeting_pulse_for_driver_test"
+
+    def wrench(self, t, state):
+        barrier = _MEETING.pop(f"{id(self)}", None)
+        if t > 0.0 and barrier is not None:
+            barrier.wait(timeout=120)
+        elif barrier is not None:
+            _MEETING[f"{id(self)}"] = barrier
+        return super().wrench(t, state)
+
+
+def test_runs_in_threads_each_call_their_own_user_force() -> None:
+    """Two runs with different user forces, under way at the same time in two threads, give each its own trace: the
+    user force function travels with the run (kernel.user_force), not through one slot that the later run would
+    take over."""
+    models = [paper_model("B", 15.0, effects=[_MeetingPulse(force_N=force)]) for force in (20.0, 60.0)]
+    alone = [simulate(model, t_max_s=0.3) for model in models]
+    assert not np.array_equal(alone[0].y[-1], alone[1].y[-1])
+    barrier = threading.Barrier(2)
+    for model in models:
+        _MEETING[f"{id(model.effects[0])}"] = barrier
+    together: list = [None, None]
+
+    def run(i: int) -> None:
+        together[i] = simulate(models[i], t_max_s=0.3)
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=300)
+    assert not barrier.broken and not _MEETING
+    for i in range(2):
+        assert together[i].status == alone[i].status and np.array_equal(together[i].y, alone[i].y)
+    assert not K._USER_FORCES  # every run took its function back
 
 
 def test_held_block_never_runs_the_driver() -> None:

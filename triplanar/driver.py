@@ -70,8 +70,7 @@ def energy_defect(y0: np.ndarray, y1: np.ndarray, p: np.ndarray, ws: np.ndarray)
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
-def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target, slow_speed, energy_tol, out_t,
-                       out_y, out_dy, out_aux, record, row0, log, ws):
+def _integrate_checked(t0, y, p, armed, h, opts, rec, row0, ws):
     """:func:`triplanar.stepping.integrate_ws`, redone with DOPRI5 while the energy balance is off (see the module
     docstring). A redo starts again from the stretch's start (state, modes, arming, recorded rows and event log) and
     hands back the stretch's own step ``h``, so a fixed-step caller keeps its step."""
@@ -81,11 +80,9 @@ def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target,
     ws[DW_MODES0, :N_MODE] = ws[W_MODES, :N_MODE]
     for k in range(5):
         ws[DW_ARMED0, k] = 1.0 if armed[k] else 0.0
-    rows, status, event, h_out, t = stepping.integrate_ws(method, t0, y, p, h, rtol, atol, t_end, x1_target,
-                                                          slow_speed, armed, out_t, out_y, out_dy, out_aux, record,
-                                                          row0, log, ws)
+    status, event, rows, h_out, t = stepping.integrate_ws(t0, y, p, armed, h, opts, rec, row0, ws)
     for redo_rtol in FALLBACK_RTOLS:
-        if energy_tol <= 0.0 or abs(energy_defect(y0, y, p, ws)) <= energy_tol:
+        if opts.energy_tol <= 0.0 or abs(energy_defect(y0, y, p, ws)) <= opts.energy_tol:
             break
         y[:] = y0
         ws[W_MODES, :N_MODE] = ws[DW_MODES0, :N_MODE]
@@ -93,11 +90,12 @@ def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target,
             armed[k] = ws[DW_ARMED0, k] != 0.0
         count[C_NLOG] = log0
         count[C_NREDO] += 1.0
-        rows, status, event, _, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, h, redo_rtol,
-                                                          1e-3 * redo_rtol, t_end, x1_target, slow_speed, armed, out_t,
-                                                          out_y, out_dy, out_aux, record, row0, log, ws)
+        # (the same field types as the caller's options: integrate_ws is compiled once)
+        redo = stepping.StepOptions(np.int64(stepping.METHOD_DOPRI5), redo_rtol, 1e-3 * redo_rtol, opts.t_end,
+                                    opts.x1_target, opts.slow_speed, opts.energy_tol)
+        status, event, rows, _, t = stepping.integrate_ws(t0, y, p, armed, h, redo, rec, row0, ws)
         h_out = h
-    return rows, status, event, h_out, t
+    return status, event, rows, h_out, t
 
 
 @njit(cache=True, error_model="numpy")
@@ -110,30 +108,26 @@ def _user_wrench_at_rest(t: float, y: np.ndarray, p: np.ndarray) -> None:
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (compiled into the env's control step: no call boundary)
-def drive(method: int, t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray, h: float,
-          rtol: float, atol: float, t_end: float, x1_target: float, slow_speed: float, energy_tol: float,
-          out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool, rows: int,
-          log: np.ndarray, ws: np.ndarray):
-    """Integrate from (t, y) until a physical ending, ``t_end`` or a full buffer; ``y``, the stick/slip modes (in the
-    workspace, :func:`triplanar.kernel.modes_of`) and ``armed`` are updated in place.
+def drive(t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray, h: float, opts: stepping.StepOptions,
+          rec: stepping.Recording, rows: int, ws: np.ndarray):
+    """Integrate from (t, y) until a physical ending, ``opts.t_end`` or a full buffer; ``y``, the stick/slip modes (in
+    the workspace, :func:`triplanar.kernel.modes_of`) and ``armed`` are updated in place.
 
-    Arguments are :func:`triplanar.stepping.integrate_ws`'s, plus ``energy_tol`` (J, 0: no check) and ``rows``, the
-    rows already recorded (a continuation writes after them). The block must be moving (or started by
-    :func:`triplanar.stepping.start_motion_ws`). Returns (outcome, event index or -1, rows recorded, step size,
-    time); the workspace's counters (``kernel.C_*``) add up what the stretch cost.
+    Arguments are :func:`triplanar.stepping.integrate_ws`'s, in the same order: ``opts.energy_tol`` (J, 0: no check)
+    is used here, and ``rows`` are the rows already recorded (a continuation writes after them). The block must be
+    moving (or started by :func:`triplanar.stepping.start_motion_ws`). Returns (outcome, event index or -1, rows
+    recorded, step size, time); the workspace's counters (``kernel.C_*``) add up what the stretch cost.
     """
     count = ws[W_COUNT]
     while True:
-        rows, status, event, h, t = _integrate_checked(method, t, y, p, armed, h, rtol, atol, t_end, x1_target,
-                                                       slow_speed, energy_tol, out_t, out_y, out_dy, out_aux, record,
-                                                       rows, log, ws)
+        status, event, rows, h, t = _integrate_checked(t, y, p, armed, h, opts, rec, rows, ws)
         if status != SLOW:
             return status, event, rows, h, t
         count[C_NLP] += 1.0
         if p[P_USER] != 0.0:
             _user_wrench_at_rest(t, y, p)
         if E.holds(y, p, K.thrust(t, p), p[P_EXTF:P_EXTF + 3], p[P_EXTM:P_EXTM + 3]):
-            stepping.log_outcome(log, count, t, -1, ARRESTED)
+            stepping.log_outcome(rec.log, count, t, -1, ARRESTED)
             return ARRESTED, -1, rows, h, t
         count[C_NSTART] += 1.0
         stepping.start_motion_ws(t, y, p, ws)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -158,16 +159,44 @@ def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
     return True
 
 
+class StepOptions(NamedTuple):
+    """How a run steps and when it ends: what :func:`integrate_ws` and :func:`triplanar.driver.drive` take after the
+    state. Compiled as a named tuple (a struct of scalars passed by value): its fields are read like local
+    variables, it adds no allocation or pointer chasing in the env's hot loop, and one tuple type means one compiled
+    version; a jitclass or structref would be a heap object behind a pointer, boxed on every call from Python, with
+    its own typing and compile cost. Build it with the same field types at every call site (``method`` an integer,
+    the rest floats), or numba compiles the whole tree again."""
+    method: int  # METHOD_EULER, METHOD_RK4 or METHOD_DOPRI5
+    rtol: float  # DOPRI5's tolerances (per state component, RMS norm: _error_norm)
+    atol: float
+    t_end: float  # s: the run returns TIME_LIMIT here
+    x1_target: float  # m: the run ends with TRAVEL when CP1's e1 coordinate reaches it
+    slow_speed: float  # m/s: every contact point slower: SLOW (the caller checks arrest); stops at a tenth of it
+    energy_tol: float  # J: driver.drive redoes a stretch whose energy balance is off by more, with DOPRI5; 0: no check
+
+
+class Recording(NamedTuple):
+    """Where a run writes what it records (compiled as a named tuple of arrays, like :class:`StepOptions`).
+
+    With ``on``, every accepted step's time, state, derivative f(t, y) and aux vector are written to ``t``, ``y``,
+    ``dy``, ``aux`` (rows of equal count); every event that happens is appended to ``log`` (rows: time, event index,
+    outcome) while it has room, recorded or not. The env records nothing: one-row buffers and an empty log, of the
+    same array types as simulate's, so that the steppers are compiled once."""
+    on: bool
+    t: np.ndarray
+    y: np.ndarray
+    dy: np.ndarray
+    aux: np.ndarray
+    log: np.ndarray
+
+
 @njit(cache=True, error_model="numpy")
-def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, h: float, rtol: float,
-              atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
-              out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool):
-    """:func:`integrate_ws` with its own scratch memory, recording from row 0, no event log; ``modes`` are updated
-    in place."""
+def integrate(t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, armed: np.ndarray, h: float,
+              opts: StepOptions, rec: Recording):
+    """:func:`integrate_ws` with its own scratch memory, recording from row 0; ``modes`` are updated in place."""
     ws = new_workspace()
     modes_of(ws)[:] = modes
-    out = integrate_ws(method, t0, y, p, h, rtol, atol, t_max, x1_target, slow_speed, armed, out_t, out_y, out_dy,
-                       out_aux, record, 0, np.empty((0, 3)), ws)
+    out = integrate_ws(t0, y, p, armed, h, opts, rec, 0, ws)
     modes[:] = modes_of(ws)
     return out
 
@@ -175,31 +204,33 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.nd
 # Over the complexity limit (pyproject.toml) knowingly: a compiled kernel, whose split into helpers must be
 # shown to keep results bitwise (benchmarks/fingerprint.py) and speed (benchmarks/bench_speed_ab.py).
 @njit(cache=True, error_model="numpy")
-def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,  # noqa: C901 (see above)
-                 rtol: float, atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
-                 out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool,
-                 row0: int, log: np.ndarray, ws: np.ndarray):
-    """Integrate from (t0, y) until a terminal event, ``t_max`` or a full buffer; ``y`` ends as the final state.
+def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,  # noqa: C901 (see above)
+                 h: float, opts: StepOptions, rec: Recording, row0: int, ws: np.ndarray):
+    """Integrate from (t0, y) until a terminal event, ``opts.t_end`` or a full buffer; ``y`` ends as the final state.
 
     ``h`` is the fixed step (Euler, RK4) or the first trial step (DOPRI5). Events are located to 1e-13 s
     by re-stepping from the last accepted state with a shorter step (Illinois regula falsi on the step),
     so a terminal event's row lies on the event. A contact or the tip that stops slipping, or whose static
     friction gives way, is handled here (:func:`apply_mode_event_ws`); the run returns to the caller for the
     rest: terminal events, and ``SLOW`` (a possible arrest: the caller decides with the statics LP; the caller is
-    :func:`triplanar.driver.drive`).
+    :func:`triplanar.driver.drive`, which takes the same arguments in the same order).
     A fixed step that would carry a sliding site past its predicted stop ends there instead
     (:func:`_predicted_stop`, :func:`_step_to_stop`), so the stop is handled where it happens.
     ``armed`` (5 flags, updated in place): whether the all-slow event, each contact's and the tip's stop
     event may fire; each arms once its speed has exceeded twice its threshold, so a start from rest does
-    not count. With ``record`` every accepted step is written to the ``out_*`` buffers from row ``row0``; the
-    start is written only when ``row0`` is 0 (a continuation's start is the caller's last row). ``out_dy`` gets
-    f(t, y) at each row, the derivative the run goes on with (at a stick/slip change, the one after it; a
-    continuation rewrites its start row's, as a restart may have changed the modes). Every event that
-    happens is appended to ``log`` (rows: time, event index, outcome) while it has room; the workspace's counters
-    (``kernel.C_*``) count steps, rejections, events and log rows.
-    Returns (rows in the buffers, outcome (:mod:`triplanar.outcome`), event index or -1, last step size, final
-    time).
+    not count. ``opts`` (:class:`StepOptions`) holds the method, tolerances and endings (``energy_tol`` is the
+    driver's); ``rec`` (:class:`Recording`) the buffers: with ``rec.on`` every accepted step is written from row
+    ``row0``; the start is written only when ``row0`` is 0 (a continuation's start is the caller's last row).
+    ``rec.dy`` gets f(t, y) at each row, the derivative the run goes on with (at a stick/slip change, the one after
+    it; a continuation rewrites its start row's, as a restart may have changed the modes). Every event that happens
+    is appended to ``rec.log``; the workspace's counters (``kernel.C_*``) count steps, rejections, events and log
+    rows.
+    Returns (outcome (:mod:`triplanar.outcome`), event index or -1, rows in the buffers, last step size, final
+    time), as :func:`triplanar.driver.drive` does.
     """
+    method, rtol, atol, t_max = opts.method, opts.rtol, opts.atol, opts.t_end
+    x1_target, slow_speed = opts.x1_target, opts.slow_speed
+    record, out_t, out_y, out_dy, out_aux, log = rec.on, rec.t, rec.y, rec.dy, rec.aux, rec.log
     n = y.shape[0]
     aux = ws[SW_AUX, :N_AUX]
     dummy = ws[SW_DY, :N_STATE]
@@ -208,7 +239,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     k1 = ws[SW_STAGES, :N_STATE]
     rows = row0
     if not rhs_ws(t0, y, p, k1, aux, ws):
-        return rows, FAILED, -1, h, t0
+        return FAILED, -1, rows, h, t0
     ev_old = ws[SW_EVOLD, :N_EVENTS]
     ev_new = ws[SW_EVNEW, :N_EVENTS]
     event_values_ws(y, p, aux, x1_target, slow_speed, ev_old, ws)
@@ -227,7 +258,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     for k in range(EV_SLOW):
         if ev_old[k] > 0.0:
             _log_event(log, count, t, k)
-            return rows, EVENT_OUTCOME[k], k, h, t
+            return EVENT_OUTCOME[k], k, rows, h, t
     fixed = method != METHOD_DOPRI5
     # Consecutive predicted steps of each site that did not end in its stop. A stop is usually reached in a few
     # (each one refines the last); a slip that turns instead of stopping can make them shrink towards zero
@@ -236,9 +267,9 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     missed = np.zeros(4, np.int64)
     while True:
         if record and rows >= out_t.shape[0]:
-            return rows, BUFFER_FULL, -1, h, t
+            return BUFFER_FULL, -1, rows, h, t
         if t_max - t <= 1e-9 * h:
-            return rows, TIME_LIMIT, -1, h, t
+            return TIME_LIMIT, -1, rows, h, t
         h_try = min(h, t_max - t)
         site = -1
         if fixed:
@@ -250,20 +281,20 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         if site >= 0:
             h_try = _step_to_stop(method, t, y, tau, h_try, p, site, slow_speed, y_new, err, aux_new, ws)
             if h_try < 0.0:
-                return rows, FAILED, -1, h, t
+                return FAILED, -1, rows, h, t
         elif not _advance(method, t, y, h_try, p, y_new, err, aux_new, ws):
             if not fixed and h_try > 1e-12:
                 h = 0.25 * h_try
                 count[C_NREJECT] += 1.0
                 continue
-            return rows, FAILED, -1, h, t
+            return FAILED, -1, rows, h, t
         h_next = h
         if not fixed:
             en = _error_norm(y, y_new, err, rtol, atol)
             if en > 1.0:
                 h = h_try * max(0.2, 0.9 * en ** -0.2)
                 if h < 1e-12:
-                    return rows, FAILED, -1, h, t
+                    return FAILED, -1, rows, h, t
                 count[C_NREJECT] += 1.0
                 continue
             h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
@@ -285,7 +316,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
             h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
                            y_new, err, aux_new, ws)
             if h_ev < 0.0:
-                return rows, FAILED, -1, h, t
+                return FAILED, -1, rows, h, t
             h_try = h_ev
         t = t + h_try
         for i in range(n):
@@ -304,7 +335,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
             elif hit < EV_RELEASE:
                 armed[hit - EV_STOP + 1] = False
             if not rhs_ws(t, y, p, dummy, aux_new, ws):
-                return rows, FAILED, -1, h, t
+                return FAILED, -1, rows, h, t
             dy_ready = True
             status = RUNNING
         elif second_stop:
@@ -320,7 +351,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
         if dy_ready:
             k1[:] = dummy
         elif not rhs_ws(t, y, p, k1, aux_new, ws):
-            return rows, FAILED, -1, h, t
+            return FAILED, -1, rows, h, t
         if ev_old[EV_SLOW] < -slow_speed:
             armed[0] = True  # arrest can only be detected once the block has really moved
         for i in range(3):
@@ -335,7 +366,7 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
             out_aux[rows] = aux_new
             rows += 1
         if status != RUNNING:
-            return rows, status, hit, h, t
+            return status, hit, rows, h, t
         h = h_next
 
 
