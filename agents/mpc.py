@@ -1,0 +1,1 @@
+class MPCController: pass
