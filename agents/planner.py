@@ -14,8 +14,8 @@ mean of its costs from each: the plan is good on average over what the specimen 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 
@@ -95,6 +95,6 @@ class CEMPlanner:
 
     def advance(self, plan: np.ndarray) -> None:
         """Keep ``plan`` shifted by one period (its last action held) as the next decision's warm start."""
-        shifted = np.concatenate([plan[1:], plan[-1:]], axis=0)
+        shifted = np.concatenate([plan[1:], np.repeat(plan[-1:], self.horizon - len(plan) + 1, axis=0)])
         # back to knots: the value at each block's first period
         self._mean = shifted[::self.block][:self.knots].copy()

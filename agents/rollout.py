@@ -24,8 +24,19 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from envs.triplanar_shear import (CF_FAIL, CF_TRAVEL, IN_DIST, IN_TRAVEL, IN_TRUNC, N_INFO, OBS_DIM, ST_ERR_NUM, ST_T,
-                                  control_step, new_workspace)
+from envs.triplanar_shear import (
+    CF_FAIL,
+    CF_TRAVEL,
+    IN_DIST,
+    IN_TRAVEL,
+    IN_TRUNC,
+    N_INFO,
+    OBS_DIM,
+    ST_ERR_NUM,
+    ST_T,
+    control_step,
+    new_workspace,
+)
 from envs.triplanar_shear_v1 import bench_command
 from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
@@ -45,7 +56,7 @@ class BenchState:
     bs: np.ndarray
     queue: np.ndarray
 
-    def copy(self) -> "BenchState":
+    def copy(self) -> BenchState:
         return BenchState(*(np.array(getattr(self, name)) for name in BENCH_STATE_FIELDS))
 
 

@@ -6,7 +6,8 @@ dependency: ``import envs`` and ``gym.make_vec("TriPlanarShear-v0")`` work witho
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
