@@ -86,7 +86,7 @@ class SpecimenBank:
         env = TriPlanarShearV1Env(**self.env_kwargs)
         low, high = prior_ranges(self.prior)
         self.resolution = (high - low) / self.size
-        draws = latin_hypercube(np.random.default_rng([self.seed, int(round(load_N * 1000))]), self.size, low, high)
+        draws = latin_hypercube(np.random.default_rng([self.seed, round(load_N * 1000)]), self.size, low, high)
         self.theta, self.states = [], []
         for theta in draws:
             try:

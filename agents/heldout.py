@@ -15,19 +15,12 @@ tuning uses, plus the nominal bench; failures are counted, never averaged into a
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
-from envs.triplanar_shear import (
-    EpisodeDraw,
-    StartError,
-    episode_start,
-    make_config,
-    specimen_key,
-)
+from envs.triplanar_shear import EpisodeDraw, StartError, episode_start, make_config, specimen_key
 from envs.triplanar_shear_v1 import BENCH_FIELDS, Bench, TriPlanarShearV1Env, draw_bench
 from triplanar import PAPER_LOADS_N
 
@@ -81,7 +74,7 @@ def with_tip(bench: Bench, tip_friction_deg: float | None) -> Bench:
     """``bench`` with a given tip (a design's hardware) instead of its drawn tip friction."""
     if tip_friction_deg is None:
         return bench
-    from dataclasses import replace
+    from dataclasses import replace  # noqa: PLC0415
     return replace(bench, specimen=replace(bench.specimen, tip_friction_deg=float(tip_friction_deg)))
 
 

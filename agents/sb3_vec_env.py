@@ -6,8 +6,7 @@ dependency: ``import envs`` and ``gym.make_vec("TriPlanarShear-v0")`` work witho
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from typing import Any, Sequence
 
 import gymnasium as gym
 import numpy as np

@@ -31,10 +31,9 @@ import os
 import re
 import sys
 import time
-from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 import yaml
@@ -129,9 +128,9 @@ def eval_loads(config: dict[str, Any]) -> list[float]:
 
 def make_vec_envs(config: dict[str, Any], seed: int):
     """(training VecNormalize env, evaluation VecNormalize env: one env per evaluation load)."""
-    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize  # noqa: PLC0415
 
-    from .sb3_vec_env import ShearSB3VecEnv
+    from .sb3_vec_env import ShearSB3VecEnv  # noqa: PLC0415
     shear = env_config(config)
     norm = config.get("normalize", {})
     train = VecNormalize(VecMonitor(ShearSB3VecEnv(int(config.get("n_envs", 16)), shear, seed=seed)), **norm)
@@ -170,7 +169,7 @@ def _replace_atomically(save: Any, path: Path) -> None:
 
 def _checkpoint_callback(save_freq: int, save_path: Path):
     """SB3's CheckpointCallback (model + VecNormalize every ``save_freq`` calls), writing each file atomically."""
-    from stable_baselines3.common.callbacks import CheckpointCallback
+    from stable_baselines3.common.callbacks import CheckpointCallback  # noqa: PLC0415
 
     class AtomicCheckpoint(CheckpointCallback):
         def _on_step(self) -> bool:
@@ -186,10 +185,10 @@ def _checkpoint_callback(save_freq: int, save_path: Path):
 
 def _mimicry_callback(config: dict[str, Any], curve_path: Path, wall_offset: float, started: float):
     """Callback run after each evaluation: the deterministic policy's mimicry error at every evaluation load."""
-    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.callbacks import BaseCallback  # noqa: PLC0415
 
-    from .evaluation import evaluate
-    from .ppo_controller import PPOController
+    from .evaluation import evaluate  # noqa: PLC0415
+    from .ppo_controller import PPOController  # noqa: PLC0415
     loads = eval_loads(config)
     env_kwargs = config.get("env", {})
 
@@ -242,10 +241,10 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
               total_timesteps: int | None = None, resume: bool = True, callbacks: Sequence[Any] = (),
               verbose: int = 0) -> TrainResult:
     """Train (or resume) one PPO run; see the module docstring for what it writes."""
-    import torch
-    from stable_baselines3 import PPO
-    from stable_baselines3.common.callbacks import CallbackList, EvalCallback
-    from stable_baselines3.common.vec_env import VecNormalize
+    import torch  # noqa: PLC0415
+    from stable_baselines3 import PPO  # noqa: PLC0415
+    from stable_baselines3.common.callbacks import CallbackList, EvalCallback  # noqa: PLC0415
+    from stable_baselines3.common.vec_env import VecNormalize  # noqa: PLC0415
 
     if isinstance(config, dict):
         check_config(config)
@@ -347,7 +346,7 @@ def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
 
 
 def main(argv: Iterable[str] | None = None) -> int:
-    from triplanar.commands.train import add_arguments
+    from triplanar.commands.train import add_arguments  # noqa: PLC0415  (the options are the CLI's)
     parser = argparse.ArgumentParser(prog="python -m agents.train_ppo", description=__doc__.splitlines()[0])
     add_arguments(parser)
     return run(parser.parse_args(None if argv is None else list(argv)))

@@ -56,3 +56,37 @@ def test_limit_at_nominal_loads_on_the_ideal_bench_beats_in_sample_ppo():
     assert all(o.success for o in outcomes), [o.reason for o in outcomes]
     mean = float(np.mean([o.mimicry_error_mm for o in outcomes]))
     assert mean <= 0.50, mean
+
+
+def _known_specimen(tip_deg: float):
+    from dataclasses import replace
+
+    from envs.triplanar_shear import make_config
+    from envs.triplanar_shear_v1 import Bench
+    specimen, foundation = make_config(None).base_specimen()
+    return Bench(replace(specimen, tip_friction_deg=tip_deg), foundation, 40.0)
+
+
+@pytest.mark.slow
+def test_estimator_finds_a_known_tip_friction_on_noiseless_data():
+    from agents.mpc import MPCController
+    bench = _known_specimen(6.0)
+    controller = MPCController(sensor_noise_m=0.0)
+    outcome = run_episode(controller, bench, env_kwargs={"sensor_noise_m": 0.0})
+    low, high = controller.info["tip_friction_interval_deg"]
+    assert outcome.success, outcome.reason
+    assert low <= 6.0 <= high, (low, high, controller.info["estimate"])
+    assert high - low < 0.5 * 9.0, (low, high)  # narrower than half the prior's 3-12 deg
+
+
+def test_estimator_divergence_falls_back_to_the_prior_and_sends_finite_actions():
+    from agents.mpc import MPCController
+    from envs.triplanar_shear import make_config
+    controller = MPCController(bank_size=4, samples=4, elites=2, iterations=1, horizon=4)
+    controller.reset(40.0, make_config(None))
+    obs = np.zeros(15, dtype=np.float32)
+    controller.act(obs)
+    obs[:9] = np.nan  # a broken rangefinder: no hypothesis can explain it
+    action = controller.act(obs)
+    assert controller.info["estimator_fallback"] and controller.info["fallbacks"] == 1
+    assert np.all(np.isfinite(action))
