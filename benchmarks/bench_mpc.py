@@ -1,0 +1,130 @@
+"""The model-based controllers on the default bench: held-out unknown specimens (bench observations), ``limit``
+(perfect knowledge), ``mpc`` and the scripted controllers for reference, plus the CPU time of a control decision.
+
+``PYTHONPATH=. python benchmarks/bench_mpc.py --benches 50 --out runs/bench_mpc [--workers 2]``
+
+Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
+``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table: success rate
+with its Wilson 95 % interval, mean mimicry error over successes with a t 95 % interval, the score (a failure
+counts 10 mm, ``agents.heldout``), the ratio of each score to ``limit``'s on the same benches, CPU time per episode
+and, for ``mpc``, per decision (``time.process_time`` around ``act``: estimator update plus planning, or the plan
+followed between replans). Results go to ``docs/actuator-study.md`` by hand, with the command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from agents.bench_controllers import make_controller
+from agents.heldout import heldout_benches, run_episode, summarise
+from triplanar.executor import TaskCheckpoint, pool_scope, run_tasks
+from triplanar.workbench.report import write_json
+
+SCRIPTED = {"frictionless_tip": {}, "moment_matching": {}, "pi_feedback": {"kp": -20.0, "ki": 200.0},
+            "adaptive": {"gain_deg_per_m_s": -1e5}}
+ENV = {"frictionless_tip": {"tip_friction_deg": 0.0}}
+
+
+def episode(task: tuple[str, dict, int, int]) -> dict:
+    """One held-out episode of controller ``name``: its outcome, CPU time and, for ``mpc``, per-decision times."""
+    name, params, index, n = task
+    bench = heldout_benches(n)[index]
+    if name == "frictionless_tip":
+        from agents.heldout import with_tip
+        bench = with_tip(bench, 0.0)
+    controller = make_controller(name, **params)
+    decisions: list[float] = []
+    if name == "mpc":
+        act = controller.act
+
+        def timed(obs):
+            action = act(obs)
+            decisions.append(controller.info["cpu_s"])
+            return action
+        controller.act = timed
+    start = time.process_time()
+    outcome = run_episode(controller, bench, seed=index, index=index)
+    out = asdict(outcome)
+    out.update(cpu_s=time.process_time() - start, decisions_cpu_s=decisions)
+    if name == "mpc":
+        out["fallbacks"] = controller.info["fallbacks"]
+    return out
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    if n == 0:
+        return math.nan, math.nan
+    p = k / n
+    centre, half = (p + z * z / (2 * n)) / (1 + z * z / n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return centre - half, centre + half
+
+
+def t_interval(values: list[float]) -> tuple[float, float]:
+    from scipy import stats
+    if len(values) < 2:
+        return math.nan, math.nan
+    m, s = float(np.mean(values)), float(np.std(values, ddof=1)) / math.sqrt(len(values))
+    half = float(stats.t.ppf(0.975, len(values) - 1)) * s
+    return m - half, m + half
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--benches", type=int, default=50)
+    parser.add_argument("--out", default="runs/bench_mpc")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--controllers", default="limit,mpc," + ",".join(SCRIPTED))
+    args = parser.parse_args()
+    out = Path(args.out)
+    names = args.controllers.split(",")
+    summary = {"benches": args.benches, "controllers": {}}
+    for name in names:
+        tasks = [(name, SCRIPTED.get(name, {}), i, args.benches) for i in range(args.benches)]
+        wall = time.perf_counter()
+        with pool_scope(args.workers) as ex:
+            results = run_tasks(episode, tasks, ex, progress=True, desc=name,
+                                checkpoint=TaskCheckpoint(out / "tasks"))
+        wall = time.perf_counter() - wall
+        from agents.heldout import Outcome
+        outcomes = [Outcome(**{k: r[k] for k in Outcome.__dataclass_fields__}) for r in results]
+        row = summarise(outcomes)
+        ok = [o.mimicry_error_mm for o in outcomes if o.success]
+        row.update(success_ci95=wilson(len(ok), len(outcomes)), error_ci95_mm=t_interval(ok),
+                   cpu_s_per_episode=float(np.mean([r["cpu_s"] for r in results])), wall_s=wall,
+                   scores=[o.mimicry_error_mm if o.success else 10.0 for o in outcomes])
+        decisions = [d for r in results for d in r["decisions_cpu_s"]]
+        if decisions:
+            row.update(decision_cpu_ms_mean=1e3 * float(np.mean(decisions)),
+                       decision_cpu_ms_p95=1e3 * float(np.percentile(decisions, 95)),
+                       fallbacks=int(sum(r.get("fallbacks", 0) for r in results)))
+        summary["controllers"][name] = row
+    if "limit" in summary["controllers"]:
+        limit = summary["controllers"]["limit"]["score"]
+        for row in summary["controllers"].values():
+            row["ratio_to_limit"] = row["score"] / limit
+    write_json(summary, out / "summary.json")
+    print("| controller | episodes | success (95 % CI) | error over successes, mm (95 % CI) | score, mm | / limit | "
+          "CPU s/episode |")
+    for name, r in summary["controllers"].items():
+        lo, hi = r["success_ci95"]
+        elo, ehi = r["error_ci95_mm"]
+        print(f"| `{name}` | {r['n_episodes']} | {100 * r['success_rate']:.0f} % ({100 * lo:.0f}-{100 * hi:.0f}) | "
+              f"{r['mimicry_error_mm']:.2f} ({elo:.2f}-{ehi:.2f}) | {r['score']:.2f} | "
+              f"{r.get('ratio_to_limit', math.nan):.2f} | {r['cpu_s_per_episode']:.2f} |")
+        if "decision_cpu_ms_mean" in r:
+            print(f"  {name}: decision CPU {r['decision_cpu_ms_mean']:.2f} ms mean, {r['decision_cpu_ms_p95']:.2f} ms "
+                  f"p95; estimator fallbacks {r['fallbacks']}; wall {r['wall_s']:.0f} s")
+        else:
+            print(f"  {name}: wall {r['wall_s']:.0f} s")
+    print(json.dumps({k: v["score"] for k, v in summary["controllers"].items()}))
+
+
+if __name__ == "__main__":
+    main()
