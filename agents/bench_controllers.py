@@ -196,8 +196,8 @@ def make_controller(name: str, **params: float) -> BenchController:
     """A controller by name (picklable specs for the executor: a name and numbers)."""
     factories = {"fixed_tip": BenchController, "frictionless_tip": BenchController,
                  "moment_matching": BenchMomentMatching, "tracking_tip": BenchTracking, "pi_feedback": BenchPI, "adaptive": AdaptiveMomentMatching}
-    from .limit import LimitController  # noqa: PLC0415 (limit and mpc build on this module)
-    from .mpc import MPCController  # noqa: PLC0415
+    from .limit import LimitController  # (here: limit and mpc build on this module)
+    from .mpc import MPCController
     factories.update({"limit": LimitController, "mpc": MPCController})
     if name not in factories:
         raise ValueError(f"unknown controller {name!r}; choose from {sorted(factories)}")

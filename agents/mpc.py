@@ -5,7 +5,8 @@ env's compiled step from the ``hypotheses`` most likely hypotheses, each toward 
 weighted by their probabilities. Between replans the controller follows its plan.
 
 The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
-specimen (the nominal drawing, or a fitted one: :func:`agents.prior.load_prior`), never the bench's true specimen.
+specimen (``prior``: the env's nominal specimen by default, or a ``Specimen``, or the path of a ``fit.json`` or
+specimen TOML, :func:`triplanar.prior.load_prior`), never the bench's true specimen.
 After each ``act`` its :attr:`MPCController.info` holds the estimate (mean, tip-friction interval), whether the
 estimator fell back to the prior this period (``estimator_fallback``) and how often in the episode, and the CPU
 time of the decision. It never sends a non-finite action: if the plan is not finite it holds its last action and
@@ -16,11 +17,13 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from envs.triplanar_shear import ShearConfig
+from triplanar.prior import load_prior
 
 from .bench_controllers import BenchController
 from .estimator import PARAMETERS, SpecimenBank
@@ -56,6 +59,8 @@ class MPCController(BenchController):
         super().reset(load_N, config)
         specimen, foundation = config.base_specimen()
         prior = self.prior if self.prior is not None else specimen
+        if isinstance(prior, (str, Path)):
+            prior = load_prior(prior, specimen, foundation)
         shear = {f: getattr(config, f) for f in ShearConfig.__dataclass_fields__ if f not in ("specimen", "foundation")}
         env_kwargs = {**shear, "specimen": prior, "foundation": foundation, "observation_mode": "state",
                       "stage_bandwidth_hz": self.stage_bandwidth_hz, "thrust_bandwidth_hz": self.thrust_bandwidth_hz,

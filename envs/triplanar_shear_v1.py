@@ -326,6 +326,7 @@ class TriPlanarShearV1Env(gym.Env):
     | `thrust_bandwidth_hz`| float         | `30.0`    | force-loop bandwidth, Hz; `math.inf`: ideal |
     | `latency_s`          | float         | `0.005`   | command latency, s, a whole number of control periods |
     | `sensor_noise_m`     | float         | `2e-4`    | rangefinder noise (standard deviation), m |
+    | `nominal_specimen`   | path or None  | `None`    | a `fit.json` of `triplanar fit` or a specimen TOML: the nominal specimen (`triplanar.prior.load_prior`; refused naming the field if it is not this bench's) |
     | `render_mode`        | str or None   | `None`    | `"rgb_array"` or `"human"` |
     | any `ShearConfig` field | (see v0)   | (v0's)    | `load_N`, `load_levels`, `load_range`, `control_hz`, `tip_friction_deg`, `stage_speed_m_s`, `offset_range_m`, `thrust_scale`, `travel_m`, `time_limit_s`, reward terms, `specimen`, `foundation` |
 
@@ -352,7 +353,10 @@ class TriPlanarShearV1Env(gym.Env):
 
     def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
                  stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0, latency_s: float = 0.005,
-                 sensor_noise_m: float = 2e-4, **kwargs: Any):
+                 sensor_noise_m: float = 2e-4, nominal_specimen: str | os.PathLike | None = None, **kwargs: Any):
+        if nominal_specimen is not None:  # identify, then control: the fitted specimen becomes the nominal one
+            from triplanar.prior import load_prior  # (only when asked for)
+            kwargs["specimen"] = load_prior(nominal_specimen, *make_config(None, **kwargs).base_specimen())
         self.config: ShearConfig = make_config(None, **kwargs)
         self.bench = BenchConfig(stage_bandwidth_hz, thrust_bandwidth_hz, latency_s, sensor_noise_m,
                                  observation_mode, bool(randomize))

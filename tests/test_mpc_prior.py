@@ -11,8 +11,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from agents.prior import PriorError, load_prior
 from envs.triplanar_shear import make_config
+from triplanar.prior import PriorError, load_prior
 from triplanar.specimen import Foundation, Plane, to_toml
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -92,3 +92,15 @@ def test_tutorial_identify_then_control(tmp_path):
         rows[name] = summarise(outcomes)
     for row in rows.values():
         assert row["n_episodes"] == 2 and np.isfinite(row["score"])
+
+
+def test_v1_takes_a_fit_as_its_nominal_specimen(tmp_path):
+    import gymnasium as gym
+
+    import envs  # noqa: F401
+    path = _fit_json(tmp_path, {"end_friction": {"phi_deg": 6.5}})
+    env = gym.make("TriPlanarShear-v1", nominal_specimen=str(path))
+    env.reset(seed=0)
+    assert env.unwrapped.episode_bench.specimen.tip_friction_deg == 6.5
+    with pytest.raises(PriorError, match="plane_tilt"):
+        gym.make("TriPlanarShear-v1", nominal_specimen=str(_fit_json(tmp_path, {"plane_tilt": {"dip_deg": 1.0}})))

@@ -1,7 +1,6 @@
 """Identify, then control: a specimen identified on the workbench (``fit.json`` of ``triplanar fit``) or given as a
 specimen TOML (``docs/specimen-format.md``), as the prior of :class:`agents.mpc.MPCController` (``prior=``) and as
-v1's nominal specimen (``gym.make("TriPlanarShear-v1", specimen=load_prior(path))``: the ``specimen`` argument every
-``ShearConfig`` field gives v1).
+v1's nominal specimen (``gym.make("TriPlanarShear-v1", nominal_specimen=path)``).
 
 A ``fit.json`` gives fitted effect parameters on top of the drawing; those that are properties of the specimen
 become its fields: ``end_friction.phi_deg`` -> ``tip_friction_deg`` (the tip is the bench's, so it is taken as
