@@ -156,12 +156,29 @@ class SpecimenBank:
         half = z * math.sqrt(cov[k, k])
         return float(mean[k] - half), float(mean[k] + half)
 
-    def best(self, count: int) -> tuple[list[BenchState], np.ndarray]:
+    def best(self, count: int, min_ess: float = 1.0) -> tuple[list[BenchState], np.ndarray]:
         """Up to ``count`` hypotheses to plan with (copies of their states) and their weights: picked by systematic
         resampling (the likely ones when the weights are peaked, a spread of the prior while they are flat, so
-        the first plans are robust to what is not yet known), each weighted by how often it was picked."""
-        w = self.weights()
+        the first plans are robust to what is not yet known), each weighted by how often it was picked. The
+        weights are tempered (``w ** beta``, the largest ``beta <= 1`` that leaves an effective sample size of at
+        least ``min_ess``): the bank is finite and the bench is not one of its hypotheses (tilts, mass), so a
+        planner that trusted a single hypothesis would plan for a specimen that is not there."""
+        w = self._tempered(min_ess)
         picks = np.searchsorted(np.cumsum(w), (np.arange(count) + 0.5) / count)
         picks = np.minimum(picks, len(w) - 1)
         chosen, counts = np.unique(picks, return_counts=True)
         return [self.states[i].copy() for i in chosen], counts / counts.sum()
+
+    def _tempered(self, min_ess: float) -> np.ndarray:
+        w = self.weights()
+        if min_ess <= 1.0 or 1.0 / float(w @ w) >= min_ess or self.alive.sum() <= 1:
+            return w
+        lw = np.where(self.alive, self.log_w - np.max(self.log_w[self.alive]), -np.inf)
+        low, high = 0.0, 1.0
+        for _ in range(30):  # bisection on beta: the effective sample size falls as beta grows
+            beta = 0.5 * (low + high)
+            t = np.exp(beta * lw)
+            t /= t.sum()
+            low, high = (beta, high) if 1.0 / float(t @ t) >= min_ess else (low, beta)
+        t = np.exp(low * lw)
+        return t / t.sum()

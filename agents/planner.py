@@ -26,7 +26,7 @@ from .rollout import BenchState, predict
 class CEMPlanner:
     """Cross-entropy planner (module docstring). ``samples`` candidates per iteration, ``iterations`` per decision,
     the ``elites`` best refit the sampling mean and spread (``sigma0`` at the start of each decision, in action
-    units)."""
+    units); candidates stay within ``low``-``high`` (per action: a safety envelope)."""
 
     horizon: int = 20
     block: int = 4
@@ -36,6 +36,8 @@ class CEMPlanner:
     sigma0: float = 0.3
     seed: int = 0
     pace_s: float = 0.5
+    low: tuple[float, float] = (-1.0, -1.0)
+    high: tuple[float, float] = (1.0, 1.0)
     _mean: np.ndarray | None = None
     _rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
     last_cost: float = float("nan")
@@ -68,14 +70,14 @@ class CEMPlanner:
         w = np.asarray(weights, dtype=float)
         w = w / w.sum()
         if self._mean is None:
-            mean = np.repeat(np.asarray(hold, dtype=float)[None, :], self.knots, axis=0)
+            mean = np.repeat(np.clip(np.asarray(hold, dtype=float), self.low, self.high)[None, :], self.knots, axis=0)
         else:
             mean = self._mean
         sigma = np.full_like(mean, self.sigma0)
         best_knots, best_cost = mean.copy(), np.inf
         for _ in range(self.iterations):
             noise = self._rng.standard_normal((self.samples, self.knots, 2))
-            cand = np.clip(mean[None] + sigma[None] * noise, -1.0, 1.0)
+            cand = np.clip(mean[None] + sigma[None] * noise, self.low, self.high)
             cand[0] = mean
             if np.isfinite(best_cost):
                 cand[1] = best_knots

@@ -1,7 +1,8 @@
 """The model-based controllers on the default bench: held-out unknown specimens (bench observations), ``limit``
 (perfect knowledge), ``mpc`` and the scripted controllers for reference, plus the CPU time of a control decision.
 
-``PYTHONPATH=. python benchmarks/bench_mpc.py --benches 50 --out runs/bench_mpc [--workers 2]``
+``PYTHONPATH=. python benchmarks/bench_mpc.py --benches 50 --out runs/bench_mpc [--workers 2]``;
+``--limit-sweep``: ``limit`` at six nominal loads with shorter/longer horizons and more samples instead.
 
 Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
 ``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table: success rate
@@ -58,6 +59,39 @@ def episode(task: tuple[str, dict, int, int]) -> dict:
     return out
 
 
+LIMIT_SETTINGS = ((12, 16, 2), (24, 32, 3), (48, 64, 4))  # (horizon, samples, iterations); the default is the middle
+
+
+def limit_episode(task: tuple[tuple[int, int, int], float]) -> dict:
+    """``limit`` with the given planner settings at one nominal load (default bench): how far from optimal it is."""
+    (horizon, samples, iterations), load = task
+    from agents.heldout import nominal_benches
+    from agents.limit import LimitController
+    start = time.process_time()
+    outcome = run_episode(LimitController(horizon=horizon, samples=samples, iterations=iterations),
+                          nominal_benches([load])[0], bench_set="nominal")
+    return {**asdict(outcome), "cpu_s": time.process_time() - start}
+
+
+def limit_sweep(out: Path, workers: int, loads: list[float]) -> None:
+    tasks = [(setting, load) for setting in LIMIT_SETTINGS for load in loads]
+    with pool_scope(workers) as ex:
+        results = run_tasks(limit_episode, tasks, ex, progress=True, desc="limit sweep",
+                            checkpoint=TaskCheckpoint(out / "tasks"))
+    rows = []
+    for setting in LIMIT_SETTINGS:
+        mine = [r for (s, _), r in zip(tasks, results) if s == setting]
+        ok = [r["mimicry_error_mm"] for r in mine if r["success"]]
+        rows.append({"horizon": setting[0], "samples": setting[1], "iterations": setting[2],
+                     "success_rate": len(ok) / len(mine), "mimicry_error_mm": float(np.mean(ok)) if ok else math.nan,
+                     "per_load": [r["mimicry_error_mm"] for r in mine],
+                     "cpu_s_per_episode": float(np.mean([r["cpu_s"] for r in mine]))})
+        print(f"limit horizon {setting[0]}, {setting[1]} samples x {setting[2]} iterations: success "
+              f"{100 * rows[-1]['success_rate']:.0f} %, error {rows[-1]['mimicry_error_mm']:.3f} mm, "
+              f"{rows[-1]['cpu_s_per_episode']:.1f} CPU s/episode")
+    write_json({"loads_N": loads, "rows": rows}, out / "limit_sweep.json")
+
+
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     if n == 0:
         return math.nan, math.nan
@@ -81,8 +115,14 @@ def main() -> None:
     parser.add_argument("--out", default="runs/bench_mpc")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--controllers", default="limit,mpc," + ",".join(SCRIPTED))
+    parser.add_argument("--limit-sweep", action="store_true",
+                        help="instead: limit at the nominal loads (default bench) with shorter and longer horizons "
+                             "and more samples (does its figure still fall?)")
     args = parser.parse_args()
     out = Path(args.out)
+    if args.limit_sweep:
+        limit_sweep(out, args.workers, [27.8, 32.5, 37.5, 42.5, 47.5, 51.6])
+        return
     names = args.controllers.split(",")
     summary = {"benches": args.benches, "controllers": {}}
     for name in names:
