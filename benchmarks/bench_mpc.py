@@ -24,7 +24,13 @@ from pathlib import Path
 import numpy as np
 
 from agents.bench_controllers import make_controller
-from agents.heldout import heldout_benches, run_episode, summarise
+from agents.heldout import (
+    HELDOUT_SEED,
+    heldout_benches,
+    random_benches,
+    run_episode,
+    summarise,
+)
 from triplanar.executor import TaskCheckpoint, pool_scope, run_tasks
 from triplanar.workbench.report import write_json
 
@@ -33,10 +39,10 @@ SCRIPTED = {"frictionless_tip": {}, "moment_matching": {}, "pi_feedback": {"kp":
 ENV = {"frictionless_tip": {"tip_friction_deg": 0.0}}
 
 
-def episode(task: tuple[str, dict, int, int]) -> dict:
+def episode(task: tuple[str, dict, int, int, int]) -> dict:
     """One held-out episode of controller ``name``: its outcome, CPU time and, for ``mpc``, per-decision times."""
-    name, params, index, n = task
-    bench = heldout_benches(n)[index]
+    name, params, index, n, stream = task
+    bench = (heldout_benches(n) if stream == HELDOUT_SEED else random_benches(n, stream))[index]
     if name == "frictionless_tip":
         from agents.heldout import with_tip
         bench = with_tip(bench, 0.0)
@@ -115,6 +121,8 @@ def main() -> None:
     parser.add_argument("--out", default="runs/bench_mpc")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--controllers", default="limit,mpc," + ",".join(SCRIPTED))
+    parser.add_argument("--stream", type=int, default=HELDOUT_SEED,
+                        help="draw the benches from this seed stream instead of the held-out one (an independent set)")
     parser.add_argument("--limit-sweep", action="store_true",
                         help="instead: limit at the nominal loads (default bench) with shorter and longer horizons "
                              "and more samples (does its figure still fall?)")
@@ -124,9 +132,9 @@ def main() -> None:
         limit_sweep(out, args.workers, [27.8, 32.5, 37.5, 42.5, 47.5, 51.6])
         return
     names = args.controllers.split(",")
-    summary = {"benches": args.benches, "controllers": {}}
+    summary = {"benches": args.benches, "stream": args.stream, "controllers": {}}
     for name in names:
-        tasks = [(name, SCRIPTED.get(name, {}), i, args.benches) for i in range(args.benches)]
+        tasks = [(name, SCRIPTED.get(name, {}), i, args.benches, args.stream) for i in range(args.benches)]
         wall = time.perf_counter()
         with pool_scope(args.workers) as ex:
             results = run_tasks(episode, tasks, ex, progress=True, desc=name,
