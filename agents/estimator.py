@@ -173,12 +173,14 @@ class SpecimenBank:
         w = self.weights()
         if min_ess <= 1.0 or 1.0 / float(w @ w) >= min_ess or self.alive.sum() <= 1:
             return w
-        lw = np.where(self.alive, self.log_w - np.max(self.log_w[self.alive]), -np.inf)
+        lw = np.where(self.alive, self.log_w - np.max(self.log_w[self.alive]), 0.0)
+
+        def tempered(beta: float) -> np.ndarray:
+            t = np.where(self.alive, np.exp(beta * lw), 0.0)  # the ruled-out stay out at any beta
+            return t / t.sum()
         low, high = 0.0, 1.0
         for _ in range(30):  # bisection on beta: the effective sample size falls as beta grows
             beta = 0.5 * (low + high)
-            t = np.exp(beta * lw)
-            t /= t.sum()
+            t = tempered(beta)
             low, high = (beta, high) if 1.0 / float(t @ t) >= min_ess else (low, beta)
-        t = np.exp(low * lw)
-        return t / t.sum()
+        return tempered(low)
