@@ -121,6 +121,8 @@ def main() -> None:
     parser.add_argument("--out", default="runs/bench_mpc")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--controllers", default="limit,mpc," + ",".join(SCRIPTED))
+    parser.add_argument("--replan-every", type=int, default=None,
+                        help="mpc replans every N control periods (default: the controller's, 2)")
     parser.add_argument("--stream", type=int, default=HELDOUT_SEED,
                         help="draw the benches from this seed stream instead of the held-out one (an independent set)")
     parser.add_argument("--limit-sweep", action="store_true",
@@ -133,8 +135,9 @@ def main() -> None:
         return
     names = args.controllers.split(",")
     summary = {"benches": args.benches, "stream": args.stream, "controllers": {}}
+    own = {**SCRIPTED, "mpc": {} if args.replan_every is None else {"replan_every": args.replan_every}}
     for name in names:
-        tasks = [(name, SCRIPTED.get(name, {}), i, args.benches, args.stream) for i in range(args.benches)]
+        tasks = [(name, own.get(name, {}), i, args.benches, args.stream) for i in range(args.benches)]
         wall = time.perf_counter()
         with pool_scope(args.workers) as ex:
             results = run_tasks(episode, tasks, ex, progress=True, desc=name,
