@@ -89,7 +89,8 @@ class MPCController(BenchController):
         if not self._first:  # the observation of the period the last action ran
             self.bank.update(self._last, obs)
         self._first = False
-        if self._plan is None or self._age >= min(self.replan_every, len(self._plan)):
+        planned = self._plan is None or self._age >= min(self.replan_every, len(self._plan))
+        if planned:
             states, weights = self.bank.best(int(self.hypotheses), float(self.min_ess))
             self._plan = self.planner.plan(states, weights, self._last)
             self._age = 0
@@ -102,6 +103,7 @@ class MPCController(BenchController):
         self._last = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
         mean, _ = self.bank.mean_cov()
         self.info = {"estimator_fallback": self.bank.diverged, "fallbacks": self.bank.fallbacks, "held": held,
+                     "planned": planned,
                      "estimate": dict(zip(PARAMETERS, (float(v) for v in mean))),
                      "tip_friction_interval_deg": self.bank.interval(0),
                      "cpu_s": time.process_time() - start}
