@@ -6,7 +6,8 @@ weighted by their probabilities. Between replans the controller follows its plan
 The planner keeps the thrust within ``1 +- thrust_envelope`` times the load level (0.4: 0.6-1.4 F; a safety
 envelope: the hypotheses are not the bench, and a plan that pushes hard on a wrong hypothesis lifts the block off)
 and the block to a pace of the whole travel in ``pace_s`` (0.3 s; a slow block drifts from the hypotheses' paths
-for longer). Both were chosen by trying a handful of settings on 14 of the held-out benches (0-5, 7-9, 19, 21, 23, 35, 47), so
+for longer). ``start_periods`` > 0 sends the nominal command (thrust at the load level, tip centred) for that many periods
+before the first plan. Both were chosen by trying a handful of settings on 14 of the held-out benches (0-5, 7-9, 19, 21, 23, 35, 47), so
 ``docs/actuator-study.md`` also reports ``mpc`` on an independent draw that no choice saw.
 
 The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
@@ -50,6 +51,7 @@ class MPCController(BenchController):
     elites: int = 5
     sigma0: float = 0.25
     replan_every: int = 2
+    start_periods: int = 0
     pace_s: float = 0.3
     thrust_envelope: float = 0.4
     min_ess: float = 3.0
@@ -82,6 +84,8 @@ class MPCController(BenchController):
         self._age = 0
         self._last = np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
         self._first = True
+        self._periods = 0
+        self._start = self._last.copy()
         self.info = {"estimator_fallback": False, "fallbacks": 0, "held": False, "cpu_s": 0.0}
 
     def act(self, obs: np.ndarray) -> np.ndarray:
@@ -89,8 +93,12 @@ class MPCController(BenchController):
         if not self._first:  # the observation of the period the last action ran
             self.bank.update(self._last, obs)
         self._first = False
-        planned = self._plan is None or self._age >= min(self.replan_every, len(self._plan))
-        if planned:
+        self._periods += 1
+        planned = self._periods > self.start_periods and (
+            self._plan is None or self._age >= min(self.replan_every, len(self._plan)))
+        if self._periods <= self.start_periods:  # the start: the nominal action while the data say little
+            self._plan, self._age = np.repeat(self._start[None, :], int(self.horizon), axis=0), 0
+        elif planned:
             states, weights = self.bank.best(int(self.hypotheses), float(self.min_ess))
             self._plan = self.planner.plan(states, weights, self._last)
             self._age = 0
