@@ -475,7 +475,9 @@ class Diagnoser:
         self.reason_ = "; ".join(why)
 
     def _report(self) -> dict[str, Any]:
-        finite = lambda v: v if v is not None and math.isfinite(v) else None  # noqa: E731
+        def finite(v: float | None) -> float | None:
+            return v if v is not None and math.isfinite(v) else None
+
         return {"verdict": self.verdict_,
                 "missing_effect": self.missing_effect_,
                 "confidence": self.confidence_,

@@ -26,7 +26,7 @@ from ..paths import travel
 from ..result import SimulationResult
 from ..simulate import simulate
 from ..specimen import Foundation, Specimen, reference
-from .discrepancy import TestDiscrepancy, discrepancy_group
+from .discrepancy import TestDiscrepancy, discrepancy_group, group_by_force
 
 EffectSpec = tuple[str, tuple[tuple[str, float], ...]]
 
@@ -163,14 +163,6 @@ def evaluate(task: EvalTask) -> EvalResult:
     found = tuple(discrepancy_group(task.tests, result, task.report))
     return EvalResult(task.force_N, result.status, result.message, found, threshold,
                       result if task.keep_result else None)
-
-
-def group_by_force(tests: Sequence[MeasuredTest]) -> dict[float, tuple[MeasuredTest, ...]]:
-    """Tests grouped by commanded force (in order of the forces)."""
-    groups: dict[float, list[MeasuredTest]] = {}
-    for test in tests:
-        groups.setdefault(float(test.shear_force_N), []).append(test)
-    return {f: tuple(groups[f]) for f in sorted(groups)}
 
 
 def tasks_for(spec: ModelSpec, tests: Sequence[MeasuredTest], keep_result: bool = False) -> list[EvalTask]:
