@@ -18,16 +18,17 @@ import numpy as np
 from envs.triplanar_shear import ShearConfig
 from envs.triplanar_shear_v1 import BS_PREV
 
-from .bench_controllers import BenchController
 from .planner import CEMPlanner
 from .rollout import snapshot
 
 
 @dataclass
-class LimitController(BenchController):
+class LimitController:
     """Perfect-knowledge receding-horizon control (module docstring); the planner's settings are its fields."""
 
     name: str = "limit"
+    config: ShearConfig = field(default_factory=ShearConfig)
+    load_N: float = 0.0
     horizon: int = 24
     block: int = 4
     samples: int = 32
@@ -45,7 +46,7 @@ class LimitController(BenchController):
         self._env = env.unwrapped
 
     def reset(self, load_N: float, config: ShearConfig) -> None:
-        super().reset(load_N, config)
+        self.config, self.load_N = config, float(load_N)
         self._planner = CEMPlanner(int(self.horizon), int(self.block), int(self.samples), int(self.iterations),
                                    int(self.elites), float(self.sigma0), int(self.seed),
                                    float(self.pace_s))

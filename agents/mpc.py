@@ -31,17 +31,18 @@ import numpy as np
 from envs.triplanar_shear import ShearConfig
 from triplanar.prior import load_prior
 
-from .bench_controllers import BenchController
 from .estimator import PARAMETERS, SpecimenBank
 from .planner import CEMPlanner
 
 
 @dataclass
-class MPCController(BenchController):
+class MPCController:
     """Estimator + receding-horizon planner (module docstring); the fields are its settings and the bench's
     known hardware."""
 
     name: str = "mpc"
+    config: ShearConfig = field(default_factory=ShearConfig)
+    load_N: float = 0.0
     bank_size: int = 32
     hypotheses: int = 6
     horizon: int = 16
@@ -65,7 +66,7 @@ class MPCController(BenchController):
     info: dict = field(default_factory=dict)
 
     def reset(self, load_N: float, config: ShearConfig) -> None:
-        super().reset(load_N, config)
+        self.config, self.load_N = config, float(load_N)
         specimen, foundation = config.base_specimen()
         prior = self.prior if self.prior is not None else specimen
         if isinstance(prior, (str, Path)):
