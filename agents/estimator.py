@@ -60,13 +60,18 @@ def with_parameters(specimen: Specimen, theta: np.ndarray) -> Specimen:
                    mass_centre_m=np.array(theta[4:7], dtype=float))
 
 
-def prior_ranges(prior: Specimen) -> tuple[np.ndarray, np.ndarray]:
+def prior_ranges(prior: Specimen, intervals: dict[str, tuple[float, float]] | None = None
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """v1's ranges of the unknown specimen (``docs/environment.md``) around ``prior``'s contact friction and mass
-    centre; the tip friction over v1's whole range."""
+    centre, the tip friction over v1's whole range; a parameter with an identified interval (``intervals``, e.g.
+    :func:`triplanar.prior.fitted_intervals` of a fit) is drawn within that interval instead."""
     centre = parameters_of(prior)
     half = np.array([0.0] + [RANDOM_FRICTION_DEG] * 3 + [RANDOM_MASS_CENTRE_M] * 3)
     low, high = centre - half, centre + half
     low[0], high[0] = RANDOM_TIP_FRICTION_DEG
+    for name, (lo, hi) in (intervals or {}).items():
+        k = PARAMETERS.index(name)
+        low[k], high[k] = lo, hi
     return low, high
 
 
@@ -81,10 +86,11 @@ class SpecimenBank:
     seed: int = 0
     sensor_noise_m: float = 2e-4
     model_error_m: float = 3e-4
+    intervals: dict | None = None
 
     def reset(self, load_N: float) -> None:
         env = TriPlanarShearV1Env(**self.env_kwargs)
-        low, high = prior_ranges(self.prior)
+        low, high = prior_ranges(self.prior, self.intervals)
         self.resolution = (high - low) / self.size
         draws = latin_hypercube(np.random.default_rng([self.seed, round(load_N * 1000)]), self.size, low, high)
         self.theta, self.states = [], []

@@ -12,7 +12,8 @@ before the first plan. Both were chosen by trying a handful of settings on 14 of
 
 The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
 specimen (``prior``: the env's nominal specimen by default, or a ``Specimen``, or the path of a ``fit.json`` or
-specimen TOML, :func:`triplanar.prior.load_prior`), never the bench's true specimen.
+specimen TOML, :func:`triplanar.prior.load_prior`; a fit's 95 % intervals then bound the hypotheses of what it
+fitted, e.g. the tip friction), never the bench's true specimen.
 After each ``act`` its :attr:`MPCController.info` holds the estimate (mean, tip-friction interval), whether the
 estimator fell back to the prior this period (``estimator_fallback``) and how often in the episode, and the CPU
 time of the decision. It never sends a non-finite action: if the plan is not finite it holds its last action and
@@ -29,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from envs.triplanar_shear import ShearConfig
-from triplanar.prior import load_prior
+from triplanar.prior import fitted_intervals, load_prior
 
 from .estimator import PARAMETERS, SpecimenBank
 from .planner import CEMPlanner
@@ -69,14 +70,16 @@ class MPCController:
         self.config, self.load_N = config, float(load_N)
         specimen, foundation = config.base_specimen()
         prior = self.prior if self.prior is not None else specimen
-        if isinstance(prior, (str, Path)):
+        intervals = {}
+        if isinstance(prior, (str, Path)):  # a fit: its specimen, and its intervals narrow the hypotheses
+            intervals = fitted_intervals(prior)
             prior = load_prior(prior, specimen, foundation)
         shear = {f: getattr(config, f) for f in ShearConfig.__dataclass_fields__ if f not in ("specimen", "foundation")}
         env_kwargs = {**shear, "specimen": prior, "foundation": foundation, "observation_mode": "state",
                       "stage_bandwidth_hz": self.stage_bandwidth_hz, "thrust_bandwidth_hz": self.thrust_bandwidth_hz,
                       "latency_s": self.latency_s, "sensor_noise_m": 0.0}
         self.bank = SpecimenBank(prior, foundation, env_kwargs, int(self.bank_size), int(self.seed),
-                                 float(self.sensor_noise_m), float(self.model_error_m))
+                                 float(self.sensor_noise_m), float(self.model_error_m), intervals)
         self.bank.reset(load_N)
         self.planner = CEMPlanner(int(self.horizon), int(self.block), int(self.samples), int(self.iterations),
                                   int(self.elites), float(self.sigma0), int(self.seed), float(self.pace_s),

@@ -2,7 +2,8 @@
 (perfect knowledge), ``mpc`` and the scripted controllers for reference, plus the CPU time of a control decision.
 
 ``PYTHONPATH=. python benchmarks/bench_mpc.py --benches 50 --out runs/bench_mpc [--workers 2]``;
-``--limit-sweep``: ``limit`` at six nominal loads with shorter/longer horizons and more samples instead.
+``--limit-sweep``: ``limit`` at six nominal loads with shorter/longer horizons and more samples instead;
+``--identify FIT.json [--tip-deg D]``: ``mpc`` with a fit as prior against the drawing's prior instead.
 
 Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
 ``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table: success rate
@@ -98,6 +99,26 @@ def limit_sweep(out: Path, workers: int, loads: list[float]) -> None:
     write_json({"loads_N": loads, "rows": rows}, out / "limit_sweep.json")
 
 
+def identify_then_control(fit: str, tip_deg: float | None, n: int) -> None:
+    """``mpc`` with the fit as prior against the drawing's prior, on ``n`` benches drawn around the fitted specimen
+    (stream 30030) with the laboratory's tip ``tip_deg`` (the fitted one if not given); v1's nominal specimen is
+    the fit (``nominal_specimen``)."""
+    from agents.heldout import with_tip
+    from agents.mpc import MPCController
+    from envs.triplanar_shear import make_config
+    from triplanar.prior import load_prior
+    specimen, foundation = make_config(None).base_specimen()
+    fitted = load_prior(fit, specimen, foundation)
+    tip = fitted.tip_friction_deg if tip_deg is None else tip_deg
+    benches = [with_tip(b, tip) for b in random_benches(n, 30_030, {"specimen": fitted})]
+    for name, prior in (("fit's prior", fit), ("drawing's prior", specimen)):
+        outcomes = [run_episode(MPCController(prior=prior), b, env_kwargs={"nominal_specimen": fit}, seed=i, index=i)
+                    for i, b in enumerate(benches)]
+        row = summarise(outcomes)
+        print(f"mpc, {name}: {row['n_episodes']} benches, success {100 * row['success_rate']:.0f} %, error over "
+              f"successes {row['mimicry_error_mm']:.2f} mm, score {row['score']:.2f} mm")
+
+
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     if n == 0:
         return math.nan, math.nan
@@ -128,8 +149,14 @@ def main() -> None:
     parser.add_argument("--limit-sweep", action="store_true",
                         help="instead: limit at the nominal loads (default bench) with shorter and longer horizons "
                              "and more samples (does its figure still fall?)")
+    parser.add_argument("--identify", metavar="FIT.json",
+                        help="instead: mpc with this fit as prior against the drawing's prior (identify, then control)")
+    parser.add_argument("--tip-deg", type=float, default=None, help="with --identify: the laboratory's tip friction")
     args = parser.parse_args()
     out = Path(args.out)
+    if args.identify:
+        identify_then_control(args.identify, args.tip_deg, args.benches)
+        return
     if args.limit_sweep:
         limit_sweep(out, args.workers, [27.8, 32.5, 37.5, 42.5, 47.5, 51.6])
         return

@@ -73,25 +73,35 @@ def test_toml_of_another_foundation_or_specimen_refused(tmp_path):
 
 @pytest.mark.slow
 def test_tutorial_identify_then_control(tmp_path):
-    """Fit the laboratory dataset, take the fit as the prior of ``mpc`` and as v1's nominal specimen, and run
-    ``mpc`` on benches drawn around the fitted specimen, with the fit's prior and with the drawing's."""
-    from agents.heldout import random_benches, run_episode, summarise
+    """Fit the laboratory dataset, take the fit as v1's nominal specimen and as the prior of ``mpc`` (its interval
+    of the tip friction bounds the controller's hypotheses), and run ``mpc`` on benches drawn around the fitted
+    specimen with the laboratory's tip, with the fit's prior and with the drawing's."""
+    from agents.heldout import random_benches, run_episode, summarise, with_tip
     from agents.mpc import MPCController
+    from triplanar.prior import fitted_intervals
     subprocess.run([sys.executable, "-m", "triplanar.cli", "fit", str(ROOT / "data" / "lab_traces.csv"), "--add",
                     "end_friction", "--out", str(tmp_path / "fit"), "--workers", "1", "--no-progress"],
                    check=True, cwd=ROOT, capture_output=True)
+    fit = tmp_path / "fit" / "fit.json"
     specimen, foundation = _drawing()
-    fitted = load_prior(tmp_path / "fit" / "fit.json", specimen, foundation)
-    assert 6.0 < fitted.tip_friction_deg < 10.0   # the dataset's tip: 8 deg (data/lab_traces.csv.truth.json)
-    env_kwargs = {"specimen": fitted}             # v1's nominal specimen: the fitted one
-    benches = random_benches(2, 30_030, env_kwargs)
-    rows = {}
-    for name, prior in (("fitted prior", fitted), ("drawing's prior", specimen)):
-        outcomes = [run_episode(MPCController(prior=prior, bank_size=16, samples=16, iterations=2), bench,
-                                env_kwargs=env_kwargs, seed=i, index=i) for i, bench in enumerate(benches)]
-        rows[name] = summarise(outcomes)
+    fitted = load_prior(fit, specimen, foundation)
+    truth = json.loads((ROOT / "data" / "lab_traces.csv.truth.json").read_text())["effects"][0]["parameters"]
+    low, high = fitted_intervals(fit)["tip_friction_deg"]
+    assert low <= truth["phi_deg"] <= high and low <= fitted.tip_friction_deg <= high
+    env_kwargs = {"nominal_specimen": str(fit)}   # v1's nominal specimen: the fitted one
+    benches = [with_tip(b, truth["phi_deg"]) for b in random_benches(2, 30_030, {"specimen": fitted})]
+    rows, tips = {}, {}
+    for name, prior in (("fitted prior", str(fit)), ("drawing's prior", specimen)):
+        outcomes, estimates = [], []
+        for i, bench in enumerate(benches):
+            controller = MPCController(prior=prior, bank_size=16, samples=16, iterations=2)
+            outcomes.append(run_episode(controller, bench, env_kwargs=env_kwargs, seed=i, index=i))
+            estimates.append(controller.info["estimate"]["tip_friction_deg"])
+        rows[name], tips[name] = summarise(outcomes), estimates
     for row in rows.values():
         assert row["n_episodes"] == 2 and np.isfinite(row["score"])
+    # the fit's prior keeps every hypothesis of the tip inside the fit's interval; the drawing's does not
+    assert all(low <= t <= high for t in tips["fitted prior"]), tips
 
 
 def test_v1_takes_a_fit_as_its_nominal_specimen(tmp_path):

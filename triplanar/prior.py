@@ -81,3 +81,24 @@ def load_prior(path: str | Path, specimen: Specimen, foundation: Foundation) -> 
         if not np.allclose(getattr(given, name), getattr(specimen, name), atol=1e-9):
             raise PriorError(f"{path}: specimen.{name}: another specimen than the bench's")
     return given
+
+
+def fitted_intervals(path: str | Path) -> dict[str, tuple[float, float]]:
+    """The 95 % intervals a ``fit.json`` gives for the specimen fields it fits (``param_ci95`` of its last step):
+    ``tip_friction_deg`` and ``friction1_deg``..``friction3_deg``; empty for a TOML, and without a field whose
+    interval is missing (``null``: not fitted, or at a bound)."""
+    path = Path(path)
+    if path.suffix != ".json":
+        return {}
+    data = json.loads(path.read_text(encoding="utf-8"))
+    _effects(data, str(path))
+    ci = data["steps"][-1].get("param_ci95") or {}
+    names = {("end_friction", "phi_deg"): "tip_friction_deg"}
+    names.update({("contact_friction", f"phi{i}_deg"): f"friction{i}_deg" for i in (1, 2, 3)})
+    out: dict[str, tuple[float, float]] = {}
+    for (effect, key), name in names.items():
+        pair = (ci.get(effect) or {}).get(key)
+        if isinstance(pair, list) and len(pair) == 2 and all(isinstance(v, (int, float)) for v in pair):
+            out[name] = (float(pair[0]), float(pair[1]))
+    return out
+
