@@ -25,7 +25,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from envs.triplanar_shear import N_INFO, OBS_DIM, OBS_POS, StartError, new_workspace
+from envs.core import N_INFO, OBS_DIM, OBS_POS, StartError, new_workspace
 from envs.triplanar_shear_v1 import (
     B_RANGE,
     RANDOM_FRICTION_DEG,

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from envs.triplanar_shear import ShearConfig
+from envs.core import ShearConfig
 from envs.triplanar_shear_v1 import BS_PREV
 
 from .planner import CEMPlanner

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from envs.triplanar_shear import ShearConfig
+from envs.core import ShearConfig
 from triplanar.prior import fitted_intervals, load_prior
 
 from .estimator import PARAMETERS, SpecimenBank

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from envs.triplanar_shear import (
+from envs.core import (
     CF_FAIL,
     CF_TRAVEL,
     IN_DIST,

@@ -105,7 +105,7 @@ def identify_then_control(fit: str, tip_deg: float | None, n: int) -> None:
     the fit (``nominal_specimen``)."""
     from agents.heldout import with_tip
     from agents.mpc import MPCController
-    from envs.triplanar_shear import make_config
+    from envs.core import make_config
     from triplanar.prior import load_prior
     specimen, foundation = make_config(None).base_specimen()
     fitted = load_prior(fit, specimen, foundation)

@@ -61,7 +61,7 @@ def test_limit_at_nominal_loads_on_the_ideal_bench_beats_in_sample_ppo():
 def _known_specimen(tip_deg: float):
     from dataclasses import replace
 
-    from envs.triplanar_shear import make_config
+    from envs.core import make_config
     from envs.triplanar_shear_v1 import Bench
     specimen, foundation = make_config(None).base_specimen()
     return Bench(replace(specimen, tip_friction_deg=tip_deg), foundation, 40.0)
@@ -81,7 +81,7 @@ def test_estimator_finds_a_known_tip_friction_on_noiseless_data():
 
 def test_estimator_divergence_falls_back_to_the_prior_and_sends_finite_actions():
     from agents.mpc import MPCController
-    from envs.triplanar_shear import make_config
+    from envs.core import make_config
     controller = MPCController(bank_size=4, samples=4, elites=2, iterations=1, horizon=4)
     controller.reset(40.0, make_config(None))
     obs = np.zeros(15, dtype=np.float32)

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from envs.triplanar_shear import make_config
+from envs.core import make_config
 from triplanar.prior import PriorError, load_prior
 from triplanar.specimen import Foundation, Plane, to_toml
 
