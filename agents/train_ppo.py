@@ -26,7 +26,6 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 import re
 import sys
 import time
@@ -38,6 +37,7 @@ import numpy as np
 import yaml
 
 from envs.triplanar_shear import ShearConfig, make_config
+from triplanar.atomic import write_atomic
 from triplanar.executor import ExecutorLike, run_tasks
 
 DEFAULT_CONFIG = Path(__file__).with_name("ppo.yaml")
@@ -160,16 +160,6 @@ def latest_checkpoint(run_dir: Path) -> tuple[int, Path, Path] | None:
     return found[0] if found else None
 
 
-def _replace_atomically(save: Any, path: Path) -> None:
-    """``save(tmp)`` then rename to ``path``: the file is complete or absent, never truncated."""
-    tmp = path.with_name(f".{path.stem}.partial{path.suffix}")
-    try:
-        save(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def _checkpoint_callback(save_freq: int, save_path: Path):
     """SB3's CheckpointCallback (model + VecNormalize every ``save_freq`` calls), writing each file atomically."""
     from stable_baselines3.common.callbacks import CheckpointCallback
@@ -178,9 +168,9 @@ def _checkpoint_callback(save_freq: int, save_path: Path):
         def _on_step(self) -> bool:
             if self.n_calls % self.save_freq == 0:
                 Path(self.save_path).mkdir(parents=True, exist_ok=True)
-                _replace_atomically(lambda p: self.model.save(str(p)), Path(self._checkpoint_path(extension="zip")))
-                _replace_atomically(lambda p: self.model.get_vec_normalize_env().save(str(p)),
-                                    Path(self._checkpoint_path("vecnormalize_", extension="pkl")))
+                write_atomic(self._checkpoint_path(extension="zip"), lambda p: self.model.save(str(p)))
+                write_atomic(self._checkpoint_path("vecnormalize_", extension="pkl"),
+                             lambda p: self.model.get_vec_normalize_env().save(str(p)))
             return True
 
     return AtomicCheckpoint(save_freq=save_freq, save_path=str(save_path), name_prefix="ppo", save_vecnormalize=True)
@@ -237,7 +227,7 @@ def _truncate_curve(curve_path: Path, timesteps: int) -> None:
         first = line.split(",", 1)[0]
         if line.endswith("\n") and first.isdigit() and int(first) <= timesteps:
             kept.append(line)
-    _replace_atomically(lambda p: p.write_text("".join(header + kept)), curve_path)
+    write_atomic(curve_path, lambda p: p.write_text("".join(header + kept)))
 
 
 def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str | Path = "runs/ppo", seed: int = 0,
@@ -309,11 +299,11 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     if remaining:
         model.learn(total_timesteps=remaining, callback=CallbackList([saver, evaluation, *callbacks]),
                     reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
-    _replace_atomically(lambda p: model.save(str(p)), model_path)
-    _replace_atomically(lambda p: model.get_vec_normalize_env().save(str(p)), stats_path)
+    write_atomic(model_path, lambda p: model.save(str(p)))
+    write_atomic(stats_path, lambda p: model.get_vec_normalize_env().save(str(p)))
     wall = wall_offset + time.perf_counter() - started
-    _replace_atomically(lambda p: p.write_text(json.dumps({"timesteps": int(model.num_timesteps), "wall_s": wall,
-                                                            "seed": seed})), done_path)
+    write_atomic(done_path, lambda p: p.write_text(json.dumps({"timesteps": int(model.num_timesteps), "wall_s": wall,
+                                                                "seed": seed})))
     return TrainResult(run_dir, model_path, stats_path, curve_path, int(model.num_timesteps), wall)
 
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 import pickle
 import time
 from collections import deque
@@ -37,6 +36,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from triplanar.atomic import write_atomic
 from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 
 FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
@@ -252,12 +252,6 @@ class RobustTask:
         return config
 
 
-def _atomic(save, path: Path) -> None:
-    tmp = path.with_name(path.name + ".tmp")
-    save(tmp)
-    os.replace(tmp, path)
-
-
 def _new_model(config: dict[str, Any], venv: Any, seed: int) -> Any:
     algo = config.get("algo", "ppo")
     default_policy = "MlpLstmPolicy" if algo == "recurrent" else "MlpPolicy"
@@ -307,7 +301,7 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
     _refuse_another_configuration(run_dir, config)
     if done.exists():
         return json.loads(done.read_text())
-    _atomic(lambda p: p.write_text(json.dumps(config, indent=2)), run_dir / "config.json")
+    write_atomic(run_dir / "config.json", lambda p: p.write_text(json.dumps(config, indent=2)))
     policy_cls = RecurrentPolicy if algo == "recurrent" else RobustPolicy
     frames = frame_stack_of(config)
     venv_raw = make_vec_env(config, task.seed)
@@ -337,10 +331,10 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
 
     def checkpoint() -> None:
         ckpt.mkdir(exist_ok=True)
-        _atomic(lambda p: model.save(str(p)), ckpt / "model.zip")
-        _atomic(lambda p: venv.save(str(p)), ckpt / "vecnormalize.pkl")
-        _atomic(lambda p: p.write_text(json.dumps({"timesteps": model.num_timesteps, "wall_s": wall(),
-                                                   "curve": rows})), ckpt / "state.json")
+        write_atomic(ckpt / "model.zip", lambda p: model.save(str(p)))
+        write_atomic(ckpt / "vecnormalize.pkl", lambda p: venv.save(str(p)))
+        state = {"timesteps": model.num_timesteps, "wall_s": wall(), "curve": rows}
+        write_atomic(ckpt / "state.json", lambda p: p.write_text(json.dumps(state)))
 
     class Curve(BaseCallback):
         def __init__(self) -> None:
@@ -374,18 +368,18 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
             writer.writeheader()
             writer.writerows(rows)
 
-    _atomic(write_curve, run_dir / "learning_curve.csv")
-    _atomic(lambda p: model.save(str(p)), run_dir / "final_model.zip")
+    write_atomic(run_dir / "learning_curve.csv", write_curve)
+    write_atomic(run_dir / "final_model.zip", lambda p: model.save(str(p)))
     venv.venv = None  # the statistics only (as agents.train_ppo saves them)
 
     def dump(p: Path) -> None:
         with open(p, "wb") as f:
             pickle.dump(venv, f)
 
-    _atomic(dump, run_dir / "vecnormalize.pkl")
+    write_atomic(run_dir / "vecnormalize.pkl", dump)
     summary = {"seed": task.seed, "algo": algo, "timesteps": int(model.num_timesteps), "wall_s": wall(),
                "run_dir": str(run_dir)}
-    _atomic(lambda p: p.write_text(json.dumps(summary)), done)
+    write_atomic(done, lambda p: p.write_text(json.dumps(summary)))
     return summary
 
 

@@ -5,25 +5,15 @@ from __future__ import annotations
 
 import csv
 import json
-import os
 from pathlib import Path
-from typing import Any, Callable, Iterable, Sequence
+from typing import Any, Iterable, Sequence
+
+from triplanar.atomic import write_atomic
 
 # The statistics columns of every row (held-out, nominal, stress, design sweep), after the row's own labels.
 STATS_FIELDS = ("n_benches", "n_seeds", "n_episodes", "success_rate", "success_low", "success_high",
                 "mimicry_error_mm", "error_low_mm", "error_high_mm", "cvar10_mm", "score", "score_low", "score_high",
                 "seed_errors_mm", "seed_scores_mm")
-
-
-def write_atomic(path: Path, write: Callable[[Path], Any]) -> None:
-    """``write(tmp)`` then rename ``tmp`` to ``path``; a failed write leaves no file behind."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        write(tmp)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def write_csv(path: Path, header: Sequence[str], rows: Iterable[Sequence[Any]]) -> None:

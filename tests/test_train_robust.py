@@ -25,19 +25,19 @@ def test_recurrent_run_resumes_from_its_checkpoint_and_plays_an_episode(tmp_path
         pass
 
     # Interrupt the run after its first checkpoint (as a kill would), then run the task again: it continues.
-    real_save = tr._atomic
+    real_save = tr.write_atomic
     saved: list[str] = []
 
-    def save_then_stop(save, path):
-        real_save(save, path)
+    def save_then_stop(path, save):
+        real_save(path, save)
         saved.append(path.name)
         if path.name == "state.json":
             raise Stop
 
-    monkeypatch.setattr(tr, "_atomic", save_then_stop)
+    monkeypatch.setattr(tr, "write_atomic", save_then_stop)
     with pytest.raises(Stop):
         tr.train_robust(task)
-    monkeypatch.setattr(tr, "_atomic", real_save)
+    monkeypatch.setattr(tr, "write_atomic", real_save)
     state = json.loads((tmp_path / "seed_0" / "checkpoint" / "state.json").read_text())
     assert 256 <= state["timesteps"] < 512
     summary = tr.train_robust(task)

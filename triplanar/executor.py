@@ -37,6 +37,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence, TypeVar
 
+from .atomic import write_atomic
+
 T = TypeVar("T")
 R = TypeVar("R")
 
@@ -225,13 +227,11 @@ class TaskCheckpoint:
         if key is None:
             return
         self.directory.mkdir(parents=True, exist_ok=True)
-        tmp = self.directory / f".{key}.{os.getpid()}.partial"
-        try:
+
+        def dump(tmp: Path) -> None:
             with open(tmp, "wb") as f:
                 pickle.dump(result, f, protocol=5)
-            os.replace(tmp, self.directory / f"{key}.pkl")
-        finally:
-            tmp.unlink(missing_ok=True)
+        write_atomic(self.directory / f"{key}.pkl", dump)
 
     def clear(self) -> None:
         """Remove the directory (the sweep finished and its outputs are written)."""

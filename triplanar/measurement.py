@@ -51,6 +51,8 @@ from typing import Any
 
 import numpy as np
 
+from .atomic import write_atomic
+
 __all__ = [
     "MeasurementError",
     "MeasuredTest",
@@ -670,30 +672,28 @@ def write_measurements(path: str | os.PathLike[str], tests: Iterable[MeasuredTes
     if not os.path.isdir(directory):
         raise MeasurementError(spath, None, None, f"folder {directory} does not exist")
     remove_stale_temporaries(spath)
-    tmp = temporary_name(spath)
-    # os.open with mode 0o666 lets the umask decide permissions, as for an ordinary new file.
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
+
+    def write(tmp: Path) -> None:
+        # os.open with mode 0o666 lets the umask decide permissions, as for an ordinary new file.
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             writer = csv.writer(fh, lineterminator="\n")
             writer.writerow(header)
             for mt in tests:
-                force = _fmt(mt.shear_force_N)
-                for i in range(mt.n_samples):
-                    rec = [mt.test_id, force]
-                    if has_time:
-                        rec.append(_fmt(mt.t_s[i]))  # type: ignore[index]
-                    for k in range(3):
-                        for a in range(3):
-                            v = mt.positions[i, k, a]
-                            rec.append("" if math.isnan(v) else _fmt(v))
-                    writer.writerow(rec)
+                _write_rows(writer, mt, has_time)
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, spath)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
+    write_atomic(spath, write, tmp=temporary_name(spath))
+
+
+def _write_rows(writer: Any, mt: MeasuredTest, has_time: bool) -> None:
+    force = _fmt(mt.shear_force_N)
+    for i in range(mt.n_samples):
+        rec = [mt.test_id, force]
+        if has_time:
+            rec.append(_fmt(mt.t_s[i]))  # type: ignore[index]
+        for k in range(3):
+            for a in range(3):
+                v = mt.positions[i, k, a]
+                rec.append("" if math.isnan(v) else _fmt(v))
+        writer.writerow(rec)
