@@ -65,6 +65,14 @@ def format_report(report: dict) -> str:
                       + (f"periodic at {freq:.1f} Hz in {td['periodic_fraction']:.0%} of the tests" if freq is not None
                          else f"spectrum without a dominant frequency ({td['periodic_fraction']:.0%} of tests with a peak)")]
     verdict = report["missing_effect"] or "none"
+    many = report.get("missing_effects") or []
+    if len(many) > 1:
+        verdict = " + ".join(m["effect"] for m in many)
+        lines += ["", "missing effects, in the order forward selection added them (parameters from their joint fit):"]
+        for m in many:
+            params = ", ".join(format_param(k, v, m["param_ci95"].get(k), None) for k, v in m["params"].items())
+            lines.append(f"  {m['effect']:24s} {m['share_of_improvement']:6.0%} of the error   {params}   "
+                         f"(confidence {m['confidence']})")
     lines += ["", f"verdict: {report.get('verdict', '?')}   missing effect: {verdict}   confidence: {report['confidence']}",
               f"why: {report['reason']}", f"time: {report['seconds']:.1f} s"]
     return "\n".join(lines)

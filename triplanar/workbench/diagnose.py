@@ -83,6 +83,7 @@ class CandidateResult:
     fixed: dict[str, float] = field(default_factory=dict)
     per_test: dict[str, dict[str, Any]] = field(default_factory=dict)   # param -> summary (pertest.summarize)
     per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
+    all_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # every effect fitted with it
 
     def as_json(self) -> dict[str, Any]:
         return {"effect": self.effect, "params": self.params, "param_ci95": self.param_ci95,
@@ -100,6 +101,11 @@ class CandidateResult:
 
 def _fmt(values: Mapping[str, float]) -> str:
     return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
+
+
+def format_value(name: str, value: float, ci: Sequence[float] | None) -> str:
+    """``name = value [low, high]`` (the one interval format of every command's output)."""
+    return f"{name} = {value:.4g}" + (f" [{ci[0]:.4g}, {ci[1]:.4g}]" if ci is not None else "")
 
 
 def _jackknife(folds: list[dict[str, float]]) -> dict[str, float]:
@@ -198,7 +204,8 @@ class Diagnoser:
                  executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30,
                  checkpoint: TaskCheckpoint | None = None, refit_given: bool = True,
                  start: Mapping[str, Mapping[str, float]] | None = None,
-                 per_test: Mapping[str, Sequence[str]] | None = None):
+                 per_test: Mapping[str, Sequence[str]] | None = None, combine: bool = True):
+        self.combine = combine
         self.per_test = {k: list(v) for k, v in (per_test or {}).items()}
         self.checkpoint = checkpoint
         self.refit_given = refit_given
@@ -267,6 +274,13 @@ class Diagnoser:
         self.outcomes_ = by_label
         self._evidence(tests, base)
         self._decide()
+        self.combination_: dict[str, Any] | None = None
+        self.missing_effects_ = self._single_missing()
+        best = self.best_
+        if (self.combine and self.verdict_ == "outside_library" and best is not None and not best.per_test
+                and math.isfinite(self.repeat_scatter_mm_)
+                and best.cv_error_mm > self.explained_factor * self.repeat_scatter_mm_):
+            self._combine(tests)
         self.seconds_ = time.perf_counter() - began
         self.report_ = self._report()
         return self
@@ -303,6 +317,19 @@ class Diagnoser:
                                           (lo, hi), start[p], cand.bounds[p])
             if p in implausible:
                 status[p] = "at_bound"
+        # the effects refitted jointly with it (forward selection, combinations): their intervals the same way
+        all_ci = {cand.effect: ci}
+        n_free = len(cand.shared) + sum(len(r.shared) for r in task.refit)
+        for other in task.refit:
+            folds_other = [by_label[f"{task.key}/fold{i}"].values[other.effect] for i in range(k)]
+            jack_other = _jackknife([{p: f[p] for p in other.shared} for f in folds_other]) if k > 1 else {}
+            all_ci[other.effect] = {}
+            for p in other.shared:
+                par = REGISTRY[other.effect].parameters[p]
+                all_ci[other.effect][p] = interval95(
+                    full.values[other.effect][p], full.stderr.get(other.effect, {}).get(p, math.nan),
+                    jack_other.get(p, 0.0), n_tests, n_free, full.train_error_mm, self.repeat_scatter_mm_,
+                    (par.lower, par.upper), math.nan, other.bounds[p])[0]
         given = dict(cand.start or {}) if task.kind == "refit" else {}
         from .pertest import summarize
         per_test = {p: summarize(v) for p, v in full.per_test.get(cand.effect, {}).items()}
@@ -310,7 +337,7 @@ class Diagnoser:
                                not implausible, implausible,
                                {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
                                full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed),
-                               per_test, full.per_test)
+                               per_test, full.per_test, all_ci)
 
     def _with_start(self, cand: Candidate) -> Candidate:
         """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""
@@ -474,10 +501,54 @@ class Diagnoser:
             why.append("low confidence: " + "; ".join(lacks))
         self.reason_ = "; ".join(why)
 
+    def _single_missing(self) -> list[dict[str, Any]]:
+        """``missing_effects`` of a one-entry verdict (the named candidate, or the refit)."""
+        best = self.best_
+        if best is None or self.verdict_ not in ("library_effect", "refit_given_effect"):
+            return []
+        return [{"effect": best.effect, "kind": best.kind, "params": dict(best.params),
+                 "param_ci95": dict(best.param_ci95), "cv_error_mm": best.cv_error_mm,
+                 "share_of_improvement": best.improvement, "confidence": self.confidence_}]
+
+    def _combine(self, tests: Sequence[MeasuredTest]) -> None:
+        """No single entry explains: try them in combination (:mod:`triplanar.workbench.combine`)."""
+        from .combine import combine
+        comb = combine(self, tests)
+        steps = comb["steps"]
+        self.combination_ = {k: comb[k] for k in ("steps", "cv_error_mm", "explains", "periodic")}
+        scatter, expected = self.repeat_scatter_mm_, self.expected_scatter_mm_
+        scatter_ok = not (math.isfinite(expected) and scatter > self.scatter_factor * expected)
+        listed = "; then ".join(
+            f"{'refitting the given ' if s['kind'] == 'refit' else ''}{s['effect']} ("
+            + ", ".join(format_value(k, v, s["param_ci95"].get(k)) for k, v in s["params"].items())
+            + f") removes {s['share_of_improvement']:.0%}" for s in steps)
+        if len(steps) >= 2 and comb["explains"] and scatter_ok:
+            self.verdict_ = "library_effects"
+            self.combined_spec_ = comb["last"]._spec_of(comb["final"])
+            self.missing_effects_ = steps
+            self.missing_effect_ = next((s["effect"] for s in steps if s["kind"] == "candidate"), None)
+            self.confidence_ = "high" if all(s["confidence"] == "high" for s in steps) else "low"
+            self.unexplained_mm_ = comb["cv_error_mm"]
+            last = comb["last"]
+            self.after_, self.time_domain_after_ = last.after_, last.time_domain_after_
+            self.growth_after_ = last.growth_after_
+            self.best_label_ = "+ " + " + ".join(s["effect"] for s in steps)
+            low = [s["effect"] for s in steps if s["confidence"] != "high"]
+            self.reason_ = (f"two or more library effects explain the discrepancy, none alone: {listed} of the error "
+                            f"on held-out loads; together they leave {comb['cv_error_mm']:.2f} mm against a repeat "
+                            f"scatter of {scatter:.2f} mm"
+                            + (f"; low confidence: a runner-up explains almost as well at the step of "
+                               f"{', '.join(low)}" if low else ""))
+        elif len(steps) >= 2:
+            self.reason_ += (f"; in combination ({listed} of the error on held-out loads) they still leave "
+                             f"{comb['cv_error_mm']:.2f} mm" + (", periodic" if comb["periodic"] else ""))
+
     def _report(self) -> dict[str, Any]:
         finite = lambda v: v if v is not None and math.isfinite(v) else None  # noqa: E731
         return {"verdict": self.verdict_,
                 "missing_effect": self.missing_effect_,
+                "missing_effects": self.missing_effects_,
+                "combination": self.combination_,
                 "confidence": self.confidence_,
                 "reason": self.reason_,
                 "baseline_error_mm": self.baseline_error_mm_,
@@ -506,6 +577,8 @@ class Diagnoser:
     def best_spec(self) -> ModelSpec:
         """The model with the named missing effect (and any refitted ones) at their fitted values (the
         model itself if none is named)."""
+        if self.verdict_ == "library_effects":
+            return self.combined_spec_
         if self.verdict_ == "refit_given_effect" and self.best_ is not None:
             return self._spec_of(self.best_)
         if self.missing_effect_ is None:

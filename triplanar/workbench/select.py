@@ -118,7 +118,8 @@ class ForwardSelection:
         return self
 
     def _diagnoser(self) -> Diagnoser:
-        return Diagnoser(self.candidates, self.folds, self.executor, self.progress, self.max_nfev, refit_given=False)
+        return Diagnoser(self.candidates, self.folds, self.executor, self.progress, self.max_nfev, refit_given=False,
+                         combine=False)
 
     @property
     def report_(self) -> dict[str, Any]:
