@@ -73,7 +73,9 @@ def format_report(report: dict) -> str:
             params = ", ".join(format_param(k, v, m["param_ci95"].get(k), None) for k, v in m["params"].items())
             lines.append(f"  {m['effect']:24s} {m['share_of_improvement']:6.0%} of the error   {params}   "
                          f"(confidence {m['confidence']})")
-    lines += ["", f"verdict: {report.get('verdict', '?')}   missing effect: {verdict}   confidence: {report['confidence']}",
+    kind = f" ({report['missing_kind']})" if report.get("missing_kind") else ""
+    lines += ["", f"verdict: {report.get('verdict', '?')}   missing effect: {verdict}{kind}   confidence: "
+                  f"{report['confidence']}",
               f"why: {report['reason']}", f"time: {report['seconds']:.1f} s"]
     return "\n".join(lines)
 

@@ -41,7 +41,7 @@ from ..measurement import MeasuredTest
 from .candidates import Candidate, refit_candidate, resolve, without_effect
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .evidence import (expected_scatter_mm, growth_along_travel, instrument_noise_mm, noise_floor_mm,
-                       time_domain)
+                       systematic_bias, time_domain)
 from .intervals import interval95
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import (FitOutcome, FitTask, discrepancies, errors_by_load, evaluate_spec, overall_error,
@@ -369,7 +369,10 @@ class Diagnoser:
         self.expected_scatter_mm_ = expected_scatter_mm(base, tests, self.noise_mm_, self.friction_scatter_deg,
                                                         evaluate)
         self.time_domain_ = time_domain(self.baseline_)
-        explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= self.min_improvement]
+        self.systematic_ = systematic_bias(self.baseline_)
+        # a bias below the scatter: an entry that removes any of it may explain it (judged by what it leaves)
+        least = 1e-9 if self.systematic_["systematic"] else self.min_improvement
+        explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= least]
         self.best_ = explaining[0] if explaining else None
         self.after_, self.best_label_ = None, None
         if self.best_ is not None:
@@ -382,8 +385,10 @@ class Diagnoser:
             self.best_label_ = f"{'refitted ' if self.best_.kind == 'refit' else '+ '}{self.best_.effect}"
             self.time_domain_after_ = time_domain(after)
             self.growth_after_ = growth_along_travel(after)
+            self.systematic_after_ = systematic_bias(after)
         else:
             self.time_domain_after_, self.growth_after_ = self.time_domain_, growth_along_travel(self.baseline_)
+            self.systematic_after_ = self.systematic_
 
     def _spec_of(self, result: CandidateResult) -> ModelSpec:
         spec = self.user_base_
@@ -409,6 +414,11 @@ class Diagnoser:
             kinds.append(f"random from test to test (the repeats scatter {scatter:.2f} mm, {scatter / expected:.1f} x "
                          f"the {expected:.2f} mm that instrument noise ({self.noise_mm_:.2f} mm) and a "
                          f"{self.friction_scatter_deg:g} deg friction scatter explain)")
+        bias = self.systematic_after_
+        if bias["systematic"]:
+            kinds.append(f"systematic, common to all tests (the {bias['feature']} averages {bias['mean']:+.3g} over "
+                         f"the {bias['levels']} load levels, {abs(bias['z']):.1f} standard errors of the repeats' "
+                         f"means from 0; p = {bias['p_value_all']:.2g})")
         if td.get("mostly_in_time"):
             kinds.append(f"mostly in time (travel lag {td['lag_rms_mm']:.2f} mm RMS against a mean path distance "
                          f"of {td['mean_distance_mm']:.2f} mm)")
@@ -427,9 +437,12 @@ class Diagnoser:
         # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter
         per_test_explains = (self.best_ is not None and bool(self.best_.per_test) and math.isfinite(expected)
                              and self.best_.fit_error_mm <= self.scatter_factor * expected)
-        if math.isfinite(scatter) and base <= self.quiet_factor * scatter and not per_test_explains:
+        systematic = self.systematic_after_["systematic"]
+        hidden_bias = self.systematic_["systematic"] and self.best_ is not None   # below the scatter, but shared
+        if (math.isfinite(scatter) and base <= self.quiet_factor * scatter and not per_test_explains
+                and not hidden_bias):
             self.unexplained_mm_ = base
-            if scatter_ok and not periodic:
+            if scatter_ok and not periodic and not systematic:
                 self.verdict_ = "none_missing"
                 self.reason_ = (f"the model already matches the data to within the repeats' own scatter (error "
                                 f"{base:.2f} mm, scatter {scatter:.2f} mm), and that scatter is what instrument "
@@ -458,7 +471,8 @@ class Diagnoser:
             # and the specimen explain, not against the repeats' scatter (which they are meant to absorb)
             scatter = min(scatter, expected) if math.isfinite(scatter) else expected
             scatter_ok = best.fit_error_mm <= self.scatter_factor * expected
-        explained = (not math.isfinite(scatter)) or best.cv_error_mm <= self.explained_factor * scatter
+        explained = ((not math.isfinite(scatter)) or best.cv_error_mm <= self.explained_factor * scatter) \
+            and not systematic
         separated = runner is None or not math.isfinite(runner.cv_error_mm) or \
             runner.cv_error_mm >= self.margin * best.cv_error_mm
         high = best.improvement >= self.high_improvement and explained and separated and scatter_ok and not periodic
@@ -479,6 +493,9 @@ class Diagnoser:
         if self.time_domain_.get("mostly_in_time"):
             why.append(f"the model's error was mostly in time (travel lag {self.time_domain_['lag_rms_mm']:.2f} mm "
                        f"RMS, mean path distance {self.time_domain_['mean_distance_mm']:.2f} mm)")
+        if hidden_bias and not systematic:
+            why.append(f"the model as given left a bias common to all tests below the scatter "
+                       f"({self.systematic_['feature']}, p = {self.systematic_['p_value_all']:.2g}) that it removes")
         if explained and scatter_ok and not periodic:
             self.verdict_ = "refit_given_effect" if best.kind == "refit" else "library_effect"
             if best.kind == "candidate":
@@ -492,7 +509,9 @@ class Diagnoser:
             lacks = []
             if best.improvement < self.high_improvement:
                 lacks.append(f"it removes less than {self.high_improvement:.0%}")
-            if not explained:
+            if systematic:
+                lacks.append("a bias common to all tests remains")
+            elif not explained:
                 lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
             if not separated:
                 lacks.append("the runner-up explains the data almost as well")
@@ -500,6 +519,12 @@ class Diagnoser:
                 lacks.append("the residual shows a pattern no library effect explains")
             why.append("low confidence: " + "; ".join(lacks))
         self.reason_ = "; ".join(why)
+
+    def missing_kind(self) -> str | None:
+        """``"physics"``, ``"instrument"`` or ``"physics and instrument"``: what the named entries act on."""
+        names = [m["effect"] for m in self.missing_effects_] or ([self.missing_effect_] if self.missing_effect_ else [])
+        kinds = sorted({REGISTRY[n].acts_on for n in names if n in REGISTRY})
+        return " and ".join(kinds) if kinds else None
 
     def _single_missing(self) -> list[dict[str, Any]]:
         """``missing_effects`` of a one-entry verdict (the named candidate, or the refit)."""
@@ -548,6 +573,8 @@ class Diagnoser:
         return {"verdict": self.verdict_,
                 "missing_effect": self.missing_effect_,
                 "missing_effects": self.missing_effects_,
+                "missing_kind": self.missing_kind(),
+                "systematic": {"model_as_given": self.systematic_, "after_best": self.systematic_after_},
                 "combination": self.combination_,
                 "confidence": self.confidence_,
                 "reason": self.reason_,

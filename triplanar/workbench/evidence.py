@@ -185,3 +185,63 @@ def growth_along_travel(found: Sequence[TestDiscrepancy]) -> float:
         if a > 0 and math.isfinite(b):
             ratios.append(b / a)
     return float(np.median(ratios)) if ratios else math.nan
+
+
+#: Significance level of :func:`systematic_bias` over all its features together (Bonferroni); its false-positive
+#: rate on clean data is measured by ``benchmarks/threshold_check.py`` (``docs/workbench.md``).
+SYSTEMATIC_ALPHA = 0.01
+
+
+def _features(d: TestDiscrepancy) -> dict[str, float]:
+    """Signed residuals of one test that a bias shared by every test moves the same way: the mean lateral (x3)
+    error of each contact point over the travel, the rotation error at its end, the mean travel lag (with time)."""
+    out = {f"mean x3 error CP{k + 1} (mm)": float(np.nanmean(d.lateral_mm[:, k])) for k in range(3)}
+    out["rotation error (deg)"] = float(d.rotation_error_deg)
+    if d.lag_mm is not None and len(d.lag_mm):
+        out["mean travel lag (mm)"] = float(np.nanmean(d.lag_mm))
+    return out
+
+
+def systematic_bias(found: Sequence[TestDiscrepancy], alpha: float = SYSTEMATIC_ALPHA) -> dict[str, Any]:
+    """Is there an error shared by the tests that their scatter hides? Per load level and signed feature
+    (:func:`_features`), the mean over the repeats is tested against its own standard error (Student's t with
+    n - 1 degrees of freedom; a level needs 2 repeats); each level's two-sided p-value becomes a signed normal
+    score z. Over the levels, Stouffer's sum (a bias of one sign at every load) and the sum of z^2 (a bias that
+    changes with load) give a feature's p-value (the smaller, doubled); the data show a systematic error when the
+    smallest feature p-value, times the number of features, is below ``alpha``. With n tests per level a shared
+    bias is seen at about ``scatter / sqrt(n_tests)``, not at the scatter of one test."""
+    from scipy.stats import chi2, norm
+    from scipy.stats import t as student_t
+    groups: dict[float, list[dict[str, float]]] = {}
+    for d in found:
+        if d.status == "travel":
+            groups.setdefault(d.force_N, []).append(_features(d))
+    names = sorted({k for rows in groups.values() for row in rows for k in row})
+    best: dict[str, Any] = {"systematic": False, "p_value": 1.0, "feature": None, "z": 0.0, "mean": None,
+                            "standard_error": None, "levels": 0}
+    for name in names:
+        zs, means, ses = [], [], []
+        for rows in groups.values():
+            x = np.array([r[name] for r in rows if name in r and math.isfinite(r[name])])
+            if len(x) < 2:
+                continue
+            se = float(np.std(x, ddof=1) / math.sqrt(len(x)))
+            if not se > 1e-12:
+                continue
+            p_lower = float(student_t.cdf(float(x.mean()) / se, len(x) - 1))
+            zs.append(float(norm.ppf(min(max(p_lower, 1e-300), 1 - 1e-16))))
+            means.append(float(x.mean()))
+            ses.append(se)
+        if len(zs) < 2:
+            continue
+        z = float(np.sum(zs) / math.sqrt(len(zs)))
+        p = min(1.0, 2 * min(2 * float(norm.sf(abs(z))), float(chi2.sf(float(np.sum(np.square(zs))), len(zs)))))
+        if p < best["p_value"] or best["feature"] is None:
+            best = {"systematic": False, "p_value": p, "feature": name, "z": z,
+                    "mean": float(np.mean(means)), "standard_error": float(math.sqrt(np.sum(np.square(ses)))
+                                                                           / len(ses)),
+                    "levels": len(zs)}
+    best["n_features"] = len(names)
+    best["p_value_all"] = min(1.0, best["p_value"] * max(1, len(names)))
+    best["systematic"] = bool(best["feature"] is not None and best["p_value_all"] < alpha)
+    return best
