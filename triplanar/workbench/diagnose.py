@@ -84,6 +84,7 @@ class CandidateResult:
     per_test: dict[str, dict[str, Any]] = field(default_factory=dict)   # param -> summary (pertest.summarize)
     per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
     all_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # every effect fitted with it
+    held_out_mm: dict[str, float] = field(default_factory=dict, repr=False)   # test_id -> its error when held out
 
     def as_json(self) -> dict[str, Any]:
         return {"effect": self.effect, "params": self.params, "param_ci95": self.param_ci95,
@@ -106,6 +107,44 @@ def _fmt(values: Mapping[str, float]) -> str:
 def format_value(name: str, value: float, ci: Sequence[float] | None) -> str:
     """``name = value [low, high]`` (the one interval format of every command's output)."""
     return f"{name} = {value:.4g}" + (f" [{ci[0]:.4g}, {ci[1]:.4g}]" if ci is not None else "")
+
+
+def difference_se(a: CandidateResult, b: CandidateResult) -> tuple[float, float]:
+    """``(mean, standard error)`` over the tests of ``b``'s held-out squared error minus ``a``'s (mm^2): how much
+    worse ``b`` is than ``a`` on held-out loads, and how uncertain that is (tests are the independent units;
+    ``cv_b^2 - cv_a^2`` is the mean)."""
+    common = sorted(set(a.held_out_mm) & set(b.held_out_mm))
+    d = np.array([b.held_out_mm[t] ** 2 - a.held_out_mm[t] ** 2 for t in common])
+    d = d[np.isfinite(d)]
+    if len(d) < 2:
+        return math.nan, math.nan
+    return float(d.mean()), float(d.std(ddof=1) / math.sqrt(len(d)))
+
+
+def parsimonious(entries: Sequence[CandidateResult]) -> tuple[CandidateResult, list[CandidateResult]]:
+    """The one-standard-error rule over ``entries`` (best cross-validated error first): of the entries whose held-out
+    error is within one standard error of the difference from the best's, the one with the fewest free parameters
+    (then the lowest error). Returns it and the others within that standard error (its look-alikes).
+
+    Why this rule: cross-validation errors of nested or competing fits differ by noise of about that standard error,
+    so a more flexible entry that wins by less has not shown that its extra parameters are needed (Hastie,
+    Tibshirani & Friedman, The Elements of Statistical Learning, 2nd ed., section 7.10)."""
+    top = entries[0]
+    close = [top]
+    for other in entries[1:]:
+        mean, se = difference_se(top, other)
+        if math.isfinite(mean) and mean <= se:
+            close.append(other)
+    chosen = min(close, key=lambda c: (len(c.params) + len(c.per_test), c.cv_error_mm))
+    look = [c for c in close if c is not chosen]
+    if chosen is not top:      # the look-alikes of the chosen one: within its own standard error
+        look = [c for c in entries if c is not chosen and _within(chosen, c)]
+    return chosen, look
+
+
+def _within(a: CandidateResult, b: CandidateResult) -> bool:
+    mean, se = difference_se(a, b)
+    return math.isfinite(mean) and abs(mean) <= se
 
 
 def _jackknife(folds: list[dict[str, float]]) -> dict[str, float]:
@@ -337,7 +376,7 @@ class Diagnoser:
                                not implausible, implausible,
                                {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
                                full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed),
-                               per_test, full.per_test, all_ci)
+                               per_test, full.per_test, all_ci, {t: e for t, (_, e) in held.items()})
 
     def _with_start(self, cand: Candidate) -> Candidate:
         """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""
@@ -373,7 +412,7 @@ class Diagnoser:
         # a bias below the scatter: an entry that removes any of it may explain it (judged by what it leaves)
         least = 1e-9 if self.systematic_["systematic"] else self.min_improvement
         explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= least]
-        self.best_ = explaining[0] if explaining else None
+        self.best_, self.lookalikes_ = parsimonious(explaining) if explaining else (None, [])
         self.after_, self.best_label_ = None, None
         if self.best_ is not None:
             if self.best_.per_test_values:
@@ -466,6 +505,13 @@ class Diagnoser:
         self.unexplained_mm_ = best.cv_error_mm
         others = [c for c in self.ranked_ if c is not best]
         runner = others[0] if others else None
+        if best is not self.ranked_[0]:
+            why_simpler = (f"{best.effect}{' (refit)' if best.kind == 'refit' else ''} ({len(best.params)} free "
+                           f"parameter(s)) is named over {self.ranked_[0].effect} ({len(self.ranked_[0].params)}), "
+                           f"whose held-out error {self.ranked_[0].cv_error_mm:.3f} mm is lower by less than the "
+                           f"uncertainty of the difference (one-standard-error rule)")
+        else:
+            why_simpler = ""
         if best.per_test and math.isfinite(expected):
             # per-test parameters explain test-to-test differences: what they leave is judged against what noise
             # and the specimen explain, not against the repeats' scatter (which they are meant to absorb)
@@ -473,8 +519,12 @@ class Diagnoser:
             scatter_ok = best.fit_error_mm <= self.scatter_factor * expected
         explained = ((not math.isfinite(scatter)) or best.cv_error_mm <= self.explained_factor * scatter) \
             and not systematic
-        separated = runner is None or not math.isfinite(runner.cv_error_mm) or \
-            runner.cv_error_mm >= self.margin * best.cv_error_mm
+        diff, diff_se = difference_se(best, runner) if runner is not None else (math.nan, math.nan)
+        # the runner-up must be worse by the margin and by more than the uncertainty of the difference, and no
+        # entry may be within that uncertainty of the one named (a look-alike)
+        separated = runner is None or not math.isfinite(runner.cv_error_mm) or (
+            runner.cv_error_mm >= self.margin * best.cv_error_mm and not (math.isfinite(diff) and diff <= diff_se)
+            and not self.lookalikes_)
         high = best.improvement >= self.high_improvement and explained and separated and scatter_ok and not periodic
         self.confidence_ = "high" if high else "low"
         what = (f"refitting the given {best.effect} ({_fmt(best.given)} -> {_fmt(best.params)})"
@@ -487,13 +537,19 @@ class Diagnoser:
                            f"{self.repeat_scatter_mm_:.2f} mm)")
             else:
                 why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {scatter:.2f} mm")
+        if why_simpler:
+            why.append(why_simpler)
+        if self.lookalikes_:
+            why.append("the data cannot tell it from " + ", ".join(
+                f"{c.effect}{' (refit)' if c.kind == 'refit' else ''} (held-out error {c.cv_error_mm:.3f} mm)"
+                for c in self.lookalikes_) + ": within the uncertainty of the difference")
         if runner is not None:
             why.append(f"runner-up {runner.effect}{' (refit)' if runner.kind == 'refit' else ''} leaves "
                        f"{runner.cv_error_mm:.2f} mm")
         if self.time_domain_.get("mostly_in_time"):
             why.append(f"the model's error was mostly in time (travel lag {self.time_domain_['lag_rms_mm']:.2f} mm "
                        f"RMS, mean path distance {self.time_domain_['mean_distance_mm']:.2f} mm)")
-        if hidden_bias and not systematic:
+        if hidden_bias and not systematic and math.isfinite(scatter) and base <= self.quiet_factor * scatter:
             why.append(f"the model as given left a bias common to all tests below the scatter "
                        f"({self.systematic_['feature']}, p = {self.systematic_['p_value_all']:.2g}) that it removes")
         if explained and scatter_ok and not periodic:
@@ -514,7 +570,8 @@ class Diagnoser:
             elif not explained:
                 lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
             if not separated:
-                lacks.append("the runner-up explains the data almost as well")
+                lacks.append("a look-alike explains the data as well" if self.lookalikes_ else
+                             "the runner-up explains the data almost as well")
             if not scatter_ok or periodic:
                 lacks.append("the residual shows a pattern no library effect explains")
             why.append("low confidence: " + "; ".join(lacks))
@@ -574,6 +631,8 @@ class Diagnoser:
                 "missing_effect": self.missing_effect_,
                 "missing_effects": self.missing_effects_,
                 "missing_kind": self.missing_kind(),
+                "indistinguishable_from": [f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"
+                                           for c in getattr(self, "lookalikes_", [])] if self.best_ else [],
                 "systematic": {"model_as_given": self.systematic_, "after_best": self.systematic_after_},
                 "combination": self.combination_,
                 "confidence": self.confidence_,

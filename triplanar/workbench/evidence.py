@@ -11,7 +11,9 @@
   per contact angle, shifted by ``STEP_DEG``.
 * :func:`time_domain`: arrival-time error, travel lag, and the residual spectrum of every test (lateral error
   of each contact point and the travel lag against time, detrended by a cubic, Hann window): a test has a
-  *periodic* residual when its spectrum's peak above ``F_MIN_HZ`` exceeds ``PEAK_FACTOR`` x its median power;
+  *periodic* residual when its spectrum's highest bin above ``F_MIN_HZ`` is a peak (above both neighbouring bins:
+  a smooth residual's leakage falls with frequency from below the band) and exceeds ``PEAK_FACTOR`` x its median
+  power;
   the data show a dominant frequency when at least half the tests long enough to look are periodic.
 """
 
@@ -147,7 +149,11 @@ def dominant_frequency(d: TestDiscrepancy) -> tuple[float, bool]:
     if band.sum() < 4 or not np.any(p[band] > 0):
         return math.nan, False
     k = int(np.argmax(np.where(band, p, -1.0)))
-    return float(f[k]), bool(p[k] > PEAK_FACTOR * float(np.median(p[band])))
+    # a periodic residual makes a peak: higher than the bins on both sides. A smooth residual that the cubic does
+    # not take out (a lag growing in some other way) leaks into the lowest bins with power falling with frequency,
+    # so the band's highest bin is its first, below which the power is higher still: that is not a peak.
+    peak = 0 < k < len(p) - 1 and p[k] > p[k - 1] and p[k] > p[k + 1]
+    return float(f[k]), bool(peak and p[k] > PEAK_FACTOR * float(np.median(p[band])))
 
 
 def time_domain(found: Sequence[TestDiscrepancy]) -> dict[str, Any]:
