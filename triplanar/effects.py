@@ -220,6 +220,7 @@ def make_effect(spec: str) -> Effect:
     if name not in REGISTRY:
         raise EffectError(f"unknown effect {name!r}; known effects: {', '.join(sorted(REGISTRY))}")
     values: dict[str, float] = {}
+    explicit: set[str] = set()        # angles written with a "deg" suffix: meant in degrees, however small
     for item in filter(None, (part.strip() for part in rest.split(","))):
         key, eq, value = item.partition("=")
         key = key.strip()
@@ -227,13 +228,32 @@ def make_effect(spec: str) -> Effect:
             raise EffectError(f"effect {name!r}: expected PARAM=VALUE, got {item!r}")
         if key in values:
             raise EffectError(f"effect {name!r}: parameter {key} given twice ({spec!r})")
+        text = value.strip()
+        if key.endswith("_deg") and text.endswith("deg"):
+            text = text[:-3].strip()
+            explicit.add(key)
         try:
-            if not value.strip().isascii() or "_" in value:  # float() reads '1_0' and non-ASCII digits
+            if not text.isascii() or "_" in text:  # float() reads '1_0' and non-ASCII digits
                 raise ValueError
-            values[key] = float(value)
+            values[key] = float(text)
         except ValueError:
             raise EffectError(f"effect {name!r}: {key} = {value!r} is not a number") from None
+    _refuse_radians(name, {k: v for k, v in values.items() if k not in explicit})
     return REGISTRY[name](**values)
+
+
+def _refuse_radians(name: str, values: dict[str, float]) -> None:
+    """``*_deg`` parameters that all look like radians (nonzero, below 1, while the parameter's range reaches past
+    10 deg, so that the value read as radians would be a plausible angle) are refused with a hint; ``=0.5deg``
+    says that a small angle is meant."""
+    params = REGISTRY[name].parameters
+    angles = {k: v for k, v in values.items() if k.endswith("_deg") and k in params and params[k].upper > 10.0}
+    nonzero = {k: v for k, v in angles.items() if v != 0.0}
+    if nonzero and all(abs(v) < 1.0 and params[k].lower <= math.degrees(v) <= params[k].upper
+                       for k, v in nonzero.items()):
+        k, v = next(iter(nonzero.items()))
+        raise EffectError(f"effect {name!r}: {k} = {v:g} looks like radians ({math.degrees(v):.3g} deg); angles "
+                          f"are in degrees. For a true angle below 1 degree write {k}={v:g}deg")
 
 
 # -- the built-in library ------------------------------------------------------------------------

@@ -354,7 +354,7 @@ class Diagnoser:
             ci[p], status[p] = interval95(params[p], sandwich.get(p, math.nan), jack.get(p, 0.0), n_tests,
                                           len(cand.shared), full.train_error_mm, self.repeat_scatter_mm_,
                                           (lo, hi), start[p], cand.bounds[p])
-            if p in implausible:
+            if p in implausible and ci[p] is not None:   # (without an interval its status says why)
                 status[p] = "at_bound"
         # the effects refitted jointly with it (forward selection, combinations): their intervals the same way
         all_ci = {cand.effect: ci}
