@@ -73,6 +73,16 @@ def format_report(report: dict) -> str:
             params = ", ".join(format_param(k, v, m["param_ci95"].get(k), None) for k, v in m["params"].items())
             lines.append(f"  {m['effect']:24s} {m['share_of_improvement']:6.0%} of the error   {params}   "
                          f"(confidence {m['confidence']})")
+    if report.get("indistinguishable_from"):
+        lines += ["", f"indistinguishable from the named entry on these data: {', '.join(report['indistinguishable_from'])}"]
+        for exp in report.get("deciding_experiments") or []:
+            lines.append(f"  {exp['sentence']}")
+            lines.append("    load N  difference mm  / scatter  repeats for 95 %")
+            for r in exp["rows"]:
+                if r["difference_mm"] is not None:
+                    lines.append(f"    {r['load_N']:6.1f}  {r['difference_mm']:13.3f}  {r['ratio']:9.2f}  {r['repeats']:8d}")
+                elif r.get("holds"):
+                    lines.append(f"    {r['load_N']:6.1f}  {r['note']}")
     kind = f" ({report['missing_kind']})" if report.get("missing_kind") else ""
     lines += ["", f"verdict: {report.get('verdict', '?')}   missing effect: {verdict}{kind}   confidence: "
                   f"{report['confidence']}",
@@ -87,11 +97,12 @@ def run(args: argparse.Namespace) -> int:
                                         parse_starts, refuse_overwriting_inputs)
     from ..workbench.diagnose import Diagnoser
     from ..workbench.executor import TaskCheckpoint
-    from ..workbench.report import plot_candidates, plot_time_residuals, write_json
+    from ..workbench.report import plot_candidates, plot_deciding_experiments, plot_time_residuals, write_json
     if args.folds < 2:
         raise ValueError(f"--folds {args.folds}: cross-validation needs at least 2 folds")
     refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [
-        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png", "time_residuals.png")])
+        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png", "time_residuals.png",
+                                                                      "deciding.png")])
     spec, tests = model_and_tests(args)
     starts = parse_starts(args.start)
     per_test = parse_per_test(args.per_test)
@@ -114,9 +125,14 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(report, args.json)
     plot_candidates(report, out / "diagnose.png")
+    if report.get("deciding_experiments"):
+        plot_deciding_experiments(report["deciding_experiments"], out / "deciding.png")
+    else:
+        (out / "deciding.png").unlink(missing_ok=True)     # an earlier run's, which this report does not support
     plot_time_residuals(diag.baseline_, diag.after_, out / "time_residuals.png", diag.base_.describe(),
                         diag.best_label_)
     partial.clear()
     print(format_report(report))
-    print(f"\nwrote {out / 'diagnose.json'}{', ' + args.json if args.json else ''}, diagnose.png, time_residuals.png")
+    print(f"\nwrote {out / 'diagnose.json'}{', ' + args.json if args.json else ''}, diagnose.png, time_residuals.png"
+          + (", deciding.png" if report.get("deciding_experiments") else ""))
     return 0

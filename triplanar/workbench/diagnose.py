@@ -313,6 +313,7 @@ class Diagnoser:
         self.outcomes_ = by_label
         self._evidence(tests, base)
         self._decide()
+        self.experiments_ = self._deciding_experiments(tests)
         self.combination_: dict[str, Any] | None = None
         self.missing_effects_ = self._single_missing()
         best = self.best_
@@ -577,6 +578,29 @@ class Diagnoser:
             why.append("low confidence: " + "; ".join(lacks))
         self.reason_ = "; ".join(why)
 
+    def _deciding_experiments(self, tests: Sequence[MeasuredTest]) -> list[dict[str, Any]]:
+        """For the named entry and each look-alike (at most two): the loads where their fitted models differ most
+        relative to the scatter, and the repeats that would separate them (:mod:`triplanar.workbench.experiment`)."""
+        from .experiment import deciding_experiment, describe
+        if self.best_ is None or not self.lookalikes_:
+            return []
+        sigma = self.repeat_scatter_mm_ if math.isfinite(self.repeat_scatter_mm_) else self.expected_scatter_mm_
+        measured = sorted({float(t.shear_force_N) for t in tests})
+        # below the lowest measured load finely (a model that holds where the other slides decides at once)
+        grid = sorted(set(measured) | {round(f, 1) for f in np.linspace(measured[0], 1.3 * measured[-1], 8)}
+                      | {round(k * measured[0], 1) for k in (0.8, 0.85, 0.9, 0.95)})
+        longest = max((float(d.travel_m[-1]) for d in self.baseline_ if len(d.travel_m)), default=0.08)
+        label = lambda c: f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"  # noqa: E731
+        out = []
+        for other in self.lookalikes_[:2]:
+            exp = deciding_experiment((label(self.best_), self._spec_of(self.best_)), (label(other), self._spec_of(other)),
+                                      sigma, grid, max(longest, 0.01))
+            exp["sentence"] = describe(exp)
+            out.append(exp)
+        if out:
+            self.reason_ += "; " + "; ".join(e["sentence"] for e in out)
+        return out
+
     def missing_kind(self) -> str | None:
         """``"physics"``, ``"instrument"`` or ``"physics and instrument"``: what the named entries act on."""
         names = [m["effect"] for m in self.missing_effects_] or ([self.missing_effect_] if self.missing_effect_ else [])
@@ -635,6 +659,7 @@ class Diagnoser:
                                            for c in getattr(self, "lookalikes_", [])] if self.best_ else [],
                 "systematic": {"model_as_given": self.systematic_, "after_best": self.systematic_after_},
                 "combination": self.combination_,
+                "deciding_experiments": self.experiments_,
                 "confidence": self.confidence_,
                 "reason": self.reason_,
                 "baseline_error_mm": self.baseline_error_mm_,
