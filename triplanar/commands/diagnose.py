@@ -43,7 +43,8 @@ def format_report(report: dict) -> str:
              + (f"; repeat scatter {report['repeat_scatter_mm']:.3f} mm" if report.get("repeat_scatter_mm") else "")
              + (f"; instrument noise {noise['instrument_noise_mm']:.3f} mm, scatter it and the specimen explain "
                 f"{noise['expected_scatter_mm']:.3f} mm" if noise.get("expected_scatter_mm") else ""),
-             "", "  rank  effect                    cv error mm  improvement  parameters [95% interval]"]
+             "", "  rank  effect                    " + ("cv error mm" if report.get("cross_validated", True) else
+                                                         "in-sample mm") + "  improvement  parameters [95% interval]"]
     ranked = sorted([(c["cv_error_mm"], c["effect"], c) for c in report["candidates"]]
                     + [(c["cv_error_mm"], f"{c['effect']} (refit)", c) for c in report.get("refit_results", [])],
                     key=lambda x: (x[0] != x[0], x[0]))

@@ -293,6 +293,9 @@ class Diagnoser:
         self.repeat_scatter_mm_ = repeat_scatter_mm(tests, base.rest_positions)
         folds = load_folds([t.shear_force_N for t in tests], self.folds)
         self.folds_ = folds
+        # one load level: nothing can be held out, every error is in sample; the wording says so
+        self.where_ = "on held-out loads" if len(folds) > 1 else "in sample (one load level: nothing held out)"
+        self.error_word_ = "held-out error" if len(folds) > 1 else "in-sample error"
         tasks = [CandidateTask(self.user_base_, c, tuple(tests), tuple(tuple(f) for f in folds), self.max_nfev,
                                refit_cands, refit) for c in cands]
         for name, values in given:
@@ -509,7 +512,7 @@ class Diagnoser:
         if best is not self.ranked_[0]:
             why_simpler = (f"{best.effect}{' (refit)' if best.kind == 'refit' else ''} ({len(best.params)} free "
                            f"parameter(s)) is named over {self.ranked_[0].effect} ({len(self.ranked_[0].params)}), "
-                           f"whose held-out error {self.ranked_[0].cv_error_mm:.3f} mm is lower by less than the "
+                           f"whose {self.error_word_} {self.ranked_[0].cv_error_mm:.3f} mm is lower by less than the "
                            f"uncertainty of the difference (one-standard-error rule)")
         else:
             why_simpler = ""
@@ -530,7 +533,7 @@ class Diagnoser:
         self.confidence_ = "high" if high else "low"
         what = (f"refitting the given {best.effect} ({_fmt(best.given)} -> {_fmt(best.params)})"
                 if best.kind == "refit" else best.effect)
-        why = [f"{what} removes {best.improvement:.0%} of the error on held-out loads"]
+        why = [f"{what} removes {best.improvement:.0%} of the error {self.where_}"]
         if math.isfinite(scatter):
             if best.per_test and math.isfinite(expected):
                 why.append(f"leaving {best.cv_error_mm:.2f} mm against the {expected:.2f} mm that noise and the "
@@ -542,7 +545,7 @@ class Diagnoser:
             why.append(why_simpler)
         if self.lookalikes_:
             why.append("the data cannot tell it from " + ", ".join(
-                f"{c.effect}{' (refit)' if c.kind == 'refit' else ''} (held-out error {c.cv_error_mm:.3f} mm)"
+                f"{c.effect}{' (refit)' if c.kind == 'refit' else ''} ({self.error_word_} {c.cv_error_mm:.3f} mm)"
                 for c in self.lookalikes_) + ": within the uncertainty of the difference")
         if runner is not None:
             why.append(f"runner-up {runner.effect}{' (refit)' if runner.kind == 'refit' else ''} leaves "
@@ -641,12 +644,12 @@ class Diagnoser:
             self.best_label_ = "+ " + " + ".join(s["effect"] for s in steps)
             low = [s["effect"] for s in steps if s["confidence"] != "high"]
             self.reason_ = (f"two or more library effects explain the discrepancy, none alone: {listed} of the error "
-                            f"on held-out loads; together they leave {comb['cv_error_mm']:.2f} mm against a repeat "
+                            f"{self.where_}; together they leave {comb['cv_error_mm']:.2f} mm against a repeat "
                             f"scatter of {scatter:.2f} mm"
                             + (f"; low confidence: a runner-up explains almost as well at the step of "
                                f"{', '.join(low)}" if low else ""))
         elif len(steps) >= 2:
-            self.reason_ += (f"; in combination ({listed} of the error on held-out loads) they still leave "
+            self.reason_ += (f"; in combination ({listed} of the error {self.where_}) they still leave "
                              f"{comb['cv_error_mm']:.2f} mm" + (", periodic" if comb["periodic"] else ""))
 
     def _report(self) -> dict[str, Any]:

@@ -229,7 +229,9 @@ def sandwich_stderr(problem: Problem, u: np.ndarray, jac: np.ndarray) -> np.ndar
         meat += np.outer(g, g)
         start = stop
     n_tests, p = len(found), problem.n
-    factor = n_tests / (n_tests - p) if n_tests > p else math.inf
+    if n_tests <= p:        # no degrees of freedom left for the scatter: no standard error (and no 0 x inf)
+        return np.full(p, math.inf)
+    factor = n_tests / (n_tests - p)
     cov = inv @ meat @ inv * factor
     return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
