@@ -194,6 +194,12 @@ def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
     rows: dict = {}
     out["all"] = run_fit(FitTask(task.base, cands, tuple(tests), (), None, task.max_nfev, "all", task.warm),
                          map, cache, rows_out=rows)
+    if not out["all"].per_test:     # the fitted model's residual means: the intervals' model-form allowance
+        from .evidence import bias_ratio
+        spec = task.base
+        for name, values in out["all"].values.items():
+            spec = spec_with_values(spec, name, values)
+        out["all"] = replace(out["all"], bias_ratio=bias_ratio(discrepancies(evaluate_spec(spec, tests))))
     phis = None
     if out["all"].per_test:  # per-test parameters: each training test starts at its value in the full fit
         names = [(c.effect, p) for c in cands for p in c.per_test]
@@ -357,7 +363,7 @@ class Diagnoser:
             lo, hi = REGISTRY[cand.effect].parameters[p].lower, REGISTRY[cand.effect].parameters[p].upper
             ci[p], status[p] = interval95(params[p], sandwich.get(p, math.nan), jack.get(p, 0.0), n_tests,
                                           len(cand.shared), full.train_error_mm, self.repeat_scatter_mm_,
-                                          (lo, hi), start[p], cand.bounds[p])
+                                          (lo, hi), start[p], cand.bounds[p], full.bias_ratio)
             if p in implausible and ci[p] is not None:   # (without an interval its status says why)
                 status[p] = "at_bound"
         # the effects refitted jointly with it (forward selection, combinations): their intervals the same way
@@ -372,7 +378,7 @@ class Diagnoser:
                 all_ci[other.effect][p] = interval95(
                     full.values[other.effect][p], full.stderr.get(other.effect, {}).get(p, math.nan),
                     jack_other.get(p, 0.0), n_tests, n_free, full.train_error_mm, self.repeat_scatter_mm_,
-                    (par.lower, par.upper), math.nan, other.bounds[p])[0]
+                    (par.lower, par.upper), math.nan, other.bounds[p], full.bias_ratio)[0]
         given = dict(cand.start or {}) if task.kind == "refit" else {}
         from .pertest import summarize
         per_test = {p: summarize(v) for p, v in full.per_test.get(cand.effect, {}).items()}

@@ -208,23 +208,17 @@ def _features(d: TestDiscrepancy) -> dict[str, float]:
     return out
 
 
-def systematic_bias(found: Sequence[TestDiscrepancy], alpha: float = SYSTEMATIC_ALPHA) -> dict[str, Any]:
-    """Is there an error shared by the tests that their scatter hides? Per load level and signed feature
-    (:func:`_features`), the mean over the repeats is tested against its own standard error (Student's t with
-    n - 1 degrees of freedom; a level needs 2 repeats); each level's two-sided p-value becomes a signed normal
-    score z. Over the levels, Stouffer's sum (a bias of one sign at every load) and the sum of z^2 (a bias that
-    changes with load) give a feature's p-value (the smaller, doubled); the data show a systematic error when the
-    smallest feature p-value, times the number of features, is below ``alpha``. With n tests per level a shared
-    bias is seen at about ``scatter / sqrt(n_tests)``, not at the scatter of one test."""
-    from scipy.stats import chi2, norm
+def _level_scores(found: Sequence[TestDiscrepancy]) -> dict[str, tuple[list[float], list[float], list[float]]]:
+    """Per feature: each load level's signed normal score z of its repeats' mean (Student's t, n - 1 degrees of
+    freedom, turned into a normal score), the means and their standard errors (levels with 2 repeats or more)."""
+    from scipy.stats import norm
     from scipy.stats import t as student_t
     groups: dict[float, list[dict[str, float]]] = {}
     for d in found:
         if d.status == "travel":
             groups.setdefault(d.force_N, []).append(_features(d))
     names = sorted({k for rows in groups.values() for row in rows for k in row})
-    best: dict[str, Any] = {"systematic": False, "p_value": 1.0, "feature": None, "z": 0.0, "mean": None,
-                            "standard_error": None, "levels": 0}
+    out = {}
     for name in names:
         zs, means, ses = [], [], []
         for rows in groups.values():
@@ -238,6 +232,34 @@ def systematic_bias(found: Sequence[TestDiscrepancy], alpha: float = SYSTEMATIC_
             zs.append(float(norm.ppf(min(max(p_lower, 1e-300), 1 - 1e-16))))
             means.append(float(x.mean()))
             ses.append(se)
+        out[name] = (zs, means, ses)
+    return out
+
+
+def bias_ratio(found: Sequence[TestDiscrepancy]) -> float:
+    """How far the per-load means of the residuals stand from zero, in their own standard errors: the largest over
+    the features of ``sqrt(mean z^2)`` over the load levels (about 1 when the model is right; at least 1). A Birge
+    ratio at the level of the means, which a bias below the scatter of one test still moves: the intervals'
+    allowance for model-form error (:func:`triplanar.workbench.intervals.interval95`)."""
+    ratios = [math.sqrt(float(np.mean(np.square(zs)))) for zs, _, _ in _level_scores(found).values() if len(zs) >= 2]
+    return max([1.0, *ratios])
+
+
+def systematic_bias(found: Sequence[TestDiscrepancy], alpha: float = SYSTEMATIC_ALPHA) -> dict[str, Any]:
+    """Is there an error shared by the tests that their scatter hides? Per load level and signed feature
+    (:func:`_features`), the mean over the repeats is tested against its own standard error (Student's t with
+    n - 1 degrees of freedom; a level needs 2 repeats); each level's two-sided p-value becomes a signed normal
+    score z. Over the levels, Stouffer's sum (a bias of one sign at every load) and the sum of z^2 (a bias that
+    changes with load) give a feature's p-value (the smaller, doubled); the data show a systematic error when the
+    smallest feature p-value, times the number of features, is below ``alpha``. With n tests per level a shared
+    bias is seen at about ``scatter / sqrt(n_tests)``, not at the scatter of one test."""
+    from scipy.stats import chi2, norm
+    scores = _level_scores(found)
+    names = sorted(scores)
+    best: dict[str, Any] = {"systematic": False, "p_value": 1.0, "feature": None, "z": 0.0, "mean": None,
+                            "standard_error": None, "levels": 0}
+    for name in names:
+        zs, means, ses = scores[name]
         if len(zs) < 2:
             continue
         z = float(np.sum(zs) / math.sqrt(len(zs)))

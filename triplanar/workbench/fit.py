@@ -113,6 +113,7 @@ class FitOutcome:
     message: str
     vector: tuple[float, ...] = field(default=(), repr=False)
     per_test: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
+    bias_ratio: float = 1.0     # evidence.bias_ratio of the fitted model on its training tests (diagnose's full fit)
 
     @property
     def held_out_error_mm(self) -> float:
@@ -414,6 +415,8 @@ class EffectFit:
                 self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
         self.params_ = self.outcome_.values
         self.stderr_ = self.outcome_.stderr
+        from .evidence import bias_ratio
+        self.bias_ratio_ = bias_ratio(self.discrepancies_)
         self.at_bound_ = self.outcome_.at_bound
         self.ci95_, self.status_ = {}, {}
         scatter = repeat_scatter_mm(tests, self.base.rest_positions)
@@ -424,7 +427,8 @@ class EffectFit:
             for p in c.shared:
                 ci[p], status[p] = interval95(self.params_[c.effect][p], self.stderr_[c.effect][p], 0.0, len(tests),
                                               len(c.shared), self.outcome_.train_error_mm, scatter,
-                                              (params[p].lower, params[p].upper), float(starts[p]), c.bounds[p])
+                                              (params[p].lower, params[p].upper), float(starts[p]), c.bounds[p],
+                                              self.bias_ratio_)
                 if f"{c.effect}.{p}" in self.at_bound_:
                     status[p] = "at_bound"
             for p in c.per_test:
