@@ -40,7 +40,7 @@ import numpy as np
 from ..measurement import MeasuredTest
 from .candidates import Candidate, refit_candidate, resolve, without_effect
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
-from .evidence import (expected_scatter_mm, growth_along_travel, instrument_noise_mm, noise_floor_mm,
+from .evidence import (HINT_ALPHA, expected_scatter_mm, growth_along_travel, instrument_noise_mm, noise_floor_mm,
                        systematic_bias, time_domain)
 from .intervals import interval95
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
@@ -85,6 +85,7 @@ class CandidateResult:
     per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
     all_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # every effect fitted with it
     held_out_mm: dict[str, float] = field(default_factory=dict, repr=False)   # test_id -> its error when held out
+    bias_ratio: float = 1.0      # evidence.bias_ratio of the full fit (the intervals' model-form allowance)
 
     def as_json(self) -> dict[str, Any]:
         return {"effect": self.effect, "params": self.params, "param_ci95": self.param_ci95,
@@ -386,7 +387,8 @@ class Diagnoser:
                                not implausible, implausible,
                                {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
                                full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed),
-                               per_test, full.per_test, all_ci, {t: e for t, (_, e) in held.items()})
+                               per_test, full.per_test, all_ci, {t: e for t, (_, e) in held.items()},
+                               full.bias_ratio)
 
     def _with_start(self, cand: Candidate) -> Candidate:
         """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""
@@ -535,7 +537,9 @@ class Diagnoser:
         separated = runner is None or not math.isfinite(runner.cv_error_mm) or (
             runner.cv_error_mm >= self.margin * best.cv_error_mm and not (math.isfinite(diff) and diff <= diff_se)
             and not self.lookalikes_)
-        high = best.improvement >= self.high_improvement and explained and separated and scatter_ok and not periodic
+        hinted = not systematic and self.systematic_after_["p_value_all"] < HINT_ALPHA
+        high = (best.improvement >= self.high_improvement and explained and separated and scatter_ok and not periodic
+                and not hinted)
         self.confidence_ = "high" if high else "low"
         what = (f"refitting the given {best.effect} ({_fmt(best.given)} -> {_fmt(best.params)})"
                 if best.kind == "refit" else best.effect)
@@ -584,6 +588,10 @@ class Diagnoser:
                              "the runner-up explains the data almost as well")
             if not scatter_ok or periodic:
                 lacks.append("the residual shows a pattern no library effect explains")
+            if hinted:
+                bias = self.systematic_after_
+                lacks.append(f"a hint of a bias common to all tests remains ({bias['feature']}, p = "
+                             f"{bias['p_value_all']:.2g}): an unmodelled effect may have shifted the parameters")
             why.append("low confidence: " + "; ".join(lacks))
         self.reason_ = "; ".join(why)
 

@@ -196,6 +196,10 @@ def growth_along_travel(found: Sequence[TestDiscrepancy]) -> float:
 #: Significance level of :func:`systematic_bias` over all its features together (Bonferroni); its false-positive
 #: rate on clean data is measured by ``benchmarks/threshold_check.py`` (``docs/workbench.md``).
 SYSTEMATIC_ALPHA = 0.01
+#: Below this (and above ``SYSTEMATIC_ALPHA``) a shared bias is only hinted at: not a verdict, but no ``high``
+#: confidence either (an unmodelled look-alike biases a parameter while leaving little else;
+#: ``benchmarks/interval_coverage.py``).
+HINT_ALPHA = 0.05
 
 
 def _features(d: TestDiscrepancy) -> dict[str, float]:
