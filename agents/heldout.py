@@ -74,7 +74,7 @@ def with_tip(bench: Bench, tip_friction_deg: float | None) -> Bench:
     """``bench`` with a given tip (a design's hardware) instead of its drawn tip friction."""
     if tip_friction_deg is None:
         return bench
-    from dataclasses import replace  # noqa: PLC0415
+    from dataclasses import replace
     return replace(bench, specimen=replace(bench.specimen, tip_friction_deg=float(tip_friction_deg)))
 
 

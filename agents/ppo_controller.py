@@ -24,7 +24,7 @@ class PPOController:
              ) -> PPOController:
         """Load a trained policy. Both files are unpickled (cloudpickle, pickle), which runs the code in them:
         load only files you made or that come from a trusted source."""
-        from stable_baselines3 import PPO  # noqa: PLC0415 (torch only when a policy is used)
+        from stable_baselines3 import PPO  # torch only when a policy is used
         model = PPO.load(str(model_path), device="cpu")
         normalizer = None
         if vecnormalize_path is not None:

@@ -128,9 +128,9 @@ def eval_loads(config: dict[str, Any]) -> list[float]:
 
 def make_vec_envs(config: dict[str, Any], seed: int):
     """(training VecNormalize env, evaluation VecNormalize env: one env per evaluation load)."""
-    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize  # noqa: PLC0415
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
-    from .sb3_vec_env import ShearSB3VecEnv  # noqa: PLC0415
+    from .sb3_vec_env import ShearSB3VecEnv
     shear = env_config(config)
     norm = config.get("normalize", {})
     train = VecNormalize(VecMonitor(ShearSB3VecEnv(int(config.get("n_envs", 16)), shear, seed=seed)), **norm)
@@ -169,7 +169,7 @@ def _replace_atomically(save: Any, path: Path) -> None:
 
 def _checkpoint_callback(save_freq: int, save_path: Path):
     """SB3's CheckpointCallback (model + VecNormalize every ``save_freq`` calls), writing each file atomically."""
-    from stable_baselines3.common.callbacks import CheckpointCallback  # noqa: PLC0415
+    from stable_baselines3.common.callbacks import CheckpointCallback
 
     class AtomicCheckpoint(CheckpointCallback):
         def _on_step(self) -> bool:
@@ -185,10 +185,10 @@ def _checkpoint_callback(save_freq: int, save_path: Path):
 
 def _mimicry_callback(config: dict[str, Any], curve_path: Path, wall_offset: float, started: float):
     """Callback run after each evaluation: the deterministic policy's mimicry error at every evaluation load."""
-    from stable_baselines3.common.callbacks import BaseCallback  # noqa: PLC0415
+    from stable_baselines3.common.callbacks import BaseCallback
 
-    from .evaluation import evaluate  # noqa: PLC0415
-    from .ppo_controller import PPOController  # noqa: PLC0415
+    from .evaluation import evaluate
+    from .ppo_controller import PPOController
     loads = eval_loads(config)
     env_kwargs = config.get("env", {})
 
@@ -241,10 +241,10 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
               total_timesteps: int | None = None, resume: bool = True, callbacks: Sequence[Any] = (),
               verbose: int = 0) -> TrainResult:
     """Train (or resume) one PPO run; see the module docstring for what it writes."""
-    import torch  # noqa: PLC0415
-    from stable_baselines3 import PPO  # noqa: PLC0415
-    from stable_baselines3.common.callbacks import CallbackList, EvalCallback  # noqa: PLC0415
-    from stable_baselines3.common.vec_env import VecNormalize  # noqa: PLC0415
+    import torch
+    from stable_baselines3 import PPO
+    from stable_baselines3.common.callbacks import CallbackList, EvalCallback
+    from stable_baselines3.common.vec_env import VecNormalize
 
     if isinstance(config, dict):
         check_config(config)
@@ -271,7 +271,7 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
         try:
             resumed_env = VecNormalize.load(str(checkpoint_stats), train_env.venv)
             model = PPO.load(str(checkpoint_model), env=resumed_env, device="cpu", tensorboard_log=str(run_dir / "tb"))
-        except Exception as err:  # noqa: BLE001 (a truncated or damaged file: fall back to the previous one)
+        except Exception as err:  # a truncated or damaged file: fall back to the previous one
             print(f"warning: checkpoint {checkpoint_model.name} does not load ({type(err).__name__}: {err}); "
                   "trying the previous one", file=sys.stderr)
             continue
@@ -346,7 +346,7 @@ def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
 
 
 def main(argv: Iterable[str] | None = None) -> int:
-    from triplanar.commands.train import add_arguments  # noqa: PLC0415  (the options are the CLI's)
+    from triplanar.commands.train import add_arguments  # the options are the CLI's
     parser = argparse.ArgumentParser(prog="python -m agents.train_ppo", description=__doc__.splitlines()[0])
     add_arguments(parser)
     return run(parser.parse_args(None if argv is None else list(argv)))

@@ -47,10 +47,10 @@ ALGOS = {"ppo": "ppo_robust", "recurrent": "ppo_recurrent"}  # algo -> controlle
 
 def make_env(env_kwargs: dict[str, Any] | None = None, algo: str = "ppo"):
     """The training env: v1 in bench mode under randomisation; with the frame stack for ``algo="ppo"``."""
-    import gymnasium as gym  # noqa: PLC0415
-    from gymnasium.wrappers import FlattenObservation, FrameStackObservation  # noqa: PLC0415
+    import gymnasium as gym
+    from gymnasium.wrappers import FlattenObservation, FrameStackObservation
 
-    import envs  # noqa: F401, PLC0415
+    import envs  # noqa: F401 (registers the environment)
     kwargs = {"observation_mode": "bench", "randomize": True, **(env_kwargs or {})}
     env = gym.make("TriPlanarShear-v1", **kwargs)
     if algo == "recurrent":
@@ -60,9 +60,9 @@ def make_env(env_kwargs: dict[str, Any] | None = None, algo: str = "ppo"):
 
 def _algo_class(algo: str):
     if algo == "recurrent":
-        from sb3_contrib import RecurrentPPO  # noqa: PLC0415
+        from sb3_contrib import RecurrentPPO
         return RecurrentPPO
-    from stable_baselines3 import PPO  # noqa: PLC0415
+    from stable_baselines3 import PPO
     return PPO
 
 
@@ -76,7 +76,7 @@ class RobustPolicy:
 
     @classmethod
     def load(cls, run_dir: str | Path, name: str = "ppo_robust") -> RobustPolicy:
-        from stable_baselines3 import PPO  # noqa: PLC0415
+        from stable_baselines3 import PPO
         run_dir = Path(run_dir)
         with open(run_dir / "vecnormalize.pkl", "rb") as f:
             normalizer = pickle.load(f)
@@ -131,7 +131,7 @@ def load_policy(run_dir: str | Path, algo: str = "ppo", name: str | None = None)
 
 def evaluate_policy_on(policy: RobustPolicy | RecurrentPolicy, benches: Sequence[Any], env_kwargs: dict[str, Any] | None = None,
                        bench_set: str = "heldout", tip_friction_deg: float | None = None) -> list[Any]:
-    from .heldout import run_episode, with_tip  # noqa: PLC0415
+    from .heldout import run_episode, with_tip
     return [run_episode(policy, with_tip(b, tip_friction_deg), env_kwargs=env_kwargs, seed=i, bench_set=bench_set,
                         index=i) for i, b in enumerate(benches)]
 
@@ -156,11 +156,11 @@ def _atomic(save, path: Path) -> None:
 def train_robust(task: RobustTask) -> dict[str, Any]:
     """Train one seed (module-level and picklable for the executor); returns its summary. Resumes from the run's
     checkpoint if there is one."""
-    import torch  # noqa: PLC0415
-    from stable_baselines3.common.callbacks import BaseCallback  # noqa: PLC0415
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize  # noqa: PLC0415
+    import torch
+    from stable_baselines3.common.callbacks import BaseCallback
+    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-    from .heldout import TUNING_SEED, random_benches, summarise  # noqa: PLC0415
+    from .heldout import TUNING_SEED, random_benches, summarise
 
     if task.algo not in ALGOS:
         raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {task.algo!r}")

@@ -93,7 +93,7 @@ def single_v1(n: int, stats: dict, **kwargs) -> float:
 
     Each call starts from a seed of its own: with the same seed a repeat would draw the same specimens and find
     their starts in the start cache (``envs.triplanar_shear.episode_start``), which training never does."""
-    from envs.triplanar_shear_v1 import TriPlanarShearV1Env  # noqa: PLC0415
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env
     env = TriPlanarShearV1Env(**{"observation_mode": "bench", "randomize": True, **kwargs})
     actions = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)
     env.reset(seed=0)
@@ -129,11 +129,11 @@ def v1_reset_cost(n: int) -> dict:
     start of every draw, the hydrostatic start of the reference run), the reference run's integration
     (``driver.drive``), the statics LP and the first control period(s). Wraps those entry points with timers
     (a few hundred ns each)."""
-    import sys  # noqa: PLC0415
+    import sys
 
-    import envs.triplanar_shear as v0  # noqa: PLC0415
-    from envs.triplanar_shear_v1 import TriPlanarShearV1Env  # noqa: PLC0415
-    from triplanar import equilibrium  # noqa: PLC0415
+    import envs.triplanar_shear as v0
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+    from triplanar import equilibrium
     simulate_module = sys.modules["triplanar.simulate"]
     spent: dict[str, float] = {}
     calls: dict[str, int] = {}
@@ -239,7 +239,7 @@ def main() -> int:
                 args.repeats, lambda: vector(num_envs, steps, policy))
     target = args.target_mm
     if target is None:
-        from agents import TrackingTip, evaluate  # noqa: PLC0415
+        from agents import TrackingTip, evaluate
         target = evaluate(TrackingTip(), 27.8).mimicry_error_mm
     results["tracking_tip_error_27.8N_mm"] = target
     results["ppo_time_to_tracking_tip"] = ppo_time_to_target(Path(args.runs), target)

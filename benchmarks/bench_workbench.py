@@ -25,9 +25,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from triplanar import make_effect  # noqa: E402
-from triplanar.workbench import Diagnoser, EffectFit, ModelSpec, compare, evaluate_spec, load_tests  # noqa: E402
-from triplanar.workbench.scenarios import HIDDEN_EFFECTS  # noqa: E402
+from triplanar import make_effect
+from triplanar.workbench import Diagnoser, EffectFit, ModelSpec, compare, evaluate_spec, load_tests
+from triplanar.workbench.scenarios import HIDDEN_EFFECTS
 
 HIDDEN = HIDDEN_EFFECTS  # effect -> (data spec, parameters to recover within 15 %)
 

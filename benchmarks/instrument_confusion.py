@@ -20,11 +20,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from triplanar import make_effect  # noqa: E402
-from triplanar.effects import REGISTRY  # noqa: E402
-from triplanar.labdata import generate_lab_data  # noqa: E402
-from triplanar.workbench import Diagnoser  # noqa: E402
-from triplanar.workbench.scenarios import HIDDEN_EFFECTS  # noqa: E402
+from triplanar import make_effect
+from triplanar.effects import REGISTRY
+from triplanar.labdata import generate_lab_data
+from triplanar.workbench import Diagnoser
+from triplanar.workbench.scenarios import HIDDEN_EFFECTS
 
 LOADS = (27.8, 35.0, 45.0, 55.6)
 

@@ -29,11 +29,11 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-import triplanar.workbench.evidence as evidence  # noqa: E402
-from triplanar import EFFECTS, make_effect  # noqa: E402
-from triplanar.effects import Effect, Parameter  # noqa: E402
-from triplanar.labdata import generate_lab_data  # noqa: E402
-from triplanar.workbench import Diagnoser, ModelSpec  # noqa: E402
+import triplanar.workbench.evidence as evidence
+from triplanar import EFFECTS, make_effect
+from triplanar.effects import Effect, Parameter
+from triplanar.labdata import generate_lab_data
+from triplanar.workbench import Diagnoser, ModelSpec
 
 LOADS = (27.8, 32.5, 37.5, 42.5, 47.5, 55.6)
 TRUTH = 8.0

@@ -34,14 +34,13 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from triplanar import make_effect  # noqa: E402
-from triplanar.labdata import generate_lab_data  # noqa: E402
-from triplanar.workbench import ModelSpec, evaluate_spec, repeat_scatter_mm  # noqa: E402
-from triplanar.workbench.evidence import (MOSTLY_IN_TIME, PEAK_FACTOR, dominant_frequency,  # noqa: E402
-                                          expected_scatter_mm, instrument_noise_mm, systematic_bias,
-                                          time_domain)
-from triplanar.workbench.fit import discrepancies  # noqa: E402
-from triplanar.workbench.scenarios import ForceRipple, ThrustRipple  # noqa: E402
+from triplanar import make_effect
+from triplanar.labdata import generate_lab_data
+from triplanar.workbench import ModelSpec, evaluate_spec, repeat_scatter_mm
+from triplanar.workbench.evidence import (MOSTLY_IN_TIME, PEAK_FACTOR, expected_scatter_mm, instrument_noise_mm,
+                                          systematic_bias, time_domain)
+from triplanar.workbench.fit import discrepancies
+from triplanar.workbench.scenarios import ForceRipple, ThrustRipple
 
 LOADS = (27.8, 35.0, 45.0, 55.6)
 REPEATS = 2

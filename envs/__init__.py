@@ -30,7 +30,7 @@ def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | N
 
 _drop_stale_compiled_code()
 
-from .triplanar_shear import ShearConfig, TriPlanarShearEnv  # noqa: E402
+from .triplanar_shear import ShearConfig, TriPlanarShearEnv
 
 ENV_ID = "TriPlanarShear-v0"
 

@@ -55,7 +55,7 @@ class FastRenderer:
         draw.text((5, 5), f"{load_N:g} N, t = {t:.3f} s", fill=(0, 0, 0))
         frame = np.asarray(image)
         if self.human:  # a display exists (the env checked): show it with matplotlib's window
-            import matplotlib.pyplot as plt  # noqa: PLC0415
+            import matplotlib.pyplot as plt
             if self._window is None:
                 plt.ion()
                 self._window = plt.imshow(frame)

@@ -792,9 +792,9 @@ class Renderer:
     reference path (grey), the traces so far (black), the contact triangle and the load tip (red)."""
 
     def __init__(self, foundation: Foundation, human: bool = False):
-        import os  # noqa: PLC0415
+        import os
 
-        from triplanar import plotting  # noqa: PLC0415 (matplotlib is imported only to render)
+        from triplanar import plotting  # matplotlib is imported only to render
         self._plotting = plotting
         self._plt = plotting.plt
         self.human = human

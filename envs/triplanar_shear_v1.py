@@ -465,7 +465,7 @@ class TriPlanarShearV1Env(gym.Env):
                 self._warned_display = True
             return None
         if self._renderer is None:
-            from .render_v1 import FastRenderer  # noqa: PLC0415 (Pillow only when rendering)
+            from .render_v1 import FastRenderer  # Pillow only when rendering
             self._renderer = FastRenderer(self._foundation, human=self.render_mode == "human")
         rest = self._st[ST_CP_REST:ST_CP_REST + 9].reshape(3, 3)
         return self._renderer.draw(np.array(self._trace), rest + self._ref.reshape(-1, 3, 3), self._load_point(),
@@ -484,7 +484,7 @@ class TriPlanarShearV1Env(gym.Env):
                 bench = replace(bench, specimen=replace(bench.specimen,
                                                         tip_friction_deg=float(self.config.tip_friction_deg)))
             return bench
-        from .triplanar_shear import draw_episode  # noqa: PLC0415
+        from .triplanar_shear import draw_episode
         draw = draw_episode(self.np_random, self.config, self._specimen, None)
         specimen = replace(self._specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg)
         return Bench(specimen, self._foundation, draw.load_N)

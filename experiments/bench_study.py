@@ -113,13 +113,13 @@ def run_batch(batch: EpisodeBatch) -> list[Outcome]:
     env_kwargs = dict(batch.env_kwargs)
     benches = [with_tip(b, batch.tip_friction_deg) for b in _benches(batch)]
     if batch.controller.startswith("ppo:"):
-        from agents.train_robust import load_policy  # noqa: PLC0415
+        from agents.train_robust import load_policy
         controller: Any = load_policy(batch.controller[4:], "ppo", name=batch.label)
     elif batch.controller.startswith("ppo_recurrent:"):
-        from agents.train_robust import load_policy  # noqa: PLC0415
+        from agents.train_robust import load_policy
         controller = load_policy(batch.controller[len("ppo_recurrent:"):], "recurrent", name=batch.label)
     elif batch.controller.startswith("ppo_state:"):
-        from agents.ppo_controller import PPOController  # noqa: PLC0415
+        from agents.ppo_controller import PPOController
         run = Path(batch.controller[len("ppo_state:"):])
         ppo = PPOController.load(run / "final_model.zip", run / "vecnormalize.pkl", name=batch.label)
         controller = _Named(batch.label, ppo.act)
@@ -189,9 +189,9 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), pp
                     in_sample_run: str | Path | None = None, designs: Sequence[Design] = DESIGNS,
                     executor: ExecutorLike = None, log=print) -> dict[str, Any]:
     """The whole study (resumable in ``out_dir``); ``recurrent_timesteps=None`` leaves the recurrent PPO out."""
-    from agents.train_robust import seed_tasks, train_robust  # noqa: PLC0415
+    from agents.train_robust import seed_tasks, train_robust
 
-    from . import bench_plots  # noqa: PLC0415
+    from . import bench_plots
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     timings: dict[str, float] = {}
@@ -286,7 +286,7 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = (0, 1, 2), pp
 
 
 def _design_ppo(task: tuple[str, Design, int]) -> dict[str, Any]:
-    from agents.train_robust import RobustTask, train_robust  # noqa: PLC0415
+    from agents.train_robust import RobustTask, train_robust
     out, design, timesteps = task
     kwargs = {**design.env_kwargs(), "tip_friction_deg": design.tip_friction_deg}
     return train_robust(RobustTask(out, 0, timesteps, tuple(sorted(kwargs.items())), max(timesteps // 2, 1)))

@@ -68,7 +68,7 @@ def summary(result: StudyResult) -> dict[str, Any]:
         out["time_to_target"] = {"target_mm": target, "load_N": loads[0], "controller": TARGET_CONTROLLER,
                                  "by_seed": reached}
     if PPO in result.controllers:
-        from triplanar import paper_model, simulate  # noqa: PLC0415
+        from triplanar import paper_model, simulate
         ppo_runs = [r for r in result.episodes if r.controller == PPO]
         out["ppo_strategy"] = {f"{f:g}": {
             "thrust_min_N": round(min(float(r.thrust_N.min()) for r in runs), 2),

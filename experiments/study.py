@@ -1,4 +1,4 @@
-"""The actuator design study: ``triplanar study --out DIR`` (or ``python -m experiments.study --out DIR``).
+"""The actuator design study: ``triplanar study --out DIR`` (the command calls :func:`run_study`).
 
 Trains PPO (``agents.train_ppo``; finished or interrupted runs are resumed, not redone), evaluates every
 controller at the 12 load levels with :func:`agents.evaluation.evaluate`, and writes to DIR:
@@ -17,7 +17,6 @@ such a file runs code, so use only runs you trained or that come from a trusted 
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import time
@@ -87,7 +86,7 @@ class EvalTask:
 
 @lru_cache(maxsize=8)
 def _ppo_controller(model_path: str, vecnormalize_path: str):
-    from agents.ppo_controller import PPOController  # noqa: PLC0415
+    from agents.ppo_controller import PPOController
     return PPOController.load(model_path, vecnormalize_path, name=PPO_NAME)
 
 
@@ -105,7 +104,7 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
     """Train (or resume) PPO for each seed, evaluate every controller at every load, write the outputs. The
     seeds, then the evaluations (controller x load x seed), are tasks on ``executor`` (:mod:`triplanar.executor`)."""
 
-    from . import plots, report  # noqa: PLC0415
+    from . import plots, report
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     loads = tuple(float(f) for f in loads)
@@ -165,21 +164,3 @@ def write_tables(result: StudyResult) -> None:
         for j, load in enumerate(result.loads):
             writer.writerow([load] + [f"{result.errors(c)[0, j]:.3f}" for c in names]
                             + [f"{ppo[:, j].mean():.3f}", f"{ppo[:, j].std():.3f}", ppo.shape[0]])
-
-
-def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
-    run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, config=args.config or DEFAULT_CONFIG,
-              timesteps=args.timesteps, train=not args.skip_train, doc=args.doc or None,
-              overwrite_doc=args.overwrite_doc, executor=executor)
-    return 0
-
-
-def main(argv: Iterable[str] | None = None) -> int:
-    from triplanar.commands.study import add_arguments  # noqa: PLC0415  (the options are the CLI's)
-    parser = argparse.ArgumentParser(prog="python -m experiments.study", description=__doc__.splitlines()[0])
-    add_arguments(parser)
-    return run(parser.parse_args(None if argv is None else list(argv)))
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -10,7 +10,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 
-import envs  # noqa: F401
+import envs  # noqa: F401 (registers the environments)
 from envs.triplanar_shear import TriPlanarShearEnv
 from envs.triplanar_shear_v1 import (B_RANGE, B_STAGE, B_THRUST, BENCH_OBS_DIM, RANDOM_LOAD_N, RANDOM_MASS,
                                      RANDOM_MASS_CENTRE_M, RANDOM_TIP_FRICTION_DEG, TriPlanarShearV1Env)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import gymnasium as gym
 import numpy as np
 
-import envs  # noqa: F401
+import envs  # noqa: F401 (registers the environments)
 from envs import triplanar_shear as S
 from envs.triplanar_shear import TriPlanarShearEnv
 from envs.vector import TriPlanarShearVectorEnv

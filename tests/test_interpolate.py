@@ -11,8 +11,13 @@ from triplanar.interpolate import CubicHermite, distinct_times
 
 def test_hermite_reproduces_a_cubic_exactly_and_its_derivative() -> None:
     t = np.array([0.0, 0.3, 0.5, 1.2])
-    f = lambda x: 2 * x**3 - x**2 + 0.5 * x - 1  # noqa: E731
-    df = lambda x: 6 * x**2 - 2 * x + 0.5  # noqa: E731
+
+    def f(x: np.ndarray) -> np.ndarray:
+        return 2 * x**3 - x**2 + 0.5 * x - 1
+
+    def df(x: np.ndarray) -> np.ndarray:
+        return 6 * x**2 - 2 * x + 0.5
+
     spline = CubicHermite(t, f(t), df(t))
     tq = np.linspace(0.0, 1.2, 37)
     value, slope = spline.evaluate(tq, derivative=True)

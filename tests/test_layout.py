@@ -23,6 +23,27 @@ def test_offsets_follow_sizes_and_are_exported() -> None:
         Layout("Y_", "N_Y", [("A", 1, ""), ("A", 1, "")])
 
 
+def test_explicit_names_are_checked_against_the_layout() -> None:
+    layout = Layout("X_", "N_X", [("A", 3, "a"), ("B", 1, "b"), ("C", 2, "c")], start=5)
+    X_A, X_B, X_C, N_X = layout.offsets()
+    assert (X_A, X_B, X_C, N_X) == (5, 8, 9, 11)
+    assert layout.named_in({"X_A": X_A, "X_B": X_B, "X_C": X_C, "N_X": N_X})
+    assert not layout.named_in({"X_A": X_A, "X_B": X_C, "X_C": X_B, "N_X": N_X})  # two names swapped
+    assert not layout.named_in({"X_A": X_A, "X_B": X_B, "X_C": X_C})  # the size missing
+
+
+@pytest.mark.parametrize("module, layout", [(K, K.STATE), (K, K.PARAMS), (K, K.MODES), (K, K.AUX), (K, K.EVENTS),
+                                            (K, K.WORKSPACE), (stepping, stepping.WORKSPACE),
+                                            (driver, driver.WORKSPACE)])
+def test_compiled_modules_name_every_offset(module: object, layout: Layout) -> None:
+    assert layout.named_in(vars(module))
+
+
+def test_workspace_layers_have_their_own_prefixes() -> None:
+    prefixes = [K.WORKSPACE.prefix, stepping.WORKSPACE.prefix, driver.WORKSPACE.prefix]
+    assert len(set(prefixes)) == len(prefixes), prefixes
+
+
 @pytest.mark.parametrize("layout", [K.STATE, K.PARAMS, K.AUX, K.EVENTS, K.WORKSPACE, stepping.WORKSPACE,
                                     S.BOOKKEEPING, S.CONFIG, S.INFO, S.OBSERVATION, S.WORKSPACE])
 def test_fields_tile_the_array(layout: Layout) -> None:

@@ -16,8 +16,8 @@ from ray_helpers import (OBJECT_STORE_BYTES, PLUGIN, ROOT, attempts, by_value, k
 
 ray = pytest.importorskip("ray")
 
-from triplanar.executor import run_tasks  # noqa: E402
-from triplanar.ray_executor import RayExecutor  # noqa: E402
+from triplanar.executor import run_tasks
+from triplanar.ray_executor import RayExecutor
 
 pytestmark = pytest.mark.slow
 DATA = ROOT / "data" / "lab_traces.csv"

@@ -11,8 +11,8 @@ from ray_helpers import OBJECT_STORE_BYTES, PLUGIN, attempts, by_value, kill_whe
 
 ray = pytest.importorskip("ray")
 
-from triplanar.executor import TaskCheckpoint, run_tasks  # noqa: E402
-from triplanar.ray_executor import RayExecutor  # noqa: E402
+from triplanar.executor import TaskCheckpoint, run_tasks
+from triplanar.ray_executor import RayExecutor
 
 pytestmark = pytest.mark.slow  # a Ray takes seconds to start, and most tests run commands on it
 

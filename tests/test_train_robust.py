@@ -9,8 +9,8 @@ import pytest
 
 pytest.importorskip("sb3_contrib")
 
-from agents import train_robust as tr  # noqa: E402
-from agents.heldout import nominal_benches, run_episode  # noqa: E402
+from agents import train_robust as tr
+from agents.heldout import nominal_benches, run_episode
 
 
 @pytest.mark.slow

@@ -96,9 +96,9 @@ def executor_from_args(args: argparse.Namespace, workers: int | None = None) -> 
     """The executor the flags ask for, shut down on exit: ``workers`` processes (``None``: the default pool) for
     local, this process for serial, Ray tasks for ray (a local Ray gets ``workers`` CPUs); ``--plugin`` modules
     reach Ray workers."""
-    import importlib.util  # noqa: PLC0415
+    import importlib.util
 
-    from .executor import SerialExecutor, pool_scope  # noqa: PLC0415
+    from .executor import SerialExecutor, pool_scope
     backend = getattr(args, "executor", "local") or "local"
     address = getattr(args, "ray_address", None)
     if address is not None and backend != "ray":
@@ -111,7 +111,7 @@ def executor_from_args(args: argparse.Namespace, workers: int | None = None) -> 
         if importlib.util.find_spec("ray") is None:
             raise ValueError("--executor ray: Ray is not installed; pip install 'triplanar-shear[ray]' (or `make` "
                              "in a clone)")
-        from .ray_executor import RayExecutor  # noqa: PLC0415 (Ray is the optional `ray` extra)
+        from .ray_executor import RayExecutor  # Ray is the optional `ray` extra
         with RayExecutor(address, num_cpus=workers, plugins=getattr(args, "plugin", None) or ()) as ex:
             yield ex
     elif workers is None:

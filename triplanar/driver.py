@@ -38,11 +38,12 @@ drop_if_stale(numba_cache_dir(__file__), "driver.*.nb[ic]",
 
 # This module's scratch rows, after the steppers' (see the note on scratch memory in triplanar.kernel): where a
 # stretch started, for a redo (copies here cost no allocation in the env's hot loop).
-WORKSPACE = Layout("W_", "N_WS_ROWS", [
+WORKSPACE = Layout("DW_", "N_WS_ROWS", [
     ("Y0", 1, "the stretch's initial state"),
     ("MODES0", 1, "its initial stick/slip modes"),
     ("ARMED0", 1, "its initial event arming (5 flags as 0/1)")], start=stepping.N_WS_ROWS)
-WORKSPACE.export(globals())
+DW_Y0, DW_MODES0, DW_ARMED0, N_WS_ROWS = WORKSPACE.offsets()
+assert WORKSPACE.named_in(globals())
 
 
 @njit(cache=True, error_model="numpy")
@@ -75,11 +76,11 @@ def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target,
     docstring). A redo starts again from the stretch's start (state, modes, arming, recorded rows and event log) and
     hands back the stretch's own step ``h``, so a fixed-step caller keeps its step."""
     count = ws[W_COUNT]
-    y0, log0 = ws[W_Y0, :N_STATE], count[C_NLOG]
+    y0, log0 = ws[DW_Y0, :N_STATE], count[C_NLOG]
     y0[:] = y
-    ws[W_MODES0, :N_MODE] = ws[W_MODES, :N_MODE]
+    ws[DW_MODES0, :N_MODE] = ws[W_MODES, :N_MODE]
     for k in range(5):
-        ws[W_ARMED0, k] = 1.0 if armed[k] else 0.0
+        ws[DW_ARMED0, k] = 1.0 if armed[k] else 0.0
     rows, status, event, h_out, t = stepping.integrate_ws(method, t0, y, p, h, rtol, atol, t_end, x1_target,
                                                           slow_speed, armed, out_t, out_y, out_dy, out_aux, record,
                                                           row0, log, ws)
@@ -87,9 +88,9 @@ def _integrate_checked(method, t0, y, p, armed, h, rtol, atol, t_end, x1_target,
         if energy_tol <= 0.0 or abs(energy_defect(y0, y, p, ws)) <= energy_tol:
             break
         y[:] = y0
-        ws[W_MODES, :N_MODE] = ws[W_MODES0, :N_MODE]
+        ws[W_MODES, :N_MODE] = ws[DW_MODES0, :N_MODE]
         for k in range(5):
-            armed[k] = ws[W_ARMED0, k] != 0.0
+            armed[k] = ws[DW_ARMED0, k] != 0.0
         count[C_NLOG] = log0
         count[C_NREDO] += 1.0
         rows, status, event, _, t = stepping.integrate_ws(stepping.METHOD_DOPRI5, t0, y, p, h, redo_rtol,

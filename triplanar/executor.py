@@ -165,7 +165,7 @@ def _one_thread_for_good() -> None:
     """Limit BLAS and OpenMP to one thread in this worker process, once (it runs nothing but tasks)."""
     global _LIMITED
     if not _LIMITED:
-        from threadpoolctl import threadpool_limits  # noqa: PLC0415
+        from threadpoolctl import threadpool_limits
         threadpool_limits(limits=1)
         _LIMITED = True
 
@@ -186,7 +186,7 @@ class OneThreadTask:
         if os.getpid() != self.owner:
             _one_thread_for_good()
             return self.fn(task)
-        from threadpoolctl import threadpool_limits  # noqa: PLC0415
+        from threadpoolctl import threadpool_limits
         with threadpool_limits(limits=1):
             return self.fn(task)
 
@@ -204,7 +204,7 @@ class TaskCheckpoint:
         try:
             data = pickle.dumps((getattr(fn, "__module__", ""), getattr(fn, "__qualname__", repr(fn)), task),
                                 protocol=5)
-        except Exception:  # noqa: BLE001 (an unpicklable task is simply not checkpointed)
+        except Exception:  # an unpicklable task is simply not checkpointed
             return None
         return hashlib.sha256(data).hexdigest()[:32]
 
@@ -217,7 +217,7 @@ class TaskCheckpoint:
                 return True, pickle.load(f)
         except FileNotFoundError:
             return False, None
-        except Exception:  # noqa: BLE001 (damaged: run the task again)
+        except Exception:  # damaged: run the task again
             path.unlink(missing_ok=True)
             return False, None
 
@@ -284,7 +284,7 @@ def run_tasks(fn: Callable[[T], R], tasks: Sequence[T], executor: ExecutorLike =
                     finished(futures[fut], fut.result())
                 return done
             if isinstance(ex, SerialExecutor):  # in this process: one limit for the whole sweep (it costs ~1 ms)
-                from threadpoolctl import threadpool_limits  # noqa: PLC0415
+                from threadpoolctl import threadpool_limits
                 with threadpool_limits(limits=1):
                     for i in todo:
                         finished(i, fn(tasks[i]))

@@ -36,7 +36,8 @@ drop_if_stale(numba_cache_dir(__file__), "kernel.*.nb[ic]", [Path(__file__).pare
 # Compiled with error_model="numpy": a division by zero gives inf/nan (the solvers' isfinite checks catch it) instead
 # of raising, which saves a branch per division, ~15 % of a control period; results are bitwise the same.
 
-# -- layouts (triplanar.layout: offsets follow from the sizes; each exports plain integers, e.g. S_V, P_C, N_STATE) --
+# -- layouts (triplanar.layout: offsets follow from the sizes; each is unpacked into named integers, e.g. S_V, P_C,
+# N_STATE, and the assert after it checks the names against the layout) --
 STATE = Layout("S_", "N_STATE", [
     ("R", 3, "mass-centre position r (world), m"),
     ("Q", 4, "unit quaternion (w, x, y, z), body to world; body axes are the paper's g1, g2, g3"),
@@ -48,7 +49,8 @@ STATE = Layout("S_", "N_STATE", [
     ("DC", 3, "energy dissipated at CP1..3, J"),
     ("DTIP", 1, "energy dissipated at the tip, J"),
     ("WOTHER", 1, "work of user forces, J")])
-STATE.export(globals())
+S_R, S_Q, S_V, S_W, S_F, S_U, S_WLOAD, S_DC, S_DTIP, S_WOTHER, N_STATE = STATE.offsets()
+assert STATE.named_in(globals())
 
 PARAMS = Layout("P_", "N_PARAM", [
     ("MASS", 1, "mass, kg"),
@@ -73,7 +75,9 @@ PARAMS = Layout("P_", "N_PARAM", [
     ("F0", 1, "actuator force when sliding starts (t = 0); with P_TAU > 0 it rises from there to P_FCMD"),
     ("LEFT0", 6, "how far each CP starts across another plane's line (re-seated tilted planes), m"),
     ("COHESION", 1, "Mohr-Coulomb cohesion c at each contact, N: shear strength mu N + c")])
-PARAMS.export(globals())
+(P_MASS, P_G, P_IB, P_IBINV, P_C, P_N, P_TANPHI, P_TANEF, P_CASE, P_FCMD, P_TAU, P_PCL, P_TIP0, P_UDOT, P_RATE_A,
+ P_RATE_V0, P_EXTF, P_EXTM, P_USER, P_F0, P_LEFT0, P_COHESION, N_PARAM) = PARAMS.offsets()
+assert PARAMS.named_in(globals())
 
 # -- kernel-level settings ---------------------------------------------------------------------
 # Constants of the friction law that effects set by name (``Effect.kernel_settings``, collected in
@@ -95,7 +99,8 @@ MODES = Layout("M_", "N_MODE", [
     ("D0", 12, "friction directions to use at zero slip (rows: CP1..3, tip)"),
     ("STUCK", 1, "index of the contact point that sticks (0-2), or -1: all three slide"),
     ("TIP_STUCK", 1, "1: the aft face sticks to the tip (static end friction), 0: it slips")])
-MODES.export(globals())
+M_D0, M_STUCK, M_TIP_STUCK, N_MODE = MODES.offsets()
+assert MODES.named_in(globals())
 
 
 def sliding_modes() -> np.ndarray:
@@ -116,7 +121,8 @@ AUX = Layout("A_", "N_AUX", [  # what dynamics() reports besides the derivative
     ("TIP_STICK", 1, "stuck tip: |F_EF| - F_T (e1.g1) tan(phi_EF); -1 otherwise"),
     ("STICK_F", 3, "static friction force on the block at the stuck contact"),
     ("TIP_F", 3, "static end friction force on the block at a stuck tip")])
-AUX.export(globals())
+A_N, A_PL, A_ACC, A_SLIP, A_FT, A_SPEED, A_STICK, A_TIP_STICK, A_STICK_F, A_TIP_F, N_AUX = AUX.offsets()
+assert AUX.named_in(globals())
 
 ZERO_SPEED = 1e-9  # m/s: a site slower than this (integration noise) is at rest: its direction is M_D0
 # Below SLIP_BLEND a sliding site's friction direction blends from d0 (the direction of incipient motion, or
@@ -140,17 +146,19 @@ EVENTS = Layout("EV_", "N_EVENTS", [
     ("RELEASE", 1, "the stuck contact's friction would leave its cone"),
     ("TIP_STOP", 1, "the aft face's slip on the tip slower than slow_speed / 10"),
     ("TIP_RELEASE", 1, "the stuck tip's friction would leave its cone")])
-EVENTS.export(globals())
+(EV_TRAVEL, EV_LIFT_OFF, EV_MC_OUTSIDE, EV_LEFT_PLANE, EV_SLOW, EV_STOP, EV_RELEASE, EV_TIP_STOP, EV_TIP_RELEASE,
+ N_EVENTS) = EVENTS.offsets()
+assert EVENTS.named_in(globals())
 
 # -- scratch memory ---------------------------------------------------------------------------
 # A right-hand-side evaluation needs ~20 small arrays; allocating them each time (~18 ns each) was half its
 # cost. Compiled loops (the driver, the envs) allocate one workspace, a single 2-D array whose rows are scratch
 # arrays, and pass it down: one array keeps calls cheap (a tuple of arrays costs a reference count per member per
-# call) and row slices are free views. Each module owns its rows: the kernel's come first (below), then
-# triplanar.stepping's, then triplanar.driver's, then the env's (each layout starts where the one it extends
-# ends), and a module's new_workspace() allocates up to its own last row. The public functions without a workspace
-# argument allocate their own, for callers outside hot loops. Kernel functions that never run nested inside one
-# another share rows (each rewrites what it reads).
+# call) and row slices are free views. Each module owns its rows: the kernel's come first (below, W_*), then
+# triplanar.stepping's (SW_*), then triplanar.driver's (DW_*), then the env's (each layout starts where the one it
+# extends ends), and a module's new_workspace() allocates up to its own last row. The public functions without a
+# workspace argument allocate their own, for callers outside hot loops. Kernel functions that never run nested
+# inside one another share rows (each rewrites what it reads).
 WORKSPACE = Layout("W_", "N_KERNEL_WS_ROWS", [
     ("R", 3, "3x3 rotation matrix"),
     ("RHO", 4, "4x3 points of action relative to the mass centre"),
@@ -164,7 +172,10 @@ WORKSPACE = Layout("W_", "N_KERNEL_WS_ROWS", [
     ("COUNT", 1, "counters (zeroed by allocate_workspace): what a run cost and what happened, see C_*"),
     ("MODES", 1, "the stick/slip modes (MODES layout) while compiled code runs: every *_ws function reads and sets "
                  "them here (modes_of)")])
-WORKSPACE.export(globals())
+(W_R, W_RHO, W_TMP, W_FX, W_MX, W_IW, W_H, W_ALPHA0, W_ACC, W_ALPHA, W_MU, W_SPEEDS, W_POWER, W_WB, W_DR, W_DTH,
+ W_TMP2, W_IINV, W_FU, W_CR, W_RXF, W_JR, W_JTH, W_IJT, W_CPS, W_BIAS, W_B, W_X, W_RESID, W_TARGET, W_LAM, W_AT, W_MAT,
+ W_COUNT, W_MODES, N_KERNEL_WS_ROWS) = WORKSPACE.offsets()
+assert WORKSPACE.named_in(globals())
 # counters in row W_COUNT: right-hand-side evaluations, accepted and rejected steps, events located, rows of the
 # event log, starts from rest (mode searches), static-equilibrium checks, stretches redone for the energy balance
 C_NFEV, C_NSTEP, C_NREJECT, C_NEVENT, C_NLOG, C_NSTART, C_NLP, C_NREDO = range(8)
@@ -356,9 +367,11 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.n
     return dynamics_ws(t, y, p, dy, aux, ws)
 
 
+# Over the complexity limit (pyproject.toml) knowingly: a compiled kernel, whose split into helpers must be
+# shown to keep results bitwise (benchmarks/fingerprint.py) and speed (benchmarks/bench_speed_ab.py).
 @njit(cache=True, error_model="numpy")
-def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray,
-                ws: np.ndarray) -> bool:
+def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray,  # noqa: C901 (see above)
+                aux: np.ndarray, ws: np.ndarray) -> bool:
     """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
 
     Forces (paper section 3.3-3.4, ``docs/physics.md``): weight ``-W e2`` at the mass centre; at each

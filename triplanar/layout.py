@@ -3,11 +3,13 @@
 The compiled code keeps its state, parameters and scratch in flat arrays and indexes them by module-level integer
 constants, which numba freezes in at compile time. Writing those offsets by hand (``S_V = 7``, ``P_C = 20``, ...)
 let a field grow without its neighbours moving. A :class:`Layout` lists each field once, with its size and
-meaning, and :meth:`Layout.export` writes the plain integers (``PREFIX + NAME`` = offset, and the total size) into
-the module that defines it, so the compiled code still sees integers::
+meaning; the module that defines it names the plain integers (``PREFIX + NAME`` = offset, and the total size)
+explicitly, so that the compiled code still sees integers and a reader or a linter sees every name, and asserts that
+the names match the layout (a field added, removed or reordered without its name fails at import)::
 
     STATE = Layout("S_", "N_STATE", [("R", 3, "mass-centre position, m"), ("Q", 4, "unit quaternion"), ...])
-    STATE.export(globals())   # S_R = 0, S_Q = 3, ..., N_STATE
+    S_R, S_Q, ..., N_STATE = STATE.offsets()
+    assert STATE.named_in(globals())
 """
 
 from __future__ import annotations
@@ -50,8 +52,17 @@ class Layout:
         out[self.size_name] = self.size
         return out
 
+    def offsets(self) -> tuple[int, ...]:
+        """Every field's offset in order, then the total size: the right-hand side of the explicit assignment."""
+        return (*(f.offset for f in self.fields.values()), self.size)
+
+    def named_in(self, namespace: dict[str, Any]) -> bool:
+        """Whether ``namespace`` (a module's ``globals()``) holds every one of :meth:`constants` under its name."""
+        return all(key in namespace and namespace[key] == value for key, value in self.constants().items())
+
     def export(self, namespace: dict[str, Any]) -> None:
-        """Write :meth:`constants` into ``namespace`` (a module's ``globals()``); never overwrite another value."""
+        """Write :meth:`constants` into ``namespace`` (a module's ``globals()``); never overwrite another value. Names
+        made this way are invisible to a linter: new code assigns them explicitly (:meth:`offsets`)."""
         for key, value in self.constants().items():
             if namespace.get(key, value) != value:
                 raise ValueError(f"layout {self.prefix}*: {key} is already {namespace[key]}, not {value}")

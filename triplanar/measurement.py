@@ -47,6 +47,7 @@ import secrets
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -302,6 +303,155 @@ class _TestBuilder:
         self.t = array("d")
         self.rows = array("q")
 
+    def add(self, path: str, row: int, force: float, t: float | None, sample: list[float]) -> None:
+        """Append one sample; refuse a shear force that differs from the test's or a time that does not increase."""
+        if force != self.shear:
+            raise MeasurementError(
+                path, row, "shear_force_N",
+                f"shear force {force!r} N of test {self.test_id!r} differs from {self.shear!r} N on row "
+                f"{self.shear_row}; the shear force must be the same on all rows of a test")
+        if t is not None:
+            if self.t and not t > self.t[-1]:
+                raise MeasurementError(
+                    path, row, "t_s",
+                    f"time {t!r} s of test {self.test_id!r} does not increase (previous sample of the test, "
+                    f"row {self.rows[-1]}, has t_s = {self.t[-1]!r} s); time must strictly increase within a test")
+            self.t.append(t)
+        self.pos.extend(sample)
+        self.rows.append(row)
+
+    def check(self, path: str) -> None:
+        """Refuse a test with too few samples or an implausible time base (after the whole file is read)."""
+        if len(self.rows) < MIN_SAMPLES:
+            raise MeasurementError(
+                path, self.rows[0], "test_id",
+                f"test {self.test_id!r} has {len(self.rows)} sample(s) (rows {', '.join(map(str, self.rows))}); "
+                f"at least {MIN_SAMPLES} are required")
+
+    def check_time(self, path: str) -> None:
+        if self.t:
+            problem = _time_problem(self.test_id, self.t[0], self.t[-1])
+            if problem:
+                raise MeasurementError(path, self.rows[0] if "first" in problem else self.rows[-1], "t_s", problem)
+
+    def build(self, has_time: bool) -> MeasuredTest:
+        return MeasuredTest(test_id=self.test_id, shear_force_N=self.shear,
+                            positions=np.frombuffer(self.pos, dtype=np.float64).reshape(-1, 3, 3),
+                            t_s=np.asarray(self.t, dtype=np.float64) if has_time else None,
+                            rows=np.asarray(self.rows, dtype=np.int64))
+
+
+@dataclass(frozen=True)
+class _Columns:
+    """Where each known column stands in a file's rows (x2 entries may be None: the vertical is optional)."""
+
+    n_fields: int
+    test_id: int
+    force: int
+    t: int | None
+    positions: list[list[int | None]]
+
+
+def _checked_rest(rest_positions: np.ndarray | None, tolerance_m: float) -> np.ndarray | None:
+    if rest_positions is None:
+        return None
+    rest = np.asarray(rest_positions, dtype=np.float64)
+    if rest.shape != (3, 3) or not np.all(np.isfinite(rest)):
+        raise ValueError(f"rest_positions must be a finite (3, 3) array, got shape {rest.shape}")
+    if not (math.isfinite(tolerance_m) and tolerance_m > 0):
+        raise ValueError(f"tolerance_m must be a positive finite number, got {tolerance_m!r}")
+    return rest
+
+
+def _open_csv(path: str, data: bytes) -> tuple[Any, _Columns]:
+    """The CSV reader positioned after the header, and where the columns stand; refuses an empty file or header."""
+    text = _decode(path, data)
+    if not text.strip():
+        raise MeasurementError(path, None, None, "file is empty (expected a header row and data rows)")
+    reader = csv.reader(_lines(text), strict=True)
+    try:
+        header = next(reader)
+    except csv.Error as exc:
+        raise MeasurementError(path, 1, None, f"header row is not valid CSV: {exc}") from None
+    if _is_blank(header):
+        raise MeasurementError(path, 1, None, "line 1 is blank; the header row must be the first line of the file")
+    col = _check_header(path, header)
+    return reader, _Columns(len(header), col["test_id"], col["shear_force_N"], col.get("t_s"),
+                            [[col.get(c) for c in cp] for cp in POSITION_COLUMNS])
+
+
+def _records(path: str, reader: Any, n_fields: int) -> Iterator[tuple[int, list[str]]]:
+    """(first line, fields) of every data record; refuses invalid CSV, a wrong field count, or blank lines between
+    data rows (blank lines are allowed only at the end)."""
+    pending_blank: int | None = None  # line of the first blank line not yet followed by data
+    line_end = reader.line_num
+    while True:
+        row = line_end + 1  # first line of the next record (records may span lines inside quotes)
+        try:
+            fields = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            raise MeasurementError(path, row, None, f"not valid CSV: {exc}") from None
+        line_end = reader.line_num
+        if _is_blank(fields):
+            if pending_blank is None:
+                pending_blank = row
+            continue
+        if pending_blank is not None:
+            raise MeasurementError(
+                path, pending_blank, None,
+                f"blank line between data rows (data continues at row {row}); "
+                "blank lines are allowed only at the end of the file")
+        if len(fields) != n_fields:
+            raise MeasurementError(path, row, None, f"row has {len(fields)} field(s) but the header has {n_fields}")
+        yield row, fields
+
+
+def _test_id(path: str, row: int, test_id: str) -> str:
+    if not test_id.strip():
+        raise MeasurementError(path, row, "test_id", "test_id is empty")
+    if test_id.strip()[0] in FORMULA_STARTS or test_id[0] in FORMULA_STARTS:
+        raise MeasurementError(path, row, "test_id", f"test_id {_describe(test_id)} starts with "
+                               f"{test_id[0]!r}, which spreadsheets run as a formula; rename the test")
+    return test_id
+
+
+def _sample(path: str, row: int, fields: list[str], columns: _Columns) -> list[float]:
+    """The row's nine positions (CP1 x1 x2 x3, CP2 ..., CP3 ...), NaN for an absent vertical; millimetres refused."""
+    sample = []
+    for k in range(3):
+        for a in range(3):
+            idx = columns.positions[k][a]
+            if idx is None:
+                sample.append(math.nan)
+                continue
+            name = POSITION_COLUMNS[k][a]
+            v = _parse_number(path, row, name, fields[idx], allow_empty=(a == 1))
+            if abs(v) > MAX_ABS_POSITION_M:
+                raise MeasurementError(
+                    path, row, name,
+                    f"value {fields[idx].strip()} cannot be a position in metres "
+                    f"(|value| > {MAX_ABS_POSITION_M:g} m); it looks like millimetres - "
+                    "positions must be given in metres")
+            sample.append(v)
+    return sample
+
+
+def _builder(path: str, row: int, test_id: str, force: float, tests: dict[str, _TestBuilder],
+             stripped_ids: dict[str, tuple[str, int]]) -> _TestBuilder:
+    """The test's builder, new on its first row; refuses two spellings of one id that differ by white space."""
+    b = tests.get(test_id)
+    if b is None:
+        twin = stripped_ids.setdefault(test_id.strip(), (test_id, row))
+        if twin[0] != test_id:
+            raise MeasurementError(
+                path, row, "test_id",
+                f"test_id {test_id!r} differs from {twin[0]!r} (row {twin[1]}) only by surrounding "
+                "whitespace; use one spelling (two spellings would be two tests)")
+        b = tests[test_id] = _TestBuilder(test_id, force, row)
+    return b
+
 
 def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray | None = None,
                       tolerance_m: float = 0.005) -> list[MeasuredTest]:
@@ -328,138 +478,24 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
         If the file cannot be opened.
     """
     spath = os.fspath(path)
-    rest = None
-    if rest_positions is not None:
-        rest = np.asarray(rest_positions, dtype=np.float64)
-        if rest.shape != (3, 3) or not np.all(np.isfinite(rest)):
-            raise ValueError(f"rest_positions must be a finite (3, 3) array, got shape {rest.shape}")
-        if not (math.isfinite(tolerance_m) and tolerance_m > 0):
-            raise ValueError(f"tolerance_m must be a positive finite number, got {tolerance_m!r}")
-
-    text = _decode(spath, Path(path).read_bytes())
-    if not text.strip():
-        raise MeasurementError(spath, None, None, "file is empty (expected a header row and data rows)")
-
-    reader = csv.reader(_lines(text), strict=True)
-    try:
-        header = next(reader)
-    except csv.Error as exc:
-        raise MeasurementError(spath, 1, None, f"header row is not valid CSV: {exc}") from None
-    if _is_blank(header):
-        raise MeasurementError(spath, 1, None,
-                               "line 1 is blank; the header row must be the first line of the file")
-    col = _check_header(spath, header)
-    n_fields = len(header)
-    i_id = col["test_id"]
-    i_force = col["shear_force_N"]
-    i_t = col.get("t_s")
-    i_pos = [[col.get(c) for c in cp] for cp in POSITION_COLUMNS]  # x2 entries may be None
-    pos_names = POSITION_COLUMNS
-
+    rest = _checked_rest(rest_positions, tolerance_m)
+    reader, columns = _open_csv(spath, Path(path).read_bytes())
     tests: dict[str, _TestBuilder] = {}
     stripped_ids: dict[str, tuple[str, int]] = {}
-    pending_blank: int | None = None  # line of the first blank line not yet followed by data
-    n_data = 0
-    line_end = reader.line_num
-    while True:
-        row = line_end + 1  # first line of the next record (records may span lines inside quotes)
-        try:
-            fields = next(reader)
-        except StopIteration:
-            break
-        except csv.Error as exc:
-            raise MeasurementError(spath, row, None, f"not valid CSV: {exc}") from None
-        line_end = reader.line_num
-        if _is_blank(fields):
-            if pending_blank is None:
-                pending_blank = row
-            continue
-        if pending_blank is not None:
-            raise MeasurementError(
-                spath, pending_blank, None,
-                f"blank line between data rows (data continues at row {row}); "
-                "blank lines are allowed only at the end of the file")
-        if len(fields) != n_fields:
-            raise MeasurementError(
-                spath, row, None,
-                f"row has {len(fields)} field(s) but the header has {n_fields}")
-        n_data += 1
-
-        test_id = fields[i_id]
-        if not test_id.strip():
-            raise MeasurementError(spath, row, "test_id", "test_id is empty")
-        if test_id.strip()[0] in FORMULA_STARTS or test_id[0] in FORMULA_STARTS:
-            raise MeasurementError(spath, row, "test_id", f"test_id {_describe(test_id)} starts with "
-                                   f"{test_id[0]!r}, which spreadsheets run as a formula; rename the test")
-        force = _parse_number(spath, row, "shear_force_N", fields[i_force], allow_empty=False)
-        t = (_parse_number(spath, row, "t_s", fields[i_t], allow_empty=False)
-             if i_t is not None else None)
-        sample = []
-        for k in range(3):
-            for a in range(3):
-                idx = i_pos[k][a]
-                if idx is None:
-                    sample.append(math.nan)
-                    continue
-                name = pos_names[k][a]
-                v = _parse_number(spath, row, name, fields[idx], allow_empty=(a == 1))
-                if abs(v) > MAX_ABS_POSITION_M:
-                    raise MeasurementError(
-                        spath, row, name,
-                        f"value {fields[idx].strip()} cannot be a position in metres "
-                        f"(|value| > {MAX_ABS_POSITION_M:g} m); it looks like millimetres - "
-                        "positions must be given in metres")
-                sample.append(v)
-
-        b = tests.get(test_id)
-        if b is None:
-            twin = stripped_ids.setdefault(test_id.strip(), (test_id, row))
-            if twin[0] != test_id:
-                raise MeasurementError(
-                    spath, row, "test_id",
-                    f"test_id {test_id!r} differs from {twin[0]!r} (row {twin[1]}) only by surrounding "
-                    "whitespace; use one spelling (two spellings would be two tests)")
-            b = tests[test_id] = _TestBuilder(test_id, force, row)
-        elif force != b.shear:
-            raise MeasurementError(
-                spath, row, "shear_force_N",
-                f"shear force {force!r} N of test {test_id!r} differs from {b.shear!r} N on row "
-                f"{b.shear_row}; the shear force must be the same on all rows of a test")
-        if t is not None:
-            if b.t and not t > b.t[-1]:
-                raise MeasurementError(
-                    spath, row, "t_s",
-                    f"time {t!r} s of test {test_id!r} does not increase (previous sample of the test, "
-                    f"row {b.rows[-1]}, has t_s = {b.t[-1]!r} s); time must strictly increase within a test")
-            b.t.append(t)
-        b.pos.extend(sample)
-        b.rows.append(row)
-
-    if n_data == 0:
+    for row, fields in _records(spath, reader, columns.n_fields):
+        test_id = _test_id(spath, row, fields[columns.test_id])
+        force = _parse_number(spath, row, "shear_force_N", fields[columns.force], allow_empty=False)
+        t = (_parse_number(spath, row, "t_s", fields[columns.t], allow_empty=False)
+             if columns.t is not None else None)
+        sample = _sample(spath, row, fields, columns)
+        _builder(spath, row, test_id, force, tests, stripped_ids).add(spath, row, force, t, sample)
+    if not tests:
         raise MeasurementError(spath, None, None, "file has a header row but no data rows")
-
     for b in tests.values():
-        if len(b.rows) < MIN_SAMPLES:
-            raise MeasurementError(
-                spath, b.rows[0], "test_id",
-                f"test {b.test_id!r} has {len(b.rows)} sample(s) (rows {', '.join(map(str, b.rows))}); "
-                f"at least {MIN_SAMPLES} are required")
-
+        b.check(spath)
     for b in tests.values():
-        if b.t:
-            problem = _time_problem(b.test_id, b.t[0], b.t[-1])
-            if problem:
-                column_row = b.rows[0] if "first" in problem else b.rows[-1]
-                raise MeasurementError(spath, column_row, "t_s", problem)
-
-    result = [
-        MeasuredTest(test_id=b.test_id, shear_force_N=b.shear,
-                     positions=np.frombuffer(b.pos, dtype=np.float64).reshape(-1, 3, 3),
-                     t_s=np.asarray(b.t, dtype=np.float64) if i_t is not None else None,
-                     rows=np.asarray(b.rows, dtype=np.int64))
-        for b in tests.values()
-    ]
-
+        b.check_time(spath)
+    result = [b.build(columns.t is not None) for b in tests.values()]
     if rest is not None:
         for mt in result:
             _check_rest(spath, mt, rest, tolerance_m)

@@ -12,10 +12,10 @@ from typing import Sequence
 import matplotlib
 
 matplotlib.use("Agg")  # files only; no display needed (CI, servers)
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from .specimen import Foundation  # noqa: E402
+from .specimen import Foundation
 
 MEASURED = "black"
 MODEL = "0.6"  # grey, as in the paper

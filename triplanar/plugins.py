@@ -70,7 +70,7 @@ def ensure_plugins(sources: Sequence[PluginSource]) -> None:
         module.__file__ = given
         sys.modules[name] = module
         try:
-            exec(compile(text, given, "exec"), module.__dict__)  # noqa: S102 (the user's own plugin, as on the driver)
+            exec(compile(text, given, "exec"), module.__dict__)  # the user's own plugin, as on the driver
         except BaseException:
             del sys.modules[name]
             raise

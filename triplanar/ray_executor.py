@@ -37,7 +37,7 @@ def loopback_only() -> None:
 def require_ray():
     loopback_only()  # read when Ray is imported and when it starts processes
     try:
-        import ray  # noqa: PLC0415
+        import ray
     except ImportError:
         raise ImportError("--executor ray needs Ray: pip install 'triplanar-shear[ray]' (or make, which "
                           "installs it)") from None
@@ -47,7 +47,7 @@ def require_ray():
 def _run_task(plugins: tuple[PluginSource, ...], payload: bytes) -> Any:
     """On a Ray worker: import the user's plugins, then unpickle and run one task (the order matters: the task
     may hold objects of a plugin's classes)."""
-    import cloudpickle  # noqa: PLC0415 (comes with Ray)
+    import cloudpickle  # comes with Ray
     ensure_plugins(plugins)
     fn, task = cloudpickle.loads(payload)
     return fn(task)
@@ -97,7 +97,7 @@ class RayExecutor:
             for ref in list(self._pending):
                 try:
                     ray.cancel(ref, force=True)
-                except Exception:  # noqa: BLE001 (already finished or gone)
+                except Exception:  # already finished or gone
                     pass
         self._pending.clear()
         if self._initialised_here and ray.is_initialized():
@@ -115,7 +115,7 @@ class RayExecutor:
     def _submit_ref(self, fn: Callable, task: Any):
         if self._remote is None:
             self.start()
-        import cloudpickle  # noqa: PLC0415
+        import cloudpickle
         ref = self._remote.remote(self.plugins, cloudpickle.dumps((fn, task)))
         self._pending.add(ref)
         return ref

@@ -421,7 +421,7 @@ def _too_large(specimen: Specimen) -> bool:
 
 def _toml_string(text: str) -> str:
     """A TOML basic string (Python's repr is not TOML for every string)."""
-    import json  # noqa: PLC0415 (a JSON string is a valid TOML basic string once control characters are escaped)
+    import json  # a JSON string is a valid TOML basic string once control characters are escaped
     return json.dumps(text, ensure_ascii=False)
 
 

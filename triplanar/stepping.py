@@ -36,7 +36,7 @@ drop_if_stale(numba_cache_dir(__file__), "stepping.*.nb[ic]",
               "stepping.kernel.sha256")
 
 # This module's scratch rows, after the kernel's (see the note on scratch memory in triplanar.kernel).
-WORKSPACE = Layout("W_", "N_WS_ROWS", [
+WORKSPACE = Layout("SW_", "N_WS_ROWS", [
     ("STAGES", 8, "Runge-Kutta stages and the stage argument (state vectors)"),
     *((name, 1, "state vector") for name in ("DY", "YNEW", "ERR", "YHI")),
     *((name, 1, "aux vector") for name in ("AUX", "AUXNEW", "AUXHI", "AUXMODE")),
@@ -46,7 +46,9 @@ WORKSPACE = Layout("W_", "N_WS_ROWS", [
     ("SITE_V", 1, "a site's slip velocity"),
     ("R", 3, "3x3 rotation matrix"),
     ("ARM", 1, "3-vector: a contact point's arm from the mass centre")], start=N_KERNEL_WS_ROWS)
-WORKSPACE.export(globals())
+(SW_STAGES, SW_DY, SW_YNEW, SW_ERR, SW_YHI, SW_AUX, SW_AUXNEW, SW_AUXHI, SW_AUXMODE, SW_EVOLD, SW_EVNEW, SW_EVLOC,
+ SW_DIRS, SW_SITE_D, SW_SITE_V, SW_R, SW_ARM, N_WS_ROWS) = WORKSPACE.offsets()
+assert WORKSPACE.named_in(globals())
 
 
 @njit(cache=True, error_model="numpy")
@@ -79,19 +81,19 @@ METHOD_EULER, METHOD_RK4, METHOD_DOPRI5 = 0, 1, 2
 def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new: np.ndarray,
             err: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """One step of size ``h`` from (t, y) into ``y_new`` (not projected); ``err`` gets DOPRI5's estimate.
-    Every method's first stage is f(t, y): the caller keeps it in the workspace's first stage row (``W_STAGES``,
+    Every method's first stage is f(t, y): the caller keeps it in the workspace's first stage row (``SW_STAGES``,
     see :func:`integrate_ws`)."""
     n = y.shape[0]
-    k = ws[W_STAGES:W_STAGES + 7, :N_STATE]
-    tmp = ws[W_STAGES + 7, :N_STATE]
+    k = ws[SW_STAGES:SW_STAGES + 7, :N_STATE]
+    tmp = ws[SW_STAGES + 7, :N_STATE]
     if method == METHOD_EULER:  # the paper's eq. 40
         for i in range(n):
             y_new[i] = y[i] + h * k[0, i]
         return True
     if method == METHOD_RK4:
         # (rows of ws, not of k: k's rows are not contiguous to numba, and rhs_ws would compile twice)
-        k1, k2 = ws[W_STAGES, :N_STATE], ws[W_STAGES + 1, :N_STATE]
-        k3, k4 = ws[W_STAGES + 2, :N_STATE], ws[W_STAGES + 3, :N_STATE]
+        k1, k2 = ws[SW_STAGES, :N_STATE], ws[SW_STAGES + 1, :N_STATE]
+        k3, k4 = ws[SW_STAGES + 2, :N_STATE], ws[SW_STAGES + 3, :N_STATE]
         for i in range(n):
             tmp[i] = y[i] + 0.5 * h * k1[i]
         if not rhs_ws(t + 0.5 * h, tmp, p, k2, aux, ws):
@@ -113,7 +115,7 @@ def step_ws(method: int, t: float, y: np.ndarray, h: float, p: np.ndarray, y_new
             for j in range(s):
                 acc += _A[s, j] * k[j, i]
             tmp[i] = y[i] + h * acc
-        if not rhs_ws(t + _C[s] * h, tmp, p, ws[W_STAGES + s, :N_STATE], aux, ws):
+        if not rhs_ws(t + _C[s] * h, tmp, p, ws[SW_STAGES + s, :N_STATE], aux, ws):
             return False
     for i in range(n):
         y_new[i] = tmp[i]  # stage 7 is the 5th-order solution (FSAL)
@@ -143,12 +145,12 @@ def _error_norm(y: np.ndarray, y_new: np.ndarray, err: np.ndarray, rtol: float, 
 @njit(cache=True, error_model="numpy")
 def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
     """A step followed by projection; then evaluate dynamics at the new state to fill ``aux`` (and f(y_new) in
-    ``ws[W_DY]``). The step's first stage f(t, y) must be in ``ws[W_STAGES]`` (see :func:`integrate_ws`)."""
+    ``ws[SW_DY]``). The step's first stage f(t, y) must be in ``ws[SW_STAGES]`` (see :func:`integrate_ws`)."""
     if not step_ws(method, t, y, h, p, y_new, err, aux, ws):
         return False
     if not project_ws(y_new, p, ws):
         return False
-    if not rhs_ws(t + h, y_new, p, ws[W_DY, :N_STATE], aux, ws):
+    if not rhs_ws(t + h, y_new, p, ws[SW_DY, :N_STATE], aux, ws):
         return False
     for i in range(y_new.shape[0]):
         if not math.isfinite(y_new[i]):
@@ -170,9 +172,11 @@ def integrate(method: int, t0: float, y: np.ndarray, p: np.ndarray, modes: np.nd
     return out
 
 
+# Over the complexity limit (pyproject.toml) knowingly: a compiled kernel, whose split into helpers must be
+# shown to keep results bitwise (benchmarks/fingerprint.py) and speed (benchmarks/bench_speed_ab.py).
 @njit(cache=True, error_model="numpy")
-def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float, rtol: float,
-                 atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
+def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,  # noqa: C901 (see above)
+                 rtol: float, atol: float, t_max: float, x1_target: float, slow_speed: float, armed: np.ndarray,
                  out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, record: bool,
                  row0: int, log: np.ndarray, ws: np.ndarray):
     """Integrate from (t0, y) until a terminal event, ``t_max`` or a full buffer; ``y`` ends as the final state.
@@ -197,16 +201,16 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     time).
     """
     n = y.shape[0]
-    aux = ws[W_AUX, :N_AUX]
-    dummy = ws[W_DY, :N_STATE]
+    aux = ws[SW_AUX, :N_AUX]
+    dummy = ws[SW_DY, :N_STATE]
     # f(t, y) of the current state lives in the first stage row: every step from (t, y), including retries and
     # event searches, starts with it, and the evaluation at a step's end (for aux) provides the next one.
-    k1 = ws[W_STAGES, :N_STATE]
+    k1 = ws[SW_STAGES, :N_STATE]
     rows = row0
     if not rhs_ws(t0, y, p, k1, aux, ws):
         return rows, FAILED, -1, h, t0
-    ev_old = ws[W_EVOLD, :N_EVENTS]
-    ev_new = ws[W_EVNEW, :N_EVENTS]
+    ev_old = ws[SW_EVOLD, :N_EVENTS]
+    ev_new = ws[SW_EVNEW, :N_EVENTS]
     event_values_ws(y, p, aux, x1_target, slow_speed, ev_old, ws)
     if record and row0 == 0:
         out_t[0] = t0
@@ -216,9 +220,9 @@ def integrate_ws(method: int, t0: float, y: np.ndarray, p: np.ndarray, h: float,
     if record:  # the derivative the run goes on with (after a restart, with the new modes)
         out_dy[max(row0 - 1, 0)] = k1
     t = t0
-    y_new = ws[W_YNEW, :N_STATE]
-    err = ws[W_ERR, :N_STATE]
-    aux_new = ws[W_AUXNEW, :N_AUX]
+    y_new = ws[SW_YNEW, :N_STATE]
+    err = ws[SW_ERR, :N_STATE]
+    aux_new = ws[SW_AUXNEW, :N_AUX]
     count = ws[W_COUNT]
     for k in range(EV_SLOW):
         if ev_old[k] > 0.0:
@@ -360,9 +364,9 @@ def _site_velocity(y: np.ndarray, p: np.ndarray, aux: np.ndarray, site: int, ws:
         for k in range(3):
             out[k] = aux[A_SLIP + k]
         return
-    R = ws[W_R:W_R + 3, :3]
+    R = ws[SW_R:SW_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    arm = ws[W_ARM, :3]
+    arm = ws[SW_ARM, :3]
     _rotate(R, p, P_C + 3 * site, arm)
     c0, c1, c2 = _cross(y[S_W], y[S_W + 1], y[S_W + 2], arm[0], arm[1], arm[2])
     out[0], out[1], out[2] = y[S_V] + c0, y[S_V + 1] + c1, y[S_V + 2] + c2
@@ -374,14 +378,14 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.nda
     """The sliding site (contact 0-2 or the tip, 3) that friction will stop first, and when, extrapolating
     its deceleration along its slip: ``|v| / (-a . v/|v|)``; (-1, inf) if none decelerates. Sites that
     missed MAX_MISSED_STOPS predicted stops in a row (``missed``) are left out. Sets
-    ``ws[W_SITE_D]`` to that site's slip direction.
+    ``ws[SW_SITE_D]`` to that site's slip direction.
 
     Why: a fixed step cannot see a slip that stops and would reverse inside it (friction's direction flips
     with v/|v|, and the step ends with a spurious slip the other way); stepping to the stop instead lets the
     stop event fire where it happens."""
     modes = ws[W_MODES]
     best, best_tau = -1, math.inf
-    v = ws[W_SITE_V, :3]
+    v = ws[SW_SITE_V, :3]
     stuck = int(modes[M_STUCK])
     rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and modes[M_TIP_STUCK] == 0.0
     for site in range(4):
@@ -398,19 +402,19 @@ def _predicted_stop(y: np.ndarray, p: np.ndarray, aux: np.ndarray, armed: np.nda
         if decel > 0.0 and speed / decel < best_tau:
             best, best_tau = site, speed / decel
             for k in range(3):
-                ws[W_SITE_D, k] = v[k] / speed
+                ws[SW_SITE_D, k] = v[k] / speed
     return best, best_tau
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
 def _step_to_stop(method, t, y, h, h_max, p, site, slow_speed, y_new, err, aux_new, ws: np.ndarray) -> float:
-    """Step to where the slip of ``site`` along its initial direction d (``ws[W_SITE_D]``) reaches zero, from
+    """Step to where the slip of ``site`` along its initial direction d (``ws[SW_SITE_D]``) reaches zero, from
     the guess ``h`` (at most ``h_max``): the secant method on u(h) = v(t + h) . d, which (unlike the speed) is
     smooth through the stop. Stops refining when |u| < slow_speed / 50, well inside the stop event's
     slow_speed / 10. Returns the step taken (``y_new``, ``aux_new`` filled there), or -1 if a step failed."""
-    d = ws[W_SITE_D, :3]
-    v = ws[W_SITE_V, :3]
-    _site_velocity(y, p, ws[W_AUX, :N_AUX], site, ws, v)
+    d = ws[SW_SITE_D, :3]
+    v = ws[SW_SITE_V, :3]
+    _site_velocity(y, p, ws[SW_AUX, :N_AUX], site, ws, v)
     h0, u0 = 0.0, v[0] * d[0] + v[1] * d[1] + v[2] * d[2]
     h1 = h
     for it in range(6):
@@ -432,9 +436,9 @@ def _refresh_directions(y: np.ndarray, p: np.ndarray, aux: np.ndarray, ws: np.nd
     """At a step boundary, each site sliding faster than SLIP_BLEND gets its current slip direction as d0
     (M_D0), so the low-speed blend of a slowing site mixes with where it is going, not with a stale start."""
     modes = ws[W_MODES]
-    R = ws[W_R:W_R + 3, :3]
+    R = ws[SW_R:SW_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    tmp = ws[W_ARM, :3]
+    tmp = ws[SW_ARM, :3]
     stuck = int(modes[M_STUCK])
     for j in range(3):
         sp = aux[A_SPEED + j]
@@ -463,8 +467,8 @@ def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, ws: 
     if event == EV_RELEASE or event == EV_TIP_RELEASE:
         # Static friction reached its cone: the site slips opposite to the friction force it had, which is
         # the continuous continuation (the slip acceleration starts from zero along that direction).
-        aux = ws[W_AUXMODE, :N_AUX]
-        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
+        aux = ws[SW_AUXMODE, :N_AUX]
+        rhs_ws(t, y, p, ws[SW_DY, :N_STATE], aux, ws)
         tip = event == EV_TIP_RELEASE
         site = 3 if tip else int(modes[M_STUCK])
         base = A_TIP_F if tip else A_STICK_F
@@ -486,8 +490,8 @@ def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, ws: 
             modes[M_STUCK] = float(event - EV_STOP)
         project_ws(y, p, ws)
         y[S_DTIP if tip else S_DC + event - EV_STOP] += before - kinetic_energy_ws(y, p, ws)
-        aux = ws[W_AUXMODE, :N_AUX]
-        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
+        aux = ws[SW_AUXMODE, :N_AUX]
+        rhs_ws(t, y, p, ws[SW_DY, :N_STATE], aux, ws)
         if aux[A_TIP_STICK if tip else A_STICK] <= 0.0:
             return
         if tip:
@@ -501,12 +505,12 @@ def apply_mode_event_ws(event: int, t: float, y: np.ndarray, p: np.ndarray, ws: 
 def _locate(method, t, y, h, p, g_lo, g_hi, which, x1_target, slow_speed, y_new, err, aux,
             ws: np.ndarray) -> float:
     """Step length in (0, h] at which event ``which`` crosses zero; fills y_new/aux there. -1 on failure."""
-    ev = ws[W_EVLOC, :N_EVENTS]
+    ev = ws[SW_EVLOC, :N_EVENTS]
     lo, hi = 0.0, h
     f_lo, f_hi = g_lo, g_hi
     side = 0
-    y_hi = ws[W_YHI, :N_STATE]
-    aux_hi = ws[W_AUXHI, :N_AUX]
+    y_hi = ws[SW_YHI, :N_STATE]
+    aux_hi = ws[SW_AUXHI, :N_AUX]
     y_hi[:] = y_new
     aux_hi[:] = aux
     for _ in range(80):
@@ -562,8 +566,8 @@ def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, max_iter: in
     slip acceleration (1: friction exactly opposes the incipient motion everywhere).
     """
     modes = ws[W_MODES]
-    aux = ws[W_AUXMODE, :N_AUX]
-    dy = ws[W_DY, :N_STATE]
+    aux = ws[SW_AUXMODE, :N_AUX]
+    dy = ws[SW_DY, :N_STATE]
     for k in range(12):
         modes[M_D0 + k] = 0.0
     if not rhs_ws(t, y, p, dy, aux, ws):
@@ -574,8 +578,8 @@ def incipient_directions_ws(t: float, y: np.ndarray, p: np.ndarray, max_iter: in
         resting[j] = j != stuck and aux[A_SPEED + j] <= ZERO_SPEED
     slip = math.sqrt(aux[A_SLIP] ** 2 + aux[A_SLIP + 1] ** 2 + aux[A_SLIP + 2] ** 2)
     resting[3] = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0 and modes[M_TIP_STUCK] == 0.0 and slip <= ZERO_SPEED
-    d = ws[W_DIRS, :12]
-    new = ws[W_DIRS + 1, :12]
+    d = ws[SW_DIRS, :12]
+    new = ws[SW_DIRS + 1, :12]
     d[:] = 0.0
     new[:] = 0.0
     damping = 1.0
@@ -633,14 +637,14 @@ def start_motion_ws(t: float, y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> t
     modes = ws[W_MODES]
     rubs = p[P_TANEF] > 0.0 and p[P_CASE] == 0.0
     n_tip = 2 if rubs else 1
-    aux = ws[W_AUXMODE, :N_AUX]
+    aux = ws[SW_AUXMODE, :N_AUX]
     best_score, best_stuck, best_tip = -math.inf, -1.0, 0.0
     for mode in range(4 * n_tip):
         stuck = float(mode // n_tip - 1)  # -1 (all slide), then a pivot about CP1, CP2, CP3
         tip = 1.0 if rubs and mode % n_tip == 0 else 0.0  # the tip stuck first, when it rubs
         modes[M_STUCK], modes[M_TIP_STUCK] = stuck, tip
         _, consistency = incipient_directions_ws(t, y, p, 400, ws)
-        rhs_ws(t, y, p, ws[W_DY, :N_STATE], aux, ws)
+        rhs_ws(t, y, p, ws[SW_DY, :N_STATE], aux, ws)
         holds_stuck = aux[A_STICK] <= 0.0 and aux[A_TIP_STICK] <= 0.0
         score = consistency if holds_stuck else -2.0
         if holds_stuck and consistency > 0.9999:

@@ -2,9 +2,11 @@
 
 Runs what a user's first commands run, small: traces (the static-equilibrium LP, the sliding threshold of a rising
 actuator force, the start modes, DOPRI5; RK4 and Euler share its compiled code), a block at rest, the decoded
-block state, and, when Gymnasium is installed, one single-env and one vector-env episode start and step. Each
-compiled function lands in numba's cache (:func:`triplanar.compiled_cache.numba_cache_dir`); with a warm cache
-this only loads them (a few seconds, most of it importing torch for the vector env). Idempotent.
+block state, the contact and load points a rendering draws, and, when Gymnasium is installed, one single-env and
+one vector-env episode start and step (the environments are imported only here, in :func:`warm_envs`, the one
+place below the commands where the core reaches the env layer, and only through its public API). Each compiled
+function lands in numba's cache (:func:`triplanar.compiled_cache.numba_cache_dir`); with a warm cache this only
+loads them (a few seconds, most of it importing torch for the vector env). Idempotent.
 """
 
 from __future__ import annotations
@@ -12,13 +14,17 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+import warnings
+
+# Gymnasium's notice on making TriPlanarShear-v0 now that v1 exists (its convention for an older version).
+V0_OUT_OF_DATE = r".*TriPlanarShear-v0 is out of date"
 
 
 def warm_physics() -> None:
     """Everything ``simulate``, the statics and the workbench compile."""
     import numpy as np
 
-    from . import make_effect, paper_model, simulate
+    from . import kernel as K, make_effect, paper_model, simulate
 
     result = simulate(paper_model("A", 30.0))  # holds, start_motion, integrate_ws, the kernel
     assert result.status == "travel", result.message
@@ -27,6 +33,10 @@ def warm_physics() -> None:
     simulate(model)  # held: the right-hand side at rest
     model.block_state(0.0, model.initial_state())
     assert np.isfinite(result.y).all()
+    # What draws a state (the envs' rendered traces): the contact points, and the load point from the right-hand side.
+    y, p = model.initial_state(), model.kernel_params()
+    K.contact_points(y, p, np.empty((3, 3)))
+    K.rhs(0.0, y, p, K.sliding_modes(), np.empty(K.N_STATE), np.empty(K.N_AUX))
 
 
 def warm_envs() -> bool:
@@ -38,24 +48,25 @@ def warm_envs() -> bool:
         import envs  # noqa: F401 (registers TriPlanarShear-v0)
     except ImportError:
         return False
-    env = gym.make("TriPlanarShear-v0")
-    env.reset(seed=0)
-    env.step(np.zeros(2, np.float32))
-    env.unwrapped._contact_points()
-    env.unwrapped._tip_line()
-    env.close()
-    env = gym.make("TriPlanarShear-v1")  # its bench layer (envs.triplanar_shear_v1.bench_command, bench_observation)
-    env.reset(seed=0)
-    env.step(np.zeros(2, np.float32))
-    env.close()
-    try:
-        vec = gym.make_vec("TriPlanarShear-v0", num_envs=2)
-    except ImportError:  # the vector env's stable-baselines3 adapter is missing
+    with warnings.catch_warnings():  # v0 on purpose: its kernels are the ones to compile
+        warnings.filterwarnings("ignore", message=V0_OUT_OF_DATE, category=DeprecationWarning)
+        env = gym.make("TriPlanarShear-v0")
+        env.reset(seed=0)
+        env.step(np.zeros(2, np.float32))
+        env.close()
+        # v1's bench layer (envs.triplanar_shear_v1.bench_command, bench_observation)
+        env = gym.make("TriPlanarShear-v1")
+        env.reset(seed=0)
+        env.step(np.zeros(2, np.float32))
+        env.close()
+        try:
+            vec = gym.make_vec("TriPlanarShear-v0", num_envs=2)
+        except ImportError:  # the vector env's stable-baselines3 adapter is missing
+            return True
+        vec.reset(seed=0)
+        vec.step(np.zeros((2, 2), np.float32))
+        vec.close()
         return True
-    vec.reset(seed=0)
-    vec.step(np.zeros((2, 2), np.float32))
-    vec.close()
-    return True
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,7 +1,7 @@
 """``triplanar study --out DIR``: the actuator design study (thin wrapper over :mod:`experiments.study`).
 
 The options are declared here and :mod:`experiments` is imported only in :func:`run`, so building the CLI needs
-neither the agents nor torch; ``python -m experiments.study`` uses the same options.
+neither the agents nor torch; :func:`run` calls :func:`experiments.study.run_study` with plain arguments.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     require()
     with executor_from_args(args) as executor:
         if args.bench:
-            from experiments.bench_study import run_bench_study  # noqa: PLC0415
+            from experiments.bench_study import run_bench_study
             if args.recurrent_timesteps < 0:
                 raise SystemExit("--recurrent-timesteps must be >= 0")
             run_bench_study(args.out, seeds=args.seeds, ppo_timesteps=args.timesteps or 300_000,
@@ -56,5 +56,8 @@ def run(args: argparse.Namespace) -> int:
                             design_ppo_timesteps=args.design_timesteps, in_sample_run=args.in_sample_run,
                             executor=executor)
             return 0
-        from experiments.study import run as study  # noqa: PLC0415  (the RL stack, only when run)
-        return study(args, executor)
+        from experiments.study import run_study  # the RL stack, only when run
+        run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, timesteps=args.timesteps,
+                  train=not args.skip_train, doc=args.doc or None, overwrite_doc=args.overwrite_doc,
+                  executor=executor, **({"config": args.config} if args.config else {}))
+        return 0

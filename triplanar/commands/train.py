@@ -39,6 +39,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     require()
-    from agents.train_ppo import run as train  # noqa: PLC0415  (the RL stack, only when training)
+    from agents.train_ppo import run as train  # the RL stack, only when training
     with executor_from_args(args) as executor:
         return train(args, executor)

@@ -8,7 +8,7 @@ from pathlib import Path
 from ..cli_args import (add_executor_arguments, add_model_arguments, executor_from_args, load_specimen, parse_effects,
                         refuse_idle_effects)
 from ..effects import REGISTRY, EffectError
-from ..plugins import import_plugins  # noqa: F401 (re-exported: commands and tests import it from here)
+from ..plugins import import_plugins  # re-exported: commands and tests import it from here
 from ..measurement import MeasuredTest
 from .compare import load_tests
 from .executor import DEFAULT_WORKERS

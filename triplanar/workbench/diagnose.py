@@ -576,24 +576,30 @@ class Diagnoser:
             self.missing_effect_ = best.effect if best.kind == "candidate" else None
             why.append("but what remains is not noise: " + "; ".join(self._residual_kinds(best.cv_error_mm)))
         if not high:
-            lacks = []
-            if best.improvement < self.high_improvement:
-                lacks.append(f"it removes less than {self.high_improvement:.0%}")
-            if systematic:
-                lacks.append("a bias common to all tests remains")
-            elif not explained:
-                lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
-            if not separated:
-                lacks.append("a look-alike explains the data as well" if self.lookalikes_ else
-                             "the runner-up explains the data almost as well")
-            if not scatter_ok or periodic:
-                lacks.append("the residual shows a pattern no library effect explains")
-            if hinted:
-                bias = self.systematic_after_
-                lacks.append(f"a hint of a bias common to all tests remains ({bias['feature']}, p = "
-                             f"{bias['p_value_all']:.2g}): an unmodelled effect may have shifted the parameters")
-            why.append("low confidence: " + "; ".join(lacks))
+            why.append("low confidence: " + "; ".join(self._lacks(best, systematic, explained, separated,
+                                                                 scatter_ok and not periodic, hinted)))
         self.reason_ = "; ".join(why)
+
+    def _lacks(self, best: CandidateResult, systematic: bool, explained: bool, separated: bool, clean: bool,
+               hinted: bool) -> list[str]:
+        """Why the confidence is not ``high``."""
+        lacks = []
+        if best.improvement < self.high_improvement:
+            lacks.append(f"it removes less than {self.high_improvement:.0%}")
+        if systematic:
+            lacks.append("a bias common to all tests remains")
+        elif not explained:
+            lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
+        if not separated:
+            lacks.append("a look-alike explains the data as well" if self.lookalikes_ else
+                         "the runner-up explains the data almost as well")
+        if not clean:
+            lacks.append("the residual shows a pattern no library effect explains")
+        if hinted:
+            bias = self.systematic_after_
+            lacks.append(f"a hint of a bias common to all tests remains ({bias['feature']}, p = "
+                         f"{bias['p_value_all']:.2g}): an unmodelled effect may have shifted the parameters")
+        return lacks
 
     def _deciding_experiments(self, tests: Sequence[MeasuredTest]) -> list[dict[str, Any]]:
         """For the named entry and each look-alike (at most two): the loads where their fitted models differ most
@@ -667,7 +673,9 @@ class Diagnoser:
                              f"{comb['cv_error_mm']:.2f} mm" + (", periodic" if comb["periodic"] else ""))
 
     def _report(self) -> dict[str, Any]:
-        finite = lambda v: v if v is not None and math.isfinite(v) else None  # noqa: E731
+        def finite(v: float | None) -> float | None:
+            return v if v is not None and math.isfinite(v) else None
+
         return {"verdict": self.verdict_,
                 "missing_effect": self.missing_effect_,
                 "missing_effects": self.missing_effects_,

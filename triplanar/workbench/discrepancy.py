@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -235,6 +236,14 @@ def _interp_or_nan(grid: np.ndarray, s: np.ndarray, values: np.ndarray) -> np.nd
     return np.interp(grid, s[ok], values[ok])
 
 
+def group_by_force(tests: Sequence[MeasuredTest]) -> dict[float, tuple[MeasuredTest, ...]]:
+    """Tests grouped by commanded force (in order of the forces)."""
+    groups: dict[float, list[MeasuredTest]] = {}
+    for test in tests:
+        groups.setdefault(float(test.shear_force_N), []).append(test)
+    return {f: tuple(groups[f]) for f in sorted(groups)}
+
+
 def repeat_scatter_mm(tests: list[MeasuredTest], rest_positions: np.ndarray, grid_points: int = 40) -> float:
     """The RMS discrepancy a perfect model would still show: how far repeats at one force stray from their
     common mean path, in the units of ``error_mm`` (``nan`` when no force has two repeats).
@@ -243,7 +252,6 @@ def repeat_scatter_mm(tests: list[MeasuredTest], rest_positions: np.ndarray, gri
     travel at common times); the deviation from the repeats' mean is scaled by sqrt(k / (k - 1)) to
     estimate the deviation from the true path.
     """
-    from .spec import group_by_force
     squares: list[float] = []
     for group in group_by_force(tests).values():
         k = len(group)

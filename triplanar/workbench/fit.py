@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 from typing import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
@@ -27,29 +27,17 @@ from ..effects import REGISTRY, Effect, EffectError
 from ..measurement import MeasuredTest
 from ..result import SimulationResult
 from .candidates import Candidate, refit_candidate, resolve
-from .discrepancy import NoRun, TestDiscrepancy, discrepancy_group, repeat_scatter_mm, rms
+from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .intervals import interval95
 from .executor import ExecutorLike, executor_scope
-from .spec import EvalResult, EvalTask, ModelSpec, evaluate, group_by_force, spec_with_values, tasks_for
+from .fitbase import AT_BOUND, FitOutcome, ScaledBox, safe_evaluate
+from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
 
-#: A free parameter at most this fraction of its range from a bound is "at the bound" (implausible).
-AT_BOUND = 0.01
 #: Finite-difference step, as a fraction of each parameter's fit range.
 DIFF_STEP = 2e-3
 
 
 # -- evaluating a model on tests --------------------------------------------------------------------
-
-def safe_evaluate(task: EvalTask) -> EvalResult:
-    """:func:`evaluate`, but a model the core refuses (e.g. a plane tilt that moves a contact point too far
-    off its plane) counts as a block that never moves, with the reason in ``message``."""
-    try:
-        return evaluate(task)
-    except (ValueError, ArithmeticError) as err:
-        rest = NoRun(task.spec.rest_positions, f"model refused: {err}")
-        found = tuple(discrepancy_group(task.tests, rest))
-        return EvalResult(task.force_N, "invalid", rest.message, found)
-
 
 def evaluate_spec(spec: ModelSpec, tests: Sequence[MeasuredTest], mapper: Callable = map,
                   keep_result: bool = False) -> list[EvalResult]:
@@ -91,52 +79,6 @@ class FitTask:
     label: str = ""
     warm: Mapping[str, Mapping[str, float]] | None = None
     phi_start: Mapping[str, tuple[float, ...]] | None = None   # per-test parameters: each test's start
-
-
-@dataclass(frozen=True)
-class FitOutcome:
-    """The result of one fit. ``values``/``stderr``: ``{effect: {param: value}}``; ``train_errors`` and
-    ``held_out_errors``: ``{test_id: (force_N, error_mm)}``; ``per_test``: ``{effect: {param: {test_id: value}}}``
-    for per-test parameters (training and held-out tests; :mod:`triplanar.workbench.pertest`), whose values are
-    then absent from ``values``; ``vector``: the shared free values."""
-
-    label: str
-    effects: tuple[str, ...]
-    values: dict[str, dict[str, float]]
-    stderr: dict[str, dict[str, float]]
-    at_bound: tuple[str, ...]
-    train_error_mm: float
-    train_errors: dict[str, tuple[float, float]]
-    held_out_errors: dict[str, tuple[float, float]]
-    nfev: int
-    seconds: float
-    message: str
-    vector: tuple[float, ...] = field(default=(), repr=False)
-    per_test: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
-    bias_ratio: float = 1.0     # evidence.bias_ratio of the fitted model on its training tests (diagnose's full fit)
-
-    @property
-    def held_out_error_mm(self) -> float:
-        return rms([e for _, e in self.held_out_errors.values()])
-
-
-class ScaledBox:
-    """Free parameters ``names`` scaled to [0, 1] over their fitting bounds ``lo``-``hi``: the optimisers work in
-    the scaled box (a joint fit, :class:`Problem`, and a profiled one, ``pertest.ProfiledProblem``)."""
-
-    names: list[tuple[str, str]]
-    lo: np.ndarray
-    hi: np.ndarray
-
-    @property
-    def n(self) -> int:
-        return len(self.names)
-
-    def natural(self, u: np.ndarray) -> np.ndarray:
-        return self.lo + np.clip(u, 0.0, 1.0) * (self.hi - self.lo)
-
-    def scaled(self, x: Sequence[float]) -> np.ndarray:
-        return np.clip((np.asarray(x, dtype=float) - self.lo) / (self.hi - self.lo), 0.0, 1.0)
 
 
 class Problem(ScaledBox):

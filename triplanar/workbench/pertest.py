@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from ..measurement import MeasuredTest
 from .candidates import Candidate
 from .discrepancy import TestDiscrepancy
-from .fit import AT_BOUND, FitOutcome, ScaledBox, overall_error, safe_evaluate
+from .fitbase import AT_BOUND, FitOutcome, ScaledBox, safe_evaluate
 from .spec import EvalTask, ModelSpec, spec_with_values
 
 #: Finite-difference step, as a fraction of each parameter's fit range (as :data:`fit.DIFF_STEP`).

@@ -26,7 +26,7 @@ from ..paths import travel
 from ..result import SimulationResult
 from ..simulate import simulate
 from ..specimen import Foundation, Specimen, reference
-from .discrepancy import TestDiscrepancy, discrepancy_group
+from .discrepancy import TestDiscrepancy, discrepancy_group, group_by_force
 
 EffectSpec = tuple[str, tuple[tuple[str, float], ...]]
 
@@ -202,14 +202,6 @@ def _simulate_cached(spec: ModelSpec, model: Model, tests: Sequence[MeasuredTest
         result = simulate(model, travel_m=max(longest, 0.0) + 0.001 + TRAVEL_MARGIN_M, **SIM_OPTIONS)
         _SIMULATIONS[key] = (spec.specimen, spec.foundation, result)
     return _SIMULATIONS[key][2]
-
-
-def group_by_force(tests: Sequence[MeasuredTest]) -> dict[float, tuple[MeasuredTest, ...]]:
-    """Tests grouped by commanded force (in order of the forces)."""
-    groups: dict[float, list[MeasuredTest]] = {}
-    for test in tests:
-        groups.setdefault(float(test.shear_force_N), []).append(test)
-    return {f: tuple(groups[f]) for f in sorted(groups)}
 
 
 def tasks_for(spec: ModelSpec, tests: Sequence[MeasuredTest], keep_result: bool = False) -> list[EvalTask]:
