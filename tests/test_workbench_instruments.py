@@ -100,3 +100,24 @@ def test_one_standard_error_rule_prefers_the_simpler_entry_unless_the_flexible_o
     clear = [e - 0.3 for e in refit_errors]                                     # wins by far more than its uncertainty
     chosen, look = parsimonious([_entry("contact_friction", "candidate", 3, clear), refit])
     assert chosen.effect == "contact_friction" and look == []
+
+
+def test_one_load_level_is_called_in_sample_and_never_high_confidence(tmp_path, capsys) -> None:
+    import warnings
+
+    from triplanar import read_measurements, write_measurements
+    from triplanar.cli import main
+    from pathlib import Path
+    shipped = Path(__file__).resolve().parents[1] / "data" / "lab_traces.csv"
+    one = [t for t in read_measurements(shipped) if t.shear_force_N == 40.0][:1]
+    data = tmp_path / "one.csv"
+    write_measurements(data, one)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)     # no 0 x inf in the sandwich with one test
+        code = main(["diagnose", str(data), "--no-progress", "--executor", "serial", "--candidates",
+                     "end_friction,tip_offset", "--out", str(tmp_path / "out")])
+    printed = capsys.readouterr().out
+    assert code == 0
+    assert "held-out" not in printed and "cv error" not in printed and "in-sample mm" in printed
+    assert "in sample (one load level: nothing held out)" in printed
+    assert "confidence: low" in printed

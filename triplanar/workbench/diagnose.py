@@ -538,8 +538,9 @@ class Diagnoser:
             runner.cv_error_mm >= self.margin * best.cv_error_mm and not (math.isfinite(diff) and diff <= diff_se)
             and not self.lookalikes_)
         hinted = not systematic and self.systematic_after_["p_value_all"] < HINT_ALPHA
+        held_out = len(self.folds_) > 1     # one load level: nothing was held out, nothing was judged out of sample
         high = (best.improvement >= self.high_improvement and explained and separated and scatter_ok and not periodic
-                and not hinted)
+                and not hinted and held_out)
         self.confidence_ = "high" if high else "low"
         what = (f"refitting the given {best.effect} ({_fmt(best.given)} -> {_fmt(best.params)})"
                 if best.kind == "refit" else best.effect)
@@ -595,6 +596,8 @@ class Diagnoser:
                          "the runner-up explains the data almost as well")
         if not clean:
             lacks.append("the residual shows a pattern no library effect explains")
+        if len(self.folds_) < 2:
+            lacks.append("with one load level nothing was held out")
         if hinted:
             bias = self.systematic_after_
             lacks.append(f"a hint of a bias common to all tests remains ({bias['feature']}, p = "

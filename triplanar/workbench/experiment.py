@@ -25,7 +25,7 @@ import numpy as np
 from ..measurement import MeasuredTest
 from ..simulate import simulate
 from .spec import SIM_OPTIONS, EvalTask, ModelSpec
-from .fit import safe_evaluate
+from .fitbase import safe_evaluate
 
 #: Samples per second of the simulated tests (the laboratory's rate).
 RATE_HZ = 200.0
