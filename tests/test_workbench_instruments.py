@@ -89,7 +89,7 @@ def _entry(effect: str, kind: str, n_params: int, errors: list[float]):
 
 
 def test_one_standard_error_rule_prefers_the_simpler_entry_unless_the_flexible_one_wins_clearly() -> None:
-    from triplanar.workbench.diagnose import parsimonious
+    from triplanar.workbench.parsimony import parsimonious
     rng = np.random.default_rng(3)
     refit_errors = list(0.57 + 0.15 * rng.standard_normal(24))
     close = [e - 0.03 + 0.1 * rng.standard_normal() for e in refit_errors]    # 3 parameters, a little better

@@ -29,6 +29,11 @@ if TYPE_CHECKING:
     from .diagnose import CandidateResult, Diagnoser
 
 
+def format_value(name: str, value: float, ci: Sequence[float] | None) -> str:
+    """``name = value [low, high]`` (the one interval format of every command's output)."""
+    return f"{name} = {value:.4g}" + (f" [{ci[0]:.4g}, {ci[1]:.4g}]" if ci is not None else "")
+
+
 def _step(result: CandidateResult, runner: CandidateResult | None, before_mm: float, baseline_mm: float,
           margin: float) -> dict[str, Any]:
     separated = runner is None or not math.isfinite(runner.cv_error_mm) or \
@@ -90,3 +95,37 @@ def combine(diag: Diagnoser, tests: Sequence[MeasuredTest], max_effects: int = 3
     explains = final.cv_error_mm <= diag.explained_factor * diag.repeat_scatter_mm_ and not periodic
     return {"steps": steps, "cv_error_mm": final.cv_error_mm, "explains": explains, "periodic": periodic,
             "diagnoses": rounds, "final": final, "last": last}
+
+
+def apply_combination(diag: Diagnoser, tests: Sequence[MeasuredTest]) -> None:
+    """No single entry explains: try entries in combination (:func:`combine`) and, when they explain the data,
+    give ``diag`` the verdict ``library_effects``; else add what the combination leaves to its reason."""
+    comb = combine(diag, tests)
+    steps = comb["steps"]
+    diag.combination_ = {k: comb[k] for k in ("steps", "cv_error_mm", "explains", "periodic")}
+    scatter, expected = diag.repeat_scatter_mm_, diag.expected_scatter_mm_
+    scatter_ok = not (math.isfinite(expected) and scatter > diag.scatter_factor * expected)
+    listed = "; then ".join(
+        f"{'refitting the given ' if s['kind'] == 'refit' else ''}{s['effect']} ("
+        + ", ".join(format_value(k, v, s["param_ci95"].get(k)) for k, v in s["params"].items())
+        + f") removes {s['share_of_improvement']:.0%}" for s in steps)
+    if len(steps) >= 2 and comb["explains"] and scatter_ok:
+        diag.verdict_ = "library_effects"
+        diag.combined_spec_ = comb["last"]._spec_of(comb["final"])
+        diag.missing_effects_ = steps
+        diag.missing_effect_ = next((s["effect"] for s in steps if s["kind"] == "candidate"), None)
+        diag.confidence_ = "high" if all(s["confidence"] == "high" for s in steps) else "low"
+        diag.unexplained_mm_ = comb["cv_error_mm"]
+        last = comb["last"]
+        diag.after_, diag.time_domain_after_ = last.after_, last.time_domain_after_
+        diag.growth_after_ = last.growth_after_
+        diag.best_label_ = "+ " + " + ".join(s["effect"] for s in steps)
+        low = [s["effect"] for s in steps if s["confidence"] != "high"]
+        diag.reason_ = (f"two or more library effects explain the discrepancy, none alone: {listed} of the error "
+                        f"{diag.where_}; together they leave {comb['cv_error_mm']:.2f} mm against a repeat "
+                        f"scatter of {scatter:.2f} mm"
+                        + (f"; low confidence: a runner-up explains almost as well at the step of "
+                           f"{', '.join(low)}" if low else ""))
+    elif len(steps) >= 2:
+        diag.reason_ += (f"; in combination ({listed} of the error {diag.where_}) they still leave "
+                         f"{comb['cv_error_mm']:.2f} mm" + (", periodic" if comb["periodic"] else ""))

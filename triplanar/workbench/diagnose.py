@@ -43,6 +43,7 @@ from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .evidence import (HINT_ALPHA, expected_scatter_mm, growth_along_travel, instrument_noise_mm, noise_floor_mm,
                        systematic_bias, time_domain)
 from .intervals import interval95
+from .parsimony import difference_se, parsimonious
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import (FitOutcome, FitTask, discrepancies, errors_by_load, evaluate_spec, overall_error,
                   run_fit)
@@ -103,49 +104,6 @@ class CandidateResult:
 
 def _fmt(values: Mapping[str, float]) -> str:
     return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
-
-
-def format_value(name: str, value: float, ci: Sequence[float] | None) -> str:
-    """``name = value [low, high]`` (the one interval format of every command's output)."""
-    return f"{name} = {value:.4g}" + (f" [{ci[0]:.4g}, {ci[1]:.4g}]" if ci is not None else "")
-
-
-def difference_se(a: CandidateResult, b: CandidateResult) -> tuple[float, float]:
-    """``(mean, standard error)`` over the tests of ``b``'s held-out squared error minus ``a``'s (mm^2): how much
-    worse ``b`` is than ``a`` on held-out loads, and how uncertain that is (tests are the independent units;
-    ``cv_b^2 - cv_a^2`` is the mean)."""
-    common = sorted(set(a.held_out_mm) & set(b.held_out_mm))
-    d = np.array([b.held_out_mm[t] ** 2 - a.held_out_mm[t] ** 2 for t in common])
-    d = d[np.isfinite(d)]
-    if len(d) < 2:
-        return math.nan, math.nan
-    return float(d.mean()), float(d.std(ddof=1) / math.sqrt(len(d)))
-
-
-def parsimonious(entries: Sequence[CandidateResult]) -> tuple[CandidateResult, list[CandidateResult]]:
-    """The one-standard-error rule over ``entries`` (best cross-validated error first): of the entries whose held-out
-    error is within one standard error of the difference from the best's, the one with the fewest free parameters
-    (then the lowest error). Returns it and the others within that standard error (its look-alikes).
-
-    Why this rule: cross-validation errors of nested or competing fits differ by noise of about that standard error,
-    so a more flexible entry that wins by less has not shown that its extra parameters are needed (Hastie,
-    Tibshirani & Friedman, The Elements of Statistical Learning, 2nd ed., section 7.10)."""
-    top = entries[0]
-    close = [top]
-    for other in entries[1:]:
-        mean, se = difference_se(top, other)
-        if math.isfinite(mean) and mean <= se:
-            close.append(other)
-    chosen = min(close, key=lambda c: (len(c.params) + len(c.per_test), c.cv_error_mm))
-    look = [c for c in close if c is not chosen]
-    if chosen is not top:      # the look-alikes of the chosen one: within its own standard error
-        look = [c for c in entries if c is not chosen and _within(chosen, c)]
-    return chosen, look
-
-
-def _within(a: CandidateResult, b: CandidateResult) -> bool:
-    mean, se = difference_se(a, b)
-    return math.isfinite(mean) and abs(mean) <= se
 
 
 def _jackknife(folds: list[dict[str, float]]) -> dict[str, float]:
@@ -323,14 +281,16 @@ class Diagnoser:
         self.outcomes_ = by_label
         self._evidence(tests, base)
         self._decide()
-        self.experiments_ = self._deciding_experiments(tests)
+        from .experiment import experiments_for
+        self.experiments_ = experiments_for(self, tests)
         self.combination_: dict[str, Any] | None = None
         self.missing_effects_ = self._single_missing()
         best = self.best_
         if (self.combine and self.verdict_ == "outside_library" and best is not None and not best.per_test
                 and math.isfinite(self.repeat_scatter_mm_)
                 and best.cv_error_mm > self.explained_factor * self.repeat_scatter_mm_):
-            self._combine(tests)
+            from .combine import apply_combination
+            apply_combination(self, tests)
         self.seconds_ = time.perf_counter() - began
         self.report_ = self._report()
         return self
@@ -604,29 +564,6 @@ class Diagnoser:
                          f"{bias['p_value_all']:.2g}): an unmodelled effect may have shifted the parameters")
         return lacks
 
-    def _deciding_experiments(self, tests: Sequence[MeasuredTest]) -> list[dict[str, Any]]:
-        """For the named entry and each look-alike (at most two): the loads where their fitted models differ most
-        relative to the scatter, and the repeats that would separate them (:mod:`triplanar.workbench.experiment`)."""
-        from .experiment import deciding_experiment, describe
-        if self.best_ is None or not self.lookalikes_:
-            return []
-        sigma = self.repeat_scatter_mm_ if math.isfinite(self.repeat_scatter_mm_) else self.expected_scatter_mm_
-        measured = sorted({float(t.shear_force_N) for t in tests})
-        # below the lowest measured load finely (a model that holds where the other slides decides at once)
-        grid = sorted(set(measured) | {round(f, 1) for f in np.linspace(measured[0], 1.3 * measured[-1], 8)}
-                      | {round(k * measured[0], 1) for k in (0.8, 0.85, 0.9, 0.95)})
-        longest = max((float(d.travel_m[-1]) for d in self.baseline_ if len(d.travel_m)), default=0.08)
-        label = lambda c: f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"  # noqa: E731
-        out = []
-        for other in self.lookalikes_[:2]:
-            exp = deciding_experiment((label(self.best_), self._spec_of(self.best_)), (label(other), self._spec_of(other)),
-                                      sigma, grid, max(longest, 0.01))
-            exp["sentence"] = describe(exp)
-            out.append(exp)
-        if out:
-            self.reason_ += "; " + "; ".join(e["sentence"] for e in out)
-        return out
-
     def missing_kind(self) -> str | None:
         """``"physics"``, ``"instrument"`` or ``"physics and instrument"``: what the named entries act on."""
         names = [m["effect"] for m in self.missing_effects_] or ([self.missing_effect_] if self.missing_effect_ else [])
@@ -641,39 +578,6 @@ class Diagnoser:
         return [{"effect": best.effect, "kind": best.kind, "params": dict(best.params),
                  "param_ci95": dict(best.param_ci95), "cv_error_mm": best.cv_error_mm,
                  "share_of_improvement": best.improvement, "confidence": self.confidence_}]
-
-    def _combine(self, tests: Sequence[MeasuredTest]) -> None:
-        """No single entry explains: try them in combination (:mod:`triplanar.workbench.combine`)."""
-        from .combine import combine
-        comb = combine(self, tests)
-        steps = comb["steps"]
-        self.combination_ = {k: comb[k] for k in ("steps", "cv_error_mm", "explains", "periodic")}
-        scatter, expected = self.repeat_scatter_mm_, self.expected_scatter_mm_
-        scatter_ok = not (math.isfinite(expected) and scatter > self.scatter_factor * expected)
-        listed = "; then ".join(
-            f"{'refitting the given ' if s['kind'] == 'refit' else ''}{s['effect']} ("
-            + ", ".join(format_value(k, v, s["param_ci95"].get(k)) for k, v in s["params"].items())
-            + f") removes {s['share_of_improvement']:.0%}" for s in steps)
-        if len(steps) >= 2 and comb["explains"] and scatter_ok:
-            self.verdict_ = "library_effects"
-            self.combined_spec_ = comb["last"]._spec_of(comb["final"])
-            self.missing_effects_ = steps
-            self.missing_effect_ = next((s["effect"] for s in steps if s["kind"] == "candidate"), None)
-            self.confidence_ = "high" if all(s["confidence"] == "high" for s in steps) else "low"
-            self.unexplained_mm_ = comb["cv_error_mm"]
-            last = comb["last"]
-            self.after_, self.time_domain_after_ = last.after_, last.time_domain_after_
-            self.growth_after_ = last.growth_after_
-            self.best_label_ = "+ " + " + ".join(s["effect"] for s in steps)
-            low = [s["effect"] for s in steps if s["confidence"] != "high"]
-            self.reason_ = (f"two or more library effects explain the discrepancy, none alone: {listed} of the error "
-                            f"{self.where_}; together they leave {comb['cv_error_mm']:.2f} mm against a repeat "
-                            f"scatter of {scatter:.2f} mm"
-                            + (f"; low confidence: a runner-up explains almost as well at the step of "
-                               f"{', '.join(low)}" if low else ""))
-        elif len(steps) >= 2:
-            self.reason_ += (f"; in combination ({listed} of the error {self.where_}) they still leave "
-                             f"{comb['cv_error_mm']:.2f} mm" + (", periodic" if comb["periodic"] else ""))
 
     def _report(self) -> dict[str, Any]:
         def finite(v: float | None) -> float | None:

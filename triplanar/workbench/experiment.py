@@ -18,7 +18,7 @@ loads that were not measured, so it is taken as the same there (stated in the re
 from __future__ import annotations
 
 import math
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
@@ -26,6 +26,9 @@ from ..measurement import MeasuredTest
 from ..simulate import simulate
 from .spec import SIM_OPTIONS, EvalTask, ModelSpec
 from .fitbase import safe_evaluate
+
+if TYPE_CHECKING:
+    from .diagnose import Diagnoser
 
 #: Samples per second of the simulated tests (the laboratory's rate).
 RATE_HZ = 200.0
@@ -103,3 +106,26 @@ def describe(exp: dict[str, Any]) -> str:
             f"{best['difference_mm']:.2f} mm ({best['ratio']:.1f} x the {exp['scatter_mm']:.2f} mm scatter of one test; "
             f"largest laterally at {best['travel_mm']:.0f} mm of travel); {best['repeats']} repeat(s) there separate "
             f"them at 95 %")
+
+
+def experiments_for(diag: Diagnoser, tests: Sequence[MeasuredTest]) -> list[dict[str, Any]]:
+    """For the named entry and each look-alike (at most two): the loads where their fitted models differ most
+    relative to the scatter, and the repeats that would separate them (:mod:`triplanar.workbench.experiment`)."""
+    if diag.best_ is None or not diag.lookalikes_:
+        return []
+    sigma = diag.repeat_scatter_mm_ if math.isfinite(diag.repeat_scatter_mm_) else diag.expected_scatter_mm_
+    measured = sorted({float(t.shear_force_N) for t in tests})
+    # below the lowest measured load finely (a model that holds where the other slides decides at once)
+    grid = sorted(set(measured) | {round(f, 1) for f in np.linspace(measured[0], 1.3 * measured[-1], 8)}
+                  | {round(k * measured[0], 1) for k in (0.8, 0.85, 0.9, 0.95)})
+    longest = max((float(d.travel_m[-1]) for d in diag.baseline_ if len(d.travel_m)), default=0.08)
+    label = lambda c: f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"  # noqa: E731
+    out = []
+    for other in diag.lookalikes_[:2]:
+        exp = deciding_experiment((label(diag.best_), diag._spec_of(diag.best_)), (label(other), diag._spec_of(other)),
+                                  sigma, grid, max(longest, 0.01))
+        exp["sentence"] = describe(exp)
+        out.append(exp)
+    if out:
+        diag.reason_ += "; " + "; ".join(e["sentence"] for e in out)
+    return out
