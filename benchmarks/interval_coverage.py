@@ -10,7 +10,7 @@ against case B with end friction the only candidate, or the refit of a wrong giv
   dissipation of soft contacts: a model-form error);
 * ``gain``: every lateral rangefinder reading is 10 % high, which the model does not know (a small instrument bias).
 
-Each dataset is diagnosed twice: with the intervals' allowance for a bias below the scatter (``bias_ratio``) and
+Each dataset is diagnosed twice: with the intervals' allowance for a bias below the scatter (``model_form_allowance``) and
 without it (the intervals before it). ::
 
     PYTHONPATH=. python benchmarks/interval_coverage.py [--seeds 10] [--first-seed 500]
@@ -61,14 +61,14 @@ def interval(kind: str, seed: int, allowance: bool) -> tuple[float, list[float] 
     extra, model = KINDS[kind]
     tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=seed, noise_m=5e-4,
                                  effects=[make_effect("end_friction:phi_deg=8"), *extra])
-    original = evidence.bias_ratio
+    original = evidence.model_form_allowance
     if not allowance:
-        evidence.bias_ratio = lambda found: 1.0
+        evidence.model_form_allowance = lambda found: 1.0
     try:
         candidates = [] if kind == "refit" else ["end_friction"]
         diag = Diagnoser(candidates, folds=3, progress=False, executor="serial").fit(tests, model)
     finally:
-        evidence.bias_ratio = original
+        evidence.model_form_allowance = original
     entry = diag.refits_[0] if kind == "refit" else diag.candidates_[0]
     return entry.params["phi_deg"], entry.param_ci95.get("phi_deg"), diag.report_["confidence"]
 

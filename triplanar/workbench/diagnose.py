@@ -154,11 +154,11 @@ def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
     out["all"] = run_fit(FitTask(task.base, cands, tuple(tests), (), None, task.max_nfev, "all", task.warm),
                          map, cache, rows_out=rows)
     if not out["all"].per_test:     # the fitted model's residual means: the intervals' model-form allowance
-        from .evidence import bias_ratio
+        from .evidence import model_form_allowance
         spec = task.base
         for name, values in out["all"].values.items():
             spec = spec_with_values(spec, name, values)
-        out["all"] = replace(out["all"], bias_ratio=bias_ratio(discrepancies(evaluate_spec(spec, tests))))
+        out["all"] = replace(out["all"], bias_ratio=model_form_allowance(discrepancies(evaluate_spec(spec, tests))))
     phis = None
     if out["all"].per_test:  # per-test parameters: each training test starts at its value in the full fit
         names = [(c.effect, p) for c in cands for p in c.per_test]

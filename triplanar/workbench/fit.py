@@ -357,8 +357,8 @@ class EffectFit:
                 self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
         self.params_ = self.outcome_.values
         self.stderr_ = self.outcome_.stderr
-        from .evidence import bias_ratio
-        self.bias_ratio_ = bias_ratio(self.discrepancies_)
+        from .evidence import model_form_allowance
+        self.bias_ratio_ = model_form_allowance(self.discrepancies_)
         self.at_bound_ = self.outcome_.at_bound
         self.ci95_, self.status_ = {}, {}
         scatter = repeat_scatter_mm(tests, self.base.rest_positions)

@@ -13,7 +13,8 @@ both estimates. The standard error is then multiplied by ``fit_error / scatter``
 widen in proportion to the unexplained error; at or below the scatter the factor is 1). A model-form error smaller
 than the scatter of one test still shows in the means of the repeats: the per-load means of signed residuals stand
 away from zero by more than their standard errors. Their Birge ratio (``bias``,
-:func:`triplanar.workbench.evidence.bias_ratio`) multiplies the standard error instead when it is the larger.
+:func:`triplanar.workbench.evidence.model_form_allowance`: applied where those means hint at a shared bias)
+multiplies the standard error instead when it is the larger.
 
 The interval is ``value +- t(0.975, n_tests - p) * stderr``, clipped to the parameter's physical bounds.
 A parameter that never left its start (the fit did not move it, or a snap set it back) gets no interval and
