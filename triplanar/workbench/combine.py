@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 from ..measurement import MeasuredTest
 from .candidates import without_effect
+from .parsimony import parsimonious
 from .spec import spec_with_values
 
 if TYPE_CHECKING:
@@ -62,6 +63,9 @@ def combine(diag: Diagnoser, tests: Sequence[MeasuredTest], max_effects: int = 3
     others = [c for c in diag.ranked_ if c is not first]
     steps = [_step(first, others[0] if others else None, diag.baseline_error_mm_, diag.baseline_error_mm_,
                    diag.margin)]
+    steps[0]["indistinguishable_from"] = [c.effect for c in diag.lookalikes_]
+    if diag.lookalikes_:
+        steps[0]["confidence"] = "low"
     results = [first]
     last, rounds = diag, []
     while len(steps) < max_effects:
@@ -74,11 +78,15 @@ def combine(diag: Diagnoser, tests: Sequence[MeasuredTest], max_effects: int = 3
         nxt.fit(tests, base, refit=added or None)
         # the best plausible entry by cross-validated error (nxt.best_ judges improvement against nxt's baseline,
         # the in-sample fit of the entries so far; here it is judged against their cross-validated error)
-        best = next((c for c in nxt.ranked_ if c.plausible), None)
+        plausible = [c for c in nxt.ranked_ if c.plausible]
+        best, look = parsimonious(plausible) if plausible else (None, [])
         if best is None or not math.isfinite(best.cv_error_mm) or best.cv_error_mm > (1 - min_fall) * current:
             break
         rest = [c for c in nxt.ranked_ if c is not best]
         steps.append(_step(best, rest[0] if rest else None, current, diag.baseline_error_mm_, diag.margin))
+        steps[-1]["indistinguishable_from"] = [c.effect for c in look]
+        if look:
+            steps[-1]["confidence"] = "low"
         results.append(best)
         added = {k: dict(v) for k, v in best.all_values.items()}
         last = nxt
@@ -120,12 +128,13 @@ def apply_combination(diag: Diagnoser, tests: Sequence[MeasuredTest]) -> None:
         diag.after_, diag.time_domain_after_ = last.after_, last.time_domain_after_
         diag.growth_after_ = last.growth_after_
         diag.best_label_ = "+ " + " + ".join(s["effect"] for s in steps)
-        low = [s["effect"] for s in steps if s["confidence"] != "high"]
+        low = [f"{s['effect']} ({', '.join(s['indistinguishable_from'] or [str(s['runner_up'])])} "
+               f"{'fits as well' if s['indistinguishable_from'] else 'comes close'})"
+               for s in steps if s["confidence"] != "high"]
         diag.reason_ = (f"two or more library effects explain the discrepancy, none alone: {listed} of the error "
                         f"{diag.where_}; together they leave {comb['cv_error_mm']:.2f} mm against a repeat "
                         f"scatter of {scatter:.2f} mm"
-                        + (f"; low confidence: a runner-up explains almost as well at the step of "
-                           f"{', '.join(low)}" if low else ""))
+                        + (f"; low confidence at the step of {'; '.join(low)}" if low else ""))
     elif len(steps) >= 2:
         diag.reason_ += (f"; in combination ({listed} of the error {diag.where_}) they still leave "
                          f"{comb['cv_error_mm']:.2f} mm" + (", periodic" if comb["periodic"] else ""))

@@ -381,8 +381,11 @@ class Diagnoser:
                                                         evaluate)
         self.time_domain_ = time_domain(self.baseline_)
         self.systematic_ = systematic_bias(self.baseline_)
-        # a bias below the scatter: an entry that removes any of it may explain it (judged by what it leaves)
-        least = 1e-9 if self.systematic_["systematic"] else self.min_improvement
+        # a bias below the scatter: an entry that removes any of it may explain it (judged by what it leaves); a model
+        # whose error is above the scatter keeps the usual bar
+        scatter = self.repeat_scatter_mm_
+        below = math.isfinite(scatter) and self.baseline_error_mm_ <= self.quiet_factor * scatter
+        least = 1e-9 if self.systematic_["systematic"] and below else self.min_improvement
         explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= least]
         self.best_, self.lookalikes_ = parsimonious(explaining) if explaining else (None, [])
         self.after_, self.best_label_ = None, None
