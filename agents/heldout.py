@@ -3,6 +3,9 @@ tuning uses, plus the nominal bench; failures are counted, never averaged into a
 
 * :func:`heldout_benches`: bench ``i`` is drawn from ``np.random.default_rng([HELDOUT_SEED, i])`` (training draws
   from the env's own seeded generator, tuning from ``TUNING_SEED``: different streams);
+* :func:`stress_benches`: benches outside the training ranges (:data:`STRESS_RANGES`), drawn from their own
+  stream ``STRESS_SEED``; every stress bench has at least one parameter outside v1's randomisation ranges;
+* :func:`bench_set`: any of the sets above by name (:data:`BENCH_SETS`);
 * :func:`run_episode`: one controller on one bench -> :class:`Outcome` (``success``, ``mimicry_error_mm`` only when
   successful, else NaN);
 * :func:`summarise`: success rate, mimicry error over successful episodes, and the score (below).
@@ -15,18 +18,27 @@ tuning uses, plus the nominal bench; failures are counted, never averaged into a
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Sequence
 
 import numpy as np
 
 from envs.triplanar_shear import EpisodeDraw, StartError, episode_start, make_config, specimen_key
+from envs import triplanar_shear_v1 as v1
 from envs.triplanar_shear_v1 import BENCH_FIELDS, Bench, TriPlanarShearV1Env, draw_bench
 from triplanar import PAPER_LOADS_N
+from triplanar.specimen import Foundation, Plane, Specimen
 
 HELDOUT_SEED = 10_010
 TUNING_SEED = 20_020
+STRESS_SEED = 30_030
 FAILURE_SCORE_MM = 10.0
+BENCH_SETS = ("heldout", "stress", "nominal")
+
+# The stress set's ranges: wider than v1's randomisation (envs.triplanar_shear_v1.RANDOM_*) in the tip friction, the
+# load and the plane tilts (a worn tip, loads beyond the paper's, a foundation levelled less well); contact friction,
+# mass and mass centre vary as in training.
+STRESS_RANGES = {"tip_friction_deg": (2.0, 15.0), "load_N": (25.0, 60.0), "tilt_deg": 1.0}
 
 
 def _shear_kwargs(env_kwargs: dict[str, Any] | None) -> dict[str, Any]:
@@ -64,6 +76,76 @@ def heldout_benches(n: int = 50) -> list[Bench]:
     return random_benches(n, HELDOUT_SEED)
 
 
+def draw_stress_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundation) -> Bench:
+    """An unknown specimen from :data:`STRESS_RANGES` (uniform; the same construction as
+    :func:`envs.triplanar_shear_v1.draw_bench`, whose ranges are the training ones and fixed)."""
+    friction = tuple(float(v) for v in np.asarray(specimen.friction_deg)
+                     + rng.uniform(-v1.RANDOM_FRICTION_DEG, v1.RANDOM_FRICTION_DEG, 3))
+    tip = float(rng.uniform(*STRESS_RANGES["tip_friction_deg"]))
+    scale = 1.0 + float(rng.uniform(-v1.RANDOM_MASS, v1.RANDOM_MASS))
+    centre = np.asarray(specimen.mass_centre_m) + rng.uniform(-v1.RANDOM_MASS_CENTRE_M, v1.RANDOM_MASS_CENTRE_M, 3)
+    tilt = STRESS_RANGES["tilt_deg"]
+    planes = []
+    for plane in foundation.planes:
+        if plane.dip_deg < v1.RANDOM_TILT_DEG:  # the horizontal plane: a dip in any direction
+            planes.append(Plane(float(rng.uniform(0.0, tilt)), float(rng.uniform(0.0, 360.0))))
+        else:
+            planes.append(Plane(plane.dip_deg + float(rng.uniform(-tilt, tilt)),
+                                plane.dip_direction_deg + float(rng.uniform(-v1.RANDOM_TILT_DIRECTION_DEG,
+                                                                            v1.RANDOM_TILT_DIRECTION_DEG))))
+    points = np.array(specimen.contact_points_m, dtype=float)
+    for i, plane in enumerate(planes):  # the block sits on the tilted planes
+        points[i, 1] = float(plane.height(points[i, 0], points[i, 2]))
+    load = float(rng.uniform(*STRESS_RANGES["load_N"]))
+    new = replace(specimen, contact_points_m=points, friction_deg=friction, tip_friction_deg=tip,
+                  mass_kg=specimen.mass_kg * scale, inertia_kg_m2=np.asarray(specimen.inertia_kg_m2) * scale,
+                  mass_centre_m=centre, name=f"{specimen.name} (stress)")
+    return Bench(new, Foundation(tuple(planes)), load)
+
+
+def outside_training_ranges(bench: Bench, foundation: Foundation) -> list[str]:
+    """The parameters of ``bench`` outside v1's randomisation ranges around the nominal ``foundation``."""
+    out = []
+    low, high = v1.RANDOM_TIP_FRICTION_DEG
+    if not low <= bench.specimen.tip_friction_deg <= high:
+        out.append("tip_friction_deg")
+    low, high = v1.RANDOM_LOAD_N
+    if not low <= bench.load_N <= high:
+        out.append("load_N")
+    for nominal, plane in zip(foundation.planes, bench.foundation.planes):
+        reference = 0.0 if nominal.dip_deg < v1.RANDOM_TILT_DEG else nominal.dip_deg
+        if abs(plane.dip_deg - reference) > v1.RANDOM_TILT_DEG:
+            out.append("plane_tilt")
+            break
+    return out
+
+
+def stress_benches(n: int = 50) -> list[Bench]:
+    """The first ``n`` startable draws of :func:`draw_stress_bench` from the stream ``STRESS_SEED`` that lie
+    outside the training ranges in at least one parameter (a draw inside all of them is skipped)."""
+    specimen, foundation = make_config(None).base_specimen()
+    out: list[Bench] = []
+    i = 0
+    while len(out) < n:
+        bench = draw_stress_bench(np.random.default_rng([STRESS_SEED, i]), specimen, foundation)
+        if outside_training_ranges(bench, foundation) and _startable(bench, {}):
+            out.append(bench)
+        i += 1
+    return out
+
+
+def bench_set(name: str, n: int) -> list[Bench]:
+    """The bench set ``name`` (:data:`BENCH_SETS`): ``n`` held-out or stress benches, or the nominal bench at the
+    paper's loads (``n`` is then ignored: there are 12)."""
+    if name == "heldout":
+        return heldout_benches(n)
+    if name == "stress":
+        return stress_benches(n)
+    if name == "nominal":
+        return nominal_benches()
+    raise ValueError(f"unknown bench set {name!r}; choose from {list(BENCH_SETS)}")
+
+
 def nominal_benches(loads: Sequence[float] = PAPER_LOADS_N) -> list[Bench]:
     """The nominal specimen (steel tip, 8 deg) at the paper's load levels."""
     specimen, foundation = make_config(None).base_specimen()
@@ -74,7 +156,6 @@ def with_tip(bench: Bench, tip_friction_deg: float | None) -> Bench:
     """``bench`` with a given tip (a design's hardware) instead of its drawn tip friction."""
     if tip_friction_deg is None:
         return bench
-    from dataclasses import replace
     return replace(bench, specimen=replace(bench.specimen, tip_friction_deg=float(tip_friction_deg)))
 
 

@@ -1,60 +1,100 @@
-"""Plots of the bench study (:mod:`experiments.bench_study`), written next to its tables."""
+"""Plots of the bench study (:mod:`experiments.bench_study`) and of ``triplanar evaluate``, written next to their
+tables: distributions and intervals, never bars that hide them. Every row is one controller on one bench set:
+its successful episodes' errors as points (one per episode and seed), the mean error with its 95 % interval
+(hierarchical bootstrap), the worst decile's mean (CVaR 10 %), and the success rate with its interval
+(:func:`experiments.stats.success_ci`)."""
 
 from __future__ import annotations
 
 import csv
-import math
-import os
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
+from matplotlib.ticker import NullFormatter, ScalarFormatter
 
-from triplanar.plotting import plt
+from triplanar.plotting import plt, save_figure
 
+TARGET_MM = 1.0
+COLOURS = {"nominal": "tab:grey", "heldout": "tab:blue", "stress": "tab:red"}
 
-def _save(fig: Any, path: Path) -> None:
-    tmp = path.with_name(path.stem + ".tmp.png")
-    fig.savefig(tmp, dpi=110, bbox_inches="tight")
-    plt.close(fig)
-    os.replace(tmp, path)
-
-
-def heldout_plot(out: Path, rows: Sequence[Sequence[Any]]) -> None:
-    """Success rate and mimicry error over successful episodes per controller, nominal and held-out."""
-    names = list(dict.fromkeys(r[0] for r in rows))
-    fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4))
-    for k, bench_set in enumerate(("nominal", "heldout")):
-        got = {r[0]: r for r in rows if r[1] == bench_set}
-        x = np.arange(len(names)) + (k - 0.5) * 0.38
-        a1.bar(x, [100 * got[n][3] if n in got else 0 for n in names], 0.38, label=bench_set)
-        a2.bar(x, [got[n][4] if n in got else math.nan for n in names], 0.38, label=bench_set)
-    for ax, label in ((a1, "success rate, %"), (a2, "mimicry error over successes, mm")):
-        ax.set_xticks(np.arange(len(names)), names, rotation=35, ha="right")
-        ax.set_ylabel(label)
-        ax.legend()
-    a2.axhline(1.0, color="k", lw=0.8, ls="--")
-    fig.suptitle("TriPlanarShear-v1, default bench: nominal specimen (12 loads) and held-out specimens")
-    _save(fig, out / "heldout.png")
+Row = tuple[str, str, dict[str, Any], Sequence[Sequence[Any]]]   # (label, bench set, stats, outcomes per seed)
 
 
-def designs_plot(out: Path, rows: Sequence[Sequence[Any]]) -> None:
-    """Mimicry error (over successes) against hardware demand; marker size shows the success rate."""
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for kind, marker in (("best_scripted", "o"), ("ppo", "s")):
-        mine = [r for r in rows if r[5].startswith(kind)]
-        ax.scatter([r[9] for r in mine], [r[7] for r in mine], s=[20 + 80 * r[6] for r in mine], marker=marker,
-                   label="best scripted" if kind == "best_scripted" else "robust PPO (short budget)", alpha=0.7)
-        for r in mine:
-            ax.annotate(r[0], (r[9], r[7]), fontsize=6, xytext=(3, 2), textcoords="offset points")
-    ax.axhline(1.0, color="k", lw=0.8, ls="--")
-    ax.set_xlabel("hardware demand (ordinal sum: tip, stage bandwidth, latency, sensor noise)")
-    ax.set_ylabel("held-out mimicry error over successes, mm")
-    ax.legend(fontsize=8)
-    _save(fig, out / "designs.png")
+def _errors(outcomes: Sequence[Sequence[Any]]) -> np.ndarray:
+    values = np.array([o.mimicry_error_mm for seed in outcomes for o in seed], dtype=float)
+    return values[np.isfinite(values)]
 
 
-def curves_plot(out: Path, run_dirs: Sequence[Path]) -> None:
+def _xerr(value: float, low: float, high: float) -> list[list[float]]:
+    """Error-bar lengths; a percentile interval need not contain the point estimate (small, skewed samples), so
+    a side that would be negative is drawn as zero."""
+    return [[max(0.0, value - low)], [max(0.0, high - value)]]
+
+
+def rows_plot(path: Path, rows: Sequence[Row], title: str) -> None:
+    """One line per row (controller and bench set), labels on the left: error distribution with the mean's
+    interval (left panel, log scale: the errors span 0.1-20 mm) and success rate with its interval (right)."""
+    n = len(rows)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 1.2 + 0.32 * n), sharey=True,
+                                 gridspec_kw={"width_ratios": [3, 1]}, layout="constrained")
+    rng = np.random.default_rng(0)  # jitter only
+    y = np.arange(n)[::-1]
+    seen: set[str] = set()
+    for yi, (label, bench_set, s, outcomes) in zip(y, rows):
+        colour = COLOURS.get(bench_set, "tab:purple")
+        errors = _errors(outcomes)
+        a1.scatter(errors, yi + rng.uniform(-0.25, 0.25, errors.size), s=4, alpha=0.35, color=colour, lw=0,
+                   label=None if bench_set in seen else bench_set)
+        seen.add(bench_set)
+        if np.isfinite(s["mimicry_error_mm"]):
+            a1.errorbar(s["mimicry_error_mm"], yi, xerr=_xerr(s["mimicry_error_mm"], s["error_low_mm"],
+                                                              s["error_high_mm"]),
+                        fmt="D", color="k", ms=4, capsize=3, lw=1.2)
+            a1.plot(s["cvar10_mm"], yi, marker="|", color="k", ms=9)
+        rate = 100 * s["success_rate"]
+        a2.errorbar(rate, yi, xerr=_xerr(rate, 100 * s["success_low"], 100 * s["success_high"]), fmt="o",
+                    color=colour, capsize=3)
+    a1.axvline(TARGET_MM, color="k", lw=0.8, ls="--")
+    a1.set_xscale("log")
+    a1.xaxis.set_major_formatter(ScalarFormatter())
+    a1.xaxis.set_minor_formatter(NullFormatter())
+    a1.set_yticks(y, [f"{r[0]} ({r[1]})" for r in rows], fontsize=8)
+    a1.set_xlabel("mimicry error of successful episodes, mm (points: episodes; diamond: mean with 95 % CI; "
+                  "bar: worst-decile mean)", fontsize=8)
+    a1.legend(fontsize=7, loc="lower right", markerscale=3)
+    a2.set_xlabel("success rate, % (95 % CI)", fontsize=8)
+    a2.set_xlim(min(50.0, min(100 * r[2]["success_low"] for r in rows) - 5), 101)
+    fig.suptitle(title, fontsize=10)
+    save_figure(fig, path, dpi=110)
+
+
+def designs_plot(path: Path, rows: Sequence[dict[str, Any]]) -> None:
+    """The design sweep: one line per design and controller, sorted by hardware demand, labels on the left; mean
+    error with its 95 % interval and the success rate with its interval."""
+    n = len(rows)
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(12, 1.2 + 0.3 * n), sharey=True, gridspec_kw={"width_ratios": [3, 1]},
+                                 layout="constrained")
+    y = np.arange(n)[::-1]
+    for yi, r in zip(y, rows):
+        colour = "tab:orange" if r["controller"].startswith("ppo") else "tab:blue"
+        if np.isfinite(r["mimicry_error_mm"]):
+            a1.errorbar(r["mimicry_error_mm"], yi, xerr=_xerr(r["mimicry_error_mm"], r["error_low_mm"],
+                                                              r["error_high_mm"]),
+                        fmt="D", color=colour, ms=4, capsize=3)
+        rate = 100 * r["success_rate"]
+        a2.errorbar(rate, yi, xerr=_xerr(rate, 100 * r["success_low"], 100 * r["success_high"]), fmt="o",
+                    color=colour, capsize=3)
+    a1.axvline(TARGET_MM, color="k", lw=0.8, ls="--")
+    a1.set_yticks(y, [f"{r['design']} (demand {r['demand']}): {r['controller']}" for r in rows], fontsize=7)
+    a1.set_xlabel("held-out mimicry error over successes, mm (mean, 95 % CI); blue: best scripted, orange: robust "
+                  "PPO; dashed: the 1 mm target", fontsize=8)
+    a2.set_xlabel("success rate, % (95 % CI)", fontsize=8)
+    fig.suptitle("Design sweep (TriPlanarShear-v1, held-out benches with each design's tip)", fontsize=10)
+    save_figure(fig, path, dpi=110)
+
+
+def curves_plot(path: Path, run_dirs: Sequence[Path]) -> None:
     """Robust PPO's learning curves on the tuning benches: success rate, error over successes, score (one line per
     run, named ``kind/seed_S``: ``ppo_robust`` frame stack, ``ppo_recurrent`` LSTM)."""
     fig, axes = plt.subplots(1, 3, figsize=(13, 3.6))
@@ -69,10 +109,4 @@ def curves_plot(out: Path, run_dirs: Sequence[Path]) -> None:
         ax.set_xlabel("timesteps")
         ax.set_ylabel(label)
         ax.legend(fontsize=7)
-    _save(fig, out / "robust_learning_curves.png")
-
-
-def write_all(out: Path, heldout_rows, design_rows, run_dirs) -> None:
-    heldout_plot(out, heldout_rows)
-    designs_plot(out, design_rows)
-    curves_plot(out, run_dirs)
+    save_figure(fig, path, dpi=110)

@@ -25,11 +25,11 @@ PACKAGES = ("triplanar", "envs", "agents", "experiments")
 # Each package may import only the packages listed here (besides itself): data flows left to right.
 MAY_IMPORT = {"triplanar": (), "envs": ("triplanar",), "agents": ("triplanar", "envs"),
               "experiments": ("triplanar", "envs", "agents")}
-# Imports of a higher layer that are part of the design, as (module, enclosing function): the `train` and `study`
-# commands load the RL stack inside run() after checking that the `rl` extra is installed, and the warm-up compiles
+# Imports of a higher layer that are part of the design, as (module, enclosing function): the `train`, `study` and
+# `evaluate` commands load the RL stack inside run() after checking that the `rl` extra is installed, and the warm-up compiles
 # the environments' kernels through their public API when Gymnasium is installed.
 ALLOWED_UPWARD = {("triplanar.commands.train", "run"), ("triplanar.commands.study", "run"),
-                  ("triplanar.warmup", "warm_envs")}
+                  ("triplanar.commands.evaluate", "run"), ("triplanar.warmup", "warm_envs")}
 # The one import circle left: `agents.train_ppo` takes the `train` command's arguments (argparse.Namespace) and
 # declares its options through `triplanar.commands.train.add_arguments`. The env's rewrite gives it a config object of
 # its own and removes this exception.

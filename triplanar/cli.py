@@ -14,7 +14,7 @@ import threading
 
 from .commands import MissingDependency
 
-COMMANDS = ("simulate", "lab_data", "paper", "compare", "diagnose", "fit", "train", "study", "demo")
+COMMANDS = ("simulate", "lab_data", "paper", "compare", "diagnose", "fit", "train", "study", "evaluate", "demo")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -1,6 +1,6 @@
 """CLI subcommands; each module: NAME, HELP, add_arguments(parser), run(args) -> int.
 
-A command that needs the RL stack (``train``, ``study``) imports :mod:`agents`/:mod:`experiments` inside
+A command that needs the RL stack (``train``, ``study``, ``evaluate``) imports :mod:`agents`/:mod:`experiments` inside
 ``run()`` only, so ``triplanar --help`` and the physics and workbench commands work without torch.
 """
 

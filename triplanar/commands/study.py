@@ -7,6 +7,7 @@ neither the agents nor torch; :func:`run` calls :func:`experiments.study.run_stu
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ..cli_args import add_executor_arguments, executor_from_args
 from . import require
@@ -21,7 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ppo-dir", default="runs/ppo", help="PPO runs (trained here unless --skip-train). Its "
                         "final_model.zip and vecnormalize.pkl are loaded with (cloud)pickle, which runs code: use "
                         "only runs you trained or that come from a trusted source")
-    parser.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2], help="PPO seeds (default 0 1 2)")
+    parser.add_argument("--seeds", type=int, nargs="+", default=None,
+                        help="PPO seeds (default 0 1 2; with --bench 0 1 2 3 4)")
     parser.add_argument("--timesteps", type=positive_int, help="PPO timesteps per seed (default: the YAML's)")
     parser.add_argument("--config", help="PPO hyperparameter YAML (default agents/ppo.yaml)")
     parser.add_argument("--doc", default=None, metavar="REPORT.md",
@@ -30,15 +32,19 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--overwrite-doc", action="store_true", help="allow --doc to replace an existing file")
     parser.add_argument("--skip-train", action="store_true", help="use finished runs in --ppo-dir as they are")
     parser.add_argument("--bench", action="store_true",
-                        help="the bench study on TriPlanarShear-v1 instead (experiments.bench_study): held-out "
-                             "benches, feedback/adaptive controllers, robust PPO (--timesteps, default 300000; "
-                             "recurrent: --recurrent-timesteps), "
-                             "the design sweep; resumable in --out")
-    parser.add_argument("--recurrent-timesteps", type=int, default=150_000,
+                        help="the bench study on TriPlanarShear-v1 instead (experiments.bench_study): held-out and "
+                             "stress benches, feedback/adaptive controllers, robust PPO (--seeds, default 0-4; "
+                             "--timesteps, default 2000000; recurrent: --recurrent-timesteps), the design sweep; "
+                             "every row with 95 %% intervals; resumable in --out; --doc writes its report")
+    parser.add_argument("--recurrent-timesteps", type=int, default=None,
                         help="with --bench: recurrent PPO (sb3-contrib RecurrentPPO, LSTM) timesteps per seed "
-                             "(default 150000; 0 leaves it out)")
-    parser.add_argument("--design-timesteps", type=positive_int, default=40_000,
-                        help="with --bench: robust PPO timesteps per design of the sweep (default 40000)")
+                             "(default: as --timesteps; 0 leaves it out)")
+    parser.add_argument("--design-seeds", type=int, nargs="+", default=[0, 1, 2],
+                        help="with --bench: robust PPO seeds per design of the sweep (default 0 1 2)")
+    parser.add_argument("--design-timesteps", type=positive_int, default=1_000_000,
+                        help="with --bench: robust PPO timesteps per design and seed (default 1000000)")
+    parser.add_argument("--n-heldout", type=positive_int, default=200,
+                        help="with --bench: held-out benches, and as many stress benches (default 200)")
     parser.add_argument("--in-sample-run", help="with --bench: a finished v0 PPO run directory (OUT/seed_S of "
                         "`triplanar train`) to evaluate on the held-out benches as ppo_in_sample")
     add_executor_arguments(parser)  # the tasks: one per PPO seed, then one per controller (its episodes at every load)
@@ -48,16 +54,21 @@ def run(args: argparse.Namespace) -> int:
     require()
     with executor_from_args(args) as executor:
         if args.bench:
-            from experiments.bench_study import run_bench_study
-            if args.recurrent_timesteps < 0:
+            from experiments.bench_study import SEEDS, run_bench_study
+            timesteps = args.timesteps or 2_000_000
+            recurrent = timesteps if args.recurrent_timesteps is None else args.recurrent_timesteps
+            if recurrent < 0:
                 raise SystemExit("--recurrent-timesteps must be >= 0")
-            run_bench_study(args.out, seeds=args.seeds, ppo_timesteps=args.timesteps or 300_000,
-                            recurrent_timesteps=args.recurrent_timesteps or None,
-                            design_ppo_timesteps=args.design_timesteps, in_sample_run=args.in_sample_run,
+            if args.doc and Path(args.doc).exists() and not args.overwrite_doc:
+                raise SystemExit(f"--doc {args.doc} exists; pass --overwrite-doc to replace it")
+            run_bench_study(args.out, seeds=args.seeds or list(SEEDS), ppo_timesteps=timesteps,
+                            recurrent_timesteps=recurrent or None,
+                            design_seeds=args.design_seeds, design_ppo_timesteps=args.design_timesteps,
+                            n_heldout=args.n_heldout, in_sample_run=args.in_sample_run, doc=args.doc,
                             executor=executor)
             return 0
         from experiments.study import run_study  # the RL stack, only when run
-        run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds, timesteps=args.timesteps,
+        run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds or [0, 1, 2], timesteps=args.timesteps,
                   train=not args.skip_train, doc=args.doc or None, overwrite_doc=args.overwrite_doc,
                   executor=executor, **({"config": args.config} if args.config else {}))
         return 0

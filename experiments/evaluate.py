@@ -1,0 +1,135 @@
+"""``triplanar evaluate``: any scripted or shipped controller on the held-out, stress or nominal benches, with the
+statistics of :mod:`experiments.stats`.
+
+Writes ``OUT/{bench_set}.csv`` (one row: the controller, design, bench set and the statistics columns of
+:data:`experiments.tables.STATS_FIELDS`), ``OUT/{bench_set}_episodes.csv`` (one row per episode and seed),
+``OUT/{bench_set}.json`` (the same row with its settings) and ``OUT/{bench_set}.png``; each complete or not at all.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Sequence
+
+from agents.heldout import BENCH_SETS, FAILURE_SCORE_MM
+from triplanar.workbench.executor import ExecutorLike, run_tasks
+
+from . import tables
+from .designs import Design, design_by_name
+from .episodes import EpisodeBatch, outcome_table, run_batch
+from .stats import row_stats
+
+DEFAULT_DESIGN = "default"
+STEEL_TIP_DEG = 8.0     # the nominal specimen's tip: what the model-based controllers assume on the default bench
+# Gains tuned by the bench study on its tuning benches (docs/actuator-study/tuning.csv); the study re-tunes them.
+PI_GAINS = {"kp": -20.0, "ki": 200.0}
+ADAPTIVE_GAINS = {"gain_deg_per_m_s": -1e5}
+# name -> (agents.bench_controllers factory, fixed tip of its hardware (None: the bench's), uses the assumed tip)
+SCRIPTED = {"steel_tip": ("fixed_tip", None, False), "teflon_tip": ("fixed_tip", 3.0, False),
+            "frictionless_tip": ("fixed_tip", 0.0, False), "tracking_tip": ("tracking_tip", None, False),
+            "moment_matching": ("moment_matching", None, True), "pi_feedback": ("pi_feedback", None, True),
+            "adaptive": ("adaptive", None, False)}
+
+
+def controller_names(zoo_dir: Path | None = None) -> list[str]:
+    """Every controller ``evaluate`` knows: the scripted ones, then the shipped agents."""
+    from agents.zoo import shipped_names
+    return list(SCRIPTED) + shipped_names(zoo_dir)
+
+
+def design_names() -> list[str]:
+    from .designs import DESIGNS
+    return [DEFAULT_DESIGN] + [d.name for d in DESIGNS]
+
+
+def scripted_batch(name: str, design: Design | None, bench_set: str, n: int, seed: int,
+                   pi: dict[str, float] | None = None, adaptive: dict[str, float] | None = None,
+                   label: str | None = None) -> EpisodeBatch:
+    """The batch of scripted controller ``name`` on ``design`` (None: the default bench)."""
+    factory, fixed_tip, assumes_tip = SCRIPTED[name]
+    bench_tip = design.tip_friction_deg if design is not None else None
+    params: dict[str, float] = {}
+    if assumes_tip:
+        params["tip_friction_deg"] = bench_tip if bench_tip is not None else STEEL_TIP_DEG
+    if factory == "pi_feedback":
+        params.update(pi or PI_GAINS)
+    if factory == "adaptive":
+        params.update(adaptive or ADAPTIVE_GAINS)
+    kwargs = tuple(sorted(design.env_kwargs().items())) if design is not None else ()
+    return EpisodeBatch(label or name, factory, tuple(params.items()), bench_set, n,
+                        fixed_tip if fixed_tip is not None else bench_tip, kwargs, seed)
+
+
+def batches_for(controller: str, design: Design | None, bench_set: str, n: int, seeds: Sequence[int] | None,
+                zoo_dir: Path | None = None) -> list[EpisodeBatch]:
+    """One batch per seed of ``controller`` (scripted: noise replicates, default seed 0; shipped: its training
+    seeds, default all of its card's)."""
+    if controller in SCRIPTED:
+        return [scripted_batch(controller, design, bench_set, n, s) for s in (seeds or [0])]
+    from agents.zoo import check_layout, read_card
+    card = read_card(controller, zoo_dir)
+    check_layout(card, {**card["env_kwargs"], **(design.env_kwargs() if design is not None else {})})  # before any work
+    chosen = list(seeds) if seeds else list(card["seeds"])
+    unknown = [s for s in chosen if s not in card["seeds"]]
+    if unknown:
+        raise ValueError(f"--seeds {unknown}: shipped agent {controller!r} has seeds {card['seeds']}")
+    kwargs = tuple(sorted(design.env_kwargs().items())) if design is not None else ()
+    tip = design.tip_friction_deg if design is not None else None
+    return [EpisodeBatch(controller, f"shipped:{controller}", (), bench_set, n, tip, kwargs, s,
+                         str(zoo_dir) if zoo_dir else None) for s in chosen]
+
+
+@dataclass
+class Evaluation:
+    controller: str
+    design: str
+    bench_set: str
+    seeds: list[int]
+    stats: dict[str, Any]
+    outcomes: list[list[Any]]    # per seed, per bench (agents.heldout.Outcome)
+    wall_s: float
+
+
+def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = "heldout", n: int = 200,
+             seeds: Sequence[int] | None = None, executor: ExecutorLike = None, zoo_dir: Path | None = None,
+             progress: bool = True) -> Evaluation:
+    """Run ``controller`` on ``n`` benches of ``bench_set`` (the nominal set has its 12 loads) for each seed."""
+    from agents import zoo
+    zoo_dir = Path(zoo_dir or zoo.ZOO_DIR)   # named explicitly in every task
+    names = controller_names(zoo_dir)
+    if controller not in names:
+        raise ValueError(f"unknown controller {controller!r}; choose from {names}")
+    if bench_set not in BENCH_SETS:
+        raise ValueError(f"unknown bench set {bench_set!r}; choose from {list(BENCH_SETS)}")
+    if n <= 0:
+        raise ValueError(f"n must be a positive number of benches, got {n}")
+    if design not in design_names():
+        raise ValueError(f"unknown design {design!r}; choose from {design_names()}")
+    chosen = None if design == DEFAULT_DESIGN else design_by_name(design)
+    batches = batches_for(controller, chosen, bench_set, n, seeds, zoo_dir)
+    started = time.perf_counter()
+    results = run_tasks(run_batch, batches, executor=executor, progress=progress, desc=f"{controller} on {bench_set}")
+    errors, success = outcome_table(batches, results)
+    return Evaluation(controller, design, bench_set, [b.seed for b in batches],
+                      row_stats(errors, success, FAILURE_SCORE_MM), results, time.perf_counter() - started)
+
+
+def write(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
+    """The CSV, episodes CSV, JSON and PNG of an evaluation (each atomic)."""
+    from . import bench_plots
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    e, stem = evaluation, evaluation.bench_set
+    paths = [out / f"{stem}.csv", out / f"{stem}_episodes.csv", out / f"{stem}.json", out / f"{stem}.png"]
+    tables.write_csv(paths[0], ["controller", "design", "bench_set", *tables.STATS_FIELDS],
+                     [[e.controller, e.design, e.bench_set, *tables.stats_cells(e.stats)]])
+    tables.write_csv(paths[1], tables.EPISODE_FIELDS,
+                     [tables.episode_cells(o, seed) for seed, outcomes in zip(e.seeds, e.outcomes) for o in outcomes])
+    tables.write_json(paths[2], {"controller": e.controller, "design": e.design, "bench_set": e.bench_set,
+                                 "seeds": e.seeds, "wall_s": e.wall_s, **e.stats})
+    label = e.controller if e.design == DEFAULT_DESIGN else f"{e.controller} ({e.design})"
+    bench_plots.rows_plot(paths[3], [(label, e.bench_set, e.stats, e.outcomes)],
+                          f"TriPlanarShear-v1, {e.design} bench, {e.bench_set} benches")
+    return paths
