@@ -12,7 +12,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from envs.triplanar_shear import (OBS_FACE, OBS_LOAD, OBS_OFFSET, OBS_POS, OBS_VEL, ShearConfig)
+from envs.core import (OBS_FACE, OBS_LOAD, OBS_OFFSET, OBS_POS, OBS_VEL, ShearConfig)
 from triplanar import kernel as K
 from triplanar.model import Loading, Model
 

@@ -50,14 +50,14 @@ def evaluate(controller: Controller, load_N: float, *, seed: int | None = 0,
     env = make_env(controller, load_N, env_kwargs)
     controller.setup(env.config)
     obs, _ = env.reset(seed=seed)
-    cps, actions, thrust, offset, total = [env._contact_points()], [], [], [], 0.0
+    cps, actions, thrust, offset, total = [env.contact_points()], [], [], [], 0.0
     while True:
         action = np.asarray(controller.act(obs), dtype=np.float32)
         obs, reward, terminated, truncated, info = env.step(action)
         actions.append(action)
         thrust.append(info["thrust_N"])
         offset.append(info["tip_offset_m"])
-        cps.append(env._contact_points())
+        cps.append(env.contact_points())
         total += reward
         if terminated or truncated:
             break

@@ -23,8 +23,8 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from envs.triplanar_shear import EpisodeDraw, StartError, episode_start, make_config, specimen_key
 from envs import triplanar_shear_v1 as v1
+from envs.core import EpisodeDraw, StartError, episode_start, make_config, specimen_key
 from envs.triplanar_shear_v1 import BENCH_FIELDS, Bench, TriPlanarShearV1Env, draw_bench
 from triplanar import PAPER_LOADS_N
 from triplanar.specimen import Foundation, Plane, Specimen

@@ -1,7 +1,8 @@
-"""A stable-baselines3 ``VecEnv`` over the batched TriPlanarShear arrays (:class:`envs.vector.ShearBatch`).
+"""A stable-baselines3 ``VecEnv`` over the batched TriPlanarShear arrays: v0's (:class:`envs.vector.ShearBatch`) or
+v1's (:class:`envs.vector_v1.BenchBatch`, with its frame stack and start bank).
 
 It lives with the agents, not in :mod:`envs`, because stable-baselines3 (and torch with it) is an agent's
-dependency: ``import envs`` and ``gym.make_vec("TriPlanarShear-v0")`` work without them.
+dependency: ``import envs`` and ``gym.make_vec`` work without them.
 """
 
 from __future__ import annotations
@@ -10,40 +11,60 @@ from typing import Any, Sequence
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv
 
-from envs import triplanar_shear as S
+from envs import core as S
+from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
 from envs.vector import ShearBatch
-from triplanar.outcome import TRAVEL
+from envs.vector_v1 import BANK_REUSE, BenchBatch
 
-__all__ = ["ShearSB3VecEnv"]
+__all__ = ["ShearSB3VecEnv", "bench_vec_env"]
 
 
 class ShearSB3VecEnv(VecEnv):
-    """stable-baselines3 ``VecEnv`` over a :class:`ShearBatch` (same-step autoreset, as SB3's ``DummyVecEnv``).
+    """stable-baselines3 ``VecEnv`` over a batch (same-step autoreset, as SB3's ``DummyVecEnv``).
 
-    ``row_options`` fixes reset options per environment, e.g. one load level each for evaluation:
-    ``ShearSB3VecEnv(12, row_options=[{"load_N": f} for f in PAPER_LOADS_N])``.
+    ``ShearSB3VecEnv(n, config, seed=s, **v0_kwargs)`` batches ``TriPlanarShear-v0``; :func:`bench_vec_env` batches
+    ``TriPlanarShear-v1``. ``row_options`` (v0) fixes reset options per environment, e.g. one load level each for
+    evaluation: ``ShearSB3VecEnv(12, row_options=[{"load_N": f} for f in PAPER_LOADS_N])``.
 
-    At an episode's end ``infos[i]`` has ``terminal_observation``, ``TimeLimit.truncated``, ``is_success``,
-    ``reason`` and ``mimicry_error_mm``; otherwise it is empty.
+    Observations are flat (a frame stack of ``k`` frames of ``dim`` values is ``k * dim`` values, oldest first, as
+    ``FlattenObservation(FrameStackObservation(env, k))``). At an episode's end ``infos[i]`` has
+    ``terminal_observation``, ``TimeLimit.truncated``, ``is_success``, ``reason``, ``mimicry_error_mm``,
+    ``travel_m`` and ``load_N``; otherwise it is empty (nothing is copied per step but the arrays SB3 keeps).
     """
 
     def __init__(self, num_envs: int, config: S.ShearConfig | None = None, seed: int | None = None,
-                 row_options: Sequence[dict[str, Any] | None] | None = None, **kwargs: Any):
-        config = S.make_config(config, **kwargs)
-        self.batch = ShearBatch(num_envs, config)
+                 row_options: Sequence[dict[str, Any] | None] | None = None, *,
+                 batch: ShearBatch | BenchBatch | None = None, **kwargs: Any):
+        if batch is None:
+            config = S.make_config(config, **kwargs)
+            batch = ShearBatch(num_envs, config)
+            space = S.observation_space()
+        else:
+            if config is not None or kwargs:
+                raise ValueError("give either a batch or the env's configuration, not both")
+            space = batch.single_observation_space()
         if row_options is not None:
+            if not isinstance(batch, ShearBatch):
+                raise ValueError("row_options is for v0's batch; v1's rows draw their own benches")
             if len(row_options) != num_envs:
                 raise ValueError(f"row_options needs {num_envs} entries, got {len(row_options)}")
-            self.batch.row_options = list(row_options)
-        self.config = config
+            batch.row_options = list(row_options)
+        if batch.num_envs != num_envs:
+            raise ValueError(f"num_envs {num_envs} differs from the batch's {batch.num_envs}")
+        self.batch, self.config = batch, batch.config
         self.render_mode = None
-        super().__init__(num_envs, S.observation_space(), S.action_space())
+        flat = spaces.Box(space.low.reshape(-1), space.high.reshape(-1), dtype=np.float32)
+        super().__init__(num_envs, flat, S.action_space())
         if seed is not None:
             self.seed(seed)
         self._actions = np.zeros((num_envs, 2))
         self._all = np.ones(num_envs, dtype=np.bool_)
+
+    def _flat_observations(self) -> np.ndarray:
+        return self.batch.observations().reshape(self.num_envs, -1)
 
     def reset(self):
         seeds = self._seeds
@@ -53,8 +74,8 @@ class ShearSB3VecEnv(VecEnv):
         self.batch.reset_rows(np.arange(self.num_envs), options)
         self._reset_seeds()
         self._reset_options()
-        self.reset_infos = [{"load_N": d.load_N} for d in self.batch.draws]
-        return self.batch.OBS.astype(np.float32)
+        self.reset_infos = [self.batch.reset_info(i) for i in range(self.num_envs)]
+        return self._flat_observations()
 
     def step_async(self, actions: np.ndarray) -> None:
         self._actions[:] = np.asarray(actions, dtype=np.float64).reshape(self.num_envs, 2)
@@ -62,21 +83,18 @@ class ShearSB3VecEnv(VecEnv):
     def step_wait(self):
         batch = self.batch
         codes = batch.step(self._actions, self._all)
-        obs = batch.OBS.astype(np.float32)
-        rewards = batch.INF[:, S.IN_REWARD].astype(np.float32)
-        terminated = codes > 0
-        truncated = batch.INF[:, S.IN_TRUNC] != 0
-        dones = terminated | truncated
+        obs = self._flat_observations()
+        rewards = batch.rewards().astype(np.float32)
+        truncated = batch.truncated()
+        dones = (codes > 0) | truncated
         infos: list[dict[str, Any]] = [{} for _ in range(self.num_envs)]
         ended = np.flatnonzero(dones)
         for i in ended:
             infos[i] = {"terminal_observation": obs[i].copy(), "TimeLimit.truncated": bool(truncated[i]),
-                        "is_success": bool(codes[i] == TRAVEL), "reason": batch.reason(i),
-                        "mimicry_error_mm": float(batch.INF[i, S.IN_ERR]), "travel_m": float(batch.INF[i, S.IN_TRAVEL]),
-                        "load_N": float(batch.INF[i, S.IN_LOAD])}
+                        **batch.episode_info(i)}
         if len(ended):
             batch.reset_rows(ended)
-            obs[ended] = batch.OBS[ended]
+            obs[ended] = self._flat_observations()[ended]
         return obs, rewards, dones, infos
 
     def close(self) -> None:
@@ -96,3 +114,14 @@ class ShearSB3VecEnv(VecEnv):
 
     def get_images(self) -> Sequence[np.ndarray | None]:
         return [None for _ in range(self.num_envs)]
+
+
+def bench_vec_env(num_envs: int, seed: int | None = None, *, frame_stack: int = 1, start_bank: int = 0,
+                  bank_reuse: int = BANK_REUSE, **v1_kwargs: Any) -> ShearSB3VecEnv:
+    """``TriPlanarShear-v1`` x ``num_envs`` as an SB3 ``VecEnv`` (every v1 argument, plus the batch's frame stack
+    and start bank: :mod:`envs.vector_v1`); env ``i`` is seeded ``seed + i``."""
+    bench_kwargs = {k: v for k, v in v1_kwargs.items() if k in BENCH_FIELDS}
+    shear_kwargs = {k: v for k, v in v1_kwargs.items() if k not in BENCH_FIELDS}
+    bench = BenchConfig(**bench_kwargs)
+    batch = BenchBatch(num_envs, S.make_config(None, **shear_kwargs), bench, frame_stack, start_bank, bank_reuse)
+    return ShearSB3VecEnv(num_envs, seed=seed, batch=batch)

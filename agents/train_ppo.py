@@ -1,4 +1,4 @@
-"""Train PPO on TriPlanarShear-v0: ``python -m agents.train_ppo --out runs/ppo --seed 0`` (or ``triplanar train``).
+"""Train PPO on TriPlanarShear-v0: ``triplanar train --out runs/ppo --seed 0`` (:mod:`agents.training`).
 
 Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run directory ``OUT/seed_S`` holds:
 
@@ -24,7 +24,6 @@ Resuming loads the checkpoints with pickle/cloudpickle, which runs the code in t
 
 from __future__ import annotations
 
-import argparse
 import csv
 import json
 import os
@@ -33,7 +32,7 @@ import sys
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import yaml
@@ -55,7 +54,8 @@ class TrainResult:
     wall_s: float
 
 
-CONFIG_KEYS = ("env", "n_envs", "normalize", "ppo", "train", "eval_loads")
+CONFIG_KEYS = ("env_id", "env", "n_envs", "normalize", "ppo", "train", "eval_loads")
+ENV_ID = "TriPlanarShear-v0"
 TRAIN_KEYS = ("total_timesteps", "eval_freq", "checkpoint_freq", "torch_threads")
 NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma", "epsilon", "norm_obs_keys")
 
@@ -89,6 +89,9 @@ def _positive_int(value: Any, where: str) -> int:
 
 def check_config(config: dict[str, Any], source: str = "config") -> None:
     """Refuse unknown keys and values that would fail only after training (ValueError naming the key)."""
+    if config.get("env_id", ENV_ID) != ENV_ID:
+        raise ValueError(f"{source}: env_id is {config['env_id']!r}: this trainer runs {ENV_ID} (give --env "
+                         f"{config['env_id']} to train on it)")
     for key in config:
         if key not in CONFIG_KEYS:
             raise ValueError(f"{source}: unknown key {key!r}; known keys: {', '.join(CONFIG_KEYS)}")
@@ -239,7 +242,7 @@ def _truncate_curve(curve_path: Path, timesteps: int) -> None:
 
 def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str | Path = "runs/ppo", seed: int = 0,
               total_timesteps: int | None = None, resume: bool = True, callbacks: Sequence[Any] = (),
-              verbose: int = 0) -> TrainResult:
+              verbose: int = 0, progress: bool = False) -> TrainResult:
     """Train (or resume) one PPO run; see the module docstring for what it writes."""
     import torch
     from stable_baselines3 import PPO
@@ -300,6 +303,9 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     saver = _checkpoint_callback(max(1, int(train_cfg.get("checkpoint_freq", 50_000)) // n_envs),
                                  run_dir / "checkpoints")
     remaining = max(0, total - done)
+    if progress:
+        from .progress import progress_callback
+        callbacks = [*callbacks, progress_callback(total, f"PPO seed {seed}")]
     if remaining:
         model.learn(total_timesteps=remaining, callback=CallbackList([saver, evaluation, *callbacks]),
                     reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
@@ -321,10 +327,12 @@ class SeedRun:
     total_timesteps: int | None = None
     resume: bool = True
     verbose: int = 0
+    progress: bool = False
 
 
 def train_seed_run(run: SeedRun) -> TrainResult:
-    return train_ppo(run.config, run.out_dir, run.seed, run.total_timesteps, resume=run.resume, verbose=run.verbose)
+    return train_ppo(run.config, run.out_dir, run.seed, run.total_timesteps, resume=run.resume, verbose=run.verbose,
+                     progress=run.progress)
 
 
 def train_seeds(config: str | Path | dict[str, Any], out_dir: str | Path, seeds: Sequence[int],
@@ -332,25 +340,5 @@ def train_seeds(config: str | Path | dict[str, Any], out_dir: str | Path, seeds:
                 executor: ExecutorLike = "serial", progress: bool = False) -> list[TrainResult]:
     """:func:`train_ppo` for each seed (one task per seed, through ``executor``), results in seed order. A seed
     whose worker dies (Ray retries it) resumes from its own checkpoints in ``OUT/seed_S``."""
-    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose) for seed in seeds]
+    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose, progress) for seed in seeds]
     return run_tasks(train_seed_run, tasks, executor, progress, desc="PPO seeds")
-
-
-def run(args: argparse.Namespace, executor: ExecutorLike = "serial") -> int:
-    seeds = args.seed or [0]
-    results = train_seeds(args.config or DEFAULT_CONFIG, args.out, seeds, args.timesteps, not args.no_resume,
-                          args.verbose, executor)
-    for seed, result in zip(seeds, results):
-        print(f"seed {seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.model_path}")
-    return 0
-
-
-def main(argv: Iterable[str] | None = None) -> int:
-    from triplanar.commands.train import add_arguments  # the options are the CLI's
-    parser = argparse.ArgumentParser(prog="python -m agents.train_ppo", description=__doc__.splitlines()[0])
-    add_arguments(parser)
-    return run(parser.parse_args(None if argv is None else list(argv)))
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -1,17 +1,25 @@
-"""Robust PPO: trained on ``TriPlanarShear-v1`` in bench mode under randomisation (unknown specimens), with history
-either from a 4-frame stack (``algo="ppo"``: stable-baselines3's PPO on ``gymnasium.wrappers.FrameStackObservation``,
-flattened: 60 inputs; the controller ``ppo_robust``) or from a recurrent policy (``algo="recurrent"``: sb3-contrib's
-``RecurrentPPO`` with ``MlpLstmPolicy`` on the 15 bench observations; the controller ``ppo_recurrent``).
+"""Robust PPO: trained on ``TriPlanarShear-v1`` (by default in bench mode under randomisation: unknown specimens),
+with history either from a frame stack (``algo: ppo``: stable-baselines3's PPO on the batched v1's built-in stack,
+flattened, as ``FlattenObservation(FrameStackObservation(env, 4))``: 60 inputs; the controller ``ppo_robust``) or from
+a recurrent policy (``algo: recurrent``: sb3-contrib's ``RecurrentPPO`` with ``MlpLstmPolicy`` on the 15 bench
+observations; the controller ``ppo_recurrent``).
+
+Everything a run needs is an rl-zoo-style YAML file (``agents/robust.yaml``: the default bench, frame stack;
+``agents/recurrent.yaml``: the LSTM): the env id and its arguments (any v1 argument, plus the batch's
+``frame_stack``, ``start_bank``, ``bank_reuse``), ``n_envs`` (one batched env, :func:`agents.sb3_vec_env.bench_vec_env`),
+``normalize`` (VecNormalize), ``policy``, ``hyperparams`` and ``train`` (steps, evaluation and checkpoint intervals,
+torch threads). ``triplanar train --env TriPlanarShear-v1 --config agents/robust.yaml`` runs it.
 
 ``train_seeds(out_dir, seeds, timesteps, executor=...)`` trains one run per seed through the project's executor
 (:func:`triplanar.workbench.executor.run_tasks`; a finished seed is read back, not trained again). Each run writes
-``OUT/seed_S/``: ``final_model.zip`` and ``vecnormalize.pkl`` (temporary name, then rename), ``learning_curve.csv``
-(at every evaluation: timesteps, wall seconds, and on ``CURVE_BENCHES`` tuning benches, never the held-out ones,
-the success rate, mimicry error over successful episodes and the score of :mod:`agents.heldout`) and ``done.json``.
-While it trains, a run saves a checkpoint every ``checkpoint_freq`` steps (``OUT/seed_S/checkpoint/``: the model,
-the normalisation statistics and the learning curve so far); an interrupted run continues from its last checkpoint
-(its remaining steps are then drawn from a generator seeded anew, so a resumed run is not bitwise the run an
-uninterrupted one would have been). The model files are pickles: load only runs you trained.
+``OUT/seed_S/``: ``config.json`` (the configuration it ran), ``final_model.zip`` and ``vecnormalize.pkl`` (temporary
+name, then rename), ``learning_curve.csv`` (at every evaluation: timesteps, wall seconds, and on ``CURVE_BENCHES``
+tuning benches, never the held-out ones, the success rate, mimicry error over successful episodes and the score of
+:mod:`agents.heldout`) and ``done.json``. While it trains, a run saves a checkpoint every ``checkpoint_freq`` steps
+(``OUT/seed_S/checkpoint/``: the model, the normalisation statistics and the learning curve so far); an interrupted
+run continues from its last checkpoint (its remaining steps are then drawn from a generator seeded anew, so a resumed
+run is not bitwise the run an uninterrupted one would have been). The model files are pickles: load only runs you
+trained.
 """
 
 from __future__ import annotations
@@ -23,7 +31,7 @@ import os
 import pickle
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -31,31 +39,97 @@ import numpy as np
 
 from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 
-FRAMES = 4
+FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
 CURVE_BENCHES = 10
-N_ENVS = 4
 CHECKPOINT_FREQ = 50_000
-PPO_KWARGS = dict(learning_rate=3e-4, n_steps=512, batch_size=256, n_epochs=10, gamma=0.99, gae_lambda=0.95,
-                  clip_range=0.2, ent_coef=0.0, max_grad_norm=0.5,
-                  policy_kwargs=dict(net_arch=[64, 64], log_std_init=-1.0))
-# RecurrentPPO: the same PPO settings; one LSTM layer of 64 cells for the actor and one for the critic, then the
-# same 64x64 heads. The buffer of 4 x 512 steps is cut into sequences at episode starts; batch_size counts steps.
-RECURRENT_KWARGS = dict(PPO_KWARGS, policy_kwargs=dict(net_arch=[64, 64], log_std_init=-1.0, lstm_hidden_size=64,
-                                                       n_lstm_layers=1, enable_critic_lstm=True))
 ALGOS = {"ppo": "ppo_robust", "recurrent": "ppo_recurrent"}  # algo -> controller name in the tables
+ROBUST_CONFIG = Path(__file__).with_name("robust.yaml")
+RECURRENT_CONFIG = Path(__file__).with_name("recurrent.yaml")
+DEFAULT_CONFIGS = {"ppo": ROBUST_CONFIG, "recurrent": RECURRENT_CONFIG}
+ENV_ID = "TriPlanarShear-v1"
+CONFIG_KEYS = ("env_id", "algo", "env", "n_envs", "normalize", "policy", "hyperparams", "train")
+TRAIN_KEYS = ("total_timesteps", "eval_freq", "checkpoint_freq", "torch_threads")
+BATCH_KEYS = ("frame_stack", "start_bank", "bank_reuse")   # the batched env's own arguments (envs.vector_v1)
 
 
-def make_env(env_kwargs: dict[str, Any] | None = None, algo: str = "ppo"):
-    """The training env: v1 in bench mode under randomisation; with the frame stack for ``algo="ppo"``."""
-    import gymnasium as gym
-    from gymnasium.wrappers import FlattenObservation, FrameStackObservation
+def _positive_int(value: Any, where: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value <= 0:
+        raise ValueError(f"{where}: expected a positive integer, got {value!r}")
+    return value
 
-    import envs  # noqa: F401 (registers the environment)
-    kwargs = {"observation_mode": "bench", "randomize": True, **(env_kwargs or {})}
-    env = gym.make("TriPlanarShear-v1", **kwargs)
-    if algo == "recurrent":
-        return env
-    return FlattenObservation(FrameStackObservation(env, FRAMES))
+
+def load_robust_config(path: str | Path = ROBUST_CONFIG, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    """The training YAML at ``path`` with ``overrides`` (``{"hyperparams.n_steps": 64}`` style), checked: a
+    ValueError names the file and the key."""
+    import yaml
+    try:
+        with open(path) as f:
+            config = yaml.safe_load(f)
+    except OSError as err:
+        raise ValueError(f"{path}: cannot read the training configuration ({err.strerror})") from None
+    except yaml.YAMLError as err:
+        raise ValueError(f"{path}: invalid YAML: {err}") from None
+    if not isinstance(config, dict):
+        raise ValueError(f"{path}: expected a mapping of keys ({', '.join(CONFIG_KEYS)}), got {type(config).__name__}")
+    for key, value in (overrides or {}).items():
+        node = config
+        *parents, leaf = key.split(".")
+        for parent in parents:
+            node = node.setdefault(parent, {})
+            if not isinstance(node, dict):
+                raise ValueError(f"{path}: override {key}: {parent} is not a mapping")
+        node[leaf] = value
+    check_robust_config(config, str(path))
+    return config
+
+
+def check_robust_config(config: dict[str, Any], source: str = "config") -> None:
+    """Refuse unknown keys and values that would fail only after training starts (ValueError naming the key)."""
+    if config.get("env_id", ENV_ID) != ENV_ID:
+        raise ValueError(f"{source}: env_id is {config['env_id']!r}: robust training runs {ENV_ID} (give --env "
+                         f"{config['env_id']} to train on it; TriPlanarShear-v0 trains with agents/ppo.yaml)")
+    for key in config:
+        if key not in CONFIG_KEYS:
+            raise ValueError(f"{source}: unknown key {key!r}; known keys: {', '.join(CONFIG_KEYS)}")
+    if config.get("algo", "ppo") not in ALGOS:
+        raise ValueError(f"{source}: algo: expected one of {', '.join(ALGOS)}, got {config['algo']!r}")
+    for section in ("env", "normalize", "hyperparams", "train"):
+        if not isinstance(config.get(section) or {}, dict):
+            raise ValueError(f"{source}: {section}: expected a mapping, got {config[section]!r}")
+    for key, value in (config.get("train") or {}).items():
+        if key not in TRAIN_KEYS:
+            raise ValueError(f"{source}: unknown key train.{key}; known keys: {', '.join(TRAIN_KEYS)}")
+        _positive_int(value, f"{source}: train.{key}")
+    if "n_envs" in config:
+        _positive_int(config["n_envs"], f"{source}: n_envs")
+    try:  # the env's own checks, on a batch of one (no specimen is drawn)
+        make_vec_env({**config, "n_envs": 1}, seed=0, check_only=True)
+    except (TypeError, ValueError) as err:
+        raise ValueError(f"{source}: env: {err}") from None
+
+
+def make_vec_env(config: dict[str, Any], seed: int, check_only: bool = False) -> Any:
+    """The training env of ``config``: ``n_envs`` batched v1 envs as one SB3 ``VecEnv``, env ``i`` seeded
+    ``seed + i`` (``check_only``: the batch's arguments checked, no SB3 adapter built)."""
+    from envs.core import ShearConfig, make_config
+    from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
+    from envs.vector_v1 import BenchBatch
+    env = dict(config.get("env") or {})
+    known = {f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS)
+    unknown = sorted(set(env) - known)
+    if unknown:
+        raise ValueError(f"unknown env argument(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+    batch_kwargs = {k: env.pop(k) for k in BATCH_KEYS if k in env}
+    bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
+    batch = BenchBatch(int(config.get("n_envs", 16)), make_config(None, **env), bench, **batch_kwargs)
+    if check_only:
+        return batch
+    from .sb3_vec_env import ShearSB3VecEnv
+    return ShearSB3VecEnv(batch.num_envs, seed=seed, batch=batch)
+
+
+def frame_stack_of(config: dict[str, Any]) -> int:
+    return int((config.get("env") or {}).get("frame_stack", 1))
 
 
 def _algo_class(algo: str):
@@ -70,9 +144,9 @@ class RobustPolicy:
     """A trained robust PPO as ``policy(obs) -> action`` on raw bench observations: keeps the frame stack itself
     (filled with the first observation of an episode, as ``FrameStackObservation`` pads)."""
 
-    def __init__(self, model: Any, normalizer: Any, name: str = "ppo_robust"):
-        self.model, self.normalizer, self.name = model, normalizer, name
-        self.frames: deque = deque(maxlen=FRAMES)
+    def __init__(self, model: Any, normalizer: Any, name: str = "ppo_robust", frames: int = FRAMES):
+        self.model, self.normalizer, self.name, self.n_frames = model, normalizer, name, frames
+        self.frames: deque = deque(maxlen=frames)
 
     @classmethod
     def load(cls, run_dir: str | Path, name: str = "ppo_robust") -> RobustPolicy:
@@ -80,14 +154,15 @@ class RobustPolicy:
         run_dir = Path(run_dir)
         with open(run_dir / "vecnormalize.pkl", "rb") as f:
             normalizer = pickle.load(f)
-        return cls(PPO.load(str(run_dir / "final_model.zip"), device="cpu"), normalizer, name)
+        frames = frame_stack_of(run_config(run_dir)) if (run_dir / "config.json").exists() else FRAMES
+        return cls(PPO.load(str(run_dir / "final_model.zip"), device="cpu"), normalizer, name, frames)
 
     def reset(self, load_N: float, config: Any) -> None:
         self.frames.clear()
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         if not self.frames:
-            self.frames.extend([obs] * FRAMES)
+            self.frames.extend([obs] * self.n_frames)
         else:
             self.frames.append(obs)
         stacked = np.concatenate(list(self.frames)).astype(np.float32)
@@ -123,6 +198,11 @@ class RecurrentPolicy:
         return np.asarray(action[0], dtype=np.float32)
 
 
+def run_config(run_dir: str | Path) -> dict[str, Any]:
+    """The configuration a run trained with (its ``config.json``)."""
+    return json.loads((Path(run_dir) / "config.json").read_text())
+
+
 def load_policy(run_dir: str | Path, algo: str = "ppo", name: str | None = None) -> RobustPolicy | RecurrentPolicy:
     """A finished run of :func:`train_robust` as a bench controller (``reset``/``act``)."""
     cls = RecurrentPolicy if algo == "recurrent" else RobustPolicy
@@ -138,13 +218,38 @@ def evaluate_policy_on(policy: RobustPolicy | RecurrentPolicy, benches: Sequence
 
 @dataclass(frozen=True)
 class RobustTask:
+    """One seed's run (module-level and picklable for the executor). ``config``: the YAML (default by ``algo``:
+    ``agents/robust.yaml`` or ``agents/recurrent.yaml``); ``timesteps``, ``env_kwargs`` (env arguments),
+    ``eval_freq``, ``checkpoint_freq`` and ``overrides`` (``(("hyperparams.n_steps", 64),)``) replace its values
+    where given (0 or empty: the YAML's)."""
+
     out_dir: str
     seed: int
-    timesteps: int
+    timesteps: int = 0
     env_kwargs: tuple = ()
-    eval_freq: int = 20_000
-    algo: str = "ppo"                      # "ppo" (frame stack) or "recurrent" (RecurrentPPO, LSTM)
-    checkpoint_freq: int = CHECKPOINT_FREQ
+    eval_freq: int = 0
+    algo: str = ""                         # "ppo" (frame stack), "recurrent" (RecurrentPPO, LSTM); "": the YAML's
+    checkpoint_freq: int = 0
+    config: str = ""
+    overrides: tuple = ()
+    progress: bool = False
+    resume: bool = True                    # False: the seed's previous run (finished or not) is removed first
+
+    def resolved(self) -> dict[str, Any]:
+        """The run's configuration: the YAML with this task's values in it (checked)."""
+        path = self.config or DEFAULT_CONFIGS.get(self.algo or "ppo")
+        if path is None:
+            raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {self.algo!r}")
+        overrides = dict(self.overrides)
+        overrides.update({f"env.{k}": v for k, v in self.env_kwargs})
+        for key, value in (("train.total_timesteps", self.timesteps), ("train.eval_freq", self.eval_freq),
+                           ("train.checkpoint_freq", self.checkpoint_freq)):
+            if value:
+                overrides[key] = int(value)
+        config = load_robust_config(path, overrides)
+        if self.algo and config.get("algo", "ppo") != self.algo:
+            raise ValueError(f"{path}: algo is {config.get('algo', 'ppo')!r}, the task asks for {self.algo!r}")
+        return config
 
 
 def _atomic(save, path: Path) -> None:
@@ -153,27 +258,59 @@ def _atomic(save, path: Path) -> None:
     os.replace(tmp, path)
 
 
+def _new_model(config: dict[str, Any], venv: Any, seed: int) -> Any:
+    algo = config.get("algo", "ppo")
+    default_policy = "MlpLstmPolicy" if algo == "recurrent" else "MlpPolicy"
+    return _algo_class(algo)(config.get("policy", default_policy), venv, seed=seed, device="cpu", verbose=0,
+                             **(config.get("hyperparams") or {}))
+
+
+def _refuse_another_configuration(run_dir: Path, config: dict[str, Any]) -> None:
+    """A run directory continues only the run it holds: what it trained (``config.json``) must match ``config`` but
+    for the step budget and the evaluation and checkpoint intervals."""
+    path = run_dir / "config.json"
+    if not path.exists():
+        return
+    before = json.loads(path.read_text())
+    now = json.loads(json.dumps(config))   # as JSON keeps it (tuples become lists)
+    for key in CONFIG_KEYS:
+        if key != "train" and before.get(key) != now.get(key):
+            raise ValueError(f"{run_dir} holds a run trained with another {key} ({before.get(key)!r}, now "
+                             f"{now.get(key)!r}): give another --out, or --no-resume to replace it")
+
+
 def train_robust(task: RobustTask) -> dict[str, Any]:
     """Train one seed (module-level and picklable for the executor); returns its summary. Resumes from the run's
     checkpoint if there is one."""
     import torch
     from stable_baselines3.common.callbacks import BaseCallback
-    from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+    from stable_baselines3.common.vec_env import VecNormalize
 
     from .heldout import TUNING_SEED, random_benches, summarise
 
-    if task.algo not in ALGOS:
-        raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {task.algo!r}")
-    torch.set_num_threads(1)
-    env_kwargs = dict(task.env_kwargs)
+    config = task.resolved()
+    algo = config.get("algo", "ppo")
+    train = {"total_timesteps": 100_000, "eval_freq": 20_000, "checkpoint_freq": CHECKPOINT_FREQ, "torch_threads": 1,
+             **(config.get("train") or {})}
+    timesteps, eval_freq, checkpoint_freq = train["total_timesteps"], train["eval_freq"], train["checkpoint_freq"]
+    torch.set_num_threads(int(train["torch_threads"]))
+    # the single env's arguments (evaluation episodes): the batch's own keys left out
+    env_kwargs = {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS}
     run_dir = Path(task.out_dir) / f"seed_{task.seed}"
     run_dir.mkdir(parents=True, exist_ok=True)
     done = run_dir / "done.json"
+    if not task.resume:
+        import shutil
+        for name in ("done.json", "final_model.zip", "vecnormalize.pkl", "learning_curve.csv"):
+            (run_dir / name).unlink(missing_ok=True)
+        shutil.rmtree(run_dir / "checkpoint", ignore_errors=True)
+    _refuse_another_configuration(run_dir, config)
     if done.exists():
         return json.loads(done.read_text())
-    algo_cls = _algo_class(task.algo)
-    policy_cls = RecurrentPolicy if task.algo == "recurrent" else RobustPolicy
-    venv_raw = DummyVecEnv([lambda: make_env(env_kwargs, task.algo) for _ in range(N_ENVS)])
+    _atomic(lambda p: p.write_text(json.dumps(config, indent=2)), run_dir / "config.json")
+    policy_cls = RecurrentPolicy if algo == "recurrent" else RobustPolicy
+    frames = frame_stack_of(config)
+    venv_raw = make_vec_env(config, task.seed)
     ckpt = run_dir / "checkpoint"
     rows: list[dict[str, float]] = []
     wall_before = 0.0   # wall seconds spent before the checkpoint this run resumes from
@@ -182,13 +319,11 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
         rows, wall_before = state["curve"], state["wall_s"]
         venv_raw.seed(task.seed + 7919 * int(state["timesteps"]))   # a fresh stream for the remaining steps
         venv = VecNormalize.load(str(ckpt / "vecnormalize.pkl"), venv_raw)
-        model = algo_cls.load(str(ckpt / "model.zip"), env=venv, device="cpu")
+        model = _algo_class(algo).load(str(ckpt / "model.zip"), env=venv, device="cpu")
     else:
-        venv_raw.seed(task.seed)
-        venv = VecNormalize(venv_raw, norm_obs=True, norm_reward=True, clip_obs=10.0, gamma=0.99)
-        kwargs = RECURRENT_KWARGS if task.algo == "recurrent" else PPO_KWARGS
-        policy = "MlpLstmPolicy" if task.algo == "recurrent" else "MlpPolicy"
-        model = algo_cls(policy, venv, seed=task.seed, device="cpu", verbose=0, **kwargs)
+        norm = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "gamma": 0.99, **(config.get("normalize") or {})}
+        venv = VecNormalize(venv_raw, **norm)
+        model = _new_model(config, venv, task.seed)
     curve_benches = random_benches(CURVE_BENCHES, TUNING_SEED + 1, env_kwargs)
     started = time.perf_counter()
 
@@ -196,7 +331,8 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
         return wall_before + time.perf_counter() - started
 
     def evaluate() -> None:
-        stats = summarise(evaluate_policy_on(policy_cls(model, venv), curve_benches, env_kwargs, "tuning"))
+        policy = policy_cls(model, venv) if algo == "recurrent" else policy_cls(model, venv, frames=frames)
+        stats = summarise(evaluate_policy_on(policy, curve_benches, env_kwargs, "tuning"))
         rows.append({"timesteps": model.num_timesteps, "wall_s": wall(), **stats})
 
     def checkpoint() -> None:
@@ -209,23 +345,27 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
     class Curve(BaseCallback):
         def __init__(self) -> None:
             super().__init__()
-            self.next_eval = (rows[-1]["timesteps"] + task.eval_freq) if rows else 0
-            self.next_ckpt = model.num_timesteps + task.checkpoint_freq
+            self.next_eval = (rows[-1]["timesteps"] + eval_freq) if rows else 0
+            self.next_ckpt = model.num_timesteps + checkpoint_freq
 
         def _on_step(self) -> bool:
-            if self.next_eval <= self.num_timesteps < task.timesteps:
-                self.next_eval += task.eval_freq
+            if self.next_eval <= self.num_timesteps < timesteps:
+                self.next_eval += eval_freq
                 evaluate()
             return True
 
         def _on_rollout_end(self) -> None:
-            if self.num_timesteps >= self.next_ckpt and self.num_timesteps < task.timesteps:
-                self.next_ckpt += task.checkpoint_freq
+            if self.num_timesteps >= self.next_ckpt and self.num_timesteps < timesteps:
+                self.next_ckpt += checkpoint_freq
                 checkpoint()
 
-    remaining = task.timesteps - model.num_timesteps
+    remaining = timesteps - model.num_timesteps
     if remaining > 0:
-        model.learn(total_timesteps=remaining, callback=Curve(), reset_num_timesteps=model.num_timesteps == 0)
+        callbacks = [Curve()]
+        if task.progress:
+            from .progress import progress_callback
+            callbacks.append(progress_callback(timesteps, f"{ALGOS[algo]} seed {task.seed}"))
+        model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=model.num_timesteps == 0)
     evaluate()
 
     def write_curve(path: Path) -> None:
@@ -243,30 +383,43 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
             pickle.dump(venv, f)
 
     _atomic(dump, run_dir / "vecnormalize.pkl")
-    summary = {"seed": task.seed, "algo": task.algo, "timesteps": int(model.num_timesteps), "wall_s": wall(),
+    summary = {"seed": task.seed, "algo": algo, "timesteps": int(model.num_timesteps), "wall_s": wall(),
                "run_dir": str(run_dir)}
     _atomic(lambda p: p.write_text(json.dumps(summary)), done)
     return summary
 
 
-def seed_tasks(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps: int = 100_000, *,
-               env_kwargs: dict[str, Any] | None = None, eval_freq: int = 20_000, algo: str = "ppo",
-               checkpoint_freq: int = CHECKPOINT_FREQ) -> list[RobustTask]:
-    """The tasks of :func:`train_seeds` (one per seed), for callers that run several kinds in one executor call."""
-    if timesteps <= 0 or not math.isfinite(timesteps):
+def seed_tasks(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps: int = 0, *,
+               env_kwargs: dict[str, Any] | None = None, eval_freq: int = 0, algo: str = "",
+               checkpoint_freq: int = 0, config: str | Path = "", overrides: dict[str, Any] | None = None,
+               progress: bool = False, resume: bool = True) -> list[RobustTask]:
+    """The tasks of :func:`train_seeds` (one per seed), for callers that run several kinds in one executor call;
+    0 or empty values take the YAML's (``config``, default by ``algo``). The configuration is checked here, before
+    any task runs."""
+    if timesteps < 0 or not math.isfinite(timesteps):
         raise ValueError(f"timesteps must be positive, got {timesteps}")
-    if algo not in ALGOS:
+    if algo and algo not in ALGOS:
         raise ValueError(f"algo must be one of {sorted(ALGOS)}, got {algo!r}")
     Path(out_dir).mkdir(parents=True, exist_ok=True)
-    return [RobustTask(str(out_dir), int(s), int(timesteps), tuple(sorted((env_kwargs or {}).items())), eval_freq,
-                       algo, checkpoint_freq) for s in seeds]
+    tasks = [RobustTask(str(out_dir), int(s), int(timesteps), tuple(sorted((env_kwargs or {}).items())), eval_freq,
+                        algo, checkpoint_freq, str(config), tuple(sorted((overrides or {}).items())), progress,
+                        resume)
+             for s in seeds]
+    if tasks:  # checked now, and each task names its algorithm (callers sort the runs by it)
+        resolved_algo = tasks[0].resolved().get("algo", "ppo")
+        tasks = [replace(task, algo=resolved_algo) for task in tasks]
+    return tasks
 
 
-def train_seeds(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps: int = 100_000, *,
+def train_seeds(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps: int = 0, *,
                 env_kwargs: dict[str, Any] | None = None, executor: ExecutorLike = None,
-                eval_freq: int = 20_000, algo: str = "ppo") -> list[dict[str, Any]]:
-    """One robust PPO run per seed (``algo``: ``"ppo"`` frame stack, ``"recurrent"`` LSTM), through the project's
-    executor (resumable per seed, and inside a seed from its last checkpoint)."""
-    tasks = seed_tasks(out_dir, seeds, timesteps, env_kwargs=env_kwargs, eval_freq=eval_freq, algo=algo)
-    return run_tasks(train_robust, tasks, executor=executor, progress=True, desc=f"{ALGOS[algo]} seeds",
-                     checkpoint=TaskCheckpoint(Path(out_dir) / "tasks"))
+                eval_freq: int = 0, algo: str = "", config: str | Path = "",
+                overrides: dict[str, Any] | None = None, progress: bool = True,
+                resume: bool = True) -> list[dict[str, Any]]:
+    """One robust PPO run per seed (``algo``: ``"ppo"`` frame stack, ``"recurrent"`` LSTM; or ``config``, a YAML),
+    through the project's executor (resumable per seed, and inside a seed from its last checkpoint)."""
+    tasks = seed_tasks(out_dir, seeds, timesteps, env_kwargs=env_kwargs, eval_freq=eval_freq, algo=algo,
+                       config=config, overrides=overrides, progress=progress, resume=resume)
+    name = ALGOS[tasks[0].resolved().get("algo", "ppo")] if tasks else "robust"
+    return run_tasks(train_robust, tasks, executor=executor, progress=True, desc=f"{name} seeds",
+                     checkpoint=TaskCheckpoint(Path(out_dir) / "tasks") if resume else None)

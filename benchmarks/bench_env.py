@@ -1,5 +1,7 @@
 """Throughput of TriPlanarShear-v0 (one core): ``PYTHONPATH=. python benchmarks/bench_env.py [--quick]``; ``--v1``:
-TriPlanarShear-v1 in bench mode with randomisation against v0, in the same process.
+TriPlanarShear-v1 in bench mode with randomisation against v0, in the same process; ``--batched-v1``: the batched
+v1 (``gym.make_vec``, bench mode, randomised, random actions; without and with the start bank) against the batched
+v0 (random actions) at ``--num-envs`` (1024) envs, interleaved in one process.
 
 Measures, best of ``--repeats`` runs (the machine is shared, so the best run is the least disturbed one):
 
@@ -92,7 +94,7 @@ def single_v1(n: int, stats: dict, **kwargs) -> float:
     """TriPlanarShear-v1 (default: bench observations, unknown specimens), random actions, autoreset by hand.
 
     Each call starts from a seed of its own: with the same seed a repeat would draw the same specimens and find
-    their starts in the start cache (``envs.triplanar_shear.episode_start``), which training never does."""
+    their starts in the start cache (``envs.core.episode_start``), which training never does."""
     from envs.triplanar_shear_v1 import TriPlanarShearV1Env
     env = TriPlanarShearV1Env(**{"observation_mode": "bench", "randomize": True, **kwargs})
     actions = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)
@@ -113,7 +115,7 @@ def single_v1(n: int, stats: dict, **kwargs) -> float:
 
 
 def v1_against_v0(repeats: int, n: int, stats: dict) -> dict:
-    """Issue 10's target: v1 in bench mode with randomisation at >= 0.8x v0's single-env random-action throughput,
+    """v1 in bench mode with randomisation at >= 0.8x v0's single-env random-action throughput,
     measured in the same process (interleaved, best of ``repeats``)."""
     out = {"v0_random_steps_per_s": best_of(repeats, lambda: single(n, "random", stats)),
            "v1_bench_random_steps_per_s": best_of(repeats, lambda: single_v1(n, stats)),
@@ -131,7 +133,7 @@ def v1_reset_cost(n: int) -> dict:
     (a few hundred ns each)."""
     import sys
 
-    import envs.triplanar_shear as v0
+    import envs.core as v0
     from envs.triplanar_shear_v1 import TriPlanarShearV1Env
     from triplanar import equilibrium
     simulate_module = sys.modules["triplanar.simulate"]
@@ -189,6 +191,43 @@ def vector(num_envs: int, steps: int, policy: str) -> float:
     return num_envs * steps / (CLOCK[0]() - t0)
 
 
+def vector_env_rate(env_id: str, num_envs: int, steps: int, seed: int, **kwargs) -> tuple[float, float]:
+    """(env-steps/s of ``steps`` random-action steps of ``gym.make_vec(env_id)``, mean episode length in steps)."""
+    vec = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
+    vec.reset(seed=seed)
+    rng = np.random.default_rng(seed)
+    batches = rng.uniform(-1, 1, (steps + 5, num_envs, 2)).astype(np.float32)
+    for i in range(5):   # compiled code loaded, and the first resets past
+        vec.step(batches[i])
+    episodes = 0
+    t0 = CLOCK[0]()
+    for i in range(5, steps + 5):
+        _, _, terminated, truncated, _ = vec.step(batches[i])
+        episodes += int(np.count_nonzero(terminated | truncated))
+    return num_envs * steps / (CLOCK[0]() - t0), num_envs * steps / max(episodes, 1)
+
+
+def batched_v1_against_v0(repeats: int, num_envs: int, steps: int) -> dict:
+    """The batched v1 (bench mode, unknown specimens, random actions) against the batched v0 (random actions), best of
+    ``repeats`` interleaved runs; each run draws new specimens (a seed of its own: the start cache never helps)."""
+    setups = {"v0": ("TriPlanarShear-v0", {}),
+              "v1_bench_randomized": ("TriPlanarShear-v1", {"randomize": True}),
+              "v1_bench_randomized_start_bank": ("TriPlanarShear-v1", {"randomize": True, "start_bank": max(1, num_envs // 4)})}
+    best: dict[str, float] = {}
+    lengths: dict[str, float] = {}
+    for repeat in range(repeats):
+        for name, (env_id, kwargs) in setups.items():
+            rate, length = vector_env_rate(env_id, num_envs, steps, 1000 * (repeat + 1), **kwargs)
+            best[name] = max(best.get(name, 0.0), rate)
+            lengths[name] = length
+    out = {f"{name}_env_steps_per_s": rate for name, rate in best.items()}
+    out.update({f"{name}_mean_episode_steps": length for name, length in lengths.items()})
+    for name in setups:
+        if name != "v0":
+            out[f"{name}_over_v0"] = best[name] / best["v0"]
+    return out
+
+
 def ppo_time_to_target(runs: Path, target_mm: float = 7.73, load: str = "27.8") -> list[dict]:
     out = []
     for curve in sorted(runs.glob("seed_*/learning_curve.csv")):
@@ -209,13 +248,22 @@ def main() -> int:
     parser.add_argument("--target-mm", type=float, default=None,
                         help="tracking tip's error at 27.8 N (default: evaluated now)")
     parser.add_argument("--json", help="also write the numbers here")
-    parser.add_argument("--v1", action="store_true", help="only the v1-against-v0 comparison (issue 10)")
+    parser.add_argument("--v1", action="store_true", help="only the single v1-against-v0 comparison")
+    parser.add_argument("--batched-v1", action="store_true", help="only the batched v1-against-v0 comparison")
+    parser.add_argument("--num-envs", type=int, default=1024, help="envs of the batched comparison")
     parser.add_argument("--cpu-time", action="store_true",
                         help="steps per CPU-second of this process instead of per wall-clock second (less disturbed "
                              "by other work on a shared machine)")
     args = parser.parse_args()
     if args.cpu_time:
         CLOCK[0] = time.process_time
+    if args.batched_v1:
+        result = batched_v1_against_v0(args.repeats, args.num_envs, 20 if args.quick else 200)
+        for key, value in result.items():
+            print(f"{key}: {value:,.2f}")
+        if args.json:
+            Path(args.json).write_text(json.dumps(result, indent=2))
+        return 0
     if args.v1:
         stats_v1: dict = {}
         result = v1_against_v0(args.repeats, 2_000 if args.quick else 20_000, stats_v1)

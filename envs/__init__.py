@@ -1,10 +1,12 @@
-"""Gymnasium environments of the project. ``import envs`` registers ``TriPlanarShear-v0``:
+"""Gymnasium environments of the project. ``import envs`` registers ``TriPlanarShear-v0`` and ``-v1``:
 
     import gymnasium as gym
     import envs  # noqa: F401  (or gym.make("envs:TriPlanarShear-v0") without the import)
 
     env = gym.make("TriPlanarShear-v0", load_N=27.8)
     vec = gym.make_vec("TriPlanarShear-v0", num_envs=1024)  # the batched vector env (envs.vector)
+    vec1 = gym.make_vec("TriPlanarShear-v1", num_envs=64, vectorization_mode="vector_entry_point",
+                        randomize=True, frame_stack=4)      # v1 batched (envs.vector_v1)
 """
 
 from __future__ import annotations
@@ -23,14 +25,14 @@ def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | N
     if sources is None:
         from triplanar import driver, equilibrium, kernel, layout, outcome, stepping  # importing compiles nothing
         sources = [Path(module.__file__) for module in (kernel, stepping, equilibrium, driver, outcome, layout)]
-        sources.append(Path(__file__).parent / "triplanar_shear.py")
-    cache = cache if cache is not None else numba_cache_dir(Path(__file__).parent / "triplanar_shear.py")
+        sources += [Path(__file__).parent / name for name in ("core.py", "triplanar_shear_v1.py")]
+    cache = cache if cache is not None else numba_cache_dir(Path(__file__).parent / "core.py")
     return drop_if_stale(cache, "*.nb[ic]", sources, "kernel.sha256")
 
 
 _drop_stale_compiled_code()
 
-from .triplanar_shear import ShearConfig, TriPlanarShearEnv
+from .triplanar_shear import ShearConfig, TriPlanarShearEnv  # after the stale cache is dropped
 
 ENV_ID = "TriPlanarShear-v0"
 
@@ -41,5 +43,6 @@ if ENV_ID not in registry:
 __all__ = ["ENV_ID", "ShearConfig", "TriPlanarShearEnv"]
 
 V1_ID = "TriPlanarShear-v1"
-if V1_ID not in registry:  # 2 s at 200 Hz: 400 periods, the first of which reset runs
-    register(id=V1_ID, entry_point="envs.triplanar_shear_v1:TriPlanarShearV1Env", max_episode_steps=399)
+if V1_ID not in registry:  # truncated by the env itself at time_limit_s (no max_episode_steps: one mechanism)
+    register(id=V1_ID, entry_point="envs.triplanar_shear_v1:TriPlanarShearV1Env",
+             vector_entry_point="envs.vector_v1:TriPlanarShearV1VectorEnv")

@@ -1,12 +1,12 @@
 """``TriPlanarShear-v1``: the tri-planar shear test on a bench that could exist (finite servo bandwidths, command
 latency, noisy sensors, unknown specimens). The physics and the reward are v0's compiled control step
-(:func:`envs.triplanar_shear.control_step`); this module adds the bench between the agent and that step.
+(:func:`envs.core.control_step`, through :class:`envs.base.ShearEnvBase`); this module adds the bench between the
+agent and that step. :mod:`envs.vector_v1` runs the same over N envs.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -19,10 +19,10 @@ from triplanar import kernel as K
 from triplanar.layout import Layout
 from triplanar.specimen import Foundation, Plane, Specimen
 
-from .triplanar_shear import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, N_INFO, OBS_DIM, OBS_POS, OBS_PREV, ST_CP_REST,
-                              ST_LOAD, ST_T, EpisodeDraw, ShearConfig, StartError, check_action, contact_points_of,
-                              control_step, episode_start, info_dict, load_point_of, make_config, new_workspace,
-                              observation_space, specimen_key)
+from .base import ShearEnvBase
+from .core import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, OBS_POS, OBS_PREV, ST_LOAD, ST_T, EpisodeDraw,
+                   EpisodeStart, ShearConfig, StartError, check_action, draw_episode, episode_start, info_dict,
+                   make_config, observation_space, specimen_key)
 
 # (This module's compiled functions read the kernel's and v0's layouts; envs/__init__.py drops the package's numba
 # cache when those change.)
@@ -35,7 +35,8 @@ _BENCH_OBS = (("RANGE", 9, 0.5, "rangefinders: CP1..CP3 displacement from rest (
               ("TIME", 1, 100.0, "time since the start, s"),
               ("PREV", 2, 1.0, "previous action"))
 BENCH_OBSERVATION = Layout("B_", "BENCH_OBS_DIM", [(name, size, doc) for name, size, _, doc in _BENCH_OBS])
-BENCH_OBSERVATION.export(globals())  # B_RANGE, B_THRUST, B_STAGE, B_LOAD, B_TIME, B_PREV, BENCH_OBS_DIM
+(B_RANGE, B_THRUST, B_STAGE, B_LOAD, B_TIME, B_PREV, BENCH_OBS_DIM) = BENCH_OBSERVATION.constants().values()
+assert all(globals()[name] == value for name, value in BENCH_OBSERVATION.constants().items())
 BENCH_HIGH = np.concatenate([np.full(size, bound) for _, size, bound, _ in _BENCH_OBS])
 BENCH_HIGH.setflags(write=False)
 
@@ -46,13 +47,15 @@ BENCH_CONSTANTS = Layout("BC_", "N_BC", [
     ("DT", 1, "control period, s"),
     ("STAGE", 3, "stage servo: finite (1/0), tau (s), decay over a period (servo_constants)"),
     ("FORCE", 3, "force loop: the same")])
-BENCH_CONSTANTS.export(globals())  # BC_THRUST_SCALE, BC_RANGE, BC_DT, BC_STAGE, BC_FORCE, N_BC
+(BC_THRUST_SCALE, BC_RANGE, BC_DT, BC_STAGE, BC_FORCE, N_BC) = BENCH_CONSTANTS.constants().values()
+assert all(globals()[name] == value for name, value in BENCH_CONSTANTS.constants().items())
 # The bench's state between steps (the latency queue is an array of its own).
 BENCH_STATE = Layout("BS_", "N_BS", [
     ("THRUST", 1, "the force loop's output (the load cell) at the period's end, N"),
     ("PREV", 2, "the agent's previous action, clipped"),
     ("HEAD", 1, "the latency queue's oldest row")])
-BENCH_STATE.export(globals())  # BS_THRUST, BS_PREV, BS_HEAD, N_BS
+(BS_THRUST, BS_PREV, BS_HEAD, N_BS) = BENCH_STATE.constants().values()
+assert all(globals()[name] == value for name, value in BENCH_STATE.constants().items())
 
 # Ranges of the unknown specimens (randomize=True); docs/environment.md gives the reasons.
 RANDOM_FRICTION_DEG = 2.0           # each contact's friction angle, +- around the specimen's
@@ -242,7 +245,78 @@ def draw_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundat
     return Bench(new, foundation, load)
 
 
-class TriPlanarShearV1Env(gym.Env):
+def draw_bench_for(rng: np.random.Generator, config: ShearConfig, randomize: bool, specimen: Specimen,
+                   foundation: Foundation) -> Bench:
+    """One episode's bench from ``rng``: an unknown specimen (``randomize``; a ``tip_friction_deg`` given to the env
+    is known hardware and is not drawn), else v0's draw (load level, friction noise) of the configured specimen."""
+    if randomize:
+        bench = draw_bench(rng, specimen, foundation)
+        if config.tip_friction_deg is not None:
+            bench = replace(bench, specimen=replace(bench.specimen, tip_friction_deg=float(config.tip_friction_deg)))
+        return bench
+    draw = draw_episode(rng, config, specimen, None)
+    return Bench(replace(specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg),
+                 foundation, draw.load_N)
+
+
+def bench_start(config: ShearConfig, bench: Bench) -> EpisodeStart:
+    """The cached start of ``bench`` (:func:`envs.core.episode_start`; StartError if it cannot start)."""
+    specimen = bench.specimen
+    return episode_start(config, EpisodeDraw(bench.load_N, tuple(specimen.friction_deg),
+                                             float(specimen.tip_friction_deg)),
+                         specimen, bench.foundation, specimen_key(specimen, bench.foundation))
+
+
+def draw_start(rng: np.random.Generator, config: ShearConfig, randomize: bool, specimen: Specimen,
+               foundation: Foundation) -> tuple[Bench, EpisodeStart]:
+    """What a reset draws from ``rng`` and its start; an unknown specimen that friction holds at rest is drawn
+    again (up to ``START_ATTEMPTS`` draws). The single and the batched v1 both call it, so they draw alike."""
+    for _ in range(START_ATTEMPTS):
+        bench = draw_bench_for(rng, config, randomize, specimen, foundation)
+        try:
+            return bench, bench_start(config, bench)
+        except StartError:
+            if not randomize:
+                raise
+    raise StartError(f"no startable specimen in {START_ATTEMPTS} draws")
+
+
+def reset_bench_state(config: ShearConfig, start: EpisodeStart, bs: np.ndarray, queue: np.ndarray) -> None:
+    """The bench's state at an episode's start: the latency queue full of the starting command, the force loop's
+    output the thrust at the first period's end."""
+    first = np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
+    queue[:] = first
+    bs[BS_HEAD] = 0.0
+    bs[BS_THRUST] = start.inf[IN_THRUST]
+    bs[BS_PREV:BS_PREV + 2] = first
+
+
+def bench_option(options: dict[str, Any] | None) -> Bench | None:
+    """The ``bench`` of v1's reset options (its only one), or a named error."""
+    options = dict(options or {})
+    bench = options.pop("bench", None)
+    if options:
+        raise ValueError(f"unknown reset options {sorted(options)} (v1 takes 'bench')")
+    if bench is not None and not isinstance(bench, Bench):
+        raise TypeError(f"reset option bench must be an envs.triplanar_shear_v1.Bench, got {bench!r}")
+    return bench
+
+
+def observation_space_of(observation_mode: str) -> spaces.Box:
+    """One v1 env's observation space in ``observation_mode`` (``"bench"``: ``B_*``; ``"state"``: v0's)."""
+    if observation_mode == "state":
+        return observation_space()
+    high = BENCH_HIGH.astype(np.float32)
+    return spaces.Box(-high, high, dtype=np.float32)
+
+
+def action_rate_reward(coef: float, d0: float, d1: float) -> float:
+    """The action-rate term on the agent's actions (``x ** 2`` in Python, the C library's ``pow``: see
+    :func:`bench_command`); the single and the batched env both call it, so their rewards are bitwise equal."""
+    return -coef * (d0 ** 2 + d1 ** 2)
+
+
+class TriPlanarShearV1Env(ShearEnvBase):
     """
     ## Description
 
@@ -311,8 +385,9 @@ class TriPlanarShearV1Env(gym.Env):
 
     **Termination** (v0's): ``travel`` (success, ``info["is_success"]``), ``lift_off``, ``mass_centre_outside``,
     ``left_plane``, ``arrested``, ``failed`` (``info["reason"]``, :class:`triplanar.outcome.Outcome` labels).
-    **Truncation**: ``time_limit`` after ``time_limit_s`` (2 s): 399 agent steps at 200 Hz (the first period runs in
-    reset), the registered ``max_episode_steps``.
+    **Truncation**: ``time_limit`` after ``time_limit_s`` (2 s), by the env itself (the core's step, as v0): 399
+    agent steps at 200 Hz (the first period runs in reset). It is the only truncation: the registration sets no
+    ``max_episode_steps``, so changing ``time_limit_s`` changes the episode's length and nothing disagrees with it.
 
     ## Arguments
 
@@ -337,18 +412,19 @@ class TriPlanarShearV1Env(gym.Env):
 
     ## Rendering
 
-    ``render_fps`` is the control rate (frames play back in real time); a frame is drawn with Pillow (overhead
-    view, a few ms). ``render_mode="human"`` without a display warns once and draws nothing.
+    ``render_fps`` is the control rate: one frame per control period, so a recorded video
+    (``gymnasium.wrappers.RecordVideo``) lasts as long as the episode. A frame is drawn with Pillow (overhead view,
+    a few ms). ``render_mode="human"`` without a display warns once and draws nothing.
 
     ## Version History
 
-    * v1: bench dynamics (stage servo, force loop, latency), bench observations, unknown specimens, registered
-      ``max_episode_steps``, ``env.dt``, ``render_fps`` = control rate, the same ``info`` keys at reset and step,
-      a fast Pillow renderer.
+    * v1: bench dynamics (stage servo, force loop, latency), bench observations, unknown specimens, ``env.dt``,
+      ``render_fps`` = control rate, the same ``info`` keys at reset and step, a fast Pillow renderer. Since the
+      shared env core: one truncation, ``time_limit_s`` (the registered ``max_episode_steps=399``, which disagreed
+      with it as soon as ``time_limit_s`` changed, is gone; at the defaults the episodes are bitwise the same);
+      a batched version (``gym.make_vec``, :mod:`envs.vector_v1`).
     * v0: the ideal, known bench (:class:`envs.triplanar_shear.TriPlanarShearEnv`), unchanged.
     """
-
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 200}
 
     def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
                  stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0, latency_s: float = 0.005,
@@ -357,81 +433,29 @@ class TriPlanarShearV1Env(gym.Env):
         self.bench = BenchConfig(stage_bandwidth_hz, thrust_bandwidth_hz, latency_s, sensor_noise_m,
                                  observation_mode, bool(randomize))
         self.bench.validate(self.config.dt)
-        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
-            raise ValueError(f"render_mode must be one of {self.metadata['render_modes']}, got {render_mode!r}")
-        self.render_mode = render_mode
-        self.metadata = {**self.metadata, "render_fps": int(round(self.config.control_hz))}
+        self._init_core(render_mode)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
-        if observation_mode == "state":
-            self.observation_space = observation_space()
-        else:
-            high = BENCH_HIGH.astype(np.float32)
-            self.observation_space = spaces.Box(-high, high, dtype=np.float32)
-        self._specimen, self._foundation = self.config.base_specimen()
-        self._ws = new_workspace()
+        self.observation_space = observation_space_of(observation_mode)
         self._bc = bench_constants(self.bench, self.config)
         self._bs = np.zeros(N_BS)
         self._queue = np.zeros((self.bench.latency_periods(self.config.dt), 2))
         self._no_noise = np.zeros(0)
-        self._obs = np.zeros(OBS_DIM)
-        self._inf = np.zeros(N_INFO)
         self._applied = np.zeros(2)
-        self._start = None
         self._episode: Bench | None = None
-        self._renderer = None
-        self._warned_display = False
-        self._trace: list[np.ndarray] = []
-
-    @property
-    def dt(self) -> float:
-        """The control period, s (Gymnasium's convention, as MuJoCo environments' ``dt``)."""
-        return self.config.dt
 
     # -- Gymnasium API ---------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
-        options = dict(options or {})
-        bench = options.pop("bench", None)
-        if options:
-            raise ValueError(f"unknown reset options {sorted(options)} (v1 takes 'bench')")
-        if bench is not None and not isinstance(bench, Bench):
-            raise TypeError(f"reset option bench must be an envs.triplanar_shear_v1.Bench, got {bench!r}")
-        start = None
-        for _ in range(START_ATTEMPTS):
-            if bench is None:
-                candidate = self._draw()
-            else:
-                candidate = bench
-            try:
-                start = episode_start(self.config, EpisodeDraw(candidate.load_N, tuple(candidate.specimen.friction_deg),
-                                                               float(candidate.specimen.tip_friction_deg)),
-                                      candidate.specimen, candidate.foundation,
-                                      specimen_key(candidate.specimen, candidate.foundation))
-                break
-            except StartError:
-                if bench is not None or not self.bench.randomize:
-                    raise
-        if start is None:
-            raise StartError(f"no startable specimen in {START_ATTEMPTS} draws")
-        self._episode, self._start = candidate, start
-        self._episode_info = candidate.info()
-        self._y, self._p, self._modes = start.y.copy(), start.p.copy(), start.modes.copy()
-        self._armed, self._st = start.armed.copy(), start.st.copy()
-        self._ref = start.reference
-        self._obs[:] = start.obs
-        self._inf = start.inf.copy()
-        cfg = self.config
-        self._cfg = cfg.packed()
-        first = np.array([2.0 / cfg.thrust_scale - 1.0, cfg.tip_offset_m / cfg.offset_range_m])
-        self._queue[:] = first   # the latency queue starts full of the starting command
-        self._bs[BS_HEAD] = 0.0
-        self._bs[BS_THRUST] = start.inf[IN_THRUST]   # the force loop's output at the period's end
-        self._bs[BS_PREV:BS_PREV + 2] = first
-        self._code = 0
-        if self.render_mode is not None:
-            self._trace = [self._contact_points()]
-            if self.render_mode == "human":
-                self.render()
+        bench = bench_option(options)
+        if bench is None:
+            bench, start = draw_start(self.np_random, self.config, self.bench.randomize, self._specimen,
+                                      self._foundation)
+        else:
+            start = bench_start(self.config, bench)
+        self._episode = bench
+        self._episode_info = bench.info()
+        reset_bench_state(self.config, start, self._bs, self._queue)
+        self._load_start(start)
         return self._observation(), self._info(0)
 
     def step(self, action):
@@ -441,54 +465,14 @@ class TriPlanarShearV1Env(gym.Env):
         if raw.dtype != np.float32 and raw.dtype != np.float64:  # (ints, float16: as exact in float64)
             raw = raw.astype(np.float64)
         d0, d1 = bench_command(raw, self._bc, self._bs, self._queue, self._y, self._st, self._applied)
-        code = control_step(self._y, self._p, self._modes, self._armed, self._st, self._ref, self._applied,
-                            self._cfg, self._obs, self._inf, self._ws)
-        r_rate = -self.config.action_rate_coef * (d0 ** 2 + d1 ** 2)
-        self._code = code
+        code = self._control_step(self._applied)
+        r_rate = action_rate_reward(self.config.action_rate_coef, d0, d1)
         reward = float(self._inf[IN_R_DIST] + self._inf[IN_R_TERM]) + r_rate
-        if self.render_mode is not None:
-            self._trace.append(self._contact_points())
-            if self.render_mode == "human":
-                self.render()
         info = self._info(code)
         info["reward_action_rate"] = r_rate
         return self._observation(), reward, code > 0, bool(self._inf[IN_TRUNC]), info
 
-    def render(self):
-        if self.render_mode is None:
-            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' or 'human'")
-            return None
-        if self.render_mode == "human" and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-            if not self._warned_display:
-                gym.logger.warn("render_mode='human' needs a display (DISPLAY or WAYLAND_DISPLAY); none is set, so "
-                                "nothing is shown. Use render_mode='rgb_array' (e.g. with RecordVideo).")
-                self._warned_display = True
-            return None
-        if self._renderer is None:
-            from .render_v1 import FastRenderer  # Pillow only when rendering
-            self._renderer = FastRenderer(self._foundation, human=self.render_mode == "human")
-        rest = self._st[ST_CP_REST:ST_CP_REST + 9].reshape(3, 3)
-        return self._renderer.draw(np.array(self._trace), rest + self._ref.reshape(-1, 3, 3), self._load_point(),
-                                   self._st[ST_LOAD], self._st[ST_T])
-
-    def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
-
     # -- helpers ---------------------------------------------------------------------------------
-    def _draw(self) -> Bench:
-        if self.bench.randomize:
-            bench = draw_bench(self.np_random, self._specimen, self._foundation)
-            if self.config.tip_friction_deg is not None:  # a chosen tip is known hardware: not drawn
-                bench = replace(bench, specimen=replace(bench.specimen,
-                                                        tip_friction_deg=float(self.config.tip_friction_deg)))
-            return bench
-        from .triplanar_shear import draw_episode
-        draw = draw_episode(self.np_random, self.config, self._specimen, None)
-        specimen = replace(self._specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg)
-        return Bench(specimen, self._foundation, draw.load_N)
-
     def _observation(self) -> np.ndarray:
         if self.bench.observation_mode == "state":
             obs = self._obs.copy()
@@ -505,27 +489,12 @@ class TriPlanarShearV1Env(gym.Env):
         info["load_cell_N"] = float(self._bs[BS_THRUST])
         return info
 
-    def _contact_points(self) -> np.ndarray:
-        return contact_points_of(self._y, self._p)
-
-    def _load_point(self) -> np.ndarray:
-        return load_point_of(self._st[ST_T], self._y, self._p, self._modes)
-
     @property
     def episode_bench(self) -> Bench:
         """This episode's specimen, foundation and load (the truth a controller does not see)."""
         if self._episode is None:
             raise gym.error.ResetNeeded("call reset() first")
         return self._episode
-
-    @property
-    def reference_path(self) -> np.ndarray:
-        return self._st[ST_CP_REST:ST_CP_REST + 9].reshape(3, 3) + self._ref.reshape(-1, 3, 3)
-
-    def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
-        state["_renderer"] = None
-        return state
 
 
 BENCH_FIELDS = tuple(f.name for f in fields(BenchConfig))

@@ -1,12 +1,15 @@
 """N TriPlanarShear environments in state arrays, stepped by one compiled loop (as Gymnasium's CartPoleVectorEnv).
 
-Each environment runs exactly the single env's compiled control step (:func:`envs.triplanar_shear.control_step`)
+Each environment runs exactly the single env's compiled control step (:func:`envs.core.control_step`)
 on its row of the state arrays, so env ``i`` of a batch seeded ``s`` is bitwise identical to a single env seeded
 ``s + i`` given the same actions. Three layers:
 
 * :class:`ShearBatch`: the arrays, resets of chosen rows, one batched step (no autoreset);
 * :class:`TriPlanarShearVectorEnv`: Gymnasium ``VectorEnv`` (next-step autoreset), ``gym.make_vec``'s vector entry
   point for ``TriPlanarShear-v0``.
+
+(:mod:`envs.vector_v1` is v1's: its ``BenchBatch`` has the same reading methods, ``observations``, ``rewards``,
+``truncated``, ``episode_info``, ``reset_info``, so one SB3 adapter serves both.)
 
 The stable-baselines3 ``VecEnv`` over the same arrays is :class:`agents.sb3_vec_env.ShearSB3VecEnv` (SB3 is an
 agent's dependency; ``import envs`` and ``gym.make_vec`` need neither it nor torch).
@@ -25,7 +28,7 @@ from numba import njit
 
 from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
-from . import triplanar_shear as S
+from . import core as S
 
 
 @njit(cache=True, error_model="numpy")
@@ -54,7 +57,7 @@ def _load_starts(rows, kidx, KIDX, Y, P, MODES, ARMED, ST, OBS, INF, BY, BP, BMO
 
 
 class ShearBatch:
-    """State arrays of ``num_envs`` environments sharing one :class:`~envs.triplanar_shear.ShearConfig`.
+    """State arrays of ``num_envs`` environments sharing one :class:`~envs.core.ShearConfig`.
 
     Distinct starting states (load level x friction draw) live in a bank; each row points at its entry (for the
     hydrostatic reference) through ``kidx``.
@@ -158,8 +161,31 @@ class ShearBatch:
     def reason(self, i: int) -> str:
         return S.reason(int(self.CODES[i]), bool(self.INF[i, S.IN_TRUNC]))
 
+    # -- what an adapter reads (the same methods as envs.vector_v1.BenchBatch) --------------------------------
+    def observations(self) -> np.ndarray:
+        """Every row's observation, float32, a new array."""
+        return self.OBS.astype(np.float32)
 
-def _seed_list(seed: int | Sequence[int | None] | None, n: int) -> list[int | None]:
+    def rewards(self) -> np.ndarray:
+        """The last step's rewards (float64), a new array."""
+        return self.INF[:, S.IN_REWARD].copy()
+
+    def truncated(self) -> np.ndarray:
+        return self.INF[:, S.IN_TRUNC] != 0
+
+    def episode_info(self, i: int) -> dict[str, Any]:
+        """Row ``i``'s episode end, as the SB3 adapter reports it."""
+        return {"is_success": bool(self.CODES[i] == TRAVEL), "reason": self.reason(i),
+                "mimicry_error_mm": float(self.INF[i, S.IN_ERR]), "travel_m": float(self.INF[i, S.IN_TRAVEL]),
+                "load_N": float(self.INF[i, S.IN_LOAD])}
+
+    def reset_info(self, i: int) -> dict[str, Any]:
+        draw = self.draws[i]
+        return {"load_N": draw.load_N} if draw is not None else {}
+
+
+def seed_list(seed: int | Sequence[int | None] | None, n: int) -> list[int | None]:
+    """Per-env seeds of a batch: ``seed + i`` for an int, as given for a list, all None for None."""
     if seed is None or isinstance(seed, (int, np.integer)):
         return [None if seed is None else int(seed) + i for i in range(n)]
     if len(seed) != n:
@@ -195,7 +221,7 @@ class TriPlanarShearVectorEnv(VectorEnv):
     def reset(self, *, seed: int | Sequence[int | None] | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed if isinstance(seed, (int, np.integer)) else None)
         if seed is not None or not self._started:
-            self.batch.seed(_seed_list(seed, self.num_envs))
+            self.batch.seed(seed_list(seed, self.num_envs))
         self.batch.reset_rows(np.arange(self.num_envs), options)
         self.batch.CODES[:] = 0
         self._prev_done[:] = False

@@ -104,65 +104,57 @@ def _table(result: StudyResult, summary_: dict[str, Any]) -> str:
     return head + "\n".join(rows) + "\n"
 
 
-def write_markdown(result: StudyResult, s: dict[str, Any], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    rel = Path(os.path.relpath(result.out_dir, path.parent))
-    c = s["controllers"]
+def _answer(c: dict[str, Any], best_overall: str) -> str:
+    """The study's answer in one sentence: can the actuator reproduce case C (within this model)?"""
     ppo = c.get(PPO)
-    seeds = ppo["seeds"] if ppo else 0
-    ttt = s.get("time_to_target", {})
-    reached = ttt.get("by_seed", {})
-    ttt_lines = "\n".join(
-        f"* seed {seed}: " + (f"{v['timesteps']:,} steps, {v['wall_s']:.0f} s" if v else "not reached")
-        for seed, v in reached.items())
-    training = "\n".join(f"* {name}: {v['timesteps']:,} steps in {v['wall_s'] / 60:.1f} min"
-                         for name, v in s["training"].items())
-    beats = s.get("ppo_beats_best_scripted_at", [])
-    loses = s.get("ppo_loses_to_best_scripted_at", [])
-    worst_beats = s.get("ppo_worst_seed_beats_best_scripted_at", [])
-    scripted = s["scripted"]
-    loads = list(result.loads)
-    best_overall = min(scripted, key=lambda n: c[n]["mean_over_loads_mm"])
-    best_by_load = s["best_scripted_by_load"]
-    best_lines = "; ".join(f"{n} at {_ranges(loads, [b == n for b in best_by_load])}"
-                           for n in dict.fromkeys(best_by_load))
-    failures = {n: v["failures"] for n, v in c.items() if v["failures"]}
-    limits = {n: v for n, v in s["stage_limit_loads"].items() if v}
-    ppo_mean = ppo["mean_over_loads_mm"] if ppo else float("nan")
-    ppo_max = max(ppo["mean_by_load_mm"]) if ppo else float("nan")
     best_scripted_mean = c[best_overall]["mean_over_loads_mm"]
-    if ppo and not c[PPO]["failures"] and ppo_max < 1.0:
-        answer = (f"Within this model, yes: the learned policy follows the hydrostatic path to {ppo_mean:.2f} mm on "
-                  f"average (at most {ppo_max:.2f} mm at any load, every seed reaching 8 cm), "
-                  f"{best_scripted_mean / ppo_mean:.0f} times closer than the best scripted law ({best_overall}, "
-                  f"{best_scripted_mean:.2f} mm). The scripted laws show why it is hard: each removes one cause of "
-                  "the difference (friction, load-point drift, moment) but not all of them at once.")
-    elif ppo:
-        answer = (f"Partly: PPO reaches {ppo_mean:.2f} mm on average (worst load {ppo_max:.2f} mm) against "
-                  f"{best_scripted_mean:.2f} mm for the best scripted law ({best_overall}).")
-    else:
-        answer = f"Among the scripted laws, {best_overall} comes closest ({best_scripted_mean:.2f} mm on average)."
-    strategy = "No PPO runs."
-    if "ppo_strategy" in s:
-        lo, hi = s["ppo_strategy"][f"{loads[0]:g}"], s["ppo_strategy"][f"{loads[-1]:g}"]
-        strategy = (f"PPO's policies use the actuator in a way no scripted law does: at {loads[0]:g} N the thrust "
-                    f"ranges over {lo['thrust_min_N']:.0f}-{lo['thrust_max_N']:.0f} N (the hydrostatic load is a "
-                    f"constant {loads[0]:g} N) and the tip moves up to {lo['offset_max_abs_mm']:.0f} mm off the "
-                    f"centreline (at {loads[-1]:g} N: {hi['thrust_min_N']:.0f}-{hi['thrust_max_N']:.0f} N, "
-                    f"{hi['offset_max_abs_mm']:.0f} mm). They reproduce the path by travel, not the hydrostatic test's "
-                    f"time history: at {loads[0]:g} N their tests last "
-                    f"{', '.join(f'{d:.2f}' for d in lo['duration_s'])} s against {lo['hydrostatic_duration_s']:.2f} s "
-                    f"under hydrostatic load ({loads[-1]:g} N: {', '.join(f'{d:.2f}' for d in hi['duration_s'])} s "
-                    f"against {hi['hydrostatic_duration_s']:.2f} s). The reward asks for the path only.")
-    figures = "\n".join(f"* {n}: [traces_{slug(n)}.png]({rel / f'traces_{slug(n)}.png'})" for n in result.controllers)
-    text = f"""# Actuator design study: can a servo actuator make the block slide as under hydrostatic load?
+    if not ppo:
+        return f"Among the scripted laws, {best_overall} comes closest ({best_scripted_mean:.2f} mm on average)."
+    ppo_mean, ppo_max = ppo["mean_over_loads_mm"], max(ppo["mean_by_load_mm"])
+    if not ppo["failures"] and ppo_max < 1.0:
+        return (f"Within this model, yes: the learned policy follows the hydrostatic path to {ppo_mean:.2f} mm on "
+                f"average (at most {ppo_max:.2f} mm at any load, every seed reaching 8 cm), "
+                f"{best_scripted_mean / ppo_mean:.0f} times closer than the best scripted law ({best_overall}, "
+                f"{best_scripted_mean:.2f} mm). The scripted laws show why it is hard: each removes one cause of "
+                "the difference (friction, load-point drift, moment) but not all of them at once.")
+    return (f"Partly: PPO reaches {ppo_mean:.2f} mm on average (worst load {ppo_max:.2f} mm) against "
+            f"{best_scripted_mean:.2f} mm for the best scripted law ({best_overall}).")
+
+
+def _strategy(s: dict[str, Any], loads: list[float]) -> str:
+    """How PPO's policies use the actuator, at the lowest and highest load."""
+    if "ppo_strategy" not in s:
+        return "No PPO runs."
+    lo, hi = s["ppo_strategy"][f"{loads[0]:g}"], s["ppo_strategy"][f"{loads[-1]:g}"]
+    return (f"PPO's policies use the actuator in a way no scripted law does: at {loads[0]:g} N the thrust "
+            f"ranges over {lo['thrust_min_N']:.0f}-{lo['thrust_max_N']:.0f} N (the hydrostatic load is a "
+            f"constant {loads[0]:g} N) and the tip moves up to {lo['offset_max_abs_mm']:.0f} mm off the "
+            f"centreline (at {loads[-1]:g} N: {hi['thrust_min_N']:.0f}-{hi['thrust_max_N']:.0f} N, "
+            f"{hi['offset_max_abs_mm']:.0f} mm). They reproduce the path by travel, not the hydrostatic test's "
+            f"time history: at {loads[0]:g} N their tests last "
+            f"{', '.join(f'{d:.2f}' for d in lo['duration_s'])} s against {lo['hydrostatic_duration_s']:.2f} s "
+            f"under hydrostatic load ({loads[-1]:g} N: {', '.join(f'{d:.2f}' for d in hi['duration_s'])} s "
+            f"against {hi['hydrostatic_duration_s']:.2f} s). The reward asks for the path only.")
+
+
+def _seeds(s: dict[str, Any]) -> int:
+    ppo = s["controllers"].get(PPO)
+    return ppo["seeds"] if ppo else 0
+
+
+def _head(result: StudyResult, rel: Path) -> str:
+    return f"""# Actuator design study: can a servo actuator make the block slide as under hydrostatic load?
 
 Generated by `triplanar study --out {result.out_dir}` on {date.today().isoformat()}: every number below is from
 that run (PPO runs in `{result.ppo_runs[0].run_dir.parent if result.ppo_runs else '-'}`, trained by the command or
 reused when finished); tables and figures in [`{rel}`]({rel}). Environment: `TriPlanarShear-v0` (`envs/`,
 documented in its docstring and `docs/environment.md`), controllers in `agents/`.
 
-## Question
+"""
+
+
+def _question_and_controllers(seeds: int) -> str:
+    return f"""## Question
 
 The laboratory pushes the block with a steel tip that rubs on the aft face (end friction, 8 degrees). Galic,
 Glaser & Goodman (2008) show that this changes the sliding path, and that the bench is far from the hydrostatic
@@ -200,7 +192,12 @@ reward accumulates (`r_distance`); a controller that does not reach 8 cm is mark
 For scale, **frictionless tip** is a fixed tip with no end friction at all (the paper's case B): hypothetical
 hardware, not ranked among the scripted controllers.
 
-## Results
+"""
+
+
+def _results(result: StudyResult, s: dict[str, Any], rel: Path, seeds: int) -> str:
+    figures = "\n".join(f"* {n}: [traces_{slug(n)}.png]({rel / f'traces_{slug(n)}.png'})" for n in result.controllers)
+    return f"""## Results
 
 Mimicry error (mm), one deterministic episode per load (the environment is deterministic; PPO: mean +- std over
 {seeds} seeds); **bold**: best scripted controller at that load; an outcome in brackets means the episode did not
@@ -217,7 +214,20 @@ Traces against the hydrostatic reference, every load level:
 Commands at {result.loads[0]:g} N: [actions_{result.loads[0]:g}N.png]({rel / f'actions_{result.loads[0]:g}N.png'}).
 Learning curves: [learning_curves.png]({rel / 'learning_curves.png'}).
 
-### PPO as a baseline
+"""
+
+
+def _ppo_baseline(result: StudyResult, s: dict[str, Any]) -> str:
+    ttt = s.get("time_to_target", {})
+    ttt_lines = "\n".join(
+        f"* seed {seed}: " + (f"{v['timesteps']:,} steps, {v['wall_s']:.0f} s" if v else "not reached")
+        for seed, v in ttt.get("by_seed", {}).items())
+    training = "\n".join(f"* {name}: {v['timesteps']:,} steps in {v['wall_s'] / 60:.1f} min"
+                         for name, v in s["training"].items())
+    beats = s.get("ppo_beats_best_scripted_at", [])
+    loses = s.get("ppo_loses_to_best_scripted_at", [])
+    worst_beats = s.get("ppo_worst_seed_beats_best_scripted_at", [])
+    return f"""### PPO as a baseline
 
 Training (one core, `torch.set_num_threads(1)`, batched env `agents.sb3_vec_env.ShearSB3VecEnv`):
 
@@ -233,7 +243,20 @@ PPO's mean beats the best scripted controller at {len(beats)} of {len(result.loa
 ({', '.join(f'{f:g}' for f in worst_beats) or 'none'}); it loses at {', '.join(f'{f:g}' for f in loses) or 'none'}.
 Loads at which PPO's mean beats each scripted controller: {', '.join(f'{k} {v}/12' for k, v in s.get('ppo_vs', {}).items())}.
 
-## Conclusions
+"""
+
+
+def _conclusions(result: StudyResult, s: dict[str, Any]) -> str:
+    c = s["controllers"]
+    loads = list(result.loads)
+    best_overall = min(s["scripted"], key=lambda n: c[n]["mean_over_loads_mm"])
+    best_by_load = s["best_scripted_by_load"]
+    best_lines = "; ".join(f"{n} at {_ranges(loads, [b == n for b in best_by_load])}"
+                           for n in dict.fromkeys(best_by_load))
+    failures = {n: v["failures"] for n, v in c.items() if v["failures"]}
+    limits = {n: v for n, v in s["stage_limit_loads"].items() if v}
+    answer, strategy = _answer(c, best_overall), _strategy(s, loads)
+    return f"""## Conclusions
 
 * {answer}
 * The steel tip is far from hydrostatic loading: {c['steel tip']['mean_by_load_mm'][0]:.1f} mm at
@@ -254,7 +277,11 @@ Loads at which PPO's mean beats each scripted controller: {', '.join(f'{k} {v}/1
 * Best scripted law by load: {best_lines}. Best on average: {best_overall}.
 * Episodes that did not reach 8 cm: {failures if failures else 'none'}.
 
-## Caveats
+"""
+
+
+def _caveats_and_reproduce(result: StudyResult, path: Path, seeds: int) -> str:
+    return f"""## Caveats
 
 * Everything is the model's: the reference specimen's undocumented values (`docs/specimen-format.md`)
   and Coulomb friction with a velocity-controlled, infinitely stiff stage. A real stage has finite bandwidth; the
@@ -271,8 +298,17 @@ Loads at which PPO's mean beats each scripted controller: {', '.join(f'{k} {v}/1
 ```
 triplanar study --out {result.out_dir} --ppo-dir runs/ppo --seeds {' '.join(str(k) for k in sorted(result.curves))} --doc {path.name}
 ```
-(trains or resumes PPO, then evaluates; `--skip-train` re-evaluates finished runs; `python -m agents.train_ppo`
+(trains or resumes PPO, then evaluates; `--skip-train` re-evaluates finished runs; `triplanar train`
 trains one run). The files in `--ppo-dir` (`vecnormalize.pkl`, the SB3 zips) are loaded with pickle and
 cloudpickle, which run code: use only runs you trained or that come from a trusted source.
 """
-    path.write_text(text)
+
+
+def write_markdown(result: StudyResult, s: dict[str, Any], path: Path) -> None:
+    """The study's report (Markdown), its numbers from ``s`` (:func:`summary`) and its links relative to ``path``."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rel = Path(os.path.relpath(result.out_dir, path.parent))
+    seeds = _seeds(s)
+    path.write_text(_head(result, rel) + _question_and_controllers(seeds) + _results(result, s, rel, seeds)
+                    + _ppo_baseline(result, s) + _conclusions(result, s) + _caveats_and_reproduce(result, path, seeds))
+

@@ -28,13 +28,18 @@ ENV_ID = "TriPlanarShear-v1"
 SHIPPED_SETS = ("heldout", "stress")
 
 
-def default_hyperparameters(algo: str) -> dict[str, Any]:
-    """What :mod:`agents.train_robust` trains with (its constants), for the card."""
-    from agents import train_robust as tr
-    kwargs = tr.RECURRENT_KWARGS if algo == "recurrent" else tr.PPO_KWARGS
-    return {"algorithm": "RecurrentPPO" if algo == "recurrent" else "PPO", **kwargs, "n_envs": tr.N_ENVS,
-            "frames": 1 if algo == "recurrent" else tr.FRAMES,
-            "vecnormalize": {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "gamma": 0.99}}
+def run_hyperparameters(runs: Sequence[Path]) -> dict[str, Any]:
+    """What the runs trained with (each run's ``config.json``, written by :func:`agents.train_robust.train_robust`),
+    for the card; runs of one agent must share it (the seed and the step budget aside)."""
+    from agents.train_robust import run_config
+    configs = []
+    for run in runs:
+        config = run_config(run)
+        configs.append({k: v for k, v in config.items() if k != "train"}
+                       | {"train": {k: v for k, v in config.get("train", {}).items() if k != "total_timesteps"}})
+    if any(c != configs[0] for c in configs[1:]):
+        raise ValueError(f"runs {[str(r) for r in runs]} were trained with different configurations (config.json)")
+    return configs[0]
 
 
 def _run_seed(run_dir: Path) -> tuple[int, int]:
@@ -88,10 +93,12 @@ def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
                 (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
                 shutil.copyfile(run / source, tmp / rel)
                 files[rel] = hashlib.sha256((tmp / rel).read_bytes()).hexdigest()
+        hyperparameters = hyperparameters or run_hyperparameters(runs)
+        frames = hyperparameters.get("env", {}).get("frame_stack")
         card = {"name": name, "env_id": ENV_ID, "env_kwargs": env_kwargs, "algo": algo,
-                "hyperparameters": hyperparameters or default_hyperparameters(algo),
+                "hyperparameters": hyperparameters,
                 "timesteps": max(steps), "timesteps_by_seed": {str(s): t for s, t in seeds},
-                "seeds": [s for s, _ in seeds], "observation": observation_layout(env_kwargs, algo),
+                "seeds": [s for s, _ in seeds], "observation": observation_layout(env_kwargs, algo, frames),
                 "figures": figures(runs, algo, env_kwargs, n, executor),
                 "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), "command": command,
                 "files": files}

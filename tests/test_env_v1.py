@@ -112,7 +112,8 @@ def test_randomisation_is_seeded_and_within_its_ranges():
 
 def test_conventions():
     env = gym.make("TriPlanarShear-v1")
-    assert env.spec.max_episode_steps == round(2.0 * 200) - 1
+    assert env.spec.max_episode_steps is None   # one truncation, the env's own time_limit_s: no TimeLimit wrapper
+    assert not any(spec.name == "TimeLimit" for spec in env.spec.additional_wrappers)
     assert env.unwrapped.dt == 0.005 and env.metadata["render_fps"] == 200
     _, reset_info = env.reset(seed=0)
     _, _, _, _, step_info = env.step(env.action_space.sample())
@@ -152,6 +153,32 @@ def test_render_is_fast_and_human_without_display_warns_once(monkeypatch):
         human.step(np.zeros(2))
         human.render()
     assert len([w for w in caught if "display" in str(w.message)]) == 1
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("env_id", ["TriPlanarShear-v0", "TriPlanarShear-v1"])
+def test_recorded_video_lasts_as_long_as_the_episode(tmp_path, env_id):
+    from gymnasium.wrappers import RecordVideo
+    from moviepy import VideoFileClip
+    env = RecordVideo(gym.make(env_id, render_mode="rgb_array", load_N=30.3), str(tmp_path),
+                      episode_trigger=lambda e: True, disable_logger=True)
+    _, info = env.reset(seed=0)
+    start = info["time_s"]   # the first control period runs in reset, before the first frame
+    frames = 1
+    while True:
+        _, _, terminated, truncated, info = env.step(np.zeros(2, np.float32))
+        frames += 1
+        if terminated or truncated:
+            break
+    duration = info["time_s"] - start   # the episode the agent saw
+    fps = env.metadata["render_fps"]
+    env.close()
+    assert frames > 20 and abs(frames / fps - duration) <= 1.5 / fps   # one frame per control period
+    (video,) = tmp_path.glob("*.mp4")
+    clip = VideoFileClip(str(video))
+    # plays in real time: to the reset's frame (one more than the steps) and moviepy's duration (to 0.01 s)
+    assert clip.fps == fps and abs(clip.duration - duration) <= 1.5 / fps + 0.005
+    clip.close()
 
 
 @pytest.mark.slow

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import envs.triplanar_shear as T
+import envs.core as T
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env, draw_bench
 
 

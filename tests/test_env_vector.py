@@ -6,7 +6,7 @@ import gymnasium as gym
 import numpy as np
 
 import envs  # noqa: F401 (registers the environments)
-from envs import triplanar_shear as S
+from envs import core as S
 from envs.triplanar_shear import TriPlanarShearEnv
 from envs.vector import TriPlanarShearVectorEnv
 from triplanar.outcome import Outcome

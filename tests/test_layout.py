@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from envs import triplanar_shear as S
+from envs import core as S
 from triplanar import driver, kernel as K, stepping
 from triplanar.layout import Layout
 

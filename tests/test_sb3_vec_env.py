@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from agents.sb3_vec_env import ShearSB3VecEnv
-from envs import triplanar_shear as S
+from envs import core as S
 from envs.triplanar_shear import TriPlanarShearEnv
 from test_env_vector import N, actions
 
@@ -47,3 +47,34 @@ def test_sb3_adapter_row_options_and_api() -> None:
     assert vec.get_attr("render_mode") == [None, None] and vec.env_is_wrapped(gym.Wrapper) == [False, False]
     with pytest.raises(ValueError):
         ShearSB3VecEnv(2, row_options=[{}])
+
+
+@pytest.mark.parametrize("mode", ["bench", "state"])
+def test_sb3_adapter_over_batched_v1_terminal_observations_and_autoreset(mode: str) -> None:
+    from gymnasium.wrappers import FlattenObservation, FrameStackObservation
+
+    from agents.sb3_vec_env import bench_vec_env
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+    kwargs = dict(observation_mode=mode, randomize=True, latency_s=0.01)
+    vec = bench_vec_env(N, seed=11, frame_stack=3, **kwargs)
+    obs = vec.reset()
+    singles = [FlattenObservation(FrameStackObservation(TriPlanarShearV1Env(**kwargs), 3)) for _ in range(N)]
+    assert vec.observation_space == singles[0].observation_space
+    for i, env in enumerate(singles):
+        assert np.array_equal(obs[i], env.reset(seed=11 + i)[0])
+    episodes = 0
+    for batch in np.clip(np.random.default_rng(5).normal(0.0, 0.9, (300, N, 2)), -1, 1).astype(np.float32):
+        obs, rewards, dones, infos = vec.step(batch)
+        for i, env in enumerate(singles):
+            o, r, te, tr, inf = env.step(batch[i])
+            assert rewards[i] == np.float32(r) and dones[i] == (te or tr)
+            if te or tr:
+                episodes += 1
+                assert np.array_equal(infos[i]["terminal_observation"], o)   # the stack at the episode's end
+                assert infos[i]["TimeLimit.truncated"] == (tr and not te)
+                assert infos[i]["reason"] == inf["reason"] and infos[i]["mimicry_error_mm"] == inf["mimicry_error_mm"]
+                o = env.reset()[0]   # same-step autoreset: the next episode's first stack
+            else:
+                assert infos[i] == {}
+            assert np.array_equal(obs[i], o)
+    assert episodes >= 2 * N

@@ -2,8 +2,8 @@
 
 Runs what a user's first commands run, small: traces (the static-equilibrium LP, the sliding threshold of a rising
 actuator force, the start modes, DOPRI5; RK4 and Euler share its compiled code), a block at rest, the decoded
-block state, the contact and load points a rendering draws, and, when Gymnasium is installed, one single-env and
-one vector-env episode start and step (the environments are imported only here, in :func:`warm_envs`, the one
+block state, the contact and load points a rendering draws, and, when Gymnasium is installed, one episode start
+and step of each env (v0, v1, and both batched versions, v1's in both observation modes; the environments are imported only here, in :func:`warm_envs`, the one
 place below the commands where the core reaches the env layer, and only through its public API). Each compiled
 function lands in numba's cache (:func:`triplanar.compiled_cache.numba_cache_dir`); with a warm cache this only
 loads them (a few seconds, most of it importing torch for the vector env). Idempotent.
@@ -40,7 +40,7 @@ def warm_physics() -> None:
 
 
 def warm_envs() -> bool:
-    """The single env's and the vector env's compiled steps. False if Gymnasium (the RL extra) is missing."""
+    """The single and batched envs' compiled steps. False if Gymnasium is missing."""
     try:
         import gymnasium as gym
         import numpy as np
@@ -59,13 +59,13 @@ def warm_envs() -> bool:
         env.reset(seed=0)
         env.step(np.zeros(2, np.float32))
         env.close()
-        try:
-            vec = gym.make_vec("TriPlanarShear-v0", num_envs=2)
-        except ImportError:  # the vector env's stable-baselines3 adapter is missing
-            return True
-        vec.reset(seed=0)
-        vec.step(np.zeros((2, 2), np.float32))
-        vec.close()
+        for env_id, kwargs in (("TriPlanarShear-v0", {}), ("TriPlanarShear-v1", {}),
+                               ("TriPlanarShear-v1", {"observation_mode": "state"})):
+            # the batched loops (envs.vector._batch_step, envs.vector_v1._bench_batch_step, _bench_observations)
+            vec = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **kwargs)
+            vec.reset(seed=0)
+            vec.step(np.zeros((2, 2), np.float32))
+            vec.close()
         return True
 
 

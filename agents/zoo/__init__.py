@@ -67,22 +67,24 @@ def model_files(seed: int) -> tuple[str, str]:
     return f"seed_{seed}/{MODEL}", f"seed_{seed}/{NORMALIZER}"
 
 
-def observation_layout(env_kwargs: dict[str, Any], algo: str) -> dict[str, Any]:
+def observation_layout(env_kwargs: dict[str, Any], algo: str, frames: int | None = None) -> dict[str, Any]:
     """The observation an agent trained with ``algo`` on ``TriPlanarShear-v1(**env_kwargs)`` sees: the mode, the
-    fields of one observation (name, size) and the number of stacked frames."""
-    from envs.triplanar_shear import OBSERVATION
+    fields of one observation (name, size) and the number of stacked frames (``frames``, default the frame-stacked
+    runs' 4; a recurrent policy sees 1)."""
+    from envs.core import OBSERVATION
     from envs.triplanar_shear_v1 import BENCH_OBSERVATION
 
     from ..train_robust import FRAMES
     mode = env_kwargs.get("observation_mode", "bench")
     layout = BENCH_OBSERVATION if mode == "bench" else OBSERVATION
     return {"observation_mode": mode, "fields": [[f.name, f.size] for f in layout.fields.values()],
-            "frames": 1 if algo == "recurrent" else FRAMES}
+            "frames": 1 if algo == "recurrent" else int(frames or FRAMES)}
 
 
 def check_layout(card: dict[str, Any], env_kwargs: dict[str, Any]) -> None:
     """Refuse (naming the field) a bench whose observation differs from the one in the agent's card."""
-    expected, actual = card["observation"], observation_layout(env_kwargs, card["algo"])
+    expected, actual = card["observation"], observation_layout(env_kwargs, card["algo"],
+                                                                           card["observation"].get("frames"))
     for key in ("observation_mode", "frames"):
         if expected.get(key) != actual[key]:
             raise ShippedAgentError(f"shipped agent {card['name']!r} expects {key}={expected.get(key)!r}, this bench "
@@ -115,7 +117,8 @@ def load_shipped(name: str, seed: int, zoo_dir: Path | None = None) -> Any:
         from sb3_contrib import RecurrentPPO
         return RecurrentPolicy(RecurrentPPO.load(str(root / model_rel), device="cpu"), normalizer, name)
     from stable_baselines3 import PPO
-    return RobustPolicy(PPO.load(str(root / model_rel), device="cpu"), normalizer, name)
+    return RobustPolicy(PPO.load(str(root / model_rel), device="cpu"), normalizer, name,
+                        int(card["observation"]["frames"]))
 
 
 def card_markdown(card: dict[str, Any]) -> str:

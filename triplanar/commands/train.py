@@ -1,18 +1,23 @@
-"""``triplanar train``: train PPO on TriPlanarShear-v0 (thin wrapper over :mod:`agents.train_ppo`).
+"""``triplanar train``: train a controller on TriPlanarShear-v0 (PPO) or -v1 (robust or recurrent PPO) from an
+rl-zoo-style YAML in ``agents/``; resumable, one run per seed through the executor.
 
-The options are declared here and :mod:`agents` is imported only in :func:`run`, so building the CLI (and
-``triplanar --help``) needs neither the agents nor torch; ``python -m agents.train_ppo`` uses the same options.
+The options are declared and parsed here; :mod:`agents.training` takes a plain :class:`~agents.training.TrainRequest`
+(imported only in :func:`run`, so building the CLI, and ``triplanar --help``, needs neither the agents nor torch).
 """
 
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from ..cli_args import add_executor_arguments, executor_from_args
 from . import require
 
 NAME = "train"
-HELP = "train PPO on TriPlanarShear-v0 (hyperparameters in a YAML file; resumes from checkpoints)"
+HELP = ("train PPO on TriPlanarShear-v0, or robust/recurrent PPO on TriPlanarShear-v1 (hyperparameters in a YAML "
+        "file; resumes from checkpoints)")
+ENV_IDS = ("TriPlanarShear-v0", "TriPlanarShear-v1")
+DEFAULT_OUT = {"TriPlanarShear-v0": "runs/ppo", "TriPlanarShear-v1": "runs/robust", "recurrent": "runs/recurrent"}
 
 
 def positive_int(text: str) -> int:
@@ -26,19 +31,54 @@ def positive_int(text: str) -> int:
     return value
 
 
+def key_value(text: str) -> tuple[str, Any]:
+    """argparse type: ``KEY=VALUE``, the value read as YAML (``3``, ``0.01``, ``true``, ``[27.8, 55.6]``, ``bench``)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip():
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    import yaml  # the rl extra; checked by require() before any value is used
+    try:
+        return key.strip(), yaml.safe_load(value)
+    except yaml.YAMLError as err:
+        raise argparse.ArgumentTypeError(f"{key}: cannot read the value {value!r} ({err})") from None
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--config", help="hyperparameter YAML (default agents/ppo.yaml)")
-    parser.add_argument("--out", default="runs/ppo", help="output directory; the run goes to OUT/seed_S")
+    parser.add_argument("--env", default="TriPlanarShear-v0", choices=ENV_IDS,
+                        help="the env id (default TriPlanarShear-v0); v1 trains robust PPO on the realistic bench")
+    parser.add_argument("--config", help="hyperparameter YAML (default agents/ppo.yaml for v0; agents/robust.yaml "
+                                         "for v1, agents/recurrent.yaml with --algo recurrent)")
+    parser.add_argument("--algo", choices=("ppo", "recurrent"),
+                        help="v1 only: ppo (frame stack) or recurrent (LSTM); default: the YAML's")
+    parser.add_argument("--env-arg", metavar="KEY=VALUE", type=key_value, action="append", default=[],
+                        help="an env argument over the YAML's (repeatable), e.g. latency_s=0.01 or randomize=false")
+    parser.add_argument("--set", metavar="KEY.PATH=VALUE", type=key_value, action="append", default=[],
+                        dest="overrides", help="any YAML value (repeatable), e.g. hyperparams.learning_rate=1e-4 "
+                                               "(v1) or ppo.learning_rate=1e-4 (v0)")
+    parser.add_argument("--out", help="output directory; the run goes to OUT/seed_S (default runs/ppo for v0, "
+                                      "runs/robust for v1, runs/recurrent with --algo recurrent)")
     parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
     parser.add_argument("--timesteps", type=positive_int, help="total environment steps (default: the YAML's)")
     parser.add_argument("--no-resume", action="store_true",
                         help="start afresh even if checkpoints exist (the previous run's checkpoints are removed)")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--verbose", type=int, default=0)
     add_executor_arguments(parser)  # the seeds are the tasks (each seed's run directory must be shared on a cluster)
 
 
 def run(args: argparse.Namespace) -> int:
     require()
-    from agents.train_ppo import run as train  # the RL stack, only when training
+    from agents.training import TrainRequest, train  # the RL stack, only when training
+    if args.algo is not None and args.env == "TriPlanarShear-v0":
+        raise ValueError("--algo is for --env TriPlanarShear-v1 (v0 trains PPO with agents/ppo.yaml)")
+    seeds = tuple(args.seed or [0])
+    request = TrainRequest(env_id=args.env, config=args.config, algo=args.algo, env_kwargs=dict(args.env_arg),
+                           overrides=dict(args.overrides), seeds=seeds, timesteps=args.timesteps,
+                           out_dir=args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env],
+                           resume=not args.no_resume,
+                           verbose=args.verbose, progress=not args.no_progress)
     with executor_from_args(args) as executor:
-        return train(args, executor)
+        results = train(request, executor)
+    for result in results:
+        print(f"seed {result.seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.run_dir}")
+    return 0

@@ -1,4 +1,4 @@
-"""A fast overhead renderer for ``TriPlanarShear-v1`` (Pillow; a frame in a few ms, where matplotlib takes ~170 ms).
+"""A fast overhead renderer for the TriPlanarShear envs (Pillow; a frame in a few ms, where matplotlib takes ~170 ms).
 
 The view is v0's (x1 right, x3 up, as the paper's figures): the planes' intersection lines, the hydrostatic reference
 path (grey), the contact points' traces (black), the contact triangle (blue) and the load tip (red)."""
@@ -15,7 +15,7 @@ X_RANGE = (-0.22, 0.14)   # m, as v0's view
 Z_RANGE = (-0.06, 0.32)
 
 
-class FastRenderer:
+class Renderer:
     def __init__(self, foundation: Foundation, human: bool = False):
         self.human = human
         self.scale = SIZE / max(X_RANGE[1] - X_RANGE[0], Z_RANGE[1] - Z_RANGE[0])

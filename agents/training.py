@@ -1,0 +1,75 @@
+"""Train a controller on either env version from a plain request (what ``triplanar train`` builds from its options;
+the command owns the argument parsing, the agents take this object).
+
+* ``TriPlanarShear-v0``: PPO with ``agents/ppo.yaml``'s schema (:mod:`agents.train_ppo`);
+* ``TriPlanarShear-v1``: robust PPO (``algo: ppo``, frame stack) or recurrent PPO (``algo: recurrent``) with
+  ``agents/robust.yaml``'s schema (:mod:`agents.train_robust`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from triplanar.executor import ExecutorLike
+
+ENV_IDS = ("TriPlanarShear-v0", "TriPlanarShear-v1")
+ALGOS = ("ppo", "recurrent")
+
+
+@dataclass(frozen=True)
+class TrainRequest:
+    """What to train: the env id, the YAML (default: ``agents/ppo.yaml`` for v0, by ``algo`` for v1), env
+    arguments and ``key.path=value`` overrides on top of it, seeds, steps (None: the YAML's), where to write,
+    whether to resume and show progress."""
+
+    env_id: str = "TriPlanarShear-v0"
+    config: str | None = None
+    algo: str | None = None
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    overrides: dict[str, Any] = field(default_factory=dict)
+    seeds: tuple[int, ...] = (0,)
+    timesteps: int | None = None
+    out_dir: str = "runs/ppo"
+    resume: bool = True
+    verbose: int = 0
+    progress: bool = True
+
+    def check(self) -> None:
+        if self.env_id not in ENV_IDS:
+            raise ValueError(f"env id must be one of {', '.join(ENV_IDS)}, got {self.env_id!r}")
+        if self.algo is not None and self.algo not in ALGOS:
+            raise ValueError(f"algo must be one of {', '.join(ALGOS)}, got {self.algo!r}")
+        if self.env_id == "TriPlanarShear-v0" and self.algo == "recurrent":
+            raise ValueError("algo 'recurrent' trains on TriPlanarShear-v1 (give --env TriPlanarShear-v1)")
+        if self.timesteps is not None and self.timesteps <= 0:
+            raise ValueError(f"timesteps must be positive, got {self.timesteps}")
+        if not self.seeds:
+            raise ValueError("give at least one seed")
+
+
+@dataclass(frozen=True)
+class TrainedRun:
+    seed: int
+    timesteps: int
+    wall_s: float
+    run_dir: Path
+
+
+def train(request: TrainRequest, executor: ExecutorLike = "serial") -> list[TrainedRun]:
+    """Train (or resume) one run per seed of ``request`` through ``executor``; results in seed order."""
+    request.check()
+    if request.env_id == "TriPlanarShear-v0":
+        from .train_ppo import DEFAULT_CONFIG, load_config, train_seeds
+        overrides = {**request.overrides, **{f"env.{k}": v for k, v in request.env_kwargs.items()}}
+        config = load_config(request.config or DEFAULT_CONFIG, overrides)
+        results = train_seeds(config, request.out_dir, request.seeds, request.timesteps, request.resume,
+                              request.verbose, executor, progress=request.progress)
+        return [TrainedRun(seed, r.timesteps, r.wall_s, r.run_dir) for seed, r in zip(request.seeds, results)]
+    from .train_robust import train_seeds as train_robust_seeds
+    summaries = train_robust_seeds(request.out_dir, request.seeds, request.timesteps or 0,
+                                   env_kwargs=request.env_kwargs, executor=executor, algo=request.algo or "",
+                                   config=request.config or "", overrides=request.overrides,
+                                   progress=request.progress, resume=request.resume)
+    return [TrainedRun(s["seed"], s["timesteps"], s["wall_s"], Path(s["run_dir"])) for s in summaries]
