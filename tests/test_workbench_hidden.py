@@ -16,6 +16,7 @@ from __future__ import annotations
 import pytest
 
 from triplanar import make_effect
+from triplanar.effects import REGISTRY
 from triplanar.labdata import generate_lab_data
 from triplanar.workbench import Diagnoser, ForwardSelection
 from triplanar.workbench.scenarios import HIDDEN_EFFECTS, ForceRipple
@@ -60,9 +61,16 @@ def test_hidden_builtin_effect_is_ranked_first_and_fitted(name: str) -> None:
             assert error <= max(0.15 * abs(value), 2 * best["param_stderr"][param]), (param, best["params"][param])
         else:
             assert error <= 0.15 * abs(value), (param, best["params"][param], value)
-    assert best["improvement"] >= 0.70
     assert report["missing_effect"] == name
     assert report["confidence"] in ("high", "low")
+    if REGISTRY[name].acts_on == "instrument":
+        # named as an instrument effect; a rangefinder's gain, offset or drift of the scenario's size leaves the
+        # model as given within or near the repeats' scatter (a bias below it), so most of what remains is scatter
+        assert report["missing_kind"] == "instrument"
+        assert best["improvement"] > 0.1
+    else:
+        assert best["improvement"] >= 0.70
+        assert report["missing_kind"] == "physics"
 
 
 def test_no_hidden_effect_gives_null() -> None:
