@@ -57,7 +57,7 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     assert {r["bench_set"] for r in rows} == {"nominal", "heldout", "stress"}
     assert all(float(r["error_low_mm"]) <= float(r["error_high_mm"]) for r in rows if r["mimicry_error_mm"] != "nan")
     assert {"steel_tip", "frictionless_tip", "pi_feedback", "adaptive", "ppo_robust",
-            "ppo_recurrent"} <= {r["controller"] for r in rows}
+            "ppo_recurrent", "mpc", "limit"} <= {r["controller"] for r in rows}
     recurrent = [r for r in rows if r["controller"] == "ppo_recurrent"]
     assert {r["bench_set"] for r in recurrent} == {"nominal", "heldout", "stress"}
     assert all(int(r["n_episodes"]) > 0 for r in recurrent)
@@ -68,6 +68,9 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     with open(tmp_path / "designs.csv") as f:
         ppo = [r for r in csv.DictReader(f) if r["controller"] == "ppo_robust"]
     assert len(ppo) == 1 and ppo[0]["n_seeds"] == "2"
+    with open(tmp_path / "designs.csv") as f:
+        assert {"mpc", "limit"} <= {r["controller"] for r in csv.DictReader(f)}
+    assert "x the limit" in (tmp_path / "recommendation.txt").read_text()
     report = (tmp_path / "bench_report.md").read_text()
     assert "95 % CI" in report and "wall time" in report and "2 seeds x 512 steps per design" in report
     assert "](../heldout.png)" in (tmp_path / "doc" / "report.md").read_text()
@@ -106,3 +109,17 @@ def test_report_and_plots_take_a_row_without_successes(tmp_path):
     text = bench_report.markdown(summary, rows, design_rows)
     assert "| `never` | heldout | 3 x 2 | 0.0 (" in text and "| - | - | 10.00 (10.00-10.00) | -, - |" in text
     assert "recurrent PPO: none" in text and (tmp_path / "rows.png").stat().st_size > 0
+
+
+def test_the_limit_is_reported_per_design_but_never_recommended():
+    def row(design, controller, score, high, demand=1):
+        return {"design": design, "controller": controller, "score": score, "error_high_mm": high,
+                "mimicry_error_mm": score, "error_low_mm": score / 2, "success_rate": 1.0, "success_low": 0.98,
+                "success_high": 1.0, "n_benches": 50, "demand": demand, "tip_friction_deg": 3.0,
+                "stage_bandwidth_hz": 20.0, "latency_s": 0.005, "sensor_noise_m": 2e-4}
+    rows = [row("a", "limit", 0.4, 0.5, 0), row("a", "mpc", 1.2, 1.4, 0), row("b", "limit", 0.3, 0.4, 2),
+            row("b", "ppo_robust", 0.9, 0.95, 2)]
+    text = bs.recommend(rows)
+    assert "b (tip" in text and "a (tip" not in text.split("Per design")[0]
+    assert "a: limit 0.40 mm" in text and "mpc 1.20 mm = 3.00 x the limit" in text
+    assert "ppo_robust 0.90 mm = 3.00 x the limit" in text
