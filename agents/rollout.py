@@ -4,7 +4,7 @@ copied out of a ``TriPlanarShear-v1`` env, and batched rollouts of candidate act
 A rollout runs exactly what :meth:`envs.triplanar_shear_v1.TriPlanarShearV1Env.step` runs (the compiled bench
 command, :func:`envs.triplanar_shear_v1.bench_command`, then v0's control step,
 :func:`envs.triplanar_shear.control_step`), so a prediction from the env's true state is the env's future to the
-last bit (``tests/test_mpc.py``); there is no second physics. The controllers of :mod:`agents.limit` and
+last bit (``tests/agents/test_mpc.py``); there is no second physics. The controllers of :mod:`agents.limit` and
 :mod:`agents.mpc` score candidates with :func:`rollout_costs`.
 
 **Cost of a candidate** (mm m, the numerator of the episode's mimicry error, ``docs/environment.md``): the

@@ -340,7 +340,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
     * **Force loop**: the thrust follows its command as a first-order lag of bandwidth ``thrust_bandwidth_hz``; the
       period's constant thrust is the response's mean over the period (the same impulse as the exact response).
     * ``math.inf`` bandwidths and ``latency_s=0`` give the ideal bench: in ``"state"`` mode without
-      randomisation v1 then reproduces v0's observations and rewards bitwise (``tests/test_env_v1.py``).
+      randomisation v1 then reproduces v0's observations and rewards bitwise (``tests/envs/test_env_v1.py``).
 
     ## Action Space
 

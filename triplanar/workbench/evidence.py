@@ -31,7 +31,7 @@ from .discrepancy import MM, TestDiscrepancy, rms
 #: Frequencies below this are trends, not oscillations (a test lasts 0.3-1 s).
 F_MIN_HZ = 2.0
 #: A spectral peak this many times the median power counts as periodic. Tests last 25-70 samples; on noise-only
-#: data (8 tests, tests/test_workbench_issue11.py's "none" dataset) the largest ratio was 3.7, with a 10 Hz, 30 %
+#: data (8 tests, tests/triplanar/workbench/test_workbench_verdicts.py's "none" dataset) the largest ratio was 3.7, with a 10 Hz, 30 %
 #: thrust ripple 8.7-13.5 in 6 of 7 tests long enough to look.
 PEAK_FACTOR = 6.0
 #: The error is "mostly in time" when the travel lag's RMS exceeds this many times the mean path distance (case B on the

@@ -15,7 +15,7 @@ from envs.core import make_config
 from triplanar.prior import PriorError, load_prior
 from triplanar.specimen import Foundation, Plane, to_toml
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _drawing():

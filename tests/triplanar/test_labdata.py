@@ -198,7 +198,7 @@ def test_shipped_dataset_is_what_the_documented_command_writes():
     the same tests, times and drawn values, positions within 1 um (byte-identical for the same core; the
     tolerance absorbs integrator-tolerance changes in the core, ~1e-9 m, and nothing physical)."""
     from pathlib import Path
-    shipped = Path(__file__).resolve().parents[1] / "data" / "lab_traces.csv"
+    shipped = Path(__file__).resolve().parents[2] / "data" / "lab_traces.csv"
     tests, truth = generate_lab_data()
     saved_tests = read_measurements(shipped, rest_positions=REST)
     assert [t.test_id for t in saved_tests] == [t.test_id for t in tests]

@@ -10,7 +10,15 @@ import pytest
 from agents.sb3_vec_env import ShearSB3VecEnv
 from envs import core as S
 from envs.triplanar_shear import TriPlanarShearEnv
-from test_env_vector import N, actions
+
+
+N = 4
+
+
+def actions(steps: int, seed: int = 0) -> np.ndarray:
+    """The batched env tests' random actions (tests/envs/test_env_vector.py): mostly sliding, sometimes wild."""
+    rng = np.random.default_rng(seed)
+    return np.clip(rng.normal(0.0, 0.35, (steps, N, 2)), -1, 1).astype(np.float32)
 
 
 def test_sb3_adapter_equals_single_envs_with_same_step_reset() -> None:

@@ -2,7 +2,7 @@
 
 A compiled effect keeps these quick: a tip offset that differs from test to test (the tip re-seated before every
 test) with end friction shared. The tutorial (``docs/adding-an-effect.md``, section 9) does the same with a
-thrust ripple whose phase is random per test (``tests/test_workbench_tutorial.py``).
+thrust ripple whose phase is random per test (``tests/triplanar/workbench/test_workbench_tutorial.py``).
 """
 
 from __future__ import annotations

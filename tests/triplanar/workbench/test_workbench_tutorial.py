@@ -12,7 +12,7 @@ from triplanar import EFFECTS
 
 pytestmark = pytest.mark.slow  # runs the tutorial's fits: ~1-2 min
 
-DOC = Path(__file__).resolve().parents[1] / "docs" / "adding-an-effect.md"
+DOC = Path(__file__).resolve().parents[3] / "docs" / "adding-an-effect.md"
 
 
 @pytest.fixture

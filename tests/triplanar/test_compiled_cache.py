@@ -12,7 +12,7 @@ import pytest
 
 from triplanar.compiled_cache import NOTICE, drop_if_stale
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _run(code: str, *, cwd: Path = ROOT, pythonpath: Path = ROOT, **env: str) -> subprocess.CompletedProcess:

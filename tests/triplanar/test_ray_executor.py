@@ -118,7 +118,7 @@ def test_fit_gives_the_same_result_serial_and_on_ray(local_ray, tmp_path) -> Non
     import json
 
     from triplanar.cli import main
-    data = Path(__file__).resolve().parents[1] / "data" / "lab_traces.csv"
+    data = Path(__file__).resolve().parents[2] / "data" / "lab_traces.csv"
     results = {}
     for executor in ("serial", "ray"):
         out = tmp_path / executor

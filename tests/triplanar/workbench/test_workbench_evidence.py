@@ -15,7 +15,7 @@ from triplanar.workbench.discrepancy import TestDiscrepancy
 from triplanar.workbench.evidence import dominant_frequency, instrument_noise_mm, noise_floor_mm, time_domain
 from triplanar.workbench.intervals import inflation, interval95
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def _smooth_test(noise_m: float, seed: int = 0, n: int = 200) -> MeasuredTest:

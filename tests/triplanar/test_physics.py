@@ -376,7 +376,7 @@ def test_a_turning_slip_does_not_stall_fixed_steps() -> None:
     """A state from a PPO rollout (tests/data/turning_slip_state.npz): CP3 slips at 1.2 mm/s and decelerates, but
     its slip turns instead of stopping. Predicting its stop again and again used to shrink the steps towards zero
     (the env stalled); a site whose predicted stop was not one is not predicted again in the same call."""
-    d = np.load(Path(__file__).parent / "data" / "turning_slip_state.npz")
+    d = np.load(Path(__file__).resolve().parents[1] / "data" / "turning_slip_state.npz")
     y, p = d["y"].copy(), d["p"].copy()
     buffers = (np.empty(1000), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_AUX)))
     rows, status, _, _, t = stepping.integrate(stepping.METHOD_RK4, float(d["t0"]), y, p, d["modes"].copy(),

@@ -1,4 +1,4 @@
-"""The batched TriPlanarShear-v1 runs the single v1 env exactly (its SB3 adapter: tests/test_sb3_vec_env.py)."""
+"""The batched TriPlanarShear-v1 runs the single v1 env exactly (its SB3 adapter: tests/agents/test_sb3_vec_env.py)."""
 
 from __future__ import annotations
 

@@ -17,7 +17,7 @@ import yaml
 
 from agents.train_ppo import DEFAULT_CONFIG, load_config, train_ppo
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def tiny_config() -> dict:

@@ -14,7 +14,7 @@ import pytest
 
 from triplanar import cli
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 TINY = ["--set", "n_envs=2", "--set", "hyperparams.n_steps=64", "--set", "hyperparams.batch_size=64",
         "--set", "hyperparams.n_epochs=1", "--set", "train.checkpoint_freq=256", "--set", "train.eval_freq=100000",
         "--env-arg", "start_bank=4"]

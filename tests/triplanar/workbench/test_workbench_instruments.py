@@ -108,7 +108,7 @@ def test_one_load_level_is_called_in_sample_and_never_high_confidence(tmp_path, 
     from triplanar import read_measurements, write_measurements
     from triplanar.cli import main
     from pathlib import Path
-    shipped = Path(__file__).resolve().parents[1] / "data" / "lab_traces.csv"
+    shipped = Path(__file__).resolve().parents[3] / "data" / "lab_traces.csv"
     one = [t for t in read_measurements(shipped) if t.shear_force_N == 40.0][:1]
     data = tmp_path / "one.csv"
     write_measurements(data, one)

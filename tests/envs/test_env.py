@@ -21,7 +21,7 @@ from triplanar import paper_model, simulate
 from triplanar.outcome import Outcome
 from triplanar.specimen import reference
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def rollout(env: gym.Env, actions: np.ndarray, seed: int = 0) -> list:
@@ -82,7 +82,7 @@ def test_gymnasium_env_checker_has_no_warnings() -> None:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         check_env(gym.make("TriPlanarShear-v0").unwrapped,
-                  skip_render_check=True)  # headless, human mode warns by design (tests/test_env_v1.py checks it)
+                  skip_render_check=True)  # headless, human mode warns by design (tests/envs/test_env_v1.py checks it)
     assert [str(w.message) for w in caught if not _newer_version(w)] == []
 
 

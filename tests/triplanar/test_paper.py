@@ -21,7 +21,7 @@ from triplanar.labdata import generate_lab_data, write_lab_data
 from triplanar.paper import CLAIMS, default_data_path, figure_specs, reproduce
 from triplanar.paper.figures import build_figure, render
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 SPECIMEN, FOUNDATION = reference()
 REST = SPECIMEN.contact_points_m
 LOADS = tuple(PAPER_LOADS_N)

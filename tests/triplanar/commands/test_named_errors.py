@@ -16,7 +16,7 @@ from triplanar.effects import REGISTRY, Effect, EffectError, make_effect
 from triplanar.labdata import generate_lab_data, write_lab_data
 from triplanar.measurement import MeasurementError
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]
 
 
 def run(capsys, *argv) -> tuple[int, str, str]:

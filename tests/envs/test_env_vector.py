@@ -1,4 +1,4 @@
-"""The batched vector env runs the single env's dynamics exactly (its SB3 adapter: tests/test_sb3_vec_env.py)."""
+"""The batched vector env runs the single env's dynamics exactly (its SB3 adapter: tests/agents/test_sb3_vec_env.py)."""
 
 from __future__ import annotations
 
