@@ -1,4 +1,4 @@
-"""Check diagnose's outside-library thresholds on seeded synthetic datasets (issue 11).
+"""Check diagnose's outside-library thresholds on seeded synthetic datasets.
 
 The thresholds (``triplanar/workbench/evidence.py``, ``Diagnoser``): the repeat scatter may exceed what noise and
 the specimen explain by ``scatter_factor`` (2) before "random from test to test"; a test's residual is periodic when
@@ -10,7 +10,7 @@ generator (``triplanar/labdata.py``: 4 loads x 2 repeats, 0.2 mm noise, 0.2 deg 
 * clean data (the model is the truth): every flag raised is a false positive;
 * each library effect hidden: scatter and periodic flags are judged after the true model (what diagnose sees after
   the right candidate): false positives; "mostly in time" against case B: expected for the time-mostly effects
-  (rate friction, actuator rise, which the issue names), not for the path effects;
+  (rate friction, actuator rise), not for the path effects;
 * out-of-library effects: a thrust ripple with a random phase per test (30 % at 10 Hz, 40 % at 4 Hz) and a
   steady force ripple (6 N at 6 Hz, locked phase), judged after the library part of the truth: a periodic flag is
   a true positive, its absence a false negative; the scatter flag is reported too.

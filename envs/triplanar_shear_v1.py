@@ -408,8 +408,8 @@ class TriPlanarShearV1Env(ShearEnvBase):
 
     Defaults: a ball-screw linear stage under closed-loop position control and an electromechanical load actuator
     under force control typically reach closed-loop bandwidths of tens of Hz (20 and 30 Hz here); a PC or PLC
-    control loop at 200 Hz adds one period of latency; 0.2 mm is the rangefinder noise the issue asks for (a
-    laser triangulation sensor over a ~10 cm range). These are order-of-magnitude values, not one product's data
+    control loop at 200 Hz adds one period of latency; 0.2 mm is a typical laser-triangulation rangefinder's noise
+    over a ~10 cm range. These are order-of-magnitude values, not one product's data
     sheet; the design sweep (``docs/actuator-study.md``) varies them.
 
     ## Rendering

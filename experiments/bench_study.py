@@ -46,7 +46,7 @@ TUNING_BENCHES = 20
 TARGET_ERROR_MM = 1.0
 TARGET_SUCCESS = 0.95
 BENCH_SETS = ("nominal", "heldout", "stress")
-# Budgets (issue-level defaults of the study; the command line overrides them).
+# Budgets (the study's defaults; the command line overrides them).
 SEEDS = (0, 1, 2, 3, 4)
 PPO_TIMESTEPS = 2_000_000
 DESIGN_SEEDS = (0, 1, 2)

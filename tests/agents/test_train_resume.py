@@ -1,4 +1,5 @@
-"""Issue 13, item 1 (and 7, 8 for train): an interrupted ``train`` resumes to the same complete result."""
+"""An interrupted ``train`` resumes to the same complete result; train and study refuse what they cannot do and
+name the bad setting."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 13 item 3 and 9: the env refuses actions and reset options it cannot use, with a named error."""
+"""The env refuses actions and reset options it cannot use, with a named error."""
 
 from __future__ import annotations
 

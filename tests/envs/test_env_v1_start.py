@@ -1,4 +1,4 @@
-"""v1's fast start (issue 10's speed): the first control period runs before the hydrostatic reference, which is
+"""v1's fast start: the first control period runs before the hydrostatic reference, which is
 computed only for a start that survives it. These check that this changes nothing: the period's outcome does not
 depend on the reference, a start that ends in it does not compute the reference, and a seeded env draws the same
 specimens as the code before the change did (``benchmarks/fingerprint.py`` checks whole rollouts bitwise)."""

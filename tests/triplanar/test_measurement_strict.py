@@ -1,5 +1,5 @@
-"""Issue 13 items 6 and 9 (CSV reader): time plausibility, ids, non-ASCII digits; fuzzed: a named
-MeasurementError or a valid result, never another exception."""
+"""The CSV reader is strict: time plausibility, ids, non-ASCII digits; fuzzed: a named MeasurementError or a
+valid result, never another exception."""
 
 from __future__ import annotations
 

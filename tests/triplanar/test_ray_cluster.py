@@ -60,7 +60,8 @@ def diagnose(out, *options: str) -> list[str]:
 
 
 def test_diagnose_reports_are_the_same_locally_on_a_local_ray_and_on_the_cluster(cluster, tmp_path) -> None:
-    """The issue's check, with a user's plugin effect as a candidate (it must reach the workers)."""
+    """diagnose gives one report on the local pool, a local Ray and the cluster, with a user's plugin effect as a
+    candidate (it must reach the workers)."""
     plugin = tmp_path / "my_tip.py"
     plugin.write_text(PLUGIN)
     options = ("--plugin", str(plugin), "--candidates", "plugin_tip,tip_offset")

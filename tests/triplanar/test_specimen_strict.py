@@ -1,4 +1,4 @@
-"""Issue 13 item 5: the specimen TOML reader is strict (unknown keys, types, shapes, plausibility) and its every
+"""The specimen TOML reader is strict (unknown keys, types, shapes, plausibility) and its every
 error names the file and the key; fuzzed: a named error or a valid result, never another exception."""
 
 from __future__ import annotations

@@ -35,7 +35,8 @@ F_MIN_HZ = 2.0
 #: thrust ripple 8.7-13.5 in 6 of 7 tests long enough to look.
 PEAK_FACTOR = 6.0
 #: The error is "mostly in time" when the travel lag's RMS exceeds this many times the mean path distance (case B on the
-#: shipped end-friction data: 4 x; on issue 11's rate-friction data: 11.5 mm against 0.64 mm, 18 x).
+#: shipped end-friction data: 4 x; on the rate-friction dataset of tests/triplanar/workbench/test_workbench_verdicts.py:
+#: 11.5 mm against 0.64 mm, 18 x).
 MOSTLY_IN_TIME = 10.0
 #: Step of the friction angles for the linear propagation of the specimen's variability.
 STEP_DEG = 1.0

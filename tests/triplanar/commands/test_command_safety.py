@@ -1,5 +1,5 @@
-"""Issue 13: inputs never overwritten (item 2), commands that claim what they did not do (7), workers die with
-their command (4)."""
+"""Commands that are safe to run: inputs never overwritten, options a command cannot honour refused (no claim of
+what it did not do), workers die with their command, help and docs the user has, an interrupted diagnose resumes."""
 
 from __future__ import annotations
 
@@ -85,7 +85,7 @@ def test_library_refuses_degenerate_folds_and_max_effects() -> None:
             ForwardSelection(max_effects=bad)
 
 
-# -- item 4: workers die with their command -----------------------------------------------------------
+# -- workers die with their command ------------------------------------------------------------------
 
 def children(pid: int) -> list[int]:
     found = []
@@ -137,7 +137,7 @@ def test_killing_diagnose_kills_its_pool_workers(data, tmp_path, sig) -> None:
         assert b"Traceback" not in proc.stderr.read()
 
 
-# -- item 10, 11: documentation the user has ---------------------------------------------------------------
+# -- documentation the user has ---------------------------------------------------------------------------
 
 def test_no_user_facing_text_points_outside_the_repository() -> None:
     offenders = []
@@ -166,7 +166,7 @@ def test_help_points_to_the_format_docs_and_warns_about_pickles(capsys, monkeypa
     assert "trusted source" in readme and "pickle" in readme
 
 
-# -- item 1 for a sweep: an interrupted diagnose resumes to the same complete result -----------------------
+# -- a sweep: an interrupted diagnose resumes to the same complete result ----------------------------------
 
 def diagnose_cmd(data: Path, out: Path) -> list[str]:
     return [sys.executable, "-m", "triplanar.cli", "diagnose", str(data), "--out", str(out), "--workers", "2",

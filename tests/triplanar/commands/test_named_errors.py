@@ -1,4 +1,4 @@
-"""Issue 13 items 8 and 9: errors that name the right thing, and input that was quietly accepted."""
+"""Errors that name the right thing, and input that was quietly accepted."""
 
 from __future__ import annotations
 

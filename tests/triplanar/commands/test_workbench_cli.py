@@ -1,4 +1,4 @@
-"""The compare / diagnose / fit commands, and bad input (issue 5)."""
+"""The compare / diagnose / fit commands, and bad input."""
 
 from __future__ import annotations
 
@@ -148,7 +148,7 @@ def test_bad_options_are_refused_with_the_known_names(data, tmp_path, capsys, ar
     assert code == 2 and needle in err
 
 
-# -- issue 11: the report contract, refits, fixed parameters, plots --------------------------------------
+# -- the report contract, refits, fixed parameters, plots ----------------------------------------------
 
 @pytest.mark.slow
 def test_diagnose_refits_a_wrong_given_parameter_and_fit_frees_it(data, tmp_path, capsys) -> None:

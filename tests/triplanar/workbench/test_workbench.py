@@ -142,7 +142,7 @@ def test_effect_fit_recovers_end_friction(case_a_data) -> None:
     assert fit.error_mm_ < 0.2 * fit.baseline_error_mm_
     assert set(fit.error_by_load_) == set(LOADS)
     assert fit.predict(40.0).status == "travel"
-    # issue 11: adding an effect the model already has refits it, from the value given
+    # adding an effect the model already has refits it, from the value given
     given = ModelSpec.from_effects([make_effect("end_friction:phi_deg=4")])
     refit = EffectFit(["end_friction"], given, executor="serial").fit(case_a_data)
     assert refit.refitted_ == {"end_friction": {"phi_deg": 4.0}}

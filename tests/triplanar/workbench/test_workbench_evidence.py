@@ -1,4 +1,5 @@
-"""Issue 11, fast parts: noise estimate, residual spectrum, intervals' statuses, --start parsing, BlockState."""
+"""The evidence behind a verdict, fast parts: noise estimate, residual spectrum, intervals' statuses, --start
+parsing, BlockState."""
 
 from __future__ import annotations
 

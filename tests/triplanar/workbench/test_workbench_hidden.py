@@ -1,4 +1,4 @@
-"""Hidden-effect tests of diagnose (issue 5): data made with an effect the model lacks.
+"""Hidden-effect tests of diagnose: data made with an effect the model lacks.
 
 Reduced datasets keep the suite fast: 4 loads x 2 repeats instead of 12 x 4, and 2 cross-validation folds
 instead of 3 (the full 48-test runs, default settings, are in docs/workbench.md, made by

@@ -1,4 +1,4 @@
-"""Per-test parameters (issue 11): fitted for each test, the others shared; profiled fits (pertest.py).
+"""Per-test parameters: fitted for each test, the others shared; profiled fits (pertest.py).
 
 A compiled effect keeps these quick: a tip offset that differs from test to test (the tip re-seated before every
 test) with end friction shared. The tutorial (``docs/adding-an-effect.md``, section 9) does the same with a

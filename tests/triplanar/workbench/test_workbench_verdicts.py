@@ -1,4 +1,4 @@
-"""Issue 11: verdicts a scientist can trust, on datasets with a known truth (reduced: 4 loads x 2 repeats).
+"""Verdicts a scientist can trust, on datasets with a known truth (reduced: 4 loads x 2 repeats).
 
 * a wrong given parameter is refitted and named (``refit_given_effect``);
 * an out-of-library thrust ripple with a random phase per test is called ``outside_library``, with its frequency;
