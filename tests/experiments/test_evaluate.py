@@ -90,6 +90,21 @@ def test_evaluate_on_a_shipped_agent_reproduces_its_card(tiny_zoo, tmp_path, mon
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("bench_set", ["heldout", "stress"])
+def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, bench_set):
+    """The repository's own shipped agent (agents/zoo/ppo_robust: 5 seeds x 2 M steps): evaluate on the card's
+    benches gives the card's figures, each inside the card's interval."""
+    card = zoo.read_card("ppo_robust")
+    want = card["figures"][bench_set]
+    assert cli.main(["evaluate", "--controller", "ppo_robust", "--benches", bench_set, "--n", str(want["n_benches"]),
+                     "--out", str(tmp_path)]) == 0
+    got = json.loads((tmp_path / f"{bench_set}.json").read_text())
+    assert got["n_episodes"] == want["n_episodes"] == want["n_benches"] * len(card["seeds"])
+    assert want["success_low"] <= got["success_rate"] <= want["success_high"]
+    assert want["error_low_mm"] <= got["mimicry_error_mm"] <= want["error_high_mm"]
+
+
+@pytest.mark.slow
 def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_files(tiny_zoo, monkeypatch, tmp_path,
                                                                                      capsys):
     card = zoo.read_card("tiny_ppo", tiny_zoo)
