@@ -148,11 +148,15 @@ class Effect:
         inner = ",".join(f"{k}={v:g}" for k, v in self.values.items() if not math.isnan(v))
         return f"{self.name}:{inner}" if inner else self.name
 
+    def _identity(self) -> tuple:
+        """Class and exact parameter values (an unset value, NaN, equals another unset one)."""
+        return type(self), tuple((k, None if math.isnan(v) else v) for k, v in self.values.items())
+
     def __eq__(self, other: object) -> bool:
-        return type(self) is type(other) and repr(self) == repr(other)
+        return isinstance(other, Effect) and self._identity() == other._identity()
 
     def __hash__(self) -> int:
-        return hash((type(self), repr(self)))
+        return hash(self._identity())
 
     def apply(self, model: Model) -> Model:
         """The model with this effect's parameter changes. Default: unchanged."""

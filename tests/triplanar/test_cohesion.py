@@ -157,3 +157,4 @@ def test_cohesion_is_a_registry_candidate() -> None:
     assert len(cand.grid_values()) == 7
     model = paper_model("A", 30.0, effects=[make_effect("cohesion:c_N=1.25")])
     assert model.setting("cohesion_N") == 1.25 and model.kernel_params()[K.P_COHESION] == 1.25
+
