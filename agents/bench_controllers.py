@@ -19,6 +19,9 @@ from triplanar import kernel as K
 from triplanar.model import Loading, Model, paper_model
 from triplanar.simulate import simulate
 
+from .limit import LimitController
+from .mpc import MPCController
+
 
 @dataclass
 class BenchController:
@@ -196,6 +199,7 @@ def make_controller(name: str, **params: float) -> BenchController:
     """A controller by name (picklable specs for the executor: a name and numbers)."""
     factories = {"fixed_tip": BenchController, "frictionless_tip": BenchController,
                  "moment_matching": BenchMomentMatching, "tracking_tip": BenchTracking, "pi_feedback": BenchPI, "adaptive": AdaptiveMomentMatching}
+    factories.update({"limit": LimitController, "mpc": MPCController})
     if name not in factories:
         raise ValueError(f"unknown controller {name!r}; choose from {sorted(factories)}")
     controller = factories[name](**params)

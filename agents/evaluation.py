@@ -16,9 +16,10 @@ from .controllers import Controller
 class EpisodeResult:
     """One controlled test. ``mimicry_error_mm``: travel-averaged horizontal distance (mean over the contact points)
     between the block and the hydrostatic reference at the same travel, for a successful test (8 cm reached); NaN
-    for a failed one, so that no failure is ever averaged into a mimicry error (issue 10: a test arrested at 0 mm
-    scored 0.002 mm). ``mimicry_error_reached_mm`` is the same average over whatever travel was reached, for
-    diagnosis only. :mod:`agents.heldout` summarises with success rate, error over successes and a score."""
+    for a failed one, so that no failure is ever averaged into a mimicry error (averaged over the travel it reached,
+    a test arrested at 0 mm would score 0.002 mm). ``mimicry_error_reached_mm`` is the same average over whatever
+    travel was reached, for diagnosis only. :mod:`agents.heldout` summarises with success rate, error over successes
+    and a score."""
 
     controller: str
     load_N: float

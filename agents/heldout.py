@@ -181,6 +181,8 @@ def run_episode(controller: Any, bench: Bench, *, env_kwargs: dict[str, Any] | N
     obs, info = env.reset(seed=seed, options={"bench": bench})
     name = controller if isinstance(controller, str) else controller.name
     if policy is None:
+        if getattr(controller, "needs_env", False):  # the limit controller reads the true state
+            controller.bind(env)
         controller.reset(bench.load_N, env.config)
         policy = controller.act
     total, steps = 0.0, 0

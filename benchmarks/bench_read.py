@@ -1,4 +1,4 @@
-"""Reading a large measured-trace CSV (issue 13): time and peak memory of ``read_measurements`` on 500,000 rows.
+"""Reading a large measured-trace CSV: time and peak memory of ``read_measurements`` on 500,000 rows.
 
 Run from the repository root::
 

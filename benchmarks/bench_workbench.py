@@ -1,4 +1,4 @@
-"""Workbench speed (issue 5): compare, diagnose and fit on the shipped laboratory dataset (48 tests).
+"""Workbench speed: compare, diagnose and fit on the shipped laboratory dataset (48 tests).
 
 Run from the repository root::
 

@@ -7,6 +7,7 @@ agent and that step. :mod:`envs.vector_v1` runs the same over N envs.
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
@@ -339,7 +340,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
     * **Force loop**: the thrust follows its command as a first-order lag of bandwidth ``thrust_bandwidth_hz``; the
       period's constant thrust is the response's mean over the period (the same impulse as the exact response).
     * ``math.inf`` bandwidths and ``latency_s=0`` give the ideal bench: in ``"state"`` mode without
-      randomisation v1 then reproduces v0's observations and rewards bitwise (``tests/test_env_v1.py``).
+      randomisation v1 then reproduces v0's observations and rewards bitwise (``tests/envs/test_env_v1.py``).
 
     ## Action Space
 
@@ -401,13 +402,14 @@ class TriPlanarShearV1Env(ShearEnvBase):
     | `thrust_bandwidth_hz`| float         | `30.0`    | force-loop bandwidth, Hz; `math.inf`: ideal |
     | `latency_s`          | float         | `0.005`   | command latency, s, a whole number of control periods |
     | `sensor_noise_m`     | float         | `2e-4`    | rangefinder noise (standard deviation), m |
+    | `nominal_specimen`   | path or None  | `None`    | a `fit.json` of `triplanar fit` or a specimen TOML: the nominal specimen (`triplanar.prior.load_prior`; refused naming the field if it is not this bench's) |
     | `render_mode`        | str or None   | `None`    | `"rgb_array"` or `"human"` |
     | any `ShearConfig` field | (see v0)   | (v0's)    | `load_N`, `load_levels`, `load_range`, `control_hz`, `tip_friction_deg`, `stage_speed_m_s`, `offset_range_m`, `thrust_scale`, `travel_m`, `time_limit_s`, reward terms, `specimen`, `foundation` |
 
     Defaults: a ball-screw linear stage under closed-loop position control and an electromechanical load actuator
     under force control typically reach closed-loop bandwidths of tens of Hz (20 and 30 Hz here); a PC or PLC
-    control loop at 200 Hz adds one period of latency; 0.2 mm is the rangefinder noise the issue asks for (a
-    laser triangulation sensor over a ~10 cm range). These are order-of-magnitude values, not one product's data
+    control loop at 200 Hz adds one period of latency; 0.2 mm is a typical laser-triangulation rangefinder's noise
+    over a ~10 cm range. These are order-of-magnitude values, not one product's data
     sheet; the design sweep (``docs/actuator-study.md``) varies them.
 
     ## Rendering
@@ -428,7 +430,10 @@ class TriPlanarShearV1Env(ShearEnvBase):
 
     def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
                  stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0, latency_s: float = 0.005,
-                 sensor_noise_m: float = 2e-4, **kwargs: Any):
+                 sensor_noise_m: float = 2e-4, nominal_specimen: str | os.PathLike | None = None, **kwargs: Any):
+        if nominal_specimen is not None:  # identify, then control: the fitted specimen becomes the nominal one
+            from triplanar.prior import load_prior  # (only when asked for)
+            kwargs["specimen"] = load_prior(nominal_specimen, *make_config(None, **kwargs).base_specimen())
         self.config: ShearConfig = make_config(None, **kwargs)
         self.bench = BenchConfig(stage_bandwidth_hz, thrust_bandwidth_hz, latency_s, sensor_noise_m,
                                  observation_mode, bool(randomize))

@@ -36,7 +36,7 @@ from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 from . import tables
 from .designs import DESIGNS, Design
 from .episodes import EpisodeBatch, outcome_table, run_batch
-from .evaluate import SCRIPTED, scripted_batch
+from .evaluate import MODEL_BASED, SCRIPTED, scripted_batch
 from .stats import indistinguishable, row_stats
 
 __all__ = ["DESIGNS", "Design", "EpisodeBatch", "recommend", "run_bench_study", "run_batch"]
@@ -46,11 +46,14 @@ TUNING_BENCHES = 20
 TARGET_ERROR_MM = 1.0
 TARGET_SUCCESS = 0.95
 BENCH_SETS = ("nominal", "heldout", "stress")
-# Budgets (issue-level defaults of the study; the command line overrides them).
+# Budgets (the study's defaults; the command line overrides them).
 SEEDS = (0, 1, 2, 3, 4)
 PPO_TIMESTEPS = 2_000_000
 DESIGN_SEEDS = (0, 1, 2)
 DESIGN_PPO_TIMESTEPS = 1_000_000
+# Benches per design for the model-based controllers (limit: ~10 s of CPU per episode; 14 designs x 200 benches would
+# take ~8 h on 2 cores); the default bench's rows use all N_HELDOUT.
+N_MODEL_BASED = 50
 SCRIPTED_SEEDS = (0, 1, 2)
 PI_GRID = [(kp, ki) for kp in (-20.0, -5.0, -1.0, 1.0, 5.0, 20.0, 50.0) for ki in (0.0, 50.0, 200.0)]
 ADAPTIVE_GRID = (-5e5, -1e5, -2e4, 2e4, 1e5, 5e5)
@@ -90,12 +93,15 @@ def _rows(batches: list[EpisodeBatch], results: list[list[Any]], key) -> dict[An
 
 
 def evaluation_batches(pi: dict[str, float], adaptive: dict[str, float], n: int, runs: list[dict[str, Any]],
-                       scripted_seeds: Sequence[int], in_sample_run: str | Path | None) -> list[EpisodeBatch]:
+                       scripted_seeds: Sequence[int], in_sample_run: str | Path | None,
+                       model_based: Sequence[str] = tuple(MODEL_BASED)) -> list[EpisodeBatch]:
     """Every controller of the default bench on every bench set (one batch per seed)."""
     batches: list[EpisodeBatch] = []
     for bench_set in BENCH_SETS:
         for name in SCRIPTED:
             batches += [scripted_batch(name, None, bench_set, n, s, pi, adaptive) for s in scripted_seeds]
+        for name in model_based:  # one noise replicate: each episode costs seconds of planning
+            batches.append(scripted_batch(name, None, bench_set, n, scripted_seeds[0]))
         for r in runs:
             kind = "ppo" if r["algo"] == "ppo" else "ppo_recurrent"
             label = "ppo_robust" if r["algo"] == "ppo" else "ppo_recurrent"
@@ -106,9 +112,10 @@ def evaluation_batches(pi: dict[str, float], adaptive: dict[str, float], n: int,
 
 
 def evaluate_default_bench(out_dir: Path, pi, adaptive, n: int, runs, scripted_seeds, in_sample_run,
-                           executor: ExecutorLike) -> list[dict[str, Any]]:
+                           executor: ExecutorLike, model_based: Sequence[str] = tuple(MODEL_BASED)
+                           ) -> list[dict[str, Any]]:
     """Step 3: the held-out tables (CSV, episodes CSV, plot); returns the rows."""
-    batches = evaluation_batches(pi, adaptive, n, runs, scripted_seeds, in_sample_run)
+    batches = evaluation_batches(pi, adaptive, n, runs, scripted_seeds, in_sample_run, model_based)
     results = run_tasks(run_batch, batches, executor=executor, progress=True, desc="held-out and stress evaluation",
                         checkpoint=TaskCheckpoint(out_dir / "tasks"))
     grouped = _rows(batches, results, lambda b: (b.label, b.bench_set))
@@ -128,7 +135,8 @@ def evaluate_default_bench(out_dir: Path, pi, adaptive, n: int, runs, scripted_s
 
 
 def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design], design_seeds: Sequence[int],
-                 design_ppo_timesteps: int, scripted_seeds: Sequence[int], executor: ExecutorLike) -> list[dict]:
+                 design_ppo_timesteps: int, scripted_seeds: Sequence[int], executor: ExecutorLike,
+                 model_based: Sequence[str] = tuple(MODEL_BASED), n_model_based: int = N_MODEL_BASED) -> list[dict]:
     """Step 4: robust PPO per design and seed, every design's controllers on the held-out benches; returns the
     rows (best scripted and PPO per design) and writes designs.csv and designs.png."""
     tasks = [(str(out_dir / "ppo_designs" / d.name), d, design_ppo_timesteps, s) for d in designs
@@ -140,6 +148,8 @@ def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design],
         for name in DESIGN_SCRIPTED:
             batches += [scripted_batch(name, design, "heldout", n, s, pi, adaptive, f"{design.name}|{name}")
                         for s in scripted_seeds]
+        batches += [scripted_batch(name, design, "heldout", min(n, n_model_based), scripted_seeds[0],
+                                   label=f"{design.name}|{name}") for name in model_based]
     kwargs_of = {d.name: tuple(sorted(d.env_kwargs().items())) for d in designs}
     by_name = {d.name: d for d in designs}
     for (_, design, _, seed), run in zip(tasks, design_runs):
@@ -175,16 +185,32 @@ def _design_ppo(task: tuple[str, Design, int, int]) -> dict[str, Any]:
 
 
 def best_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """Per design: the best scripted controller (lowest score, as ``best_scripted:<name>``) and robust PPO."""
+    """Per design: the best scripted controller (lowest score, as ``best_scripted:<name>``), ``mpc``, robust PPO and
+    ``limit`` (perfect knowledge: the design's reference, never its best controller)."""
     out = []
     for name in dict.fromkeys(r["design"] for r in rows):
         mine = [r for r in rows if r["design"] == name]
-        scripted = [r for r in mine if not r["controller"].startswith("ppo")]
+        scripted = [r for r in mine if r["controller"] in SCRIPTED]
         if scripted:
             best = min(scripted, key=lambda r: r["score"])
             out.append({**best, "controller": f"best_scripted:{best['controller']}"})
-        out += [r for r in mine if r["controller"].startswith("ppo")]
+        out += [r for r in mine if r["controller"] not in SCRIPTED]
     return out
+
+
+def limit_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """Per design with a ``limit`` row: its limit and the best buildable controller's score as a multiple of it."""
+    lines = []
+    for name in dict.fromkeys(r["design"] for r in rows):
+        mine = [r for r in rows if r["design"] == name]
+        limit = next((r for r in mine if r["controller"] == "limit"), None)
+        buildable = [r for r in mine if r["controller"] != "limit" and math.isfinite(r["score"])]
+        if limit is None or not buildable:
+            continue
+        best = min(buildable, key=lambda r: r["score"])
+        lines.append(f"{name}: limit {limit['score']:.2f} mm (score, {limit['n_benches']} benches); best controller "
+                     f"{best['controller']} {best['score']:.2f} mm = {best['score'] / limit['score']:.2f} x the limit")
+    return lines
 
 
 def _describe(r: dict[str, Any]) -> str:
@@ -196,6 +222,10 @@ def _describe(r: dict[str, Any]) -> str:
 def recommend(rows: list[dict[str, Any]]) -> str:
     """The least demanding design whose error interval lies wholly under the target (with the target success
     rate); otherwise the designs that cannot be told apart from the best (overlapping intervals)."""
+    limits = limit_lines(rows)
+    per_design = (" Per design, the limit (perfect knowledge) and the best controller's distance to it: "
+                  + "; ".join(limits) + ".") if limits else ""
+    rows = [r for r in rows if r["controller"] != "limit"]  # a reference, not a controller a laboratory can build
     ok = [r for r in rows if r["success_rate"] >= TARGET_SUCCESS and math.isfinite(r["error_high_mm"])
           and r["error_high_mm"] < TARGET_ERROR_MM]
     if ok:
@@ -205,16 +235,16 @@ def recommend(rows: list[dict[str, Any]]) -> str:
                 f"{100 * TARGET_SUCCESS:g} % success: {r['design']} (tip {r['tip_friction_deg']:g} deg, stage "
                 f"{r['stage_bandwidth_hz']:g} Hz, latency {1e3 * r['latency_s']:g} ms, noise "
                 f"{1e3 * r['sensor_noise_m']:g} mm, demand {r['demand']}): {_describe(r)}. Also under the target: "
-                f"{', '.join(others) or 'none'}.")
+                f"{', '.join(others) or 'none'}.{per_design}")
     eligible = [r for r in rows if r["success_rate"] >= TARGET_SUCCESS] or rows
     tied = [eligible[i] for i in indistinguishable(eligible)]
     if not tied:
-        return "No design has a successful episode to compare."
+        return "No design has a successful episode to compare." + per_design
     best = min(tied, key=lambda r: r["error_high_mm"])
     apart = sorted({f"{r['design']} ({r['controller']})" for r in tied if r is not best})
     return (f"No design's 95 % interval of the error lies under {TARGET_ERROR_MM:g} mm (with at least "
             f"{100 * TARGET_SUCCESS:g} % success), so none is named. Best by the upper end: {_describe(best)}. "
-            f"Cannot be told apart from it (overlapping intervals): {', '.join(apart) or 'none'}.")
+            f"Cannot be told apart from it (overlapping intervals): {', '.join(apart) or 'none'}.{per_design}")
 
 
 def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_timesteps: int = PPO_TIMESTEPS,
@@ -222,6 +252,7 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
                     design_ppo_timesteps: int = DESIGN_PPO_TIMESTEPS, n_heldout: int | None = None,
                     scripted_seeds: Sequence[int] = SCRIPTED_SEEDS, in_sample_run: str | Path | None = None,
                     designs: Sequence[Design] = DESIGNS, executor: ExecutorLike = None, doc: str | Path | None = None,
+                    model_based: Sequence[str] = tuple(MODEL_BASED), n_model_based: int = N_MODEL_BASED,
                     log=print) -> dict[str, Any]:
     """The whole study (resumable in ``out_dir``); ``recurrent_timesteps=None`` leaves the recurrent PPO out."""
     from agents.train_robust import seed_tasks, train_robust
@@ -248,12 +279,13 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
     timings["ppo_training_wall_s_per_seed"] = {f"{r['algo']}_seed_{r['seed']}": r["wall_s"] for r in trained}
 
     started = time.perf_counter()
-    heldout_rows = evaluate_default_bench(out_dir, pi, adaptive, n, trained, scripted_seeds, in_sample_run, executor)
+    heldout_rows = evaluate_default_bench(out_dir, pi, adaptive, n, trained, scripted_seeds, in_sample_run, executor,
+                                          model_based)
     timings["evaluation_s"] = time.perf_counter() - started
 
     started = time.perf_counter()
     design_rows = design_sweep(out_dir, pi, adaptive, n, designs, design_seeds, design_ppo_timesteps, scripted_seeds,
-                               executor)
+                               executor, model_based, n_model_based)
     timings["design_sweep_s"] = time.perf_counter() - started
     recommendation = recommend(design_rows)
     tables.write_atomic(out_dir / "recommendation.txt", lambda p: p.write_text(recommendation + "\n"))
@@ -263,6 +295,7 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
                "trained_timesteps": {f"{r['algo']}_seed_{r['seed']}": r["timesteps"] for r in trained},
                "design_seeds": list(design_seeds), "design_ppo_timesteps": design_ppo_timesteps,
                "scripted_seeds": list(scripted_seeds), "n_heldout": n, "n_stress": n,
+               "model_based": list(model_based), "n_model_based_per_design": min(n, n_model_based),
                "designs": [d.name for d in designs], "recommendation": recommendation}
     tables.write_json(out_dir / "bench_summary.json", summary)
     bench_report.write(out_dir, summary, heldout_rows, design_rows, Path(doc) if doc is not None else None)
@@ -285,10 +318,14 @@ def main(argv: Iterable[str] | None = None) -> int:
     parser.add_argument("--n-heldout", type=int, default=N_HELDOUT, help="held-out (and stress) benches")
     parser.add_argument("--in-sample-run", help="a finished v0 PPO run directory (agents.train_ppo) to evaluate")
     parser.add_argument("--doc", help="also write the report (bench_report.md) here")
+    parser.add_argument("--model-based", nargs="*", default=list(MODEL_BASED), choices=list(MODEL_BASED),
+                        help="model-based controllers to evaluate (default: mpc limit; none: leave them out)")
+    parser.add_argument("--n-model-based", type=int, default=N_MODEL_BASED,
+                        help="benches per design for the model-based controllers")
     args = parser.parse_args(None if argv is None else list(argv))
     if args.recurrent_timesteps < 0:
         parser.error("--recurrent-timesteps must be >= 0")
-    for name in ("ppo_timesteps", "design_ppo_timesteps", "n_heldout"):
+    for name in ("ppo_timesteps", "design_ppo_timesteps", "n_heldout", "n_model_based"):
         if getattr(args, name) <= 0:
             parser.error(f"--{name.replace('_', '-')} must be positive")
     if args.in_sample_run and not (Path(args.in_sample_run) / "final_model.zip").exists():
@@ -296,7 +333,8 @@ def main(argv: Iterable[str] | None = None) -> int:
     run_bench_study(args.out, seeds=args.seeds, ppo_timesteps=args.ppo_timesteps,
                     recurrent_timesteps=args.recurrent_timesteps or None, design_seeds=args.design_seeds,
                     design_ppo_timesteps=args.design_ppo_timesteps, n_heldout=args.n_heldout,
-                    scripted_seeds=args.scripted_seeds, in_sample_run=args.in_sample_run, doc=args.doc)
+                    scripted_seeds=args.scripted_seeds, in_sample_run=args.in_sample_run, doc=args.doc,
+                    model_based=args.model_based, n_model_based=args.n_model_based)
     return 0
 
 

@@ -1,4 +1,4 @@
-"""``triplanar evaluate``: any scripted or shipped controller on the held-out, stress or nominal benches, with the
+"""``triplanar evaluate``: any scripted, model-based (mpc, limit) or shipped controller on the held-out, stress or nominal benches, with the
 statistics of :mod:`experiments.stats`.
 
 Writes ``OUT/{bench_set}.csv`` (one row: the controller, design, bench set and the statistics columns of
@@ -31,12 +31,17 @@ SCRIPTED = {"steel_tip": ("fixed_tip", None, False), "teflon_tip": ("fixed_tip",
             "frictionless_tip": ("fixed_tip", 0.0, False), "tracking_tip": ("tracking_tip", None, False),
             "moment_matching": ("moment_matching", None, True), "pi_feedback": ("pi_feedback", None, True),
             "adaptive": ("adaptive", None, False)}
+# Controllers that predict with the project's compiled model (agents/mpc.py, agents/limit.py): ``mpc`` from the
+# bench's observations, ``limit`` with perfect knowledge of the specimen and state (the reference a design is judged
+# against, not a controller a laboratory can build). Costly: about 1 s (mpc) and 10 s (limit) of CPU per episode.
+MODEL_BASED = {"mpc": ("mpc", None, False), "limit": ("limit", None, False)}
+BUILTIN = {**SCRIPTED, **MODEL_BASED}
 
 
 def controller_names(zoo_dir: Path | None = None) -> list[str]:
-    """Every controller ``evaluate`` knows: the scripted ones, then the shipped agents."""
+    """Every controller ``evaluate`` knows: the scripted and model-based ones, then the shipped agents."""
     from agents.zoo import shipped_names
-    return list(SCRIPTED) + shipped_names(zoo_dir)
+    return list(BUILTIN) + shipped_names(zoo_dir)
 
 
 def design_names() -> list[str]:
@@ -48,7 +53,7 @@ def scripted_batch(name: str, design: Design | None, bench_set: str, n: int, see
                    pi: dict[str, float] | None = None, adaptive: dict[str, float] | None = None,
                    label: str | None = None) -> EpisodeBatch:
     """The batch of scripted controller ``name`` on ``design`` (None: the default bench)."""
-    factory, fixed_tip, assumes_tip = SCRIPTED[name]
+    factory, fixed_tip, assumes_tip = BUILTIN[name]
     bench_tip = design.tip_friction_deg if design is not None else None
     params: dict[str, float] = {}
     if assumes_tip:
@@ -66,7 +71,7 @@ def batches_for(controller: str, design: Design | None, bench_set: str, n: int, 
                 zoo_dir: Path | None = None) -> list[EpisodeBatch]:
     """One batch per seed of ``controller`` (scripted: noise replicates, default seed 0; shipped: its training
     seeds, default all of its card's)."""
-    if controller in SCRIPTED:
+    if controller in BUILTIN:
         return [scripted_batch(controller, design, bench_set, n, s) for s in (seeds or [0])]
     from agents.zoo import check_layout, read_card
     card = read_card(controller, zoo_dir)

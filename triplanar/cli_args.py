@@ -34,6 +34,34 @@ def parse_effects(specs: list[str]) -> list[Effect]:
     return effects
 
 
+def effects_help() -> str:
+    """The registered effects and their parameters (unit, default, bounds), for ``--help``."""
+    from .effects import REGISTRY
+    lines = ["effects (--effect NAME:P=V,...; angles in degrees):"]
+    for name, cls in REGISTRY.items():
+        kind = " [instrument]" if cls.acts_on == "instrument" else ""
+        params = ", ".join(f"{k} ({p.unit or '-'}, default {p.default:g}, [{p.lower:g}, {p.upper:g}])"
+                           for k, p in cls.parameters.items())
+        lines.append(f"  {name}{kind}: {params or 'no parameters'}")
+    lines.append("  (and those a --plugin module registers)")
+    return "\n".join(lines)
+
+
+def refuse_idle_effects(specs: list[str], effects: list[Effect], model: Any) -> None:
+    """An ``--effect NAME`` given without values that would leave ``model`` unchanged (its defaults are neutral, e.g.
+    ``rate_friction``, ``a = 0``) is refused with an example, rather than added silently. Effects with a force or
+    that change what is recorded are not judged (that needs a simulation)."""
+    import numpy as np
+    for spec, effect in zip(specs, effects):
+        if spec.partition(":")[2].strip() or effect.has_wrench or effect.reads:
+            continue
+        if np.array_equal(model.with_effects([effect]).kernel_params(), model.kernel_params()):
+            example = type(effect).scenario or {k: p.upper / 4 for k, p in effect.parameters.items() if p.free}
+            shown = ",".join(f"{k}={v:g}" for k, v in example.items())
+            raise EffectError(f"--effect {spec.strip()}: without values it changes nothing in this model (its "
+                              f"defaults: {effect!r}); give its parameters, e.g. --effect {effect.name}:{shown}")
+
+
 def load_specimen(path: str | None) -> tuple[Specimen, Foundation]:
     """(specimen, foundation) from ``--specimen`` or the reference."""
     return load_toml(path) if path else reference()

@@ -19,7 +19,9 @@ Writing one (``docs/adding-an-effect.md`` has the full tutorial)::
             return -self["c_N_s_m"] * state.velocity, np.zeros(3)
 
 Built-in names are part of the interface: ``end_friction``, ``rate_friction``, ``tip_offset``,
-``actuator_rise``, ``contact_friction``, ``plane_tilt``, ``cohesion``.
+``actuator_rise``, ``contact_friction``, ``plane_tilt``, ``cohesion``; instrument effects (``acts_on =
+"instrument"``: they change what is recorded, ``read``/``unread``, or the force the load cell sets):
+``load_cell_gain``, ``rangefinder_gain``, ``rangefinder_offset``, ``rangefinder_drift``, ``time_offset``.
 """
 
 from __future__ import annotations
@@ -119,6 +121,9 @@ class Effect:
     parameters: ClassVar[dict[str, Parameter]] = {}
     plane_tolerance_m: ClassVar[float | None] = None
     scenario: ClassVar[dict[str, float] | None] = None
+    #: what the effect acts on: ``"physics"`` (the block's motion) or ``"instrument"`` (what is recorded of it:
+    #: ``read``/``unread``, or the force the load cell sets); the workbench's verdict says which is missing
+    acts_on: ClassVar[str] = "physics"
 
     def __init__(self, **values: float):
         unknown = set(values) - set(self.parameters)
@@ -143,11 +148,15 @@ class Effect:
         inner = ",".join(f"{k}={v:g}" for k, v in self.values.items() if not math.isnan(v))
         return f"{self.name}:{inner}" if inner else self.name
 
+    def _identity(self) -> tuple:
+        """Class and exact parameter values (an unset value, NaN, equals another unset one)."""
+        return type(self), tuple((k, None if math.isnan(v) else v) for k, v in self.values.items())
+
     def __eq__(self, other: object) -> bool:
-        return type(self) is type(other) and repr(self) == repr(other)
+        return isinstance(other, Effect) and self._identity() == other._identity()
 
     def __hash__(self) -> int:
-        return hash((type(self), repr(self)))
+        return hash(self._identity())
 
     def apply(self, model: Model) -> Model:
         """The model with this effect's parameter changes. Default: unchanged."""
@@ -172,6 +181,23 @@ class Effect:
     def wrench(self, t: float, state: BlockState) -> tuple[np.ndarray, np.ndarray]:
         """Extra (force at the mass centre, moment about it), world axes. Default: none."""
         raise NotImplementedError
+
+    def read(self, t_s: np.ndarray | None, positions: np.ndarray,
+             rest: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+        """What the instruments record of the true trace: ``(t_s, positions)`` with ``positions`` (n, 3, 3), m,
+        and ``rest`` the (3, 3) contact points at rest. The laboratory generator applies it. Default: as is."""
+        return t_s, positions
+
+    def unread(self, t_s: np.ndarray | None, positions: np.ndarray,
+               rest: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+        """The inverse of :meth:`read`: the true trace from the record (the workbench corrects measured tests
+        with it before comparing them with the model). Default: as is."""
+        return t_s, positions
+
+    @property
+    def reads(self) -> bool:
+        """Whether the effect changes what is recorded (overrides :meth:`read`)."""
+        return type(self).read is not Effect.read
 
     @property
     def has_wrench(self) -> bool:
@@ -198,6 +224,7 @@ def make_effect(spec: str) -> Effect:
     if name not in REGISTRY:
         raise EffectError(f"unknown effect {name!r}; known effects: {', '.join(sorted(REGISTRY))}")
     values: dict[str, float] = {}
+    explicit: set[str] = set()        # angles written with a "deg" suffix: meant in degrees, however small
     for item in filter(None, (part.strip() for part in rest.split(","))):
         key, eq, value = item.partition("=")
         key = key.strip()
@@ -205,13 +232,32 @@ def make_effect(spec: str) -> Effect:
             raise EffectError(f"effect {name!r}: expected PARAM=VALUE, got {item!r}")
         if key in values:
             raise EffectError(f"effect {name!r}: parameter {key} given twice ({spec!r})")
+        text = value.strip()
+        if key.endswith("_deg") and text.endswith("deg"):
+            text = text[:-3].strip()
+            explicit.add(key)
         try:
-            if not value.strip().isascii() or "_" in value:  # float() reads '1_0' and non-ASCII digits
+            if not text.isascii() or "_" in text:  # float() reads '1_0' and non-ASCII digits
                 raise ValueError
-            values[key] = float(value)
+            values[key] = float(text)
         except ValueError:
             raise EffectError(f"effect {name!r}: {key} = {value!r} is not a number") from None
+    _refuse_radians(name, {k: v for k, v in values.items() if k not in explicit})
     return REGISTRY[name](**values)
+
+
+def _refuse_radians(name: str, values: dict[str, float]) -> None:
+    """``*_deg`` parameters that all look like radians (nonzero, below 1, while the parameter's range reaches past
+    10 deg, so that the value read as radians would be a plausible angle) are refused with a hint; ``=0.5deg``
+    says that a small angle is meant."""
+    params = REGISTRY[name].parameters
+    angles = {k: v for k, v in values.items() if k.endswith("_deg") and k in params and params[k].upper > 10.0}
+    nonzero = {k: v for k, v in angles.items() if v != 0.0}
+    if nonzero and all(abs(v) < 1.0 and params[k].lower <= math.degrees(v) <= params[k].upper
+                       for k, v in nonzero.items()):
+        k, v = next(iter(nonzero.items()))
+        raise EffectError(f"effect {name!r}: {k} = {v:g} looks like radians ({math.degrees(v):.3g} deg); angles "
+                          f"are in degrees. For a true angle below 1 degree write {k}={v:g}deg")
 
 
 # -- the built-in library ------------------------------------------------------------------------
@@ -379,6 +425,111 @@ class Cohesion(Effect):
 
     def contact_strength(self, mu: float, c: float, speed: float) -> tuple[float, float]:
         return mu, c + self["c_N"]
+
+
+# -- instrument effects: they act on the measurement, not on the block ------------------------------------
+
+@register
+class LoadCellGain(Effect):
+    """The load cell reads ``gain`` x the true force, and the actuator is servoed to its reading: the block is
+    pushed with ``F / gain`` where the file says ``F``.
+
+    Signature: like a changed load everywhere (faster or slower tests, the paths of another load level)."""
+
+    name = "load_cell_gain"
+    acts_on = "instrument"
+    parameters = {"gain": Parameter(1.0, 0.5, 1.5, "-", "load-cell reading / true force", fit=(0.8, 1.2))}
+    scenario = {"gain": 0.9}
+
+    def apply(self, model: Model) -> Model:
+        return replace(model, loading=replace(model.loading, force_N=model.loading.force_N / self["gain"]))
+
+
+def _axes(effect: Effect, stem: str) -> np.ndarray:
+    return np.array([effect[f"{stem}{a}"] for a in ("x1", "x2", "x3")])
+
+
+@register
+class RangefinderGain(Effect):
+    """Each rangefinder axis reads ``gain`` x the true displacement from the rest position (a calibration
+    error); per axis, the same for the three contact points. The vertical (x2) gain is held (files often lack x2).
+
+    Signature: every displacement along an axis in proportion, in every test alike."""
+
+    name = "rangefinder_gain"
+    acts_on = "instrument"
+    parameters = {f"gain_{a}": Parameter(1.0, 0.5, 1.5, "-", f"reading / true displacement along {a}",
+                                         fit=(0.7, 1.3), free=a != "x2") for a in ("x1", "x2", "x3")}
+    scenario = {"gain_x3": 1.2}
+
+    def read(self, t_s, positions, rest):
+        return t_s, rest + (positions - rest) * _axes(self, "gain_")
+
+    def unread(self, t_s, positions, rest):
+        return t_s, rest + (positions - rest) / _axes(self, "gain_")
+
+
+@register
+class RangefinderOffset(Effect):
+    """Each rangefinder axis reads ``offset`` too much (a zero error), the same for the three contact points;
+    the vertical (x2) offset is held.
+
+    Signature: a constant shift of every path, in every test alike, from the first sample."""
+
+    name = "rangefinder_offset"
+    acts_on = "instrument"
+    parameters = {f"offset_{a}_m": Parameter(0.0, -0.02, 0.02, "m", f"zero error along {a}", fit=(-0.005, 0.005),
+                                             free=a != "x2") for a in ("x1", "x2", "x3")}
+    scenario = {"offset_x3_m": 0.0015}
+
+    def read(self, t_s, positions, rest):
+        return t_s, positions + np.array([self["offset_x1_m"], self["offset_x2_m"], self["offset_x3_m"]])
+
+    def unread(self, t_s, positions, rest):
+        return t_s, positions - np.array([self["offset_x1_m"], self["offset_x2_m"], self["offset_x3_m"]])
+
+
+@register
+class RangefinderDrift(Effect):
+    """The rangefinders' zero drifts at a constant rate during a test (warming electronics), along x1 and x3.
+
+    Signature: an error growing linearly in time, the same in every test; without ``t_s`` in the file it is
+    invisible (nothing is changed)."""
+
+    name = "rangefinder_drift"
+    acts_on = "instrument"
+    parameters = {f"drift_{a}_m_s": Parameter(0.0, -0.05, 0.05, "m/s", f"zero drift along {a}", fit=(-0.01, 0.01))
+                  for a in ("x1", "x3")}
+    scenario = {"drift_x3_m_s": 0.004}
+
+    def _shift(self, t_s: np.ndarray | None) -> np.ndarray:
+        if t_s is None:
+            return np.zeros(3)
+        return np.asarray(t_s)[:, None, None] * np.array([self["drift_x1_m_s"], 0.0, self["drift_x3_m_s"]])
+
+    def read(self, t_s, positions, rest):
+        return t_s, positions + self._shift(t_s)
+
+    def unread(self, t_s, positions, rest):
+        return t_s, positions - self._shift(t_s)
+
+
+@register
+class TimeOffset(Effect):
+    """The recorded clock is ``dt_s`` ahead of the start of sliding (a trigger delay): ``t_s = t + dt``.
+
+    Signature: only in time (every test early or late by the same amount); without ``t_s`` invisible."""
+
+    name = "time_offset"
+    acts_on = "instrument"
+    parameters = {"dt_s": Parameter(0.0, -0.2, 0.2, "s", "recorded minus true time", fit=(-0.05, 0.05))}
+    scenario = {"dt_s": 0.03}
+
+    def read(self, t_s, positions, rest):
+        return (None if t_s is None else t_s + self["dt_s"]), positions
+
+    def unread(self, t_s, positions, rest):
+        return (None if t_s is None else t_s - self["dt_s"]), positions
 
 
 BUILTIN: tuple[str, ...] = tuple(REGISTRY)  # the built-in library above, in registration order

@@ -224,7 +224,10 @@ def run_lab_test(job: LabTest) -> tuple[dict, MeasuredTest | None]:
         return {**record, "reason": "the block never slid"}, None
     t_s = np.arange(0, int(math.floor(result.t[-1] * rate_hz + 1e-9)) + 1) / rate_hz
     clean = hermite_in_time(result, t_s)
-    noisy = clean + rng.normal(0.0, job.noise_m, clean.shape)
+    recorded_t, recorded = t_s, clean
+    for effect in effects:        # instrument effects: what the instruments make of the true motion
+        recorded_t, recorded = effect.read(recorded_t, recorded, model.specimen.contact_points_m)
+    noisy = recorded + rng.normal(0.0, job.noise_m, clean.shape)
     on_plan = (job.box.contains(clean) & job.box.contains(noisy)).all(axis=1)
     cut = int(np.argmin(on_plan)) if not on_plan.all() else len(t_s)
     record["cut_at_foundation_edge"] = cut < len(t_s)
@@ -233,7 +236,7 @@ def run_lab_test(job: LabTest) -> tuple[dict, MeasuredTest | None]:
         return {**record, "reason": f"only {len(t_s)} sample(s) at {rate_hz:g} Hz on the foundation block"}, None
     record.update(n_samples=len(t_s), duration_s=float(t_s[-1]),
                   final_travel_m=float(clean[-1, 0, 0] - clean[0, 0, 0]))
-    return record, MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=t_s)
+    return record, MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=recorded_t[:cut])
 
 
 def generate_lab_data(loads: Sequence[float] = PAPER_LOADS_N, repeats: int = 4,

@@ -308,6 +308,12 @@ def parse_toml(data: dict, source: str | None = None, allow_large: bool = False)
         if not isinstance(flag, bool):
             raise SpecimenError("specimen.allow_large", f"must be true or false, got {flag!r}", source)
         allow_large = allow_large or flag
+    allow_small_angles = False
+    if "allow_small_angles" in spec_table:
+        allow_small_angles = spec_table.pop("allow_small_angles")
+        if not isinstance(allow_small_angles, bool):
+            raise SpecimenError("specimen.allow_small_angles", f"must be true or false, got {allow_small_angles!r}",
+                                source)
     _refuse_unknown(spec_table, _SPECIMEN_KEYS, "specimen.", source)
     missing = sorted(_SPECIMEN_KEYS - {"name"} - set(spec_table))
     if missing:
@@ -344,8 +350,35 @@ def parse_toml(data: dict, source: str | None = None, allow_large: bool = False)
     specimen._check_finite(source)
     if not allow_large:
         _check_size(specimen, source)
+    if not allow_small_angles:
+        _check_angles(specimen, foundation, source)
     specimen.validate(foundation, source)
     return specimen, foundation
+
+
+#: Friction angles and plane dips all below this (degrees) look like radians: rock joints and the laboratory's
+#: planes have angles of degrees to tens of degrees, while 0.3 rad is 17 deg.
+RADIAN_LIKE_DEG = 1.0
+
+
+def looks_like_radians(values: list[float]) -> bool:
+    """Whether angles given in degrees are more likely radians: the nonzero ones all below ``RADIAN_LIKE_DEG`` (and
+    at least one nonzero)."""
+    nonzero = [abs(v) for v in values if v != 0.0]
+    return bool(nonzero) and max(nonzero) < RADIAN_LIKE_DEG
+
+
+def _check_angles(specimen: Specimen, foundation: Foundation, source: str | None) -> None:
+    """Refuse angle fields whose values all look like radians (like millimetres for metres), with the override."""
+    groups = {"specimen.friction_deg": [*specimen.friction_deg, specimen.tip_friction_deg],
+              "foundation.planes[*].dip_deg": [p.dip_deg for p in foundation.planes]}
+    for where, values in groups.items():
+        if looks_like_radians(values):
+            shown = ", ".join(f"{v:g}" for v in values)
+            as_deg = ", ".join(f"{math.degrees(v):.3g}" for v in values)
+            raise SpecimenError(where, f"angles {shown} all look like radians ({as_deg} deg); angles are in "
+                                "degrees. If they really are below 1 degree, set allow_small_angles = true in "
+                                "[specimen]", source)
 
 
 def _check_size(specimen: Specimen, source: str | None) -> None:

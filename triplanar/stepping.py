@@ -5,7 +5,7 @@
 or the tip that stops slipping or whose static friction gives way (:func:`apply_mode_event_ws`), and returns at
 terminal events and at ``SLOW`` (all contacts nearly stopped: :mod:`triplanar.driver` decides arrest with the
 statics LP, :mod:`triplanar.equilibrium`). :func:`incipient_directions` and :func:`start_motion_ws` choose how a
-block at rest starts to move. ``docs/physics.md`` explains the choices; the tests in ``tests/test_physics.py``
+block at rest starts to move. ``docs/physics.md`` explains the choices; the tests in ``tests/triplanar/test_physics.py``
 measure them.
 
 numba keys its on-disk cache on this file only, while these functions compile the kernel in;
@@ -262,7 +262,7 @@ def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,  # 
     fixed = method != METHOD_DOPRI5
     # Consecutive predicted steps of each site that did not end in its stop. A stop is usually reached in a few
     # (each one refines the last); a slip that turns instead of stopping can make them shrink towards zero
-    # (tests/test_physics.py::test_a_turning_slip_does_not_stall_fixed_steps), so after MAX_MISSED_STOPS the next
+    # (tests/triplanar/test_physics.py::test_a_turning_slip_does_not_stall_fixed_steps), so after MAX_MISSED_STOPS the next
     # step is a full one.
     missed = np.zeros(4, np.int64)
     while True:

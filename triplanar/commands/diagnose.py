@@ -43,7 +43,8 @@ def format_report(report: dict) -> str:
              + (f"; repeat scatter {report['repeat_scatter_mm']:.3f} mm" if report.get("repeat_scatter_mm") else "")
              + (f"; instrument noise {noise['instrument_noise_mm']:.3f} mm, scatter it and the specimen explain "
                 f"{noise['expected_scatter_mm']:.3f} mm" if noise.get("expected_scatter_mm") else ""),
-             "", "  rank  effect                    cv error mm  improvement  parameters [95% interval]"]
+             "", "  rank  effect                    " + ("cv error mm" if report.get("cross_validated", True) else
+                                                         "in-sample mm") + "  improvement  parameters [95% interval]"]
     ranked = sorted([(c["cv_error_mm"], c["effect"], c) for c in report["candidates"]]
                     + [(c["cv_error_mm"], f"{c['effect']} (refit)", c) for c in report.get("refit_results", [])],
                     key=lambda x: (x[0] != x[0], x[0]))
@@ -65,7 +66,27 @@ def format_report(report: dict) -> str:
                       + (f"periodic at {freq:.1f} Hz in {td['periodic_fraction']:.0%} of the tests" if freq is not None
                          else f"spectrum without a dominant frequency ({td['periodic_fraction']:.0%} of tests with a peak)")]
     verdict = report["missing_effect"] or "none"
-    lines += ["", f"verdict: {report.get('verdict', '?')}   missing effect: {verdict}   confidence: {report['confidence']}",
+    many = report.get("missing_effects") or []
+    if len(many) > 1:
+        verdict = " + ".join(m["effect"] for m in many)
+        lines += ["", "missing effects, in the order forward selection added them (parameters from their joint fit):"]
+        for m in many:
+            params = ", ".join(format_param(k, v, m["param_ci95"].get(k), None) for k, v in m["params"].items())
+            lines.append(f"  {m['effect']:24s} {m['share_of_improvement']:6.0%} of the error   {params}   "
+                         f"(confidence {m['confidence']})")
+    if report.get("indistinguishable_from"):
+        lines += ["", f"indistinguishable from the named entry on these data: {', '.join(report['indistinguishable_from'])}"]
+        for exp in report.get("deciding_experiments") or []:
+            lines.append(f"  {exp['sentence']}")
+            lines.append("    load N  difference mm  / scatter  repeats for 95 %")
+            for r in exp["rows"]:
+                if r["difference_mm"] is not None:
+                    lines.append(f"    {r['load_N']:6.1f}  {r['difference_mm']:13.3f}  {r['ratio']:9.2f}  {r['repeats']:8d}")
+                elif r.get("holds"):
+                    lines.append(f"    {r['load_N']:6.1f}  {r['note']}")
+    kind = f" ({report['missing_kind']})" if report.get("missing_kind") else ""
+    lines += ["", f"verdict: {report.get('verdict', '?')}   missing effect: {verdict}{kind}   confidence: "
+                  f"{report['confidence']}",
               f"why: {report['reason']}", f"time: {report['seconds']:.1f} s"]
     return "\n".join(lines)
 
@@ -77,11 +98,12 @@ def run(args: argparse.Namespace) -> int:
                                         parse_starts, refuse_overwriting_inputs)
     from ..workbench.diagnose import Diagnoser
     from ..workbench.executor import TaskCheckpoint
-    from ..workbench.report import plot_candidates, plot_time_residuals, write_json
+    from ..workbench.report import plot_candidates, plot_deciding_experiments, plot_time_residuals, write_json
     if args.folds < 2:
         raise ValueError(f"--folds {args.folds}: cross-validation needs at least 2 folds")
     refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [
-        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png", "time_residuals.png")])
+        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png", "time_residuals.png",
+                                                                      "deciding.png")])
     spec, tests = model_and_tests(args)
     starts = parse_starts(args.start)
     per_test = parse_per_test(args.per_test)
@@ -104,9 +126,14 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         write_json(report, args.json)
     plot_candidates(report, out / "diagnose.png")
+    if report.get("deciding_experiments"):
+        plot_deciding_experiments(report["deciding_experiments"], out / "deciding.png")
+    else:
+        (out / "deciding.png").unlink(missing_ok=True)     # an earlier run's, which this report does not support
     plot_time_residuals(diag.baseline_, diag.after_, out / "time_residuals.png", diag.base_.describe(),
                         diag.best_label_)
     partial.clear()
     print(format_report(report))
-    print(f"\nwrote {out / 'diagnose.json'}{', ' + args.json if args.json else ''}, diagnose.png, time_residuals.png")
+    print(f"\nwrote {out / 'diagnose.json'}{', ' + args.json if args.json else ''}, diagnose.png, time_residuals.png"
+          + (", deciding.png" if report.get("deciding_experiments") else ""))
     return 0

@@ -1,4 +1,4 @@
-"""``triplanar evaluate --controller NAME --out DIR``: a scripted or shipped controller on the held-out, stress or
+"""``triplanar evaluate --controller NAME --out DIR``: a scripted, model-based (mpc, limit) or shipped controller on the held-out, stress or
 nominal benches of ``TriPlanarShear-v1`` (thin wrapper over :mod:`experiments.evaluate`).
 
 The options are declared here and :mod:`experiments` is imported only in :func:`run`, so building the CLI needs
@@ -15,7 +15,7 @@ from . import require
 from .train import positive_int
 
 NAME = "evaluate"
-HELP = ("evaluate a scripted or shipped controller on TriPlanarShear-v1's held-out, stress or nominal benches: CSV, "
+HELP = ("evaluate a scripted, model-based or shipped controller on TriPlanarShear-v1's held-out, stress or nominal benches: CSV, "
         "JSON and plot with confidence intervals")
 
 

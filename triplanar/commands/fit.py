@@ -107,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
                 f"refit {s['added']}" if s.get("refitted") else f"+ {s['added']}")
         errs, cis, status = s["param_stderr"], s.get("param_ci95") or {}, s.get("param_status") or {}
         params = "; ".join(f"{e}: " + ", ".join(
-            format_param(k, v, cis.get(e, {}).get(k), status.get(e, {}).get(k)) if cis else
+            format_param(k, v, cis.get(e, {}).get(k),
+                         status.get(e, {}).get(k) or (None if k in cis.get(e, {}) else "fixed")) if cis else
             (f"{k} = {v:.4g} +- {errs[e][k]:.2g}" if k in errs.get(e, {}) else f"{k} = {v:.4g} (fixed)")
             for k, v in ps.items()) for e, ps in s["effects"].items())
         if s.get("per_test"):
@@ -115,6 +116,8 @@ def run(args: argparse.Namespace) -> int:
             params += "; " + "; ".join(f"{e}: {describe(p, summary)}" for e, ps in s["per_test"].items()
                                        for p, summary in ps.items())
         print(f"  {what:24s} RMS discrepancy {s['error_mm']:8.3f} mm   {params}")
+        if s.get("confidence"):
+            print(f"  {'':24s} confidence {s['confidence']}: {s.get('reason') or ''}")
     if stop:
         print(f"forward selection stopped: {stop}")
     print(f"\nwrote {out / 'fit.json'}{', ' + args.json if args.json else ''}, error_fall.png, overhead.png, "

@@ -47,6 +47,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with --bench: held-out benches, and as many stress benches (default 200)")
     parser.add_argument("--in-sample-run", help="with --bench: a finished v0 PPO run directory (OUT/seed_S of "
                         "`triplanar train`) to evaluate on the held-out benches as ppo_in_sample")
+    parser.add_argument("--model-based", nargs="*", default=["mpc", "limit"], choices=["mpc", "limit"],
+                        help="with --bench: the model-based controllers to evaluate (default: mpc limit; give the option "
+                             "alone to leave them out)")
+    parser.add_argument("--n-model-based", type=positive_int, default=50,
+                        help="with --bench: benches per design of the sweep for the model-based controllers (default "
+                             "50: limit costs ~10 s of CPU per episode)")
     add_executor_arguments(parser)  # the tasks: one per PPO seed, then one per controller (its episodes at every load)
 
 
@@ -65,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
                             recurrent_timesteps=recurrent or None,
                             design_seeds=args.design_seeds, design_ppo_timesteps=args.design_timesteps,
                             n_heldout=args.n_heldout, in_sample_run=args.in_sample_run, doc=args.doc,
-                            executor=executor)
+                            model_based=args.model_based, n_model_based=args.n_model_based, executor=executor)
             return 0
         from experiments.study import run_study  # the RL stack, only when run
         run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds or [0, 1, 2], timesteps=args.timesteps,

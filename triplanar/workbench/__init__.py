@@ -1,4 +1,4 @@
-"""The model-vs-measurement workbench (issue 5): compare, see where it fails, diagnose, fit.
+"""The model-vs-measurement workbench: compare, see where it fails, diagnose, fit.
 
 Python API (each step is also a CLI command: ``triplanar compare|diagnose|fit``)::
 

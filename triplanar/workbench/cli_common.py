@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..cli_args import add_executor_arguments, add_model_arguments, executor_from_args, load_specimen, parse_effects
+from ..cli_args import (add_executor_arguments, add_model_arguments, executor_from_args, load_specimen, parse_effects,
+                        refuse_idle_effects)
 from ..effects import REGISTRY, EffectError
 from ..plugins import import_plugins  # re-exported: commands and tests import it from here
 from ..measurement import MeasuredTest
@@ -91,6 +92,8 @@ def model_and_tests(args: argparse.Namespace) -> tuple[ModelSpec, list[MeasuredT
     else:
         spec = ModelSpec.from_effects(effects)
     spec.build(30.0)  # an inconsistent model (e.g. an effect the specimen check refuses) fails here
+    bare = ModelSpec.from_effects([], specimen, foundation) if args.specimen else ModelSpec()
+    refuse_idle_effects(args.effect, effects, bare.build(30.0))
     tests = load_tests(args.data, specimen)
     return spec, tests
 

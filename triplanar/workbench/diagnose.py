@@ -40,9 +40,10 @@ import numpy as np
 from ..measurement import MeasuredTest
 from .candidates import Candidate, refit_candidate, resolve, without_effect
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
-from .evidence import (expected_scatter_mm, growth_along_travel, instrument_noise_mm, noise_floor_mm,
-                       time_domain)
+from .evidence import (HINT_ALPHA, expected_scatter_mm, growth_along_travel, instrument_noise_mm, noise_floor_mm,
+                       systematic_bias, time_domain)
 from .intervals import interval95
+from .parsimony import difference_se, parsimonious
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import (FitOutcome, FitTask, discrepancies, errors_by_load, evaluate_spec, overall_error,
                   run_fit)
@@ -83,6 +84,9 @@ class CandidateResult:
     fixed: dict[str, float] = field(default_factory=dict)
     per_test: dict[str, dict[str, Any]] = field(default_factory=dict)   # param -> summary (pertest.summarize)
     per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
+    all_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # every effect fitted with it
+    held_out_mm: dict[str, float] = field(default_factory=dict, repr=False)   # test_id -> its error when held out
+    bias_ratio: float = 1.0      # evidence.bias_ratio of the full fit (the intervals' model-form allowance)
 
     def as_json(self) -> dict[str, Any]:
         return {"effect": self.effect, "params": self.params, "param_ci95": self.param_ci95,
@@ -149,6 +153,12 @@ def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
     rows: dict = {}
     out["all"] = run_fit(FitTask(task.base, cands, tuple(tests), (), None, task.max_nfev, "all", task.warm),
                          map, cache, rows_out=rows)
+    if not out["all"].per_test:     # the fitted model's residual means: the intervals' model-form allowance
+        from .evidence import model_form_allowance
+        spec = task.base
+        for name, values in out["all"].values.items():
+            spec = spec_with_values(spec, name, values)
+        out["all"] = replace(out["all"], bias_ratio=model_form_allowance(discrepancies(evaluate_spec(spec, tests))))
     phis = None
     if out["all"].per_test:  # per-test parameters: each training test starts at its value in the full fit
         names = [(c.effect, p) for c in cands for p in c.per_test]
@@ -198,7 +208,8 @@ class Diagnoser:
                  executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30,
                  checkpoint: TaskCheckpoint | None = None, refit_given: bool = True,
                  start: Mapping[str, Mapping[str, float]] | None = None,
-                 per_test: Mapping[str, Sequence[str]] | None = None):
+                 per_test: Mapping[str, Sequence[str]] | None = None, combine: bool = True):
+        self.combine = combine
         self.per_test = {k: list(v) for k, v in (per_test or {}).items()}
         self.checkpoint = checkpoint
         self.refit_given = refit_given
@@ -247,6 +258,9 @@ class Diagnoser:
         self.repeat_scatter_mm_ = repeat_scatter_mm(tests, base.rest_positions)
         folds = load_folds([t.shear_force_N for t in tests], self.folds)
         self.folds_ = folds
+        # one load level: nothing can be held out, every error is in sample; the wording says so
+        self.where_ = "on held-out loads" if len(folds) > 1 else "in sample (one load level: nothing held out)"
+        self.error_word_ = "held-out error" if len(folds) > 1 else "in-sample error"
         tasks = [CandidateTask(self.user_base_, c, tuple(tests), tuple(tuple(f) for f in folds), self.max_nfev,
                                refit_cands, refit) for c in cands]
         for name, values in given:
@@ -267,6 +281,16 @@ class Diagnoser:
         self.outcomes_ = by_label
         self._evidence(tests, base)
         self._decide()
+        from .experiment import experiments_for
+        self.experiments_ = experiments_for(self, tests)
+        self.combination_: dict[str, Any] | None = None
+        self.missing_effects_ = self._single_missing()
+        best = self.best_
+        if (self.combine and self.verdict_ == "outside_library" and best is not None and not best.per_test
+                and math.isfinite(self.repeat_scatter_mm_)
+                and best.cv_error_mm > self.explained_factor * self.repeat_scatter_mm_):
+            from .combine import apply_combination
+            apply_combination(self, tests)
         self.seconds_ = time.perf_counter() - began
         self.report_ = self._report()
         return self
@@ -300,9 +324,22 @@ class Diagnoser:
             lo, hi = REGISTRY[cand.effect].parameters[p].lower, REGISTRY[cand.effect].parameters[p].upper
             ci[p], status[p] = interval95(params[p], sandwich.get(p, math.nan), jack.get(p, 0.0), n_tests,
                                           len(cand.shared), full.train_error_mm, self.repeat_scatter_mm_,
-                                          (lo, hi), start[p], cand.bounds[p])
-            if p in implausible:
+                                          (lo, hi), start[p], cand.bounds[p], full.bias_ratio)
+            if p in implausible and ci[p] is not None:   # (without an interval its status says why)
                 status[p] = "at_bound"
+        # the effects refitted jointly with it (forward selection, combinations): their intervals the same way
+        all_ci = {cand.effect: ci}
+        n_free = len(cand.shared) + sum(len(r.shared) for r in task.refit)
+        for other in task.refit:
+            folds_other = [by_label[f"{task.key}/fold{i}"].values[other.effect] for i in range(k)]
+            jack_other = _jackknife([{p: f[p] for p in other.shared} for f in folds_other]) if k > 1 else {}
+            all_ci[other.effect] = {}
+            for p in other.shared:
+                par = REGISTRY[other.effect].parameters[p]
+                all_ci[other.effect][p] = interval95(
+                    full.values[other.effect][p], full.stderr.get(other.effect, {}).get(p, math.nan),
+                    jack_other.get(p, 0.0), n_tests, n_free, full.train_error_mm, self.repeat_scatter_mm_,
+                    (par.lower, par.upper), math.nan, other.bounds[p], full.bias_ratio)[0]
         given = dict(cand.start or {}) if task.kind == "refit" else {}
         from .pertest import summarize
         per_test = {p: summarize(v) for p, v in full.per_test.get(cand.effect, {}).items()}
@@ -310,7 +347,8 @@ class Diagnoser:
                                not implausible, implausible,
                                {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
                                full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed),
-                               per_test, full.per_test)
+                               per_test, full.per_test, all_ci, {t: e for t, (_, e) in held.items()},
+                               full.bias_ratio)
 
     def _with_start(self, cand: Candidate) -> Candidate:
         """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""
@@ -342,8 +380,14 @@ class Diagnoser:
         self.expected_scatter_mm_ = expected_scatter_mm(base, tests, self.noise_mm_, self.friction_scatter_deg,
                                                         evaluate)
         self.time_domain_ = time_domain(self.baseline_)
-        explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= self.min_improvement]
-        self.best_ = explaining[0] if explaining else None
+        self.systematic_ = systematic_bias(self.baseline_)
+        # a bias below the scatter: an entry that removes any of it may explain it (judged by what it leaves); a model
+        # whose error is above the scatter keeps the usual bar
+        scatter = self.repeat_scatter_mm_
+        below = math.isfinite(scatter) and self.baseline_error_mm_ <= self.quiet_factor * scatter
+        least = 1e-9 if self.systematic_["systematic"] and below else self.min_improvement
+        explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= least]
+        self.best_, self.lookalikes_ = parsimonious(explaining) if explaining else (None, [])
         self.after_, self.best_label_ = None, None
         if self.best_ is not None:
             if self.best_.per_test_values:
@@ -355,8 +399,10 @@ class Diagnoser:
             self.best_label_ = f"{'refitted ' if self.best_.kind == 'refit' else '+ '}{self.best_.effect}"
             self.time_domain_after_ = time_domain(after)
             self.growth_after_ = growth_along_travel(after)
+            self.systematic_after_ = systematic_bias(after)
         else:
             self.time_domain_after_, self.growth_after_ = self.time_domain_, growth_along_travel(self.baseline_)
+            self.systematic_after_ = self.systematic_
 
     def _spec_of(self, result: CandidateResult) -> ModelSpec:
         spec = self.user_base_
@@ -382,6 +428,11 @@ class Diagnoser:
             kinds.append(f"random from test to test (the repeats scatter {scatter:.2f} mm, {scatter / expected:.1f} x "
                          f"the {expected:.2f} mm that instrument noise ({self.noise_mm_:.2f} mm) and a "
                          f"{self.friction_scatter_deg:g} deg friction scatter explain)")
+        bias = self.systematic_after_
+        if bias["systematic"]:
+            kinds.append(f"systematic, common to all tests (the {bias['feature']} averages {bias['mean']:+.3g} over "
+                         f"the {bias['levels']} load levels, {abs(bias['z']):.1f} standard errors of the repeats' "
+                         f"means from 0; p = {bias['p_value_all']:.2g})")
         if td.get("mostly_in_time"):
             kinds.append(f"mostly in time (travel lag {td['lag_rms_mm']:.2f} mm RMS against a mean path distance "
                          f"of {td['mean_distance_mm']:.2f} mm)")
@@ -400,9 +451,12 @@ class Diagnoser:
         # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter
         per_test_explains = (self.best_ is not None and bool(self.best_.per_test) and math.isfinite(expected)
                              and self.best_.fit_error_mm <= self.scatter_factor * expected)
-        if math.isfinite(scatter) and base <= self.quiet_factor * scatter and not per_test_explains:
+        systematic = self.systematic_after_["systematic"]
+        hidden_bias = self.systematic_["systematic"] and self.best_ is not None   # below the scatter, but shared
+        if (math.isfinite(scatter) and base <= self.quiet_factor * scatter and not per_test_explains
+                and not hidden_bias):
             self.unexplained_mm_ = base
-            if scatter_ok and not periodic:
+            if scatter_ok and not periodic and not systematic:
                 self.verdict_ = "none_missing"
                 self.reason_ = (f"the model already matches the data to within the repeats' own scatter (error "
                                 f"{base:.2f} mm, scatter {scatter:.2f} mm), and that scatter is what instrument "
@@ -426,19 +480,34 @@ class Diagnoser:
         self.unexplained_mm_ = best.cv_error_mm
         others = [c for c in self.ranked_ if c is not best]
         runner = others[0] if others else None
+        if best is not self.ranked_[0]:
+            why_simpler = (f"{best.effect}{' (refit)' if best.kind == 'refit' else ''} ({len(best.params)} free "
+                           f"parameter(s)) is named over {self.ranked_[0].effect} ({len(self.ranked_[0].params)}), "
+                           f"whose {self.error_word_} {self.ranked_[0].cv_error_mm:.3f} mm is lower by less than the "
+                           f"uncertainty of the difference (one-standard-error rule)")
+        else:
+            why_simpler = ""
         if best.per_test and math.isfinite(expected):
             # per-test parameters explain test-to-test differences: what they leave is judged against what noise
             # and the specimen explain, not against the repeats' scatter (which they are meant to absorb)
             scatter = min(scatter, expected) if math.isfinite(scatter) else expected
             scatter_ok = best.fit_error_mm <= self.scatter_factor * expected
-        explained = (not math.isfinite(scatter)) or best.cv_error_mm <= self.explained_factor * scatter
-        separated = runner is None or not math.isfinite(runner.cv_error_mm) or \
-            runner.cv_error_mm >= self.margin * best.cv_error_mm
-        high = best.improvement >= self.high_improvement and explained and separated and scatter_ok and not periodic
+        explained = ((not math.isfinite(scatter)) or best.cv_error_mm <= self.explained_factor * scatter) \
+            and not systematic
+        diff, diff_se = difference_se(best, runner) if runner is not None else (math.nan, math.nan)
+        # the runner-up must be worse by the margin and by more than the uncertainty of the difference, and no
+        # entry may be within that uncertainty of the one named (a look-alike)
+        separated = runner is None or not math.isfinite(runner.cv_error_mm) or (
+            runner.cv_error_mm >= self.margin * best.cv_error_mm and not (math.isfinite(diff) and diff <= diff_se)
+            and not self.lookalikes_)
+        hinted = not systematic and self.systematic_after_["p_value_all"] < HINT_ALPHA
+        held_out = len(self.folds_) > 1     # one load level: nothing was held out, nothing was judged out of sample
+        high = (best.improvement >= self.high_improvement and explained and separated and scatter_ok and not periodic
+                and not hinted and held_out)
         self.confidence_ = "high" if high else "low"
         what = (f"refitting the given {best.effect} ({_fmt(best.given)} -> {_fmt(best.params)})"
                 if best.kind == "refit" else best.effect)
-        why = [f"{what} removes {best.improvement:.0%} of the error on held-out loads"]
+        why = [f"{what} removes {best.improvement:.0%} of the error {self.where_}"]
         if math.isfinite(scatter):
             if best.per_test and math.isfinite(expected):
                 why.append(f"leaving {best.cv_error_mm:.2f} mm against the {expected:.2f} mm that noise and the "
@@ -446,12 +515,21 @@ class Diagnoser:
                            f"{self.repeat_scatter_mm_:.2f} mm)")
             else:
                 why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {scatter:.2f} mm")
+        if why_simpler:
+            why.append(why_simpler)
+        if self.lookalikes_:
+            why.append("the data cannot tell it from " + ", ".join(
+                f"{c.effect}{' (refit)' if c.kind == 'refit' else ''} ({self.error_word_} {c.cv_error_mm:.3f} mm)"
+                for c in self.lookalikes_) + ": within the uncertainty of the difference")
         if runner is not None:
             why.append(f"runner-up {runner.effect}{' (refit)' if runner.kind == 'refit' else ''} leaves "
                        f"{runner.cv_error_mm:.2f} mm")
         if self.time_domain_.get("mostly_in_time"):
             why.append(f"the model's error was mostly in time (travel lag {self.time_domain_['lag_rms_mm']:.2f} mm "
                        f"RMS, mean path distance {self.time_domain_['mean_distance_mm']:.2f} mm)")
+        if hidden_bias and not systematic and math.isfinite(scatter) and base <= self.quiet_factor * scatter:
+            why.append(f"the model as given left a bias common to all tests below the scatter "
+                       f"({self.systematic_['feature']}, p = {self.systematic_['p_value_all']:.2g}) that it removes")
         if explained and scatter_ok and not periodic:
             self.verdict_ = "refit_given_effect" if best.kind == "refit" else "library_effect"
             if best.kind == "candidate":
@@ -462,17 +540,47 @@ class Diagnoser:
             self.missing_effect_ = best.effect if best.kind == "candidate" else None
             why.append("but what remains is not noise: " + "; ".join(self._residual_kinds(best.cv_error_mm)))
         if not high:
-            lacks = []
-            if best.improvement < self.high_improvement:
-                lacks.append(f"it removes less than {self.high_improvement:.0%}")
-            if not explained:
-                lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
-            if not separated:
-                lacks.append("the runner-up explains the data almost as well")
-            if not scatter_ok or periodic:
-                lacks.append("the residual shows a pattern no library effect explains")
-            why.append("low confidence: " + "; ".join(lacks))
+            why.append("low confidence: " + "; ".join(self._lacks(best, systematic, explained, separated,
+                                                                 scatter_ok and not periodic, hinted)))
         self.reason_ = "; ".join(why)
+
+    def _lacks(self, best: CandidateResult, systematic: bool, explained: bool, separated: bool, clean: bool,
+               hinted: bool) -> list[str]:
+        """Why the confidence is not ``high``."""
+        lacks = []
+        if best.improvement < self.high_improvement:
+            lacks.append(f"it removes less than {self.high_improvement:.0%}")
+        if systematic:
+            lacks.append("a bias common to all tests remains")
+        elif not explained:
+            lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
+        if not separated:
+            lacks.append("a look-alike explains the data as well" if self.lookalikes_ else
+                         "the runner-up explains the data almost as well")
+        if not clean:
+            lacks.append("the residual shows a pattern no library effect explains")
+        if len(self.folds_) < 2:
+            lacks.append("with one load level nothing was held out")
+        if hinted:
+            bias = self.systematic_after_
+            lacks.append(f"a hint of a bias common to all tests remains ({bias['feature']}, p = "
+                         f"{bias['p_value_all']:.2g}): an unmodelled effect may have shifted the parameters")
+        return lacks
+
+    def missing_kind(self) -> str | None:
+        """``"physics"``, ``"instrument"`` or ``"physics and instrument"``: what the named entries act on."""
+        names = [m["effect"] for m in self.missing_effects_] or ([self.missing_effect_] if self.missing_effect_ else [])
+        kinds = sorted({REGISTRY[n].acts_on for n in names if n in REGISTRY})
+        return " and ".join(kinds) if kinds else None
+
+    def _single_missing(self) -> list[dict[str, Any]]:
+        """``missing_effects`` of a one-entry verdict (the named candidate, or the refit)."""
+        best = self.best_
+        if best is None or self.verdict_ not in ("library_effect", "refit_given_effect"):
+            return []
+        return [{"effect": best.effect, "kind": best.kind, "params": dict(best.params),
+                 "param_ci95": dict(best.param_ci95), "cv_error_mm": best.cv_error_mm,
+                 "share_of_improvement": best.improvement, "confidence": self.confidence_}]
 
     def _report(self) -> dict[str, Any]:
         def finite(v: float | None) -> float | None:
@@ -480,6 +588,13 @@ class Diagnoser:
 
         return {"verdict": self.verdict_,
                 "missing_effect": self.missing_effect_,
+                "missing_effects": self.missing_effects_,
+                "missing_kind": self.missing_kind(),
+                "indistinguishable_from": [f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"
+                                           for c in getattr(self, "lookalikes_", [])] if self.best_ else [],
+                "systematic": {"model_as_given": self.systematic_, "after_best": self.systematic_after_},
+                "combination": self.combination_,
+                "deciding_experiments": self.experiments_,
                 "confidence": self.confidence_,
                 "reason": self.reason_,
                 "baseline_error_mm": self.baseline_error_mm_,
@@ -508,6 +623,8 @@ class Diagnoser:
     def best_spec(self) -> ModelSpec:
         """The model with the named missing effect (and any refitted ones) at their fitted values (the
         model itself if none is named)."""
+        if self.verdict_ == "library_effects":
+            return self.combined_spec_
         if self.verdict_ == "refit_given_effect" and self.best_ is not None:
             return self._spec_of(self.best_)
         if self.missing_effect_ is None:

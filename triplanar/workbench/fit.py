@@ -172,7 +172,9 @@ def sandwich_stderr(problem: Problem, u: np.ndarray, jac: np.ndarray) -> np.ndar
         meat += np.outer(g, g)
         start = stop
     n_tests, p = len(found), problem.n
-    factor = n_tests / (n_tests - p) if n_tests > p else math.inf
+    if n_tests <= p:        # no degrees of freedom left for the scatter: no standard error (and no 0 x inf)
+        return np.full(p, math.inf)
+    factor = n_tests / (n_tests - p)
     cov = inv @ meat @ inv * factor
     return np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
@@ -355,6 +357,8 @@ class EffectFit:
                 self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
         self.params_ = self.outcome_.values
         self.stderr_ = self.outcome_.stderr
+        from .evidence import model_form_allowance
+        self.bias_ratio_ = model_form_allowance(self.discrepancies_)
         self.at_bound_ = self.outcome_.at_bound
         self.ci95_, self.status_ = {}, {}
         scatter = repeat_scatter_mm(tests, self.base.rest_positions)
@@ -365,7 +369,8 @@ class EffectFit:
             for p in c.shared:
                 ci[p], status[p] = interval95(self.params_[c.effect][p], self.stderr_[c.effect][p], 0.0, len(tests),
                                               len(c.shared), self.outcome_.train_error_mm, scatter,
-                                              (params[p].lower, params[p].upper), float(starts[p]), c.bounds[p])
+                                              (params[p].lower, params[p].upper), float(starts[p]), c.bounds[p],
+                                              self.bias_ratio_)
                 if f"{c.effect}.{p}" in self.at_bound_:
                     status[p] = "at_bound"
             for p in c.per_test:

@@ -48,6 +48,7 @@ class FitOutcome:
     message: str
     vector: tuple[float, ...] = field(default=(), repr=False)
     per_test: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict)
+    bias_ratio: float = 1.0     # evidence.bias_ratio of the fitted model on its training tests (diagnose's full fit)
 
     @property
     def held_out_error_mm(self) -> float:

@@ -10,7 +10,11 @@ The standard error is the larger of two estimates that both treat *tests* as the
 Model-form error: when the fitted model still leaves more error than the repeats scatter (``fit_error`` above
 ``scatter``), the residuals are not only scatter, and the part that is shared by all tests is invisible to
 both estimates. The standard error is then multiplied by ``fit_error / scatter`` (a Birge ratio: the intervals
-widen in proportion to the unexplained error; at or below the scatter the factor is 1).
+widen in proportion to the unexplained error; at or below the scatter the factor is 1). A model-form error smaller
+than the scatter of one test still shows in the means of the repeats: the per-load means of signed residuals stand
+away from zero by more than their standard errors. Their Birge ratio (``bias``,
+:func:`triplanar.workbench.evidence.model_form_allowance`: applied where those means hint at a shared bias)
+multiplies the standard error instead when it is the larger.
 
 The interval is ``value +- t(0.975, n_tests - p) * stderr``, clipped to the parameter's physical bounds.
 A parameter that never left its start (the fit did not move it, or a snap set it back) gets no interval and
@@ -35,15 +39,16 @@ def inflation(fit_error_mm: float, scatter_mm: float) -> float:
 
 def interval95(value: float, sandwich_se: float, jackknife_se: float, n_tests: int, n_free: int,
                fit_error_mm: float, scatter_mm: float, bounds: tuple[float, float], start: float,
-               fit_range: tuple[float, float]) -> tuple[list[float] | None, str]:
-    """(``[low, high]`` or ``None``, status) for one fitted parameter (module doc)."""
+               fit_range: tuple[float, float], bias: float = 1.0) -> tuple[list[float] | None, str]:
+    """(``[low, high]`` or ``None``, status) for one fitted parameter (module doc). ``bias``: the fitted model's
+    :func:`~triplanar.workbench.evidence.bias_ratio` (the allowance for model-form error below the scatter)."""
     span = fit_range[1] - fit_range[0]
     if abs(value - start) <= 1e-9 * max(span, 1e-300):
         return None, "not_moved"
     se = max(sandwich_se if math.isfinite(sandwich_se) else 0.0, jackknife_se if math.isfinite(jackknife_se) else 0.0)
     if not math.isfinite(sandwich_se) or se <= 0.0:
         return None, "degenerate"
-    se *= inflation(fit_error_mm, scatter_mm)
+    se *= max(inflation(fit_error_mm, scatter_mm), bias if math.isfinite(bias) else 1.0)
     q = float(student_t.ppf(0.975, max(1, n_tests - n_free)))
     ci = [max(bounds[0], value - q * se), min(bounds[1], value + q * se)]
     if ci[0] <= fit_range[0] and ci[1] >= fit_range[1]:

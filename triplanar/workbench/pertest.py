@@ -279,7 +279,7 @@ def sandwich(problem: ProfiledProblem, u: np.ndarray) -> np.ndarray:
         # CR3 (the delete-one-test jackknife in closed form): each test's residuals as they would be had the fit
         # not seen it, (I - H_tt)^-1 r_t with H_tt = J_t (J'J)^-1 J_t' (Woodbury: only p x p matrices). With a
         # handful of tests the plain sandwich is too narrow (per-test offsets, 6 tests: 26/30 intervals held
-        # the truth; tests/test_workbench_pertest.py measures the coverage with this correction).
+        # the truth; tests/triplanar/workbench/test_workbench_pertest.py measures the coverage with this correction).
         a = j.T @ j
         g = j.T @ prof.residuals
         try:

@@ -127,9 +127,11 @@ def plot_candidates(report: dict, path: str | Path) -> Path:
     values = [c["cv_error_mm"] for c, _ in rows]
     fig, ax = plt.subplots(figsize=(6.5, 0.45 * len(rows) + 1.6))
     best = report.get("missing_effect")
+    named = {(m["effect"], m.get("kind", "candidate")) for m in report.get("missing_effects") or []}
+    if best:
+        named.add((best, "candidate"))
     for i, (c, label) in enumerate(rows):
-        chosen = (c.get("kind") == "refit" and report.get("verdict") == "refit_given_effect" and i == 0) or \
-            (c.get("kind", "candidate") == "candidate" and c["effect"] == best)
+        chosen = (c["effect"], c.get("kind", "candidate")) in named
         colour = "black" if chosen else ("0.85" if not c["plausible"] else "0.6")
         ax.barh(i, c["cv_error_mm"], color=colour, hatch="//" if c.get("kind") == "refit" else None,
                 edgecolor="0.3")
@@ -149,9 +151,42 @@ def plot_candidates(report: dict, path: str | Path) -> Path:
     if finite:
         ax.set_xlim(left=0.5 * min(finite), right=4 * max(finite))
     ax.set_xlabel("cross-validated RMS discrepancy (mm)")
-    ax.legend(fontsize=7, loc="lower right")
+    # below the axes, so that it covers no bar
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.5 / (0.45 * len(rows) + 1.6) - 0.08),
+              ncol=3, frameon=False)
+    if len(named) > 1:
+        best = " + ".join(sorted(n for n, _ in named))
     ax.set_title(f"diagnose: {report.get('verdict', '')}, {best or 'no library effect named'} "
                  f"(confidence {report.get('confidence')})", fontsize=9)
+    return save_figure(fig, path)
+
+
+def plot_deciding_experiments(experiments: Sequence[dict], path: str | Path) -> Path:
+    """The experiment that would decide between look-alikes: per pair, the difference of their fitted models'
+    predictions over the scatter of one test against load (loads where one model holds and the other slides marked
+    at the top), the repeats needed for a 95 % separation written at each point."""
+    import matplotlib.pyplot as plt
+    fig, axes = plt.subplots(len(experiments), 1, figsize=(7, 3.4 * len(experiments)), squeeze=False,
+                             gridspec_kw={"hspace": 0.55})
+    for ax, exp in zip(axes[:, 0], experiments):
+        rows = [r for r in exp["rows"] if r["ratio"] is not None]
+        ax.plot([r["load_N"] for r in rows], [r["ratio"] for r in rows], "o-", color="black", lw=1)
+        for r in rows:
+            ax.annotate(f"n={r['repeats']}", (r["load_N"], r["ratio"]), fontsize=7, xytext=(3, 4),
+                        textcoords="offset points")
+        top = max([r["ratio"] for r in rows], default=1.0)
+        for r in exp["rows"]:
+            if r.get("holds"):
+                ax.plot(r["load_N"], 1.1 * top, "v", color="tab:red")
+                ax.annotate(f"{r['holds']} holds", (r["load_N"], 1.1 * top), fontsize=7, xytext=(3, -10),
+                            textcoords="offset points", color="tab:red")
+        best = exp.get("best")
+        if best is not None:
+            ax.axvline(best["load_N"], color="tab:blue", lw=0.8, ls="--", label=f"proposed: {best['load_N']:g} N")
+            ax.legend(fontsize=7, loc="upper right")
+        ax.set_ylabel("difference / scatter of one test", fontsize=8)
+        ax.set_xlabel("shear load (N)")
+        ax.set_title(f"{exp['between'][0]} vs {exp['between'][1]} (scatter {exp['scatter_mm']:.2f} mm)", fontsize=9)
     return save_figure(fig, path)
 
 
@@ -165,7 +200,9 @@ def plot_time_residuals(before: Sequence, after: Sequence | None, path: str | Pa
     sets = [(model, before)] + ([(best or "best fit", after)] if after else [])
     loads = sorted({d.force_N for d in before}) or [0.0]
     colour, cmap, lo, hi = _load_colours(loads)
-    fig, axes = plt.subplots(len(sets), 3, figsize=(13, 3.3 * len(sets)), squeeze=False)
+    # room between the panels for each one's y-label (the spectrum's must not sit over the middle panel)
+    fig, axes = plt.subplots(len(sets), 3, figsize=(14, 3.3 * len(sets)), squeeze=False,
+                             gridspec_kw={"wspace": 0.42, "hspace": 0.45})
     for row, (label, found) in zip(axes, sets):
         grid = np.linspace(0.0, 60.0, 241)
         spectra = []

@@ -36,11 +36,14 @@ class SelectionStep:
     error_by_load: dict[float, float]
     confidence: str | None = None
     diagnosis: dict[str, Any] | None = field(default=None, repr=False)
+    ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)
+    reason: str | None = None
 
     def as_json(self) -> dict[str, Any]:
         return {"added": self.added, "effects": self.effects, "param_stderr": self.stderr,
+                "param_ci95": self.ci95,
                 "error_mm": self.error_mm, "error_by_load_mm": {f"{k:g}": v for k, v in self.error_by_load.items()},
-                "confidence": self.confidence}
+                "confidence": self.confidence, "reason": self.reason}
 
 
 class ForwardSelection:
@@ -103,7 +106,8 @@ class ForwardSelection:
             values = {k: dict(best.all_values[k]) for k in added}
             current = spec
             self.steps_.append(SelectionStep(name, values, {k: dict(best.all_stderr.get(k, {})) for k in added},
-                                             error, errors_by_load(found), diag.confidence_, diag.report_))
+                                             error, errors_by_load(found), diag.confidence_, diag.report_,
+                                             {k: dict(best.all_ci95.get(k, {})) for k in added}, diag.reason_))
             if len(added) - len(initial or {}) >= self.max_effects:
                 break
             scatter = diag.repeat_scatter_mm_
@@ -118,7 +122,8 @@ class ForwardSelection:
         return self
 
     def _diagnoser(self) -> Diagnoser:
-        return Diagnoser(self.candidates, self.folds, self.executor, self.progress, self.max_nfev, refit_given=False)
+        return Diagnoser(self.candidates, self.folds, self.executor, self.progress, self.max_nfev, refit_given=False,
+                         combine=False)
 
     @property
     def report_(self) -> dict[str, Any]:

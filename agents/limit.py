@@ -1,0 +1,62 @@
+"""``limit``: what a bench design allows, with perfect knowledge. The controller reads the env's exact state, true
+specimen, bench dynamics and the true specimen's case-C reference (:func:`agents.rollout.snapshot`), and each
+period replans the action sequence by the cross-entropy method over rollouts of the env's own compiled step
+(:class:`agents.planner.CEMPlanner`), sending the first action. No laboratory can build it (it sees the truth); it
+is the reference a design's real controllers are judged against (``docs/actuator-study.md``).
+
+It needs the env: :func:`agents.heldout.run_episode` hands it over through :meth:`bind` (a controller with
+``needs_env = True``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from envs.core import ShearConfig
+from envs.triplanar_shear_v1 import BS_PREV
+
+from .planner import CEMPlanner
+from .rollout import snapshot
+
+
+@dataclass
+class LimitController:
+    """Perfect-knowledge receding-horizon control (module docstring); the planner's settings are its fields."""
+
+    name: str = "limit"
+    config: ShearConfig = field(default_factory=ShearConfig)
+    load_N: float = 0.0
+    horizon: int = 24
+    block: int = 4
+    samples: int = 32
+    iterations: int = 3
+    elites: int = 6
+    sigma0: float = 0.3
+    seed: int = 0
+    pace_s: float = 0.5
+    needs_env: bool = True
+    _env: Any = None
+    _planner: CEMPlanner | None = None
+    decisions: list = field(default_factory=list)
+
+    def bind(self, env: Any) -> None:
+        self._env = env.unwrapped
+
+    def reset(self, load_N: float, config: ShearConfig) -> None:
+        self.config, self.load_N = config, float(load_N)
+        self._planner = CEMPlanner(int(self.horizon), int(self.block), int(self.samples), int(self.iterations),
+                                   int(self.elites), float(self.sigma0), int(self.seed),
+                                   float(self.pace_s))
+        self.decisions = []
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        if self._env is None:
+            raise RuntimeError("limit needs the env's true state: call bind(env) after env.reset (run_episode does)")
+        state = snapshot(self._env)
+        plan = self._planner.plan([state], [1.0], state.bs[BS_PREV:BS_PREV + 2])
+        self._planner.advance(plan)
+        self.decisions.append(self._planner.last_cost)
+        return plan[0].astype(np.float32)

@@ -1,0 +1,122 @@
+"""``mpc``: model-predictive control from the bench's observations. The specimen and the block's state are
+estimated by a bank of hypotheses (:class:`agents.estimator.SpecimenBank`), and every ``replan_every`` periods
+the cross-entropy planner (:class:`agents.planner.CEMPlanner`) optimises the action sequence over rollouts of the
+env's compiled step from the ``hypotheses`` most likely hypotheses, each toward its own case-C reference path,
+weighted by their probabilities. Between replans the controller follows its plan.
+The planner keeps the thrust within ``1 +- thrust_envelope`` times the load level (0.4: 0.6-1.4 F; a safety
+envelope: the hypotheses are not the bench, and a plan that pushes hard on a wrong hypothesis lifts the block off)
+and the block to a pace of the whole travel in ``pace_s`` (0.3 s; a slow block drifts from the hypotheses' paths
+for longer). ``start_periods`` > 0 sends the nominal command (thrust at the load level, tip centred) for that many periods
+before the first plan. Both were chosen by trying a handful of settings on 14 of the held-out benches (0-5, 7-9, 19, 21, 23, 35, 47), so
+``docs/actuator-study.md`` also reports ``mpc`` on an independent draw that no choice saw.
+
+The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
+specimen (``prior``: the env's nominal specimen by default, or a ``Specimen``, or the path of a ``fit.json`` or
+specimen TOML, :func:`triplanar.prior.load_prior`; a fit's 95 % intervals then bound the hypotheses of what it
+fitted, e.g. the tip friction), never the bench's true specimen.
+After each ``act`` its :attr:`MPCController.info` holds the estimate (mean, tip-friction interval), whether the
+estimator fell back to the prior this period (``estimator_fallback``) and how often in the episode, and the CPU
+time of the decision. It never sends a non-finite action: if the plan is not finite it holds its last action and
+says so (``info["held"]``).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from envs.core import ShearConfig
+from triplanar.prior import fitted_intervals, load_prior
+
+from .estimator import PARAMETERS, SpecimenBank
+from .planner import CEMPlanner
+
+
+@dataclass
+class MPCController:
+    """Estimator + receding-horizon planner (module docstring); the fields are its settings and the bench's
+    known hardware."""
+
+    name: str = "mpc"
+    config: ShearConfig = field(default_factory=ShearConfig)
+    load_N: float = 0.0
+    bank_size: int = 32
+    hypotheses: int = 6
+    horizon: int = 16
+    block: int = 4
+    samples: int = 24
+    iterations: int = 2
+    elites: int = 5
+    sigma0: float = 0.25
+    replan_every: int = 2
+    start_periods: int = 0
+    pace_s: float = 0.3
+    thrust_envelope: float = 0.4
+    min_ess: float = 3.0
+    model_error_m: float = 3e-4
+    seed: int = 0
+    stage_bandwidth_hz: float = 20.0
+    thrust_bandwidth_hz: float = 30.0
+    latency_s: float = 0.005
+    sensor_noise_m: float = 2e-4
+    prior: Any = None
+    info: dict = field(default_factory=dict)
+
+    def reset(self, load_N: float, config: ShearConfig) -> None:
+        self.config, self.load_N = config, float(load_N)
+        specimen, foundation = config.base_specimen()
+        prior = self.prior if self.prior is not None else specimen
+        intervals = {}
+        if isinstance(prior, (str, Path)):  # a fit: its specimen, and its intervals narrow the hypotheses
+            intervals = fitted_intervals(prior)
+            prior = load_prior(prior, specimen, foundation)
+        shear = {f: getattr(config, f) for f in ShearConfig.__dataclass_fields__ if f not in ("specimen", "foundation")}
+        env_kwargs = {**shear, "specimen": prior, "foundation": foundation, "observation_mode": "state",
+                      "stage_bandwidth_hz": self.stage_bandwidth_hz, "thrust_bandwidth_hz": self.thrust_bandwidth_hz,
+                      "latency_s": self.latency_s, "sensor_noise_m": 0.0}
+        self.bank = SpecimenBank(prior, foundation, env_kwargs, int(self.bank_size), int(self.seed),
+                                 float(self.sensor_noise_m), float(self.model_error_m), intervals)
+        self.bank.reset(load_N)
+        self.planner = CEMPlanner(int(self.horizon), int(self.block), int(self.samples), int(self.iterations),
+                                  int(self.elites), float(self.sigma0), int(self.seed), float(self.pace_s),
+                                  (-self.thrust_envelope, -1.0), (self.thrust_envelope, 1.0))
+        self._plan: np.ndarray | None = None
+        self._age = 0
+        self._last = np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
+        self._first = True
+        self._periods = 0
+        self._start = self._last.copy()
+        self.info = {"estimator_fallback": False, "fallbacks": 0, "held": False, "cpu_s": 0.0}
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        start = time.process_time()
+        if not self._first:  # the observation of the period the last action ran
+            self.bank.update(self._last, obs)
+        self._first = False
+        self._periods += 1
+        planned = self._periods > self.start_periods and (
+            self._plan is None or self._age >= min(self.replan_every, len(self._plan)))
+        if self._periods <= self.start_periods:  # the start: the nominal action while the data say little
+            self._plan, self._age = np.repeat(self._start[None, :], int(self.horizon), axis=0), 0
+        elif planned:
+            states, weights = self.bank.best(int(self.hypotheses), float(self.min_ess))
+            self._plan = self.planner.plan(states, weights, self._last)
+            self._age = 0
+        action = self._plan[self._age]
+        self.planner.advance(self._plan[self._age:])
+        self._age += 1
+        held = not np.all(np.isfinite(action))
+        if held:
+            action = self._last
+        self._last = np.clip(np.asarray(action, dtype=float), -1.0, 1.0)
+        mean, _ = self.bank.mean_cov()
+        self.info = {"estimator_fallback": self.bank.diverged, "fallbacks": self.bank.fallbacks, "held": held,
+                     "planned": planned,
+                     "estimate": dict(zip(PARAMETERS, (float(v) for v in mean))),
+                     "tip_friction_interval_deg": self.bank.interval(0),
+                     "cpu_s": time.process_time() - start}
+        return self._last.astype(np.float32)

@@ -1,0 +1,102 @@
+"""Receding-horizon optimisation of the bench's action sequence by the cross-entropy method (CEM) over candidate
+sequences scored in one batch by :func:`agents.rollout.rollout_costs` (the env's compiled step).
+
+Why CEM: the cost is not differentiable (stick/slip switches, events, the failure penalty) and a batch of
+rollouts is what the compiled step does cheaply; CEM needs only costs and keeps the best candidate found. A plan is
+piecewise constant over blocks of ``block`` periods (a 20 Hz stage cannot follow more), so a 20-period horizon has
+``2 * horizon / block`` free numbers. Each decision warm-starts from the previous plan shifted by one period, and
+the warm start and the previous elite are always among the candidates, so a replan never returns a plan that the
+model scores worse than the one it had.
+
+With several weighted states (the estimator's hypotheses of :mod:`agents.mpc`) a candidate's cost is the weighted
+mean of its costs from each: the plan is good on average over what the specimen may be.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .rollout import BenchState, predict
+
+
+@dataclass
+class CEMPlanner:
+    """Cross-entropy planner (module docstring). ``samples`` candidates per iteration, ``iterations`` per decision,
+    the ``elites`` best refit the sampling mean and spread (``sigma0`` at the start of each decision, in action
+    units); candidates stay within ``low``-``high`` (per action: a safety envelope)."""
+
+    horizon: int = 20
+    block: int = 4
+    samples: int = 32
+    iterations: int = 3
+    elites: int = 6
+    sigma0: float = 0.3
+    seed: int = 0
+    pace_s: float = 0.5
+    low: tuple[float, float] = (-1.0, -1.0)
+    high: tuple[float, float] = (1.0, 1.0)
+    _mean: np.ndarray | None = None
+    _rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
+    last_cost: float = float("nan")
+    evaluations: int = 0
+
+    def __post_init__(self) -> None:
+        for name in ("horizon", "block", "samples", "iterations", "elites"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)!r}")
+        if self.elites > self.samples:
+            raise ValueError(f"elites ({self.elites}) must not exceed samples ({self.samples})")
+        self.reset()
+
+    @property
+    def knots(self) -> int:
+        return -(-self.horizon // self.block)
+
+    def reset(self) -> None:
+        self._mean = None
+        self._rng = np.random.default_rng(self.seed)
+        self.evaluations = 0
+
+    def _expand(self, knots: np.ndarray) -> np.ndarray:
+        """(n, knots, 2) -> (n, horizon, 2) piecewise constant."""
+        return np.repeat(knots, self.block, axis=1)[:, :self.horizon]
+
+    def plan(self, states: Sequence[BenchState], weights: Sequence[float], hold: np.ndarray) -> np.ndarray:
+        """The best (horizon x 2) plan found from ``states`` (weighted by ``weights``); ``hold`` (the last action)
+        starts the very first plan."""
+        w = np.asarray(weights, dtype=float)
+        w = w / w.sum()
+        if self._mean is None:
+            mean = np.repeat(np.clip(np.asarray(hold, dtype=float), self.low, self.high)[None, :], self.knots, axis=0)
+        else:
+            mean = self._mean
+        sigma = np.full_like(mean, self.sigma0)
+        best_knots, best_cost = mean.copy(), np.inf
+        for _ in range(self.iterations):
+            noise = self._rng.standard_normal((self.samples, self.knots, 2))
+            cand = np.clip(mean[None] + sigma[None] * noise, self.low, self.high)
+            cand[0] = mean
+            if np.isfinite(best_cost):
+                cand[1] = best_knots
+            costs = np.zeros(self.samples)
+            plans = self._expand(cand)
+            for state, weight in zip(states, w):
+                if weight > 0:
+                    costs += weight * predict(state, plans, self.pace_s)[0]
+            self.evaluations += self.samples * len(states)
+            order = np.argsort(costs, kind="stable")
+            if costs[order[0]] < best_cost:
+                best_cost, best_knots = float(costs[order[0]]), cand[order[0]].copy()
+            elite = cand[order[:self.elites]]
+            mean, sigma = elite.mean(axis=0), np.maximum(elite.std(axis=0), 0.02)
+        self.last_cost = best_cost
+        return self._expand(best_knots[None])[0]
+
+    def advance(self, plan: np.ndarray) -> None:
+        """Keep ``plan`` shifted by one period (its last action held) as the next decision's warm start."""
+        shifted = np.concatenate([plan[1:], np.repeat(plan[-1:], self.horizon - len(plan) + 1, axis=0)])
+        # back to knots: the value at each block's first period
+        self._mean = shifted[::self.block][:self.knots].copy()

@@ -1,0 +1,131 @@
+"""Prediction with the env's own compiled step: a bench's state (block, bench servos, latency queue, bookkeeping)
+copied out of a ``TriPlanarShear-v1`` env, and batched rollouts of candidate action sequences from it.
+
+A rollout runs exactly what :meth:`envs.triplanar_shear_v1.TriPlanarShearV1Env.step` runs (the compiled bench
+command, :func:`envs.triplanar_shear_v1.bench_command`, then v0's control step,
+:func:`envs.triplanar_shear.control_step`), so a prediction from the env's true state is the env's future to the
+last bit (``tests/agents/test_mpc.py``); there is no second physics. The controllers of :mod:`agents.limit` and
+:mod:`agents.mpc` score candidates with :func:`rollout_costs`.
+
+**Cost of a candidate** (mm m, the numerator of the episode's mimicry error, ``docs/environment.md``): the
+travel-integrated distance to the reference so far, plus the distance at the horizon's end times the travel still
+to go (the deviation left at the horizon is assumed to persist: a cost-to-go that does not reward moving slowly),
+plus ``cfg[CF_FAIL] * travel`` for a candidate that ends the test other than by reaching the travel target or runs
+into the time limit (the score counts a failure as 10 mm; this is 50 mm by default: failures are avoided first),
+plus ``cfg[CF_FAIL]`` times the travel by which the block lags a pace of the whole travel in ``pace_s`` at the
+horizon's end (without it a short horizon lets the block creep: creeping costs nothing within the horizon, and
+the time limit or an arrest lies beyond it).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from envs.core import (
+    CF_FAIL,
+    CF_TRAVEL,
+    IN_DIST,
+    IN_TRAVEL,
+    IN_TRUNC,
+    N_INFO,
+    OBS_DIM,
+    ST_ERR_NUM,
+    ST_T,
+    control_step,
+    new_workspace,
+)
+from envs.triplanar_shear_v1 import bench_command
+from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
+
+
+@dataclass
+class BenchState:
+    """Everything the compiled step reads and writes for one bench (copies; the env's arrays are never touched)."""
+
+    y: np.ndarray
+    p: np.ndarray
+    modes: np.ndarray
+    armed: np.ndarray
+    st: np.ndarray
+    ref: np.ndarray
+    cfg: np.ndarray
+    bc: np.ndarray
+    bs: np.ndarray
+    queue: np.ndarray
+
+    def copy(self) -> BenchState:
+        return BenchState(*(np.array(getattr(self, name)) for name in BENCH_STATE_FIELDS))
+
+
+BENCH_STATE_FIELDS = ("y", "p", "modes", "armed", "st", "ref", "cfg", "bc", "bs", "queue")
+
+
+def snapshot(env) -> BenchState:
+    """The exact state of a reset ``TriPlanarShearV1Env`` (unwrapped): what the limit controller knows."""
+    env = env.unwrapped
+    return BenchState(env._y.copy(), env._p.copy(), env._modes.copy(), env._armed.copy(), env._st.copy(),
+                      np.array(env._ref), env._cfg.copy(), env._bc.copy(), env._bs.copy(),
+                      env._queue.copy())
+
+
+@njit(cache=True, error_model="numpy")
+def step_state(y, p, modes, armed, st, ref, cfg, bc, bs, queue, raw, applied, obs, inf, ws) -> int:
+    """One bench period from the given state (the env's ``step`` without the Python bookkeeping); returns the
+    outcome code (``inf[IN_TRUNC]`` flags the time limit)."""
+    bench_command(raw, bc, bs, queue, y, st, applied)
+    return control_step(y, p, modes, armed, st, ref, applied, cfg, obs, inf, ws)
+
+
+@njit(cache=True, error_model="numpy")
+def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans, pace_s, costs, dists,
+                  codes) -> None:
+    """Run every candidate ``plans[i]`` (horizon x 2 raw actions) from the given state; write its cost (module
+    docstring) into ``costs[i]``, the distance after each period (mm) into ``dists[i]`` and the outcome of each
+    period into ``codes[i]`` (-1 after the end; ``TIME_LIMIT`` for a truncation)."""
+    n, horizon = plans.shape[0], plans.shape[1]
+    ws = new_workspace()
+    applied, obs, inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
+    travel = cfg[CF_TRAVEL]
+    for i in range(n):
+        y, p, modes, armed, st = y0.copy(), p0.copy(), modes0.copy(), armed0.copy(), st0.copy()
+        bs, queue = bs0.copy(), queue0.copy()
+        failed = False
+        dist, s = 0.0, 0.0
+        for k in range(horizon):
+            codes[i, k] = -1
+            dists[i, k] = np.nan
+        for k in range(horizon):
+            code = step_state(y, p, modes, armed, st, ref, cfg, bc, bs, queue, plans[i, k], applied, obs, inf, ws)
+            dist, s = inf[IN_DIST], inf[IN_TRAVEL]
+            dists[i, k] = dist
+            codes[i, k] = code
+            if inf[IN_TRUNC] != 0.0:
+                codes[i, k] = TIME_LIMIT
+                failed = True
+                break
+            if code != RUNNING:
+                failed = code != TRAVEL
+                break
+        cost = st[ST_ERR_NUM] + dist * max(travel - s, 0.0)
+        if not failed and s < travel:
+            cost += cfg[CF_FAIL] * max(travel * st[ST_T] / pace_s - s, 0.0)
+        if failed or not np.isfinite(cost):
+            cost = st[ST_ERR_NUM] + cfg[CF_FAIL] * travel
+            if not np.isfinite(cost):
+                cost = 1e300
+        costs[i] = cost
+
+
+def predict(state: BenchState, plans: np.ndarray, pace_s: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Costs, distances and outcome codes of the candidates ``plans`` (n x horizon x 2) from ``state``; ``pace_s``
+    (module docstring) is half the env's 2 s time limit by default."""
+    plans = np.ascontiguousarray(plans, dtype=np.float64)
+    n, horizon = plans.shape[:2]
+    costs, dists, codes = np.empty(n), np.empty((n, horizon)), np.empty((n, horizon), dtype=np.int64)
+    s = state
+    rollout_costs(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, plans, float(pace_s), costs,
+                  dists, codes)
+    return costs, dists, codes

@@ -1,0 +1,215 @@
+"""The model-based controllers on the default bench: held-out unknown specimens (bench observations), ``limit``
+(perfect knowledge), ``mpc`` and the scripted controllers for reference, plus the CPU time of a control decision.
+
+``PYTHONPATH=. python benchmarks/bench_mpc.py --benches 50 --out runs/bench_mpc [--workers 2]``;
+``--limit-sweep``: ``limit`` at six nominal loads with shorter/longer horizons and more samples instead;
+``--identify FIT.json [--tip-deg D]``: ``mpc`` with a fit as prior against the drawing's prior instead.
+
+Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
+``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table: success rate
+with its Wilson 95 % interval, mean mimicry error over successes with a t 95 % interval, the score (a failure
+counts 10 mm, ``agents.heldout``), the ratio of each score to ``limit``'s on the same benches, CPU time per episode
+and, for ``mpc``, per decision (``time.process_time`` around ``act``: estimator update plus planning, or the plan
+followed between replans). Results go to ``docs/actuator-study.md`` by hand, with the command.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from agents.bench_controllers import make_controller
+from agents.heldout import (
+    HELDOUT_SEED,
+    heldout_benches,
+    random_benches,
+    run_episode,
+    summarise,
+)
+from triplanar.executor import TaskCheckpoint, pool_scope, run_tasks
+from triplanar.workbench.report import write_json
+
+SCRIPTED = {"frictionless_tip": {}, "moment_matching": {}, "pi_feedback": {"kp": -20.0, "ki": 200.0},
+            "adaptive": {"gain_deg_per_m_s": -1e5}}
+ENV = {"frictionless_tip": {"tip_friction_deg": 0.0}}
+
+
+def episode(task: tuple[str, dict, int, int, int]) -> dict:
+    """One held-out episode of controller ``name``: its outcome, CPU time and, for ``mpc``, per-decision times."""
+    name, params, index, n, stream = task
+    bench = (heldout_benches(n) if stream == HELDOUT_SEED else random_benches(n, stream))[index]
+    if name == "frictionless_tip":
+        from agents.heldout import with_tip
+        bench = with_tip(bench, 0.0)
+    controller = make_controller(name, **params)
+    decisions: list[tuple[float, bool]] = []
+    if name == "mpc":
+        act = controller.act
+
+        def timed(obs):
+            action = act(obs)
+            decisions.append((controller.info["cpu_s"], controller.info["planned"]))
+            return action
+        controller.act = timed
+    start = time.process_time()
+    outcome = run_episode(controller, bench, seed=index, index=index)
+    out = asdict(outcome)
+    out.update(cpu_s=time.process_time() - start, decisions_cpu_s=decisions)
+    if name == "mpc":
+        out["fallbacks"] = controller.info["fallbacks"]
+    return out
+
+
+LIMIT_SETTINGS = ((12, 16, 2), (24, 32, 3), (48, 64, 4))  # (horizon, samples, iterations); the default is the middle
+
+
+def limit_episode(task: tuple[tuple[int, int, int], float]) -> dict:
+    """``limit`` with the given planner settings at one nominal load (default bench): how far from optimal it is."""
+    (horizon, samples, iterations), load = task
+    from agents.heldout import nominal_benches
+    from agents.limit import LimitController
+    start = time.process_time()
+    outcome = run_episode(LimitController(horizon=horizon, samples=samples, iterations=iterations),
+                          nominal_benches([load])[0], bench_set="nominal")
+    return {**asdict(outcome), "cpu_s": time.process_time() - start}
+
+
+def limit_sweep(out: Path, workers: int, loads: list[float]) -> None:
+    tasks = [(setting, load) for setting in LIMIT_SETTINGS for load in loads]
+    with pool_scope(workers) as ex:
+        results = run_tasks(limit_episode, tasks, ex, progress=True, desc="limit sweep",
+                            checkpoint=TaskCheckpoint(out / "tasks"))
+    rows = []
+    for setting in LIMIT_SETTINGS:
+        mine = [r for (s, _), r in zip(tasks, results) if s == setting]
+        ok = [r["mimicry_error_mm"] for r in mine if r["success"]]
+        rows.append({"horizon": setting[0], "samples": setting[1], "iterations": setting[2],
+                     "success_rate": len(ok) / len(mine), "mimicry_error_mm": float(np.mean(ok)) if ok else math.nan,
+                     "per_load": [r["mimicry_error_mm"] for r in mine],
+                     "cpu_s_per_episode": float(np.mean([r["cpu_s"] for r in mine]))})
+        print(f"limit horizon {setting[0]}, {setting[1]} samples x {setting[2]} iterations: success "
+              f"{100 * rows[-1]['success_rate']:.0f} %, error {rows[-1]['mimicry_error_mm']:.3f} mm, "
+              f"{rows[-1]['cpu_s_per_episode']:.1f} CPU s/episode")
+    write_json({"loads_N": loads, "rows": rows}, out / "limit_sweep.json")
+
+
+def identify_then_control(fit: str, tip_deg: float | None, n: int) -> None:
+    """``mpc`` with the fit as prior against the drawing's prior, on ``n`` benches drawn around the fitted specimen
+    (stream 30030) with the laboratory's tip ``tip_deg`` (the fitted one if not given); v1's nominal specimen is
+    the fit (``nominal_specimen``)."""
+    from agents.heldout import with_tip
+    from agents.mpc import MPCController
+    from envs.core import make_config
+    from triplanar.prior import load_prior
+    specimen, foundation = make_config(None).base_specimen()
+    fitted = load_prior(fit, specimen, foundation)
+    tip = fitted.tip_friction_deg if tip_deg is None else tip_deg
+    benches = [with_tip(b, tip) for b in random_benches(n, 30_030, {"specimen": fitted})]
+    for name, prior in (("fit's prior", fit), ("drawing's prior", specimen)):
+        outcomes = [run_episode(MPCController(prior=prior), b, env_kwargs={"nominal_specimen": fit}, seed=i, index=i)
+                    for i, b in enumerate(benches)]
+        row = summarise(outcomes)
+        print(f"mpc, {name}: {row['n_episodes']} benches, success {100 * row['success_rate']:.0f} %, error over "
+              f"successes {row['mimicry_error_mm']:.2f} mm, score {row['score']:.2f} mm")
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    if n == 0:
+        return math.nan, math.nan
+    p = k / n
+    centre, half = (p + z * z / (2 * n)) / (1 + z * z / n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+    return centre - half, centre + half
+
+
+def t_interval(values: list[float]) -> tuple[float, float]:
+    from scipy import stats
+    if len(values) < 2:
+        return math.nan, math.nan
+    m, s = float(np.mean(values)), float(np.std(values, ddof=1)) / math.sqrt(len(values))
+    half = float(stats.t.ppf(0.975, len(values) - 1)) * s
+    return m - half, m + half
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--benches", type=int, default=50)
+    parser.add_argument("--out", default="runs/bench_mpc")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--controllers", default="limit,mpc," + ",".join(SCRIPTED))
+    parser.add_argument("--replan-every", type=int, default=None,
+                        help="mpc replans every N control periods (default: the controller's, 2)")
+    parser.add_argument("--stream", type=int, default=HELDOUT_SEED,
+                        help="draw the benches from this seed stream instead of the held-out one (an independent set)")
+    parser.add_argument("--limit-sweep", action="store_true",
+                        help="instead: limit at the nominal loads (default bench) with shorter and longer horizons "
+                             "and more samples (does its figure still fall?)")
+    parser.add_argument("--identify", metavar="FIT.json",
+                        help="instead: mpc with this fit as prior against the drawing's prior (identify, then control)")
+    parser.add_argument("--tip-deg", type=float, default=None, help="with --identify: the laboratory's tip friction")
+    args = parser.parse_args()
+    out = Path(args.out)
+    if args.identify:
+        identify_then_control(args.identify, args.tip_deg, args.benches)
+        return
+    if args.limit_sweep:
+        limit_sweep(out, args.workers, [27.8, 32.5, 37.5, 42.5, 47.5, 51.6])
+        return
+    names = args.controllers.split(",")
+    summary = {"benches": args.benches, "stream": args.stream, "controllers": {}}
+    own = {**SCRIPTED, "mpc": {} if args.replan_every is None else {"replan_every": args.replan_every}}
+    for name in names:
+        tasks = [(name, own.get(name, {}), i, args.benches, args.stream) for i in range(args.benches)]
+        wall = time.perf_counter()
+        with pool_scope(args.workers) as ex:
+            results = run_tasks(episode, tasks, ex, progress=True, desc=name,
+                                checkpoint=TaskCheckpoint(out / "tasks"))
+        wall = time.perf_counter() - wall
+        from agents.heldout import Outcome
+        outcomes = [Outcome(**{k: r[k] for k in Outcome.__dataclass_fields__}) for r in results]
+        row = summarise(outcomes)
+        ok = [o.mimicry_error_mm for o in outcomes if o.success]
+        row.update(success_ci95=wilson(len(ok), len(outcomes)), error_ci95_mm=t_interval(ok),
+                   cpu_s_per_episode=float(np.mean([r["cpu_s"] for r in results])), wall_s=wall,
+                   scores=[o.mimicry_error_mm if o.success else 10.0 for o in outcomes])
+        decisions = [d for r in results for d in r["decisions_cpu_s"]]
+        if decisions:
+            cpu = np.array([d[0] for d in decisions])
+            planned = np.array([d[1] for d in decisions], dtype=bool)
+            row.update(decision_cpu_ms_mean=1e3 * float(np.mean(cpu)),
+                       decision_cpu_ms_p95=1e3 * float(np.percentile(cpu, 95)),
+                       planning_cpu_ms_mean=1e3 * float(np.mean(cpu[planned])),
+                       planning_cpu_ms_p95=1e3 * float(np.percentile(cpu[planned], 95)),
+                       following_cpu_ms_mean=1e3 * float(np.mean(cpu[~planned])) if (~planned).any() else math.nan,
+                       fallbacks=int(sum(r.get("fallbacks", 0) for r in results)))
+        summary["controllers"][name] = row
+    if "limit" in summary["controllers"]:
+        limit = summary["controllers"]["limit"]["score"]
+        for row in summary["controllers"].values():
+            row["ratio_to_limit"] = row["score"] / limit
+    write_json(summary, out / "summary.json")
+    print("| controller | episodes | success (95 % CI) | error over successes, mm (95 % CI) | score, mm | / limit | "
+          "CPU s/episode |")
+    for name, r in summary["controllers"].items():
+        lo, hi = r["success_ci95"]
+        elo, ehi = r["error_ci95_mm"]
+        print(f"| `{name}` | {r['n_episodes']} | {100 * r['success_rate']:.0f} % ({100 * lo:.0f}-{100 * hi:.0f}) | "
+              f"{r['mimicry_error_mm']:.2f} ({elo:.2f}-{ehi:.2f}) | {r['score']:.2f} | "
+              f"{r.get('ratio_to_limit', math.nan):.2f} | {r['cpu_s_per_episode']:.2f} |")
+        if "decision_cpu_ms_mean" in r:
+            print(f"  {name}: decision CPU {r['decision_cpu_ms_mean']:.2f} ms mean, {r['decision_cpu_ms_p95']:.2f} ms "
+                  f"p95 (replanning {r['planning_cpu_ms_mean']:.2f} ms mean, {r['planning_cpu_ms_p95']:.2f} ms p95; "
+                  f"following the plan {r['following_cpu_ms_mean']:.2f} ms mean); estimator fallbacks "
+                  f"{r['fallbacks']}; wall {r['wall_s']:.0f} s")
+        else:
+            print(f"  {name}: wall {r['wall_s']:.0f} s")
+    print(json.dumps({k: v["score"] for k, v in summary["controllers"].items()}))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,116 @@
+"""Identify, then control: a fitted specimen as the controller's prior and v1's nominal specimen; the tutorial."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from envs.core import make_config
+from triplanar.prior import PriorError, load_prior
+from triplanar.specimen import Foundation, Plane, to_toml
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _drawing():
+    return make_config(None).base_specimen()
+
+
+def _fit_json(tmp_path: Path, effects: dict) -> Path:
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps({"model": "case B", "steps": [{"added": None, "effects": {}},
+                                                             {"added": "x", "effects": effects}]}))
+    return path
+
+
+def test_fit_json_becomes_the_specimen(tmp_path):
+    specimen, foundation = _drawing()
+    prior = load_prior(_fit_json(tmp_path, {"end_friction": {"phi_deg": 6.5},
+                                            "contact_friction": {"phi1_deg": 16.0, "phi2_deg": 15.0,
+                                                                 "phi3_deg": 10.0}}), specimen, foundation)
+    assert prior.tip_friction_deg == 6.5 and tuple(prior.friction_deg) == (16.0, 15.0, 10.0)
+    np.testing.assert_array_equal(prior.mass_centre_m, specimen.mass_centre_m)
+
+
+@pytest.mark.parametrize("effects, field", [
+    ({"plane_tilt": {"plane": 2, "dip_deg": 1.0}}, "steps[-1].effects.plane_tilt"),
+    ({"end_friction": {}}, "steps[-1].effects.end_friction.phi_deg"),
+    ({"contact_friction": {"phi1_deg": 16.0, "phi2_deg": None, "phi3_deg": 10.0}},
+     "steps[-1].effects.contact_friction.phi2_deg")])
+def test_fit_json_refused_naming_the_field(tmp_path, effects, field):
+    specimen, foundation = _drawing()
+    with pytest.raises(PriorError, match=field.replace("[", r"\[").replace("]", r"\]")):
+        load_prior(_fit_json(tmp_path, effects), specimen, foundation)
+
+
+def test_fit_json_without_steps_refused(tmp_path):
+    path = tmp_path / "fit.json"
+    path.write_text(json.dumps({"model": "case B"}))
+    with pytest.raises(PriorError, match="steps"):
+        load_prior(path, *_drawing())
+
+
+def test_toml_of_another_foundation_or_specimen_refused(tmp_path):
+    specimen, foundation = _drawing()
+    other = Foundation((foundation.planes[0], Plane(12.0, 180.0), foundation.planes[2]))
+    path = tmp_path / "s.toml"
+    path.write_text(to_toml(specimen, other))
+    with pytest.raises(PriorError, match=r"foundation.planes\[1\]"):
+        load_prior(path, specimen, foundation)
+    points = np.array(specimen.contact_points_m) * 1.1
+    path.write_text(to_toml(replace(specimen, contact_points_m=points), foundation))
+    with pytest.raises(PriorError, match="specimen.contact_points_m"):
+        load_prior(path, specimen, foundation)
+    path.write_text(to_toml(replace(specimen, tip_friction_deg=5.0), foundation))
+    assert load_prior(path, specimen, foundation).tip_friction_deg == 5.0
+
+
+@pytest.mark.slow
+def test_tutorial_identify_then_control(tmp_path):
+    """Fit the laboratory dataset, take the fit as v1's nominal specimen and as the prior of ``mpc`` (its interval
+    of the tip friction bounds the controller's hypotheses), and run ``mpc`` on benches drawn around the fitted
+    specimen with the laboratory's tip, with the fit's prior and with the drawing's."""
+    from agents.heldout import random_benches, run_episode, summarise, with_tip
+    from agents.mpc import MPCController
+    from triplanar.prior import fitted_intervals
+    subprocess.run([sys.executable, "-m", "triplanar.cli", "fit", str(ROOT / "data" / "lab_traces.csv"), "--add",
+                    "end_friction", "--out", str(tmp_path / "fit"), "--workers", "1", "--no-progress"],
+                   check=True, cwd=ROOT, capture_output=True)
+    fit = tmp_path / "fit" / "fit.json"
+    specimen, foundation = _drawing()
+    fitted = load_prior(fit, specimen, foundation)
+    truth = json.loads((ROOT / "data" / "lab_traces.csv.truth.json").read_text())["effects"][0]["parameters"]
+    low, high = fitted_intervals(fit)["tip_friction_deg"]
+    assert low <= truth["phi_deg"] <= high and low <= fitted.tip_friction_deg <= high
+    env_kwargs = {"nominal_specimen": str(fit)}   # v1's nominal specimen: the fitted one
+    benches = [with_tip(b, truth["phi_deg"]) for b in random_benches(2, 30_030, {"specimen": fitted})]
+    rows, tips = {}, {}
+    for name, prior in (("fitted prior", str(fit)), ("drawing's prior", specimen)):
+        outcomes, estimates = [], []
+        for i, bench in enumerate(benches):
+            controller = MPCController(prior=prior, bank_size=16, samples=16, iterations=2)
+            outcomes.append(run_episode(controller, bench, env_kwargs=env_kwargs, seed=i, index=i))
+            estimates.append(controller.info["estimate"]["tip_friction_deg"])
+        rows[name], tips[name] = summarise(outcomes), estimates
+    for row in rows.values():
+        assert row["n_episodes"] == 2 and np.isfinite(row["score"])
+    # the fit's prior keeps every hypothesis of the tip inside the fit's interval; the drawing's does not
+    assert all(low <= t <= high for t in tips["fitted prior"]), tips
+
+
+def test_v1_takes_a_fit_as_its_nominal_specimen(tmp_path):
+    import gymnasium as gym
+
+    import envs  # noqa: F401
+    path = _fit_json(tmp_path, {"end_friction": {"phi_deg": 6.5}})
+    env = gym.make("TriPlanarShear-v1", nominal_specimen=str(path))
+    env.reset(seed=0)
+    assert env.unwrapped.episode_bench.specimen.tip_friction_deg == 6.5
+    with pytest.raises(PriorError, match="plane_tilt"):
+        gym.make("TriPlanarShear-v1", nominal_specimen=str(_fit_json(tmp_path, {"plane_tilt": {"dip_deg": 1.0}})))

@@ -1,0 +1,125 @@
+"""The bench study (experiments.bench_study): recommendation logic, and a tiny end-to-end run that resumes."""
+
+from __future__ import annotations
+
+import csv
+import math
+
+import pytest
+
+from experiments import bench_study as bs
+
+
+def _row(design, demand, controller, success, error, low, high):
+    return {"design": design, "tip_friction_deg": 0.5, "stage_bandwidth_hz": 20.0, "latency_s": 0.0,
+            "sensor_noise_m": 2e-4, "demand": demand, "controller": controller, "success_rate": success,
+            "success_low": success - 0.05, "success_high": min(1.0, success + 0.05), "mimicry_error_mm": error,
+            "error_low_mm": low, "error_high_mm": high, "score": error}
+
+
+def test_best_rows_keep_the_best_scripted_and_ppo():
+    rows = [_row("a", 3, "steel_tip", 1.0, 5.0, 4, 6), _row("a", 3, "pi_feedback", 1.0, 2.0, 1.5, 2.5),
+            _row("a", 3, "ppo_robust", 1.0, 3.0, 2.5, 3.5)]
+    assert [r["controller"] for r in bs.best_rows(rows)] == ["best_scripted:pi_feedback", "ppo_robust"]
+
+
+def test_recommendation_names_a_design_only_when_its_interval_is_under_the_target():
+    rows = [_row("cheap", 2, "best_scripted:steel_tip", 0.90, 0.5, 0.4, 0.6),    # too many failures
+            _row("mid", 4, "best_scripted:pi_feedback", 0.96, 0.8, 0.7, 0.95),   # interval under 1 mm
+            _row("dear", 7, "ppo_robust", 1.0, 0.3, 0.2, 0.4)]                   # under it, more demanding
+    text = bs.recommend(rows)
+    assert "Least demanding" in text and ": mid (" in text and "dear (ppo_robust)" in text
+    # a mean under 1 mm whose interval reaches above it is not named; the overlapping designs are listed
+    rows = [_row("a", 2, "ppo_robust", 1.0, 0.9, 0.7, 1.1), _row("b", 3, "ppo_robust", 1.0, 1.0, 0.8, 1.2),
+            _row("c", 4, "ppo_robust", 1.0, 1.5, 1.3, 1.7)]
+    text = bs.recommend(rows)
+    assert text.startswith("No design") and "Best by the upper end: a with" in text
+    assert "b (ppo_robust)" in text and "c (ppo_robust)" not in text
+
+
+def test_design_demand_orders_hardware():
+    cheap = bs.Design("x", 8.0, 5.0, 0.01, 1e-3)
+    dear = bs.Design("y", 0.5, math.inf, 0.0, 5e-5)
+    assert cheap.demand() == 0 and dear.demand() == 8
+
+
+@pytest.mark.slow
+def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
+    monkeypatch.setattr(bs, "TUNING_BENCHES", 2)
+    monkeypatch.setattr(bs, "PI_GRID", [(1.0, 0.0)])
+    monkeypatch.setattr(bs, "ADAPTIVE_GRID", (1e4,))
+    kwargs = dict(seeds=[0], ppo_timesteps=512, recurrent_timesteps=512, design_seeds=[0, 1],
+                  design_ppo_timesteps=512, n_heldout=2, scripted_seeds=[0, 1], designs=bs.DESIGNS[:1],
+                  executor="serial", log=lambda s: None, doc=tmp_path / "doc" / "report.md")
+    bs.run_bench_study(tmp_path, **kwargs)
+    with open(tmp_path / "heldout.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert {r["bench_set"] for r in rows} == {"nominal", "heldout", "stress"}
+    assert all(float(r["error_low_mm"]) <= float(r["error_high_mm"]) for r in rows if r["mimicry_error_mm"] != "nan")
+    assert {"steel_tip", "frictionless_tip", "pi_feedback", "adaptive", "ppo_robust",
+            "ppo_recurrent", "mpc", "limit"} <= {r["controller"] for r in rows}
+    recurrent = [r for r in rows if r["controller"] == "ppo_recurrent"]
+    assert {r["bench_set"] for r in recurrent} == {"nominal", "heldout", "stress"}
+    assert all(int(r["n_episodes"]) > 0 for r in recurrent)
+    with open(tmp_path / "designs.csv") as f:
+        header = next(csv.reader(f))
+    assert header[:10] == ["design", "tip_friction_deg", "stage_bandwidth_hz", "latency_s", "sensor_noise_m",
+                           "demand", "controller", "n_benches", "n_seeds", "n_episodes"]
+    with open(tmp_path / "designs.csv") as f:
+        ppo = [r for r in csv.DictReader(f) if r["controller"] == "ppo_robust"]
+    assert len(ppo) == 1 and ppo[0]["n_seeds"] == "2"
+    with open(tmp_path / "designs.csv") as f:
+        assert {"mpc", "limit"} <= {r["controller"] for r in csv.DictReader(f)}
+    assert "x the limit" in (tmp_path / "recommendation.txt").read_text()
+    report = (tmp_path / "bench_report.md").read_text()
+    assert "95 % CI" in report and "wall time" in report and "2 seeds x 512 steps per design" in report
+    assert "](../heldout.png)" in (tmp_path / "doc" / "report.md").read_text()
+    for name in ("heldout.png", "designs.png", "robust_learning_curves.png", "recommendation.txt",
+                 "bench_summary.json"):
+        assert (tmp_path / name).stat().st_size > 0
+    stamps = {kind: (tmp_path / kind / "seed_0" / "final_model.zip").stat().st_mtime_ns
+              for kind in ("ppo_robust", "ppo_recurrent")}
+    bs.run_bench_study(tmp_path, **kwargs)   # resumes: nothing is trained again
+    assert stamps == {kind: (tmp_path / kind / "seed_0" / "final_model.zip").stat().st_mtime_ns
+                      for kind in ("ppo_robust", "ppo_recurrent")}
+
+
+def test_report_and_plots_take_a_row_without_successes(tmp_path):
+    import numpy as np
+
+    from agents.heldout import Outcome
+    from experiments import bench_plots, bench_report
+    from experiments.stats import row_stats
+
+    failed = np.full((2, 3), np.nan)
+    stats = row_stats(failed, np.zeros((2, 3), bool), 10.0)
+    assert stats["success_rate"] == 0.0 and stats["score"] == 10.0 and math.isnan(stats["cvar10_mm"])
+    good = np.array([[0.5, 0.7, 0.9], [0.6, 0.8, 1.0]])
+    ok = row_stats(good, np.ones((2, 3), bool), 10.0)
+    outcomes = [[Outcome("x", "heldout", i, 30.0, False, "lift_off", math.nan, 0.01, -1.0, 5) for i in range(3)]] * 2
+    rows = [{"controller": "never", "bench_set": "heldout", **stats}, {"controller": "fine", "bench_set": "stress", **ok}]
+    bench_plots.rows_plot(tmp_path / "rows.png", [(r["controller"], r["bench_set"], r, outcomes) for r in rows], "t")
+    design_rows = [{"design": "d", "demand": 1, "controller": "ppo_robust", **stats},
+                   {"design": "d", "demand": 1, "controller": "best_scripted:adaptive", **ok}]
+    bench_plots.designs_plot(tmp_path / "designs.png", design_rows)
+    summary = {"timings_s": {"tuning_s": 1.0, "ppo_training_s": 2.0, "evaluation_s": 3.0, "design_sweep_s": 4.0},
+               "recurrent_timesteps": None, "seeds": [0], "ppo_timesteps": 10, "trained_timesteps": {},
+               "designs": ["d"], "design_seeds": [0], "design_ppo_timesteps": 5, "n_heldout": 3, "n_stress": 3,
+               "scripted_seeds": [0], "pi_gains": {}, "adaptive_gain": {}, "recommendation": "none named"}
+    text = bench_report.markdown(summary, rows, design_rows)
+    assert "| `never` | heldout | 3 x 2 | 0.0 (" in text and "| - | - | 10.00 (10.00-10.00) | -, - |" in text
+    assert "recurrent PPO: none" in text and (tmp_path / "rows.png").stat().st_size > 0
+
+
+def test_the_limit_is_reported_per_design_but_never_recommended():
+    def row(design, controller, score, high, demand=1):
+        return {"design": design, "controller": controller, "score": score, "error_high_mm": high,
+                "mimicry_error_mm": score, "error_low_mm": score / 2, "success_rate": 1.0, "success_low": 0.98,
+                "success_high": 1.0, "n_benches": 50, "demand": demand, "tip_friction_deg": 3.0,
+                "stage_bandwidth_hz": 20.0, "latency_s": 0.005, "sensor_noise_m": 2e-4}
+    rows = [row("a", "limit", 0.4, 0.5, 0), row("a", "mpc", 1.2, 1.4, 0), row("b", "limit", 0.3, 0.4, 2),
+            row("b", "ppo_robust", 0.9, 0.95, 2)]
+    text = bs.recommend(rows)
+    assert "b (tip" in text and "a (tip" not in text.split("Per design")[0]
+    assert "a: limit 0.40 mm" in text and "mpc 1.20 mm = 3.00 x the limit" in text
+    assert "ppo_robust 0.90 mm = 3.00 x the limit" in text

@@ -1,0 +1,146 @@
+"""triplanar evaluate, the stress set and the shipped-agent format (agents.zoo, experiments.shipping)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from agents import heldout, zoo
+from envs.triplanar_shear import make_config
+from experiments import evaluate as ev
+from triplanar import cli
+
+
+def test_stress_benches_lie_outside_the_training_ranges_and_apart_from_the_heldout_set():
+    _, foundation = make_config(None).base_specimen()
+    stress, held = heldout.stress_benches(30), heldout.heldout_benches(30)
+    assert all(heldout.outside_training_ranges(b, foundation) for b in stress)
+    assert not any(heldout.outside_training_ranges(b, foundation) for b in held)
+    assert {round(b.load_N, 9) for b in stress}.isdisjoint({round(b.load_N, 9) for b in held})
+    assert max(b.specimen.tip_friction_deg for b in stress) <= 15.0
+    assert all(25.0 <= b.load_N <= 60.0 for b in stress)
+    assert [b.load_N for b in heldout.stress_benches(5)] == [b.load_N for b in stress[:5]]   # deterministic
+
+
+def test_evaluate_refuses_unknown_names_listing_the_valid_ones(tmp_path, capsys):
+    assert cli.main(["evaluate", "--controller", "nope", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown controller 'nope'" in err and "pi_feedback" in err
+    assert cli.main(["evaluate", "--controller", "adaptive", "--design", "gold", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "unknown design 'gold'" in err and "rolling_lab" in err
+    with pytest.raises(SystemExit):
+        cli.main(["evaluate", "--controller", "adaptive", "--n", "0", "--out", str(tmp_path)])
+    assert "--n" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="n must be a positive"):
+        ev.evaluate("adaptive", n=-3)
+
+
+def test_evaluate_writes_the_tables_and_plot(tmp_path, capsys):
+    assert cli.main(["evaluate", "--controller", "moment_matching", "--benches", "stress", "--n", "6", "--seeds",
+                     "0", "1", "--executor", "serial", "--out", str(tmp_path)]) == 0
+    data = json.loads((tmp_path / "stress.json").read_text())
+    assert data["n_benches"] == 6 and data["n_seeds"] == 2 and data["n_episodes"] == 12
+    assert data["success_low"] <= data["success_rate"] <= data["success_high"]
+    lines = (tmp_path / "stress_episodes.csv").read_text().splitlines()
+    assert len(lines) == 13
+    assert (tmp_path / "stress.png").stat().st_size > 0
+    header = (tmp_path / "stress.csv").read_text().splitlines()[0].split(",")
+    assert header[:4] == ["controller", "design", "bench_set", "n_benches"]
+
+
+def test_noise_replicates_differ_from_seed_zero():
+    one = ev.evaluate("tracking_tip", n=3, seeds=[0], executor="serial", progress=False)
+    two = ev.evaluate("tracking_tip", n=3, seeds=[0, 1], executor="serial", progress=False)
+    first = [o.mimicry_error_mm for o in two.outcomes[0]]
+    assert first == [o.mimicry_error_mm for o in one.outcomes[0]]
+    assert first != [o.mimicry_error_mm for o in two.outcomes[1]]
+
+
+@pytest.fixture(scope="module")
+def tiny_zoo(tmp_path_factory):
+    """A robust PPO trained for 1,024 steps, shipped to a temporary zoo with its card's figures on 4 benches."""
+    from agents.train_robust import RobustTask, train_robust
+    from experiments.shipping import ship
+    root = tmp_path_factory.mktemp("tiny")
+    run = train_robust(RobustTask(str(root / "runs"), 3, 1024, eval_freq=10**9))
+    path = ship("tiny_ppo", [run["run_dir"]], algo="ppo", command="(test) train_robust 1024 steps", n=4,
+                zoo_dir=root / "zoo", executor="serial")
+    return path.parent
+
+
+@pytest.mark.slow
+def test_evaluate_on_a_shipped_agent_reproduces_its_card(tiny_zoo, tmp_path, monkeypatch):
+    monkeypatch.setattr(zoo, "ZOO_DIR", tiny_zoo)
+    card = zoo.read_card("tiny_ppo")
+    assert card["seeds"] == [3] and card["timesteps"] >= 1024 and set(card["figures"]) == {"heldout", "stress"}
+    assert "tiny_ppo" in (tiny_zoo / "tiny_ppo" / "README.md").read_text()
+    assert cli.main(["evaluate", "--controller", "tiny_ppo", "--n", "4", "--executor", "serial",
+                     "--out", str(tmp_path)]) == 0
+    got = json.loads((tmp_path / "heldout.json").read_text())
+    want = card["figures"]["heldout"]
+    assert want["success_low"] <= got["success_rate"] <= want["success_high"]
+    if math.isfinite(want["mimicry_error_mm"]):
+        assert want["error_low_mm"] <= got["mimicry_error_mm"] <= want["error_high_mm"]
+    else:
+        assert math.isnan(got["mimicry_error_mm"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("bench_set", ["heldout", "stress"])
+def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, bench_set):
+    """The repository's own shipped agent (agents/zoo/ppo_robust: 5 seeds x 2 M steps): evaluate on the card's
+    benches gives the card's figures, each inside the card's interval."""
+    card = zoo.read_card("ppo_robust")
+    want = card["figures"][bench_set]
+    assert cli.main(["evaluate", "--controller", "ppo_robust", "--benches", bench_set, "--n", str(want["n_benches"]),
+                     "--out", str(tmp_path)]) == 0
+    got = json.loads((tmp_path / f"{bench_set}.json").read_text())
+    assert got["n_episodes"] == want["n_episodes"] == want["n_benches"] * len(card["seeds"])
+    assert want["success_low"] <= got["success_rate"] <= want["success_high"]
+    assert want["error_low_mm"] <= got["mimicry_error_mm"] <= want["error_high_mm"]
+
+
+@pytest.mark.slow
+def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_files(tiny_zoo, monkeypatch, tmp_path,
+                                                                                     capsys):
+    card = zoo.read_card("tiny_ppo", tiny_zoo)
+    assert zoo.check_layout(card, {"observation_mode": "bench"}) is None
+    with pytest.raises(zoo.ShippedAgentError, match="observation_mode"):
+        zoo.check_layout(card, {"observation_mode": "state"})
+    altered = dict(card, observation=dict(card["observation"],
+                                          fields=[["RANGE", 9], ["THRUST", 1], ["STAGE", 2]]))
+    with pytest.raises(zoo.ShippedAgentError, match="'STAGE'"):
+        zoo.check_layout(altered, {})
+    card_path = tiny_zoo / "tiny_ppo" / "card.json"
+    monkeypatch.setattr(zoo, "ZOO_DIR", tiny_zoo)
+    card_path.write_text(json.dumps(altered))
+    try:
+        assert cli.main(["evaluate", "--controller", "tiny_ppo", "--n", "2", "--out", str(tmp_path)]) == 2
+    finally:
+        card_path.write_text(json.dumps(card))
+    assert "observation field 'STAGE' differs" in capsys.readouterr().err
+    assert not (tmp_path / "heldout.csv").exists()
+    with pytest.raises(zoo.ShippedAgentError, match="no seed 0"):
+        zoo.load_shipped("tiny_ppo", 0, tiny_zoo)
+    policy = zoo.load_shipped("tiny_ppo", 3, tiny_zoo)
+    assert np.asarray(policy.act(np.zeros(15, np.float32))).shape == (2,)
+    bad = dict(card, files={k: "0" * 64 for k in card["files"]})
+    (tiny_zoo / "tiny_ppo" / "card.json").write_text(json.dumps(bad))
+    try:
+        with pytest.raises(zoo.ShippedAgentError, match="SHA-256"):
+            zoo.load_shipped("tiny_ppo", 3, tiny_zoo)
+    finally:
+        (tiny_zoo / "tiny_ppo" / "card.json").write_text(json.dumps(card))
+
+
+def test_help_texts_format(capsys):
+    for argv in (["--help"], ["evaluate", "--help"], ["study", "--help"]):
+        with pytest.raises(SystemExit) as exit_:
+            cli.main(argv)
+        assert exit_.value.code == 0
+    out = capsys.readouterr().out
+    assert "stress" in out and "agents/zoo" in out

@@ -1,0 +1,104 @@
+"""Identify, then control: a specimen identified on the workbench (``fit.json`` of ``triplanar fit``) or given as a
+specimen TOML (``docs/specimen-format.md``), as the prior of :class:`agents.mpc.MPCController` (``prior=``) and as
+v1's nominal specimen (``gym.make("TriPlanarShear-v1", nominal_specimen=path)``).
+
+A ``fit.json`` gives fitted effect parameters on top of the drawing; those that are properties of the specimen
+become its fields: ``end_friction.phi_deg`` -> ``tip_friction_deg`` (the tip is the bench's, so it is taken as
+the tip the fitted tests ran with), ``contact_friction.phi1_deg..phi3_deg`` -> ``friction_deg``. Any other fitted
+effect (a plane tilt, a rate law, an actuator rise...) is not a specimen field and is refused, naming it, rather
+than silently dropped. A TOML is refused when its foundation or its geometry (contact points, load point) is not
+the bench's: the controller's hypotheses and v1's bench share them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from triplanar.specimen import Foundation, Specimen, load_toml
+
+SPECIMEN_EFFECTS = {"end_friction": ("phi_deg",), "contact_friction": ("phi1_deg", "phi2_deg", "phi3_deg")}
+
+
+class PriorError(ValueError):
+    """A prior that cannot be used for this bench; the message names the file and the field."""
+
+
+def _effects(data: dict, source: str) -> dict:
+    if not isinstance(data, dict):
+        raise PriorError(f"{source}: not a fit.json object")
+    steps = data.get("steps")
+    if not isinstance(steps, list) or not steps:
+        raise PriorError(f"{source}: steps: missing or empty (a fit.json from 'triplanar fit' has them)")
+    effects = steps[-1].get("effects") if isinstance(steps[-1], dict) else None
+    if not isinstance(effects, dict):
+        raise PriorError(f"{source}: steps[-1].effects: missing (the fitted parameters)")
+    return effects
+
+
+def specimen_from_fit(path: str | Path, specimen: Specimen) -> Specimen:
+    """``specimen`` (the drawing the fit started from) with the fitted specimen parameters of ``path``."""
+    source = str(path)
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise PriorError(f"{source}: cannot read a fit.json ({exc})") from exc
+    effects = _effects(data, source)
+    tip, friction = float(specimen.tip_friction_deg), list(np.asarray(specimen.friction_deg, dtype=float))
+    for name, params in effects.items():
+        if name not in SPECIMEN_EFFECTS:
+            raise PriorError(f"{source}: steps[-1].effects.{name}: not a specimen property (a prior takes "
+                             f"{', '.join(sorted(SPECIMEN_EFFECTS))})")
+        for key in SPECIMEN_EFFECTS[name]:
+            value = params.get(key) if isinstance(params, dict) else None
+            if value is None or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise PriorError(f"{source}: steps[-1].effects.{name}.{key}: missing or not a finite number")
+        if name == "end_friction":
+            tip = float(params["phi_deg"])
+        else:
+            friction = [float(params[k]) for k in SPECIMEN_EFFECTS[name]]
+    return replace(specimen, tip_friction_deg=tip, friction_deg=tuple(friction),
+                   name=f"{specimen.name} (fitted: {Path(path).name})")
+
+
+def load_prior(path: str | Path, specimen: Specimen, foundation: Foundation) -> Specimen:
+    """The prior specimen of ``path`` (``.json``: a fit; ``.toml``: a specimen) for a bench of ``specimen`` on
+    ``foundation``; :class:`PriorError` names the field that does not fit."""
+    path = Path(path)
+    if path.suffix == ".json":
+        return specimen_from_fit(path, specimen)
+    if path.suffix != ".toml":
+        raise PriorError(f"{path}: a prior is a fit.json or a specimen .toml")
+    given, given_foundation = load_toml(path)
+    for i, (a, b) in enumerate(zip(given_foundation.planes, foundation.planes)):
+        if not np.allclose(a.normal, b.normal, atol=1e-12):
+            raise PriorError(f"{path}: foundation.planes[{i}]: not the bench's plane ({a} against {b})")
+    for name in ("contact_points_m", "load_point_A_m", "load_point_B_m"):
+        if not np.allclose(getattr(given, name), getattr(specimen, name), atol=1e-9):
+            raise PriorError(f"{path}: specimen.{name}: another specimen than the bench's")
+    return given
+
+
+def fitted_intervals(path: str | Path) -> dict[str, tuple[float, float]]:
+    """The 95 % intervals a ``fit.json`` gives for the specimen fields it fits (``param_ci95`` of its last step):
+    ``tip_friction_deg`` and ``friction1_deg``..``friction3_deg``; empty for a TOML, and without a field whose
+    interval is missing (``null``: not fitted, or at a bound)."""
+    path = Path(path)
+    if path.suffix != ".json":
+        return {}
+    data = json.loads(path.read_text(encoding="utf-8"))
+    _effects(data, str(path))
+    ci = data["steps"][-1].get("param_ci95") or {}
+    names = {("end_friction", "phi_deg"): "tip_friction_deg"}
+    names.update({("contact_friction", f"phi{i}_deg"): f"friction{i}_deg" for i in (1, 2, 3)})
+    out: dict[str, tuple[float, float]] = {}
+    for (effect, key), name in names.items():
+        pair = (ci.get(effect) or {}).get(key)
+        if isinstance(pair, list) and len(pair) == 2 and all(isinstance(v, (int, float)) for v in pair):
+            out[name] = (float(pair[0]), float(pair[1]))
+    return out
+
