@@ -370,8 +370,10 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.n
     return dynamics_ws(t, y, p, dy, aux, ws)
 
 
-# Over the complexity limit (pyproject.toml) knowingly: a compiled kernel, whose split into helpers must be
-# shown to keep results bitwise (benchmarks/fingerprint.py) and speed (benchmarks/bench_speed_ab.py).
+# Over the complexity limit (pyproject.toml) knowingly: one function because splitting it costs speed. Split along
+# its sections into nine inline="always" helpers it stayed bitwise the same but ran 20 % slower (numba inlines at its
+# own IR level, where every array passed to or returned from a helper is a new reference: 51 increfs and 92 decrefs
+# in its LLVM IR against 32 and 66); as plain compiled functions 60 % slower (docs/performance.md).
 @njit(cache=True, error_model="numpy")
 def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray,  # noqa: C901 (see above)
                 aux: np.ndarray, ws: np.ndarray) -> bool:
