@@ -59,14 +59,14 @@ def bench_control_step(repeats: int = 2000) -> None:
         bufs = (np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX)))
         ws = stepping.new_workspace()
         K.modes_of(ws)[:] = modes
-        log = np.empty((0, 3))
+        rec = stepping.Recording(False, *bufs, np.empty((0, 3)))
         x1_target = model.specimen.contact_points_m[0, 0] + 0.08
         y, t = y0.copy(), 0.0
         times = []
         for _ in range(repeats):
             t0 = time.perf_counter()
-            opts = stepping.StepOptions(stepping.METHOD_RK4, 0.0, 0.0, t + 0.005, x1_target, 1e-5, 0.0, False)
-            status, _, _, _, t = stepping.integrate_ws(t, y, p, armed, 0.005, opts, *bufs, log, 0, ws)
+            opts = stepping.StepOptions(stepping.METHOD_RK4, 0.0, 0.0, t + 0.005, x1_target, 1e-5, 0.0)
+            status, _, _, _, t = stepping.integrate_ws(t, y, p, armed, 0.005, opts, rec, 0, ws)
             times.append(time.perf_counter() - t0)
             if status != Outcome.TIME_LIMIT:  # travel reached: start the episode again
                 y, t = y0.copy(), 0.0

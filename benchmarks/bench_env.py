@@ -46,8 +46,9 @@ def _kernel_periods(y0, p, modes, n, x1_target):
     K.modes_of(ws)[:] = modes
     for i in range(n):
         y[:] = y0
-        opts = stepping.StepOptions(stepping.METHOD_RK4, 0.0, 0.0, 0.01, x1_target, 1e-5, 0.0, False)
-        stepping.integrate_ws(0.005, y, p, armed, 0.005, opts, out_t, out_y, out_y, out_aux, np.empty((0, 3)), 0, ws)
+        opts = stepping.StepOptions(stepping.METHOD_RK4, 0.0, 0.0, 0.01, x1_target, 1e-5, 0.0)
+        rec = stepping.Recording(False, out_t, out_y, out_y, out_aux, np.empty((0, 3)))
+        stepping.integrate_ws(0.005, y, p, armed, 0.005, opts, rec, 0, ws)
 
 
 CLOCK = [time.perf_counter]  # --cpu-time: time.process_time (this process's CPU time; the machine is shared)

@@ -442,9 +442,9 @@ def _advance(y, p, armed, st, cfg, inf, ws) -> int:
     # simulate compiles, so the driver and everything below it are compiled once, not twice.
     no_t, no_rows = ws[EW_NO_T, :1], ws[EW_NO_Y:EW_NO_Y + 1]
     opts = stepping.StepOptions(np.int64(stepping.METHOD_RK4), 0.0, 0.0, (st[ST_STEP] + 1.0) * cfg[CF_DT],
-                                st[ST_X1_TARGET], cfg[CF_SLOW], cfg[CF_ENERGY_TOL], np.bool_(False))
-    outcome, _, _, _, t = driver.drive(st[ST_T], y, p, armed, cfg[CF_H], opts, no_t, no_rows, no_rows, no_rows,
-                                       ws[EW_NO_T:EW_NO_T], np.int64(0), ws)
+                                st[ST_X1_TARGET], cfg[CF_SLOW], cfg[CF_ENERGY_TOL])
+    rec = stepping.Recording(np.bool_(False), no_t, no_rows, no_rows, no_rows, ws[EW_NO_T:EW_NO_T])
+    outcome, _, _, _, t = driver.drive(st[ST_T], y, p, armed, cfg[CF_H], opts, rec, np.int64(0), ws)
     st[ST_T] = t
     inf[IN_FALLBACK] = count[K.C_NREDO] - redone
     return RUNNING if outcome == TIME_LIMIT else outcome

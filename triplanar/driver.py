@@ -70,7 +70,7 @@ def energy_defect(y0: np.ndarray, y1: np.ndarray, p: np.ndarray, ws: np.ndarray)
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)
-def _integrate_checked(t0, y, p, armed, h, opts, out_t, out_y, out_dy, out_aux, log, row0, ws):
+def _integrate_checked(t0, y, p, armed, h, opts, rec, row0, ws):
     """:func:`triplanar.stepping.integrate_ws`, redone with DOPRI5 while the energy balance is off (see the module
     docstring). A redo starts again from the stretch's start (state, modes, arming, recorded rows and event log) and
     hands back the stretch's own step ``h``, so a fixed-step caller keeps its step."""
@@ -80,8 +80,7 @@ def _integrate_checked(t0, y, p, armed, h, opts, out_t, out_y, out_dy, out_aux, 
     ws[DW_MODES0, :N_MODE] = ws[W_MODES, :N_MODE]
     for k in range(5):
         ws[DW_ARMED0, k] = 1.0 if armed[k] else 0.0
-    status, event, rows, h_out, t = stepping.integrate_ws(t0, y, p, armed, h, opts, out_t, out_y, out_dy, out_aux, log,
-                                                          row0, ws)
+    status, event, rows, h_out, t = stepping.integrate_ws(t0, y, p, armed, h, opts, rec, row0, ws)
     for redo_rtol in FALLBACK_RTOLS:
         if opts.energy_tol <= 0.0 or abs(energy_defect(y0, y, p, ws)) <= opts.energy_tol:
             break
@@ -93,9 +92,8 @@ def _integrate_checked(t0, y, p, armed, h, opts, out_t, out_y, out_dy, out_aux, 
         count[C_NREDO] += 1.0
         # (the same field types as the caller's options: integrate_ws is compiled once)
         redo = stepping.StepOptions(np.int64(stepping.METHOD_DOPRI5), redo_rtol, 1e-3 * redo_rtol, opts.t_end,
-                                    opts.x1_target, opts.slow_speed, opts.energy_tol, opts.record)
-        status, event, rows, _, t = stepping.integrate_ws(t0, y, p, armed, h, redo, out_t, out_y, out_dy, out_aux, log,
-                                                          row0, ws)
+                                    opts.x1_target, opts.slow_speed, opts.energy_tol)
+        status, event, rows, _, t = stepping.integrate_ws(t0, y, p, armed, h, redo, rec, row0, ws)
         h_out = h
     return status, event, rows, h_out, t
 
@@ -111,8 +109,7 @@ def _user_wrench_at_rest(t: float, y: np.ndarray, p: np.ndarray) -> None:
 
 @njit(cache=True, inline="always", error_model="numpy")  # (compiled into the env's control step: no call boundary)
 def drive(t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray, h: float, opts: stepping.StepOptions,
-          out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray, log: np.ndarray, rows: int,
-          ws: np.ndarray):
+          rec: stepping.Recording, rows: int, ws: np.ndarray):
     """Integrate from (t, y) until a physical ending, ``opts.t_end`` or a full buffer; ``y``, the stick/slip modes (in
     the workspace, :func:`triplanar.kernel.modes_of`) and ``armed`` are updated in place.
 
@@ -123,15 +120,14 @@ def drive(t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray, h: float, o
     """
     count = ws[W_COUNT]
     while True:
-        status, event, rows, h, t = _integrate_checked(t, y, p, armed, h, opts, out_t, out_y, out_dy, out_aux, log,
-                                                       rows, ws)
+        status, event, rows, h, t = _integrate_checked(t, y, p, armed, h, opts, rec, rows, ws)
         if status != SLOW:
             return status, event, rows, h, t
         count[C_NLP] += 1.0
         if p[P_USER] != 0.0:
             _user_wrench_at_rest(t, y, p)
         if E.holds(y, p, K.thrust(t, p), p[P_EXTF:P_EXTF + 3], p[P_EXTM:P_EXTM + 3]):
-            stepping.log_outcome(log, count, t, -1, ARRESTED)
+            stepping.log_outcome(rec.log, count, t, -1, ARRESTED)
             return ARRESTED, -1, rows, h, t
         count[C_NSTART] += 1.0
         stepping.start_motion_ws(t, y, p, ws)

@@ -87,12 +87,13 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
     x1_target = _cp1_x1(y0, p) + travel_m
     armed = np.zeros(5, dtype=np.bool_)
     modes = K.sliding_modes()
-    opts = stepping.StepOptions(METHODS[method], rtol, atol, t_max_s, x1_target, SLOW_SPEED_M_S, 0.0, True)
+    opts = stepping.StepOptions(METHODS[method], rtol, atol, t_max_s, x1_target, SLOW_SPEED_M_S, 0.0)
     with K.user_force(p, model.user_wrench if model.force_effects else None):
         converged, consistency = start_motion(p, modes, y0)
         K.modes_of(ws)[:] = modes  # (the driver keeps them there)
         while True:
-            code, event, rows, h, t = driver.drive(t, y, p, armed, h, opts, out_t, out_y, out_dy, out_aux, log, rows, ws)
+            rec = stepping.Recording(True, out_t, out_y, out_dy, out_aux, log)
+            code, event, rows, h, t = driver.drive(t, y, p, armed, h, opts, rec, rows, ws)
             if code != Outcome.BUFFER_FULL or capacity >= max_rows:
                 break
             capacity = min(2 * capacity, max_rows)

@@ -160,14 +160,12 @@ def _advance(method, t, y, h, p, y_new, err, aux, ws: np.ndarray) -> bool:
 
 
 class StepOptions(NamedTuple):
-    """How a run steps, when it ends and whether it records: what :func:`integrate_ws` and
-    :func:`triplanar.driver.drive` take after the state. Compiled as a named tuple of scalars (a struct passed by
-    value): its fields are read like local variables, with no allocation, pointer or reference count in the env's
-    hot loop, and one tuple type means one compiled version; a jitclass or structref would be a heap object behind
-    a pointer, boxed on every call from Python, with its own typing and compile cost. The recording buffers are not
-    in it: an array taken out of a tuple costs a reference count (``docs/performance.md``). Build it with the same
-    field types at every call site (``method`` an integer, ``record`` a bool, the rest floats), or numba compiles
-    the whole tree again."""
+    """How a run steps and when it ends: what :func:`integrate_ws` and :func:`triplanar.driver.drive` take after the
+    state. Compiled as a named tuple (a struct of scalars passed by value): its fields are read like local
+    variables, it adds no allocation or pointer chasing in the env's hot loop, and one tuple type means one compiled
+    version; a jitclass or structref would be a heap object behind a pointer, boxed on every call from Python, with
+    its own typing and compile cost. Build it with the same field types at every call site (``method`` an integer,
+    the rest floats), or numba compiles the whole tree again."""
     method: int  # METHOD_EULER, METHOD_RK4 or METHOD_DOPRI5
     rtol: float  # DOPRI5's tolerances (per state component, RMS norm: _error_norm)
     atol: float
@@ -175,17 +173,30 @@ class StepOptions(NamedTuple):
     x1_target: float  # m: the run ends with TRAVEL when CP1's e1 coordinate reaches it
     slow_speed: float  # m/s: every contact point slower: SLOW (the caller checks arrest); stops at a tenth of it
     energy_tol: float  # J: driver.drive redoes a stretch whose energy balance is off by more, with DOPRI5; 0: no check
-    record: bool  # write every accepted step to the buffers (out_t, out_y, out_dy, out_aux)
+
+
+class Recording(NamedTuple):
+    """Where a run writes what it records (compiled as a named tuple of arrays, like :class:`StepOptions`).
+
+    With ``on``, every accepted step's time, state, derivative f(t, y) and aux vector are written to ``t``, ``y``,
+    ``dy``, ``aux`` (rows of equal count); every event that happens is appended to ``log`` (rows: time, event index,
+    outcome) while it has room, recorded or not. The env records nothing: one-row buffers and an empty log, of the
+    same array types as simulate's, so that the steppers are compiled once."""
+    on: bool
+    t: np.ndarray
+    y: np.ndarray
+    dy: np.ndarray
+    aux: np.ndarray
+    log: np.ndarray
 
 
 @njit(cache=True, error_model="numpy")
 def integrate(t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, armed: np.ndarray, h: float,
-              opts: StepOptions, out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray, out_aux: np.ndarray):
-    """:func:`integrate_ws` with its own scratch memory, recording from row 0, no event log; ``modes`` are updated
-    in place."""
+              opts: StepOptions, rec: Recording):
+    """:func:`integrate_ws` with its own scratch memory, recording from row 0; ``modes`` are updated in place."""
     ws = new_workspace()
     modes_of(ws)[:] = modes
-    out = integrate_ws(t0, y, p, armed, h, opts, out_t, out_y, out_dy, out_aux, np.empty((0, 3)), 0, ws)
+    out = integrate_ws(t0, y, p, armed, h, opts, rec, 0, ws)
     modes[:] = modes_of(ws)
     return out
 
@@ -194,8 +205,7 @@ def integrate(t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, armed:
 # shown to keep results bitwise (benchmarks/fingerprint.py) and speed (benchmarks/bench_speed_ab.py).
 @njit(cache=True, error_model="numpy")
 def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,  # noqa: C901 (see above)
-                 h: float, opts: StepOptions, out_t: np.ndarray, out_y: np.ndarray, out_dy: np.ndarray,
-                 out_aux: np.ndarray, log: np.ndarray, row0: int, ws: np.ndarray):
+                 h: float, opts: StepOptions, rec: Recording, row0: int, ws: np.ndarray):
     """Integrate from (t0, y) until a terminal event, ``opts.t_end`` or a full buffer; ``y`` ends as the final state.
 
     ``h`` is the fixed step (Euler, RK4) or the first trial step (DOPRI5). Events are located to 1e-13 s
@@ -208,21 +218,19 @@ def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,  # 
     (:func:`_predicted_stop`, :func:`_step_to_stop`), so the stop is handled where it happens.
     ``armed`` (5 flags, updated in place): whether the all-slow event, each contact's and the tip's stop
     event may fire; each arms once its speed has exceeded twice its threshold, so a start from rest does
-    not count. ``opts`` (:class:`StepOptions`) holds the method, tolerances, endings and whether to record
-    (``energy_tol`` is the driver's): with ``opts.record`` every accepted step is written to the ``out_*`` buffers
-    (rows of equal count) from row ``row0``; the start is written only when ``row0`` is 0 (a continuation's start
-    is the caller's last row). ``out_dy`` gets f(t, y) at each row, the derivative the run goes on with (at a
-    stick/slip change, the one after it; a continuation rewrites its start row's, as a restart may have changed the
-    modes). Every event that happens is appended to ``log`` (rows: time, event index, outcome) while it has room,
-    recorded or not; the workspace's counters (``kernel.C_*``) count steps, rejections, events and log rows. The
-    env records nothing: one-row buffers and an empty log, of the same array types as simulate's, so that the
-    steppers are compiled once.
+    not count. ``opts`` (:class:`StepOptions`) holds the method, tolerances and endings (``energy_tol`` is the
+    driver's); ``rec`` (:class:`Recording`) the buffers: with ``rec.on`` every accepted step is written from row
+    ``row0``; the start is written only when ``row0`` is 0 (a continuation's start is the caller's last row).
+    ``rec.dy`` gets f(t, y) at each row, the derivative the run goes on with (at a stick/slip change, the one after
+    it; a continuation rewrites its start row's, as a restart may have changed the modes). Every event that happens
+    is appended to ``rec.log``; the workspace's counters (``kernel.C_*``) count steps, rejections, events and log
+    rows.
     Returns (outcome (:mod:`triplanar.outcome`), event index or -1, rows in the buffers, last step size, final
     time), as :func:`triplanar.driver.drive` does.
     """
     method, rtol, atol, t_max = opts.method, opts.rtol, opts.atol, opts.t_end
     x1_target, slow_speed = opts.x1_target, opts.slow_speed
-    record = opts.record
+    record, out_t, out_y, out_dy, out_aux, log = rec.on, rec.t, rec.y, rec.dy, rec.aux, rec.log
     n = y.shape[0]
     aux = ws[SW_AUX, :N_AUX]
     dummy = ws[SW_DY, :N_STATE]

@@ -242,15 +242,16 @@ def test_paper_euler_converges_with_first_order() -> None:
     assert all(1.7 < r < 2.3 for r in ratios), (errors, ratios)
 
 
-def _no_buffers() -> tuple[np.ndarray, ...]:
-    return np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_STATE)), np.empty((1, K.N_AUX))
+def _no_recording() -> stepping.Recording:
+    return stepping.Recording(False, np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_STATE)),
+                              np.empty((1, K.N_AUX)), np.empty((0, 3)))
 
 
 def _integrate_from(y0: np.ndarray, p: np.ndarray, method: int, h: float, t0: float = 0.05,
                     t1: float = 0.15) -> np.ndarray:
     y = y0.copy()
     stepping.integrate(t0, y, p.copy(), K.sliding_modes(), np.ones(5, np.bool_), h,
-                       stepping.StepOptions(method, 1e-12, 1e-14, t1, 10.0, 1e-5, 0.0, False), *_no_buffers())
+                       stepping.StepOptions(method, 1e-12, 1e-14, t1, 10.0, 1e-5, 0.0), _no_recording())
     return y[K.S_R:K.S_R + 3]
 
 
@@ -357,9 +358,9 @@ def test_fixed_steps_stop_where_a_slip_stops() -> None:
 
     def stop(method: int, h: float) -> tuple[int, np.ndarray, float]:
         y, p = y0.copy(), p0.copy()
-        opts = stepping.StepOptions(method, 1e-11, 1e-14, sliding.t[-1] + 1.0, 10.0, 1e-5, 0.0, False)
+        opts = stepping.StepOptions(method, 1e-11, 1e-14, sliding.t[-1] + 1.0, 10.0, 1e-5, 0.0)
         status, _, _, _, t = stepping.integrate(sliding.t[-1], y, p, modes0.copy(), np.ones(5, np.bool_), h, opts,
-                                                *_no_buffers())
+                                                _no_recording())
         cps = np.empty((3, 3))
         K.contact_points(y, p, cps)
         return status, cps, t
@@ -380,10 +381,11 @@ def test_a_turning_slip_does_not_stall_fixed_steps() -> None:
     (the env stalled); a site whose predicted stop was not one is not predicted again in the same call."""
     d = np.load(Path(__file__).resolve().parents[1] / "data" / "turning_slip_state.npz")
     y, p = d["y"].copy(), d["p"].copy()
-    buffers = (np.empty(1000), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_AUX)))
+    rec = stepping.Recording(True, np.empty(1000), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_STATE)),
+                             np.empty((1000, K.N_AUX)), np.empty((0, 3)))
     opts = stepping.StepOptions(stepping.METHOD_RK4, 0.0, 0.0, float(d["t_end"]), float(d["x1_target"]),
-                                float(d["slow_speed"]), 0.0, True)
+                                float(d["slow_speed"]), 0.0)
     status, _, rows, _, t = stepping.integrate(float(d["t0"]), y, p, d["modes"].copy(), d["armed"].copy(),
-                                               float(d["h"]), opts, *buffers)
+                                               float(d["h"]), opts, rec)
     assert status == Outcome.TIME_LIMIT and t == pytest.approx(float(d["t_end"]), abs=1e-12)
     assert rows <= stepping.MAX_MISSED_STOPS + 5
