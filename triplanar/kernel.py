@@ -371,7 +371,7 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.n
 
 
 # Over the complexity limit (pyproject.toml) knowingly: one function because splitting it costs speed. Split along
-# its sections into nine inline="always" helpers it stayed bitwise the same but ran 20 % slower (numba inlines at its
+# its sections into nine inline="always" helpers it stayed bitwise the same but ran 15-20 % slower (numba inlines at its
 # own IR level, where every array passed to or returned from a helper is a new reference: 51 increfs and 92 decrefs
 # in its LLVM IR against 32 and 66); as plain compiled functions 60 % slower (docs/performance.md).
 @njit(cache=True, error_model="numpy")
