@@ -38,7 +38,7 @@ STAGES = {
     "simulate": """
 from triplanar import paper_model, simulate
 t1 = time.perf_counter()
-assert simulate(paper_model("A", 30.0)).status == "travel"
+assert simulate(paper_model("A", 30.0)).status.label == "travel"
 """,
     "env step": """
 import gymnasium as gym

@@ -23,7 +23,7 @@ def nothing(x: int) -> int:
 
 def one_simulation(force_N: float) -> str:
     from triplanar import paper_model, simulate
-    return simulate(paper_model("A", force_N)).status
+    return simulate(paper_model("A", force_N)).status.label
 
 
 def main() -> None:

@@ -41,7 +41,7 @@ def _traces() -> dict[str, np.ndarray]:
         out[f"{name}/t"] = result.t
         out[f"{name}/y"] = result.y
         out[f"{name}/aux"] = result.aux
-        out[f"{name}/status"] = np.array([result.status])
+        out[f"{name}/status"] = np.array([result.status.label])
     return out
 
 

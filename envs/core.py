@@ -367,18 +367,18 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
     y, p, modes, armed, st = before
     reference_run = simulate(paper_model("C", draw.load_N, specimen, foundation), travel_m=config.travel_m)
     grid = np.linspace(0.0, config.travel_m, REFERENCE_POINTS)
-    if reference_run.status == "held":
+    if reference_run.status is Outcome.HELD:
         ref = np.zeros((REFERENCE_POINTS, 9))
     else:  # a reference that stops short of the travel target holds its last position beyond it
         end = reference_run.travel[-1]
-        if reference_run.status == "travel":
+        if reference_run.status is Outcome.TRAVEL:
             end = max(end, config.travel_m)  # the run ends at the target (to rounding: 0.0799999999999984)
         reached = grid[grid <= end]
         query = np.minimum(reached, reference_run.travel[-1])
         path = reference_run.resample_by_travel(query) - reference_run.contact_points[0]
         ref = np.concatenate([path, np.repeat(path[-1:], len(grid) - len(reached), axis=0)]).reshape(-1, 9)
     code = control_step(y, p, modes, armed, st, ref, first, cfg, obs, inf, new_workspace())
-    return EpisodeStart(key, model, y, p, modes, armed, st, ref, reference_run.status, obs, inf)
+    return EpisodeStart(key, model, y, p, modes, armed, st, ref, reference_run.status.label, obs, inf)
 
 
 # -- the compiled control step (shared by the single and the vector env) -------------------------------

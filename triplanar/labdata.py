@@ -58,6 +58,7 @@ from .model import Model, paper_model
 from .result import SimulationResult
 from .simulate import simulate
 from .specimen import Foundation, Specimen, reference, to_toml
+from .outcome import Outcome
 
 #: Plan dimensions of the foundation block, metres: along e1, along e3 (paper section 2, Fig. 4).
 FOUNDATION_PLAN_M = (0.30, 0.45)
@@ -218,9 +219,9 @@ def run_lab_test(job: LabTest) -> tuple[dict, MeasuredTest | None]:
     record = {"test_id": test_id, "shear_force_N": force, "repeat": repeat,
               "friction_deg": [float(a) for a in angles[:3]],
               "tip_friction_deg": float(angles[3]) if len(angles) > 3 else None,
-              "stop_travel_m": stop, "status": result.status, "message": result.message,
+              "stop_travel_m": stop, "status": result.status.label, "message": result.message,
               **({"per_test": drawn} if drawn else {})}
-    if result.status == "held":
+    if result.status is Outcome.HELD:
         return {**record, "reason": "the block never slid"}, None
     t_s = np.arange(0, int(math.floor(result.t[-1] * rate_hz + 1e-9)) + 1) / rate_hz
     clean = hermite_in_time(result, t_s)

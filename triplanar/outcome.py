@@ -44,6 +44,12 @@ class Outcome(IntEnum):
     def from_label(cls, label: str) -> Outcome:
         return cls[label.upper()]
 
+    def __str__(self) -> str:  # printed and formatted as its label ("travel"), not as the integer compiled code sees
+        return self.label
+
+    def __format__(self, spec: str) -> str:
+        return format(self.label, spec)
+
 
 # Plain integers for compiled code, checked against the enumeration so the two cannot drift apart.
 (RUNNING, TRAVEL, LIFT_OFF, MASS_CENTRE_OUTSIDE, LEFT_PLANE, ARRESTED, FAILED, TIME_LIMIT, HELD, SLOW, STOPPED,

@@ -24,6 +24,7 @@ from __future__ import annotations
 from typing import Protocol
 
 import numpy as np
+from .outcome import Outcome
 
 
 class Trajectory(Protocol):
@@ -70,7 +71,7 @@ def horizontal_distance(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def ran(result: Trajectory) -> bool:
     """Whether a simulated test moved at all (slid, has two rows, ended ahead of its start)."""
-    return result.status != "held" and len(result.t) >= 2 and result.travel[-1] > 0
+    return result.status is not Outcome.HELD and len(result.t) >= 2 and result.travel[-1] > 0
 
 
 def model_at_travel(result: Trajectory, travel_m: np.ndarray) -> np.ndarray:

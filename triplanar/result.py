@@ -45,8 +45,8 @@ class SimulationResult:
 
     Rows are the integrator's accepted steps; ``t`` is time since the start of sliding (``t_start_s`` is
     when sliding started after the actuator began to push: 0 unless the force rises). The last row is the
-    final state itself (for ``status == "travel"``, at exactly the travel target). ``status`` is an
-    :class:`~triplanar.outcome.Outcome` label.
+    final state itself (for ``status is Outcome.TRAVEL``, at exactly the travel target). ``status`` is an
+    :class:`~triplanar.outcome.Outcome` (printed as its label, ``"travel"``).
 
     As ``solve_ivp``'s result counts its work: ``events`` lists what happened in order (stick/slip changes,
     checks of the statics, the ending; the first 10,000), ``nfev`` the right-hand-side evaluations, ``n_steps``
@@ -58,7 +58,7 @@ class SimulationResult:
     y: np.ndarray
     dydt: np.ndarray
     aux: np.ndarray
-    status: str
+    status: Outcome
     message: str
     model: Model
     method: str
@@ -74,13 +74,9 @@ class SimulationResult:
     n_starts: int = 0
 
     @property
-    def outcome(self) -> Outcome:
-        return Outcome.from_label(self.status)
-
-    @property
     def success(self) -> bool:
         """False only when the integration itself failed; every physical ending is a success."""
-        return self.status != "failed"
+        return self.status is not Outcome.FAILED
 
     # -- kinematics ------------------------------------------------------------------------
     @cached_property
@@ -222,7 +218,7 @@ class SimulationResult:
         """The figures a laboratory reads off a test."""
         cps = self.contact_points
         speeds = np.linalg.norm(self.contact_velocities, axis=2)
-        return {"status": self.status, "message": self.message, "force_N": self.model.loading.force_N,
+        return {"status": self.status.label, "message": self.message, "force_N": self.model.loading.force_N,
                 "duration_s": float(self.t[-1]), "travel_m": float(self.travel[-1]),
                 "peak_speed_m_s": float(speeds.max()),
                 "lateral_dilation_m": (cps[-1, :, 2] - cps[0, :, 2]).tolist(),

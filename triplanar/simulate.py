@@ -100,9 +100,9 @@ def simulate(model: Model, *, method: str = "dopri5", rtol: float = 1e-8, atol: 
             out_t, out_y, out_dy, out_aux = (np.concatenate([a, np.empty((capacity - len(a),) + a.shape[1:])])
                                              for a in (out_t, out_y, out_dy, out_aux))
     if code == Outcome.BUFFER_FULL:
-        status, message = "failed", f"more than max_rows = {max_rows} steps; raise max_rows or dt"
+        status, message = Outcome.FAILED, f"more than max_rows = {max_rows} steps; raise max_rows or dt"
     else:
-        status, message = Outcome(code).label, describe(Outcome(code), event, t, travel_m)
+        status, message = Outcome(code), describe(Outcome(code), event, t, travel_m)
     count = ws[K.W_COUNT]
     return SimulationResult(t=out_t[:rows].copy(), y=out_y[:rows].copy(), dydt=out_dy[:rows].copy(),
                             aux=out_aux[:rows].copy(), status=status, message=message, model=model, method=method,
@@ -119,7 +119,7 @@ def _held(model: Model, y0: np.ndarray, method: str, message: str) -> Simulation
     aux = np.zeros(K.N_AUX)
     K.dynamics_ws(0.0, y0, model.kernel_params_cached.copy(), np.empty(K.N_STATE), aux, K.new_workspace())
     return SimulationResult(t=np.zeros(1), y=y0[None, :].copy(), dydt=np.zeros((1, K.N_STATE)), aux=aux[None, :],
-                            status=Outcome.HELD.label, message=message, model=model, method=method,
+                            status=Outcome.HELD, message=message, model=model, method=method,
                             t_start_s=math.inf, travel_target_m=0.0, incipient_converged=True,
                             incipient_consistency=1.0)
 

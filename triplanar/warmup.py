@@ -15,6 +15,7 @@ import argparse
 import sys
 import time
 import warnings
+from .outcome import Outcome
 
 # Gymnasium's notice on making TriPlanarShear-v0 now that v1 exists (its convention for an older version).
 V0_OUT_OF_DATE = r".*TriPlanarShear-v0 is out of date"
@@ -27,7 +28,7 @@ def warm_physics() -> None:
     from . import kernel as K, make_effect, paper_model, simulate
 
     result = simulate(paper_model("A", 30.0))  # holds, start_motion, integrate_ws, the kernel
-    assert result.status == "travel", result.message
+    assert result.status is Outcome.TRAVEL, result.message
     simulate(paper_model("A", 35.0, effects=[make_effect("actuator_rise:tau_s=0.05")]))  # the sliding threshold
     model = paper_model("A", 1.0)
     simulate(model)  # held: the right-hand side at rest

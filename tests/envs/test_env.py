@@ -256,7 +256,7 @@ def test_constant_steel_tip_reproduces_the_core_simulation() -> None:
     core = simulate(paper_model("A", 40.0), method="rk4", dt=0.005)
     cps = np.empty((3, 3))
     K.contact_points(env._y, env._p, cps)
-    assert core.status == "travel"
+    assert core.status.label == "travel"
     assert info["time_s"] == pytest.approx(core.t[-1], abs=1e-12)
     assert np.abs(cps - core.contact_points[-1]).max() < 1e-9
     # and the reference is the core's case C at the same load

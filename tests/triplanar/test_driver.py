@@ -29,7 +29,7 @@ def test_labels_round_trip() -> None:
 
 def test_a_travelled_run_records_its_ending_and_counts_its_work() -> None:
     result = simulate(paper_model("A", 40.0))
-    assert result.outcome is Outcome.TRAVEL and result.status == "travel"
+    assert result.status is Outcome.TRAVEL and result.status.label == "travel" and f"{result.status}" == "travel"
     assert result.events[-1].outcome is Outcome.TRAVEL and result.events[-1].event == K.EV_TRAVEL
     assert result.events[-1].t == result.t[-1]
     assert [e.t for e in result.events] == sorted(e.t for e in result.events)
@@ -54,12 +54,12 @@ def test_an_arrest_is_decided_by_the_statics_and_recorded() -> None:
     """Pushed below its threshold by a short pulse, the block slides, slows and is held: the driver asked the
     statics at least once and the record ends with the arrest, a decision of the statics (event -1)."""
     result = simulate(paper_model("B", 15.0, effects=[_Pulse()]), t_max_s=2.0)
-    assert result.outcome is Outcome.ARRESTED, result.message
+    assert result.status is Outcome.ARRESTED, result.message
     assert result.n_statics >= 1
     assert result.events[-1] == Event(float(result.t[-1]), -1, Outcome.ARRESTED)
     assert result.events[-1].name == "arrested"
     assert any(e.outcome is Outcome.SLOW or e.outcome is Outcome.STOPPED for e in result.events[:-1])
-    assert simulate(paper_model("B", 40.0), t_max_s=0.05).outcome is Outcome.TIME_LIMIT
+    assert simulate(paper_model("B", 40.0), t_max_s=0.05).status is Outcome.TIME_LIMIT
 
 
 _MEETING: dict[str, threading.Barrier] = {}  # test-only: where two runs wait for each other
@@ -107,7 +107,7 @@ def test_runs_in_threads_each_call_their_own_user_force() -> None:
 
 def test_held_block_never_runs_the_driver() -> None:
     result = simulate(paper_model("A", 3.0))
-    assert result.outcome is Outcome.HELD and result.events == () and result.nfev == 0
+    assert result.status is Outcome.HELD and result.events == () and result.nfev == 0
 
 
 def test_a_full_buffer_grows_without_changing_the_trace(monkeypatch) -> None:
@@ -119,9 +119,9 @@ def test_a_full_buffer_grows_without_changing_the_trace(monkeypatch) -> None:
     # the function, which hides the module's name)
     grown = simulate(model)
     assert len(whole.t) > 64
-    assert grown.status == "travel" and np.array_equal(whole.y, grown.y) and np.array_equal(whole.aux, grown.aux)
+    assert grown.status.label == "travel" and np.array_equal(whole.y, grown.y) and np.array_equal(whole.aux, grown.aux)
     assert np.array_equal(whole.dydt, grown.dydt)
     assert grown.events == whole.events and grown.n_steps == whole.n_steps
     assert grown.nfev == whole.nfev + 3  # each of the 3 continuations (16 -> 32 -> 64 -> 128 rows) evaluates f again
     short = simulate(model, max_rows=len(whole.t) - 1)
-    assert short.status == "failed" and "max_rows" in short.message
+    assert short.status.label == "failed" and "max_rows" in short.message

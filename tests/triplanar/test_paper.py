@@ -68,7 +68,7 @@ def _similar(case: str, force1: float, spec1, c1: float, force2: float, spec2, c
     gap = 0.0
     for s in (0.02, 0.05, 0.08):
         r1, r2 = _sim(case, force1, spec1, s * c1), _sim(case, force2, spec2, s * c2)
-        assert r1.status == r2.status == "travel"
+        assert r1.status.label == r2.status.label == "travel"
         gap = max(gap, float(np.abs(r1.contact_points[-1] / c1 - r2.contact_points[-1] / c2).max()))
     return gap
 

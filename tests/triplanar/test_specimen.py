@@ -109,7 +109,7 @@ def test_end_friction_effect_turns_case_b_into_case_a() -> None:
 def test_plane_tilt_reseats_the_block_and_changes_the_path() -> None:
     base = simulate(paper_model("B", 40.0))
     tilted = simulate(paper_model("B", 40.0, effects=[make_effect("plane_tilt:dip_dir2_deg=5")]))
-    assert tilted.status == "travel"
+    assert tilted.status.label == "travel"
     assert tilted.summary()["max_constraint_residual_m"] < 1e-9
     start_shift = np.abs(tilted.contact_points[0] - base.contact_points[0]).max()
     assert 0 < start_shift < 0.005
@@ -163,12 +163,12 @@ def test_contact_friction_leaves_unset_angles_alone() -> None:
 @pytest.mark.parametrize("tilt", ["dip1_deg=0.5", "dip1_deg=-1", "dip1_deg=1,dip_dir1_deg=90", "dip_dir2_deg=5"])
 def test_small_tilts_of_every_kind_run(tilt: str) -> None:
     result = simulate(paper_model("B", 40.0, effects=[make_effect(f"plane_tilt:{tilt}")]))
-    assert result.status == "travel", result.message
+    assert result.status.label == "travel", result.message
 
 
 def test_a_tilt_that_puts_a_point_under_another_plane_is_refused_at_rest() -> None:
     result = simulate(paper_model("B", 40.0, effects=[make_effect("plane_tilt:dip_dir2_deg=-5")]))
-    assert result.status == "left_plane" and result.t[-1] == 0.0
+    assert result.status.label == "left_plane" and result.t[-1] == 0.0
     assert "starts under FP1" in result.message
 
 
@@ -179,7 +179,7 @@ def test_actuator_rise_starts_at_the_threshold_and_handles_fast_rises() -> None:
     threshold = sliding_threshold(base)
     for tau in (1e-6, 0.1):
         result = simulate(paper_model("A", 40.0, effects=[make_effect(f"actuator_rise:tau_s={tau}")]))
-        assert result.status == "travel"
+        assert result.status.label == "travel"
         assert result.thrust[0] == pytest.approx(threshold, rel=1e-9)
         assert result.t_start_s == pytest.approx(-tau * np.log1p(-threshold / 40.0), rel=1e-12)
         assert np.all(np.diff(result.thrust) >= 0) and result.thrust[-1] <= 40.0

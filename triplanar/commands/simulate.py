@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from . import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
+from ..outcome import Outcome
 
 NAME = "simulate"
 HELP = "simulate one shear test (case A, B or C) and print what happened"
@@ -63,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     summary = result.summary()
     print(f"case {args.case}, F_T = {args.force:g} N, {', '.join(map(repr, model.effects)) or 'no extra effects'}")
     print(f"status: {result.status}\n{result.message}")
-    if result.status != "held":
+    if result.status is not Outcome.HELD:
         print(f"time to {summary['travel_m'] * 100:.2f} cm travel: {summary['duration_s']:.4f} s")
         print(f"peak contact-point speed: {summary['peak_speed_m_s']:.3f} m/s")
         dil = ", ".join(f"CP{i + 1} {d * 1e3:+.2f}" for i, d in enumerate(summary["lateral_dilation_m"]))

@@ -14,6 +14,7 @@ import numpy as np
 
 from .cases import SCALE_FACTORS, SCALED_LOADS_N, Run
 from .metrics import model_vs_model
+from ..outcome import Outcome
 
 if TYPE_CHECKING:
     from .reproduce import Reproduction
@@ -75,7 +76,7 @@ def similarity_gap(rep: Reproduction, run1: Run, run2: Run) -> float:
     for s in CHECKPOINTS_M:
         r1 = rep.simulator.stopped_at(run1, s * run1.length_scale)
         r2 = rep.simulator.stopped_at(run2, s * run2.length_scale)
-        if r1.status != "travel" or r2.status != "travel":
+        if r1.status is not Outcome.TRAVEL or r2.status is not Outcome.TRAVEL:
             return float("inf")
         gap = max(gap, float(np.abs(r1.contact_points[-1] / run1.length_scale
                                     - r2.contact_points[-1] / run2.length_scale).max()))

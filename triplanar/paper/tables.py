@@ -79,7 +79,7 @@ def case_row(run: Run, result: SimulationResult, tests: list[MeasuredTest], rest
     dil_c, rot_c = model_state_at(result, DATA_COMPARE_TRAVEL_M)
     return CaseRow(run.case, run.force_N, data_vs_model(tests, result, rest),
                    lateral_dilation(result.contact_points[-1], result.contact_points[0]),
-                   float(result.rotation_deg[-1]), dil_c, rot_c, peak_speed(result), result.status,
+                   float(result.rotation_deg[-1]), dil_c, rot_c, peak_speed(result), result.status.label,
                    float(result.travel[-1]))
 
 
@@ -107,7 +107,7 @@ def scaled_row(run_a: Run, result_a: SimulationResult, result_b: SimulationResul
                      lateral_dilation(result_a.contact_points[-1], result_a.contact_points[0]) / c,
                      lateral_dilation(result_b.contact_points[-1], result_b.contact_points[0]) / c,
                      float(result_a.rotation_deg[-1]), float(result_b.rotation_deg[-1]),
-                     (result_a.status, result_b.status))
+                     (result_a.status.label, result_b.status.label))
 
 
 # -- markdown ------------------------------------------------------------------------------------

@@ -36,6 +36,7 @@ import numpy as np
 from ..measurement import MeasuredTest
 from ..paths import lateral_dilation, model_at_travel, ran as _ran, rotation_deg, travel as path_travel
 from ..result import SimulationResult
+from ..outcome import Outcome
 
 MM = 1e3
 
@@ -101,7 +102,7 @@ def model_travel_at_time(result: SimulationResult, t: np.ndarray) -> np.ndarray:
     t_end, s_end = float(result.t[-1]), float(result.travel[-1])
     beyond = t > t_end
     if beyond.any():
-        speed = max(float(result.contact_velocities[-1, 0, 0]), 0.0) if result.status == "travel" else 0.0
+        speed = max(float(result.contact_velocities[-1, 0, 0]), 0.0) if result.status is Outcome.TRAVEL else 0.0
         out[beyond] = s_end + speed * (t[beyond] - t_end)
     return out
 
@@ -193,7 +194,7 @@ def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.nd
     else:
         vertical = largest = np.full(3, math.nan)
     return TestDiscrepancy(
-        test_id=test.test_id, force_N=float(test.shear_force_N), status=result.status, message=result.message,
+        test_id=test.test_id, force_N=float(test.shear_force_N), status=str(result.status), message=result.message,
         mean_mm=dist.mean(axis=0), max_mm=largest, dilation_error_mm=dilation * MM,
         rotation_error_deg=float(rotation), arrival_error_s=arrival,
         lag_rms_mm=float(np.sqrt(np.mean(lag**2))) if lag is not None else math.nan,

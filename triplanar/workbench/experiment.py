@@ -26,6 +26,7 @@ from ..measurement import MeasuredTest
 from ..simulate import simulate
 from .spec import SIM_OPTIONS, EvalTask, ModelSpec
 from .fitbase import safe_evaluate
+from ..outcome import Outcome
 
 if TYPE_CHECKING:
     from .diagnose import Diagnoser
@@ -42,7 +43,7 @@ def _trace(spec: ModelSpec, force_N: float, travel_m: float) -> MeasuredTest | N
         result = simulate(spec.build(force_N), travel_m=travel_m, **SIM_OPTIONS)
     except (ValueError, ArithmeticError):
         return None
-    if result.status == "held" or result.t[-1] <= 0:
+    if result.status is Outcome.HELD or result.t[-1] <= 0:
         return None
     t_s = np.arange(0, int(math.floor(result.t[-1] * RATE_HZ + 1e-9)) + 1) / RATE_HZ
     if len(t_s) < 4:
@@ -83,7 +84,7 @@ def deciding_experiment(a: tuple[str, ModelSpec], b: tuple[str, ModelSpec], sigm
         rows.append({"load_N": force, "difference_mm": delta,
                      "ratio": delta / sigma_mm if sigma_mm > 0 else None,
                      "repeats": repeats_needed(delta, sigma_mm), "travel_mm": where,
-                     "note": "" if found.status == "travel" else f"{b[0]}: {found.status}"})
+                     "note": "" if found.status is Outcome.TRAVEL else f"{b[0]}: {found.status}"})
     usable = [r for r in rows if r["difference_mm"] is not None and r["repeats"] is not None]
     split = [r for r in rows if r.get("holds")]
     # a load where one model holds and the other slides decides at once; the highest such load is the least

@@ -27,6 +27,7 @@ from ..result import SimulationResult
 from ..simulate import simulate
 from ..specimen import Foundation, Specimen, reference
 from .discrepancy import TestDiscrepancy, discrepancy_group, group_by_force
+from ..outcome import Outcome
 
 EffectSpec = tuple[str, tuple[tuple[str, float], ...]]
 
@@ -158,11 +159,11 @@ def evaluate(task: EvalTask) -> EvalResult:
     tests = unread_tests(task.spec, task.tests)
     result = _simulate_cached(task.spec, model, tests)
     threshold = None
-    if result.status == "held" and task.report:
+    if result.status is Outcome.HELD and task.report:
         from ..statics import sliding_threshold
         threshold = float(sliding_threshold(model))
     found = tuple(discrepancy_group(tests, result, task.report))
-    return EvalResult(task.force_N, result.status, result.message, found, threshold,
+    return EvalResult(task.force_N, result.status.label, result.message, found, threshold,
                       result if task.keep_result else None)
 
 

@@ -141,7 +141,7 @@ def test_effect_fit_recovers_end_friction(case_a_data) -> None:
     assert 0 < fit.stderr_["end_friction"]["phi_deg"] < 2.0
     assert fit.error_mm_ < 0.2 * fit.baseline_error_mm_
     assert set(fit.error_by_load_) == set(LOADS)
-    assert fit.predict(40.0).status == "travel"
+    assert fit.predict(40.0).status.label == "travel"
     # adding an effect the model already has refits it, from the value given
     given = ModelSpec.from_effects([make_effect("end_friction:phi_deg=4")])
     refit = EffectFit(["end_friction"], given, executor="serial").fit(case_a_data)
