@@ -111,6 +111,11 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
     ppo_config = load_config(config)
     if train and f"{loads[0]:g}" not in {f"{f:g}" for f in eval_loads(ppo_config)}:
         raise ValueError(f"{config}: eval_loads must include {loads[0]:g} N, the load of the learning-curve plot")
+    eval_freq = int((ppo_config.get("train") or {}).get("eval_freq", 0))
+    if train and timesteps is not None and timesteps < eval_freq:
+        raise ValueError(f"--timesteps {timesteps}: fewer than {config}'s train.eval_freq = {eval_freq}, so no "
+                         f"evaluation would run and the study has no learning curve to read; train at least "
+                         f"{eval_freq} steps")
     if doc is not None and Path(doc).exists() and not overwrite_doc:
         raise ValueError(f"--doc {doc}: file exists; choose a new name or pass --overwrite-doc")
     env_kwargs = ppo_config.get("env", {})

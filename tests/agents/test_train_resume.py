@@ -153,3 +153,10 @@ def test_no_resume_removes_the_previous_runs_checkpoints(tmp_path) -> None:
     assert again.timesteps == 1024
     assert sorted(p.name for p in (run / "checkpoints").iterdir()) == ["ppo_1024_steps.zip",
                                                                       "ppo_vecnormalize_1024_steps.pkl"]
+
+
+def test_study_refuses_a_budget_below_one_evaluation_before_training(tmp_path) -> None:
+    from experiments.study import run_study
+    with pytest.raises(ValueError, match="eval_freq"):
+        run_study(tmp_path / "out", ppo_dir=tmp_path / "runs", seeds=(0,), timesteps=2048, log=lambda s: None)
+    assert not (tmp_path / "runs").exists()
