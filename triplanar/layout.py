@@ -60,14 +60,6 @@ class Layout:
         """Whether ``namespace`` (a module's ``globals()``) holds every one of :meth:`constants` under its name."""
         return all(key in namespace and namespace[key] == value for key, value in self.constants().items())
 
-    def export(self, namespace: dict[str, Any]) -> None:
-        """Write :meth:`constants` into ``namespace`` (a module's ``globals()``); never overwrite another value. Names
-        made this way are invisible to a linter: new code assigns them explicitly (:meth:`offsets`)."""
-        for key, value in self.constants().items():
-            if namespace.get(key, value) != value:
-                raise ValueError(f"layout {self.prefix}*: {key} is already {namespace[key]}, not {value}")
-            namespace[key] = value
-
     def describe(self, array: Any) -> dict[str, Any]:
         """An array in this layout as ``{field: value or list}``, for people and tests."""
         return {f.name: float(array[f.offset]) if f.size == 1 else [float(v) for v in array[self[f.name]]]

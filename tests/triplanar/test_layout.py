@@ -10,15 +10,10 @@ from triplanar import driver, kernel as K, stepping
 from triplanar.layout import Layout
 
 
-def test_offsets_follow_sizes_and_are_exported() -> None:
+def test_offsets_follow_sizes() -> None:
     layout = Layout("X_", "N_X", [("A", 3, "a"), ("B", 1, "b"), ("C", 2, "c")], start=5)
     assert layout.constants() == {"X_A": 5, "X_B": 8, "X_C": 9, "N_X": 11}
-    namespace: dict = {}
-    layout.export(namespace)
-    assert namespace["X_C"] == 9
     assert layout.describe(np.arange(11.0)) == {"A": [5.0, 6.0, 7.0], "B": 8.0, "C": [9.0, 10.0]}
-    with pytest.raises(ValueError, match="already"):
-        layout.export({"X_A": 0})
     with pytest.raises(ValueError, match="twice"):
         Layout("Y_", "N_Y", [("A", 1, ""), ("A", 1, "")])
 
