@@ -40,14 +40,52 @@ def _effects(data: dict, source: str) -> dict:
     return effects
 
 
-def specimen_from_fit(path: str | Path, specimen: Specimen) -> Specimen:
-    """``specimen`` (the drawing the fit started from) with the fitted specimen parameters of ``path``."""
+# The geometry that makes a specimen this bench's (its friction, mass and mass centre are what a fit may change).
+GEOMETRY = ("contact_points_m", "load_point_A_m", "load_point_B_m")
+
+
+def drawing_record(specimen: Specimen, foundation: Foundation) -> dict:
+    """What ``triplanar fit`` records in ``fit.json`` of the drawing it fitted on (``"drawing"``): the specimen's
+    geometry and the foundation planes' normals, so that a fit is refused as the prior of another bench."""
+    return {"specimen": {name: np.asarray(getattr(specimen, name), dtype=float).tolist() for name in GEOMETRY},
+            "foundation_normals": [np.asarray(p.normal, dtype=float).tolist() for p in foundation.planes]}
+
+
+def _same(given: object, expected: np.ndarray) -> bool:
+    try:
+        array = np.asarray(given, dtype=float)
+    except (TypeError, ValueError):
+        return False
+    return array.shape == expected.shape and bool(np.allclose(array, expected, atol=1e-9))
+
+
+def _check_drawing(data: dict, source: str, specimen: Specimen, foundation: Foundation) -> None:
+    drawing = data.get("drawing")
+    if not isinstance(drawing, dict) or not isinstance(drawing.get("specimen"), dict):
+        raise PriorError(f"{source}: drawing: missing (triplanar fit records the specimen geometry and foundation it "
+                         "fitted on; a fit.json without them cannot be checked against this bench: fit again)")
+    for name in GEOMETRY:
+        if not _same(drawing["specimen"].get(name), np.asarray(getattr(specimen, name), dtype=float)):
+            raise PriorError(f"{source}: drawing.specimen.{name}: fitted on another specimen than the bench's")
+    normals = drawing.get("foundation_normals")
+    if not isinstance(normals, list) or len(normals) != len(foundation.planes):
+        raise PriorError(f"{source}: drawing.foundation_normals: missing or not {len(foundation.planes)} planes")
+    for i, (given, plane) in enumerate(zip(normals, foundation.planes)):
+        if not _same(given, np.asarray(plane.normal, dtype=float)):
+            raise PriorError(f"{source}: drawing.foundation_normals[{i}]: fitted on another foundation than the "
+                             "bench's")
+
+
+def specimen_from_fit(path: str | Path, specimen: Specimen, foundation: Foundation) -> Specimen:
+    """``specimen`` (the drawing the fit started from) with the fitted specimen parameters of ``path``; refused
+    (naming the field) when the fit was made on another specimen geometry or foundation."""
     source = str(path)
     try:
         data = json.loads(Path(path).read_text(encoding="utf-8"))
     except (OSError, json.JSONDecodeError) as exc:
         raise PriorError(f"{source}: cannot read a fit.json ({exc})") from exc
     effects = _effects(data, source)
+    _check_drawing(data, source, specimen, foundation)
     tip, friction = float(specimen.tip_friction_deg), list(np.asarray(specimen.friction_deg, dtype=float))
     for name, params in effects.items():
         if name not in SPECIMEN_EFFECTS:
@@ -70,14 +108,14 @@ def load_prior(path: str | Path, specimen: Specimen, foundation: Foundation) -> 
     ``foundation``; :class:`PriorError` names the field that does not fit."""
     path = Path(path)
     if path.suffix == ".json":
-        return specimen_from_fit(path, specimen)
+        return specimen_from_fit(path, specimen, foundation)
     if path.suffix != ".toml":
         raise PriorError(f"{path}: a prior is a fit.json or a specimen .toml")
     given, given_foundation = load_toml(path)
     for i, (a, b) in enumerate(zip(given_foundation.planes, foundation.planes)):
         if not np.allclose(a.normal, b.normal, atol=1e-12):
             raise PriorError(f"{path}: foundation.planes[{i}]: not the bench's plane ({a} against {b})")
-    for name in ("contact_points_m", "load_point_A_m", "load_point_B_m"):
+    for name in GEOMETRY:
         if not np.allclose(getattr(given, name), getattr(specimen, name), atol=1e-9):
             raise PriorError(f"{path}: specimen.{name}: another specimen than the bench's")
     return given

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from envs.core import make_config
-from triplanar.prior import PriorError, load_prior
+from triplanar.prior import PriorError, drawing_record, load_prior
 from triplanar.specimen import Foundation, Plane, to_toml
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -22,11 +22,27 @@ def _drawing():
     return make_config(None).base_specimen()
 
 
-def _fit_json(tmp_path: Path, effects: dict) -> Path:
+def _fit_json(tmp_path: Path, effects: dict, drawing: dict | None = None) -> Path:
     path = tmp_path / "fit.json"
     path.write_text(json.dumps({"model": "case B", "steps": [{"added": None, "effects": {}},
-                                                             {"added": "x", "effects": effects}]}))
+                                                             {"added": "x", "effects": effects}],
+                                "drawing": drawing_record(*_drawing()) if drawing is None else drawing}))
     return path
+
+
+def test_fit_json_of_another_drawing_or_without_one_refused(tmp_path):
+    specimen, foundation = _drawing()
+    record = drawing_record(specimen, foundation)
+    moved = json.loads(json.dumps(record))
+    moved["specimen"]["load_point_A_m"] += 0.005
+    with pytest.raises(PriorError, match=r"drawing\.specimen\.load_point_A_m"):
+        load_prior(_fit_json(tmp_path, {"end_friction": {"phi_deg": 6.5}}, moved), specimen, foundation)
+    tilted = json.loads(json.dumps(record))
+    tilted["foundation_normals"][1] = [0.0, 1.0, 0.0]
+    with pytest.raises(PriorError, match=r"drawing\.foundation_normals\[1\]"):
+        load_prior(_fit_json(tmp_path, {"end_friction": {"phi_deg": 6.5}}, tilted), specimen, foundation)
+    with pytest.raises(PriorError, match="drawing: missing"):
+        load_prior(_fit_json(tmp_path, {"end_friction": {"phi_deg": 6.5}}, {}), specimen, foundation)
 
 
 def test_fit_json_becomes_the_specimen(tmp_path):

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import argparse
 
+from ..cli_args import load_specimen
+from ..prior import drawing_record
+
 NAME = "fit"
 HELP = ("add effects to your model and fit their parameters (--add NAME, repeatable), or let forward "
         "selection add effects until the error stops falling (--forward); plots the error after each addition")
@@ -79,7 +82,8 @@ def run(args: argparse.Namespace) -> int:
             steps = steps or more[:1]
             steps += more[1:]
             current, stop = sel.spec_, sel.stop_reason_
-    result = {"model": spec.describe(), "fitted_model": current.describe(), "steps": steps, "stop_reason": stop}
+    result = {"model": spec.describe(), "fitted_model": current.describe(), "steps": steps, "stop_reason": stop,
+              "drawing": drawing_record(*load_specimen(args.specimen))}
     write_json(result, out / "fit.json")
     if args.json:
         write_json(result, args.json)
