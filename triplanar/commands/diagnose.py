@@ -24,8 +24,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_worker_arguments(parser)
 
 
-def format_param(name: str, value: float, ci: list[float] | None, status: str | None) -> str:
-    """``name = value [low, high]``, or what kept it from having an interval."""
+def format_param(name: str, value: float, ci: list[float] | None, status: str | None,
+                 profile: list[float] | None = None, model: list[float] | None = None) -> str:
+    """``name = value [low, high]`` (then ``profile [low, high]`` and ``model form [low, high]`` when the
+    profile-likelihood interval and the one that admits model-form error are given), or what kept it from having an
+    interval."""
     if status == "fixed":
         return f"{name} = {value:.4g} (fixed)"
     if ci is None:
@@ -33,7 +36,9 @@ def format_param(name: str, value: float, ci: list[float] | None, status: str | 
         return f"{name} = {value:.4g} ({why.get(status or '', 'no interval')})"
     note = {"at_bound": " (at the edge of its range)",
             "unidentified": " (not identified: the interval spans its whole plausible range)"}.get(status or "", "")
-    return f"{name} = {value:.4g} [{ci[0]:.4g}, {ci[1]:.4g}]{note}"
+    prof = f" profile [{profile[0]:.4g}, {profile[1]:.4g}]" if profile is not None else ""
+    prof += f" model form [{model[0]:.4g}, {model[1]:.4g}]" if model is not None else ""
+    return f"{name} = {value:.4g} [{ci[0]:.4g}, {ci[1]:.4g}]{prof}{note}"
 
 
 def format_report(report: dict) -> str:
@@ -44,13 +49,15 @@ def format_report(report: dict) -> str:
              + (f"; instrument noise {noise['instrument_noise_mm']:.3f} mm, scatter it and the specimen explain "
                 f"{noise['expected_scatter_mm']:.3f} mm" if noise.get("expected_scatter_mm") else ""),
              "", "  rank  effect                    " + ("cv error mm" if report.get("cross_validated", True) else
-                                                         "in-sample mm") + "  improvement  parameters [95% interval]"]
+                                                         "in-sample mm") + "  improvement  parameters [95% interval]"
+             " (the named entry's profile-likelihood one, and the one that admits model-form error)"]
     ranked = sorted([(c["cv_error_mm"], c["effect"], c) for c in report["candidates"]]
                     + [(c["cv_error_mm"], f"{c['effect']} (refit)", c) for c in report.get("refit_results", [])],
                     key=lambda x: (x[0] != x[0], x[0]))
     for i, (_, label, c) in enumerate(ranked, start=1):
-        params = ", ".join(format_param(k, v, c.get("param_ci95", {}).get(k), c.get("param_status", {}).get(k))
-                           for k, v in c["params"].items())
+        params = ", ".join(format_param(k, v, c.get("param_ci95", {}).get(k), c.get("param_status", {}).get(k),
+                                        (c.get("param_profile_ci95") or {}).get(k),
+                                        (c.get("param_model_ci95") or {}).get(k)) for k, v in c["params"].items())
         if c.get("per_test"):
             from ..workbench.pertest import describe
             params = ", ".join([params, *(describe(k, summary) for k, summary in c["per_test"].items())])

@@ -70,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
             current = fit.spec_
             steps.append({"added": add[i], "refitted": add[i] in fit.refitted_,
                           "given": fit.refitted_.get(add[i]), "effects": fit.params_, "param_stderr": fit.stderr_,
-                          "param_ci95": fit.ci95_, "param_status": fit.status_,
+                          "param_ci95": fit.ci95_, "param_profile_ci95": fit.profile_ci95_, "param_status": fit.status_,
                           "at_bound": list(fit.at_bound_), "error_mm": fit.error_mm_,
                           **({"per_test": fit.per_test_summary_} if fit.per_test_ else {}),
                           "error_by_load_mm": {f"{k:g}": v for k, v in fit.error_by_load_.items()}})
@@ -112,7 +112,8 @@ def run(args: argparse.Namespace) -> int:
         errs, cis, status = s["param_stderr"], s.get("param_ci95") or {}, s.get("param_status") or {}
         params = "; ".join(f"{e}: " + ", ".join(
             format_param(k, v, cis.get(e, {}).get(k),
-                         status.get(e, {}).get(k) or (None if k in cis.get(e, {}) else "fixed")) if cis else
+                         status.get(e, {}).get(k) or (None if k in cis.get(e, {}) else "fixed"),
+                         (s.get("param_profile_ci95") or {}).get(e, {}).get(k)) if cis else
             (f"{k} = {v:.4g} +- {errs[e][k]:.2g}" if k in errs.get(e, {}) else f"{k} = {v:.4g} (fixed)")
             for k, v in ps.items()) for e, ps in s["effects"].items())
         if s.get("per_test"):

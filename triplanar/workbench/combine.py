@@ -73,7 +73,8 @@ def combine(diag: Diagnoser, tests: Sequence[MeasuredTest], max_effects: int = 3
         if current <= diag.explained_factor * diag.repeat_scatter_mm_:
             break
         nxt = type(diag)(diag.candidates, diag.folds, diag.executor, False, diag.max_nfev, refit_given=False,
-                         start=diag.start, combine=False)
+                         start=diag.start, combine=False,
+                         model_form=False)
         nxt.friction_scatter_deg = diag.friction_scatter_deg
         nxt.fit(tests, base, refit=added or None)
         # the best plausible entry by cross-validated error (nxt.best_ judges improvement against nxt's baseline,

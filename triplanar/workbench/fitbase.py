@@ -15,6 +15,8 @@ from .spec import EvalResult, EvalTask, evaluate
 
 #: A free parameter at most this fraction of its range from a bound is "at the bound" (implausible).
 AT_BOUND = 0.01
+#: Finite-difference step, as a fraction of each parameter's fit range (every fit's, and the profiles').
+DIFF_STEP = 2e-3
 
 
 def safe_evaluate(task: EvalTask) -> EvalResult:

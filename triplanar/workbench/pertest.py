@@ -41,11 +41,9 @@ from scipy.optimize import least_squares
 from ..measurement import MeasuredTest
 from .candidates import Candidate
 from .discrepancy import TestDiscrepancy
-from .fitbase import AT_BOUND, FitOutcome, ScaledBox, safe_evaluate
+from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, safe_evaluate
 from .spec import EvalTask, ModelSpec, spec_with_values
 
-#: Finite-difference step, as a fraction of each parameter's fit range (as :data:`fit.DIFF_STEP`).
-DIFF_STEP = 2e-3
 #: Least-squares evaluations of one test's profile (warm-started ones converge in 3-6).
 INNER_NFEV = 20
 
