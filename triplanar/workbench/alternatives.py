@@ -5,8 +5,8 @@ parameter *if that model's form is right*. When something the model lacks mimics
 viscous drag resists the motion more at higher speed and load, as end friction does), the fit absorbs it into the
 parameter and leaves no residual: no allowance built from residuals can see it. What can be seen is how much the
 estimate depends on the form chosen. So the named entry is fitted again jointly with each *alternative*: every
-registered one-parameter physical effect (library and plugin effects alike) that is neither in the model nor
-named, on all tests, warm-started at the named values (the grid scan tries the alternative's parameter with the
+registered one-parameter effect, physical or instrumental (library and plugin effects alike: a load cell that reads
+5 % high is taken for a friction angle 5 deg too large), that is neither in the model nor named, on all tests, warm-started at the named values (the grid scan tries the alternative's parameter with the
 named ones moved along: :func:`triplanar.workbench.fit.grid_start`). An alternative is *supported* by the data when
 its parameter stands away from its neutral value by more than ``t(1 - 0.025 / k, n_tests - 1 - p)`` cluster-robust
 standard errors (``k`` alternatives: a family-wise 5 % test, Bonferroni) and does not rest at the edge of its range;
@@ -40,18 +40,17 @@ if TYPE_CHECKING:
     from .sweep import CandidateResult, CandidateTask
 
 #: Least-squares evaluations of an alternative's joint fit (after its grid scan).
-ALTERNATIVE_NFEV = 20
+ALTERNATIVE_NFEV = 10
 
 
 def alternative_names(diag: Diagnoser, best: CandidateResult) -> list[str]:
-    """Registered one-parameter physical effects, neither in ``diag``'s model nor the named ``best``."""
+    """Registered one-parameter effects (physics or instrument), neither in ``diag``'s model nor the named ``best``."""
     taken = {*diag.user_base_.effect_names, *diag.refit_, best.effect}
     out = []
     for name, cls in REGISTRY.items():
         params = cls.parameters.values()
         free = [p for p in params if p.free or p.per_test]
-        if (name not in taken and getattr(cls, "acts_on", "physics") == "physics" and len(free) == 1
-                and not free[0].per_test):
+        if name not in taken and len(free) == 1 and not free[0].per_test:
             out.append(name)
     return out
 
