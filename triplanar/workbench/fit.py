@@ -7,7 +7,8 @@ fit first scans a coarse grid so that it does not polish a local minimum near it
 
 Uncertainty (``stderr``): the cluster-robust sandwich ``(J'J)^-1 (sum_t J_t' r_t r_t' J_t) (J'J)^-1`` with
 one cluster per test (samples of one trace are strongly correlated; tests are the independent units),
-with the small-sample factor n/(n-p).
+with each test's residuals as they would be had the fit not seen it (CR3, the delete-one-test jackknife in closed
+form: :func:`~triplanar.workbench.fitbase.cluster_robust_stderr`).
 
 :func:`run_fit` is the pure unit of work of a sweep (a :class:`FitTask` in, a :class:`FitOutcome` out);
 :class:`EffectFit` is the estimator a user calls (``fit``, ``score``, ``predict``).
@@ -30,7 +31,7 @@ from .candidates import Candidate, refit_candidate, resolve
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .intervals import interval95
 from .executor import ExecutorLike, executor_scope
-from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, safe_evaluate
+from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
 
 
@@ -176,28 +177,19 @@ def _others_step(problem: Problem, u: np.ndarray) -> np.ndarray:
 
 
 def sandwich_stderr(problem: Problem, u: np.ndarray, jac: np.ndarray) -> np.ndarray:
-    """Cluster-robust (one cluster per test) standard errors in natural units."""
+    """Cluster-robust (one cluster per test, CR3: :func:`~triplanar.workbench.fitbase.cluster_robust_stderr`)
+    standard errors in natural units."""
     r, found = problem.evaluate(u)
-    scale = problem.hi - problem.lo
-    jn = jac / scale[None, :]                         # d r / d x (natural units)
-    bread = jn.T @ jn
-    try:
-        inv = np.linalg.pinv(bread)
-    except np.linalg.LinAlgError:
-        return np.full(problem.n, math.inf)
-    meat = np.zeros_like(bread)
-    start = 0
+    jn = jac / (problem.hi - problem.lo)[None, :]                         # d r / d x (natural units)
+    blocks, res, start = [], [], 0
     for d in found:
         stop = start + len(d.residuals)
-        g = jn[start:stop].T @ r[start:stop]
-        meat += np.outer(g, g)
+        blocks.append(jn[start:stop])
+        res.append(r[start:stop])
         start = stop
-    n_tests, p = len(found), problem.n
-    if n_tests <= p:        # no degrees of freedom left for the scatter: no standard error (and no 0 x inf)
-        return np.full(p, math.inf)
-    factor = n_tests / (n_tests - p)
-    cov = inv @ meat @ inv * factor
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    if not blocks:
+        return np.full(problem.n, math.inf)
+    return cluster_robust_stderr(blocks, res)
 
 
 def solve(problem: Problem, start: np.ndarray | None = None, max_nfev: int = 30,
