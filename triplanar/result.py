@@ -10,7 +10,7 @@ from typing import NamedTuple
 import numpy as np
 
 from . import kernel as K
-from .interpolate import CubicHermite, distinct_times
+from .interpolate import CubicHermite, distinct_times, linear
 from .measurement import MeasuredTest, write_measurements
 from .model import Model
 from .outcome import Outcome, event_name
@@ -203,7 +203,7 @@ class SimulationResult:
         s = self.travel
         if travel.size and (travel.min() < 0 or travel.max() > s[-1] + 1e-12):
             raise ValueError(f"travel must lie within [0, {s[-1]:.6g}] m, the simulated range")
-        t = np.interp(travel, s, self.t)
+        t = linear(travel, s, self.t)      # the start of the Newton refinement on the cubic
         for _ in range(3):
             pos, vel = self._travel_path.evaluate(t, derivative=True)
             t = np.clip(t - (pos - travel) / np.maximum(vel, 1e-9), self.t[0], self.t[-1])

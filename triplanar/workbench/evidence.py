@@ -25,6 +25,7 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from ..interpolate import linear
 from ..measurement import MeasuredTest
 from .discrepancy import MM, TestDiscrepancy, rms
 
@@ -133,7 +134,7 @@ def residual_spectrum(d: TestDiscrepancy) -> tuple[np.ndarray, np.ndarray] | Non
         ok = np.isfinite(series)
         if ok.sum() < 24:
             continue
-        y = np.interp(grid, t[ok], series[ok])
+        y = linear(grid, t[ok], series[ok])
         y = y - basis @ np.linalg.lstsq(basis, y, rcond=None)[0]
         power += np.abs(np.fft.rfft(y * window)) ** 2
     return np.fft.rfftfreq(len(grid), dt), power

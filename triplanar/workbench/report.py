@@ -19,6 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..interpolate import linear
 from ..paths import travel
 from ..plotting import MEASURED, MODEL, overhead_axes, panel_grid, plot_traces, save_figure
 from ..specimen import reference
@@ -213,8 +214,7 @@ def plot_time_residuals(before: Sequence, after: Sequence | None, path: str | Pa
             row[1].plot(d.t_s, d.lateral_mm[:, 0], color=colour(d.force_N), lw=0.7)
             spec = residual_spectrum(d)
             if spec is not None and np.any(spec[1] > 0):
-                spectra.append(np.interp(grid, spec[0], spec[1] / np.median(spec[1][spec[0] >= 2.0]),
-                                         right=np.nan))
+                spectra.append(linear(grid, spec[0], spec[1] / np.median(spec[1][spec[0] >= 2.0]), right=np.nan))
         if spectra:
             row[2].semilogy(grid, np.nanmedian(np.array(spectra), axis=0), color="black", lw=1)
         row[0].set_ylabel(f"{label}\ntravel lag, model - measured (mm)", fontsize=8)
