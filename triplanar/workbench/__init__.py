@@ -8,7 +8,7 @@ Python API (each step is also a CLI command: ``triplanar compare|diagnose|fit``)
     cmp = compare(tests, model); print(cmp.summary())       # discrepancy table + where it fails
     diag = Diagnoser().fit(tests, model)                    # which effect is missing?
     print(diag.report_["verdict"], diag.report_["missing_effect"], diag.report_["confidence"])
-    fit = EffectFit(["end_friction"], model).fit(tests)     # add it, fit its parameter
+    fit = EffectFit(["end_friction"]).fit(tests, model)     # add it, fit its parameter
     print(fit.params_, fit.stderr_, fit.baseline_error_mm_, "->", fit.error_mm_)
     sel = ForwardSelection().fit(tests, model)              # diagnose-and-add until the error stops falling
 
