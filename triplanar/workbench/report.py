@@ -19,6 +19,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..atomic import write_atomic
 from ..interpolate import linear
 from ..paths import travel
 from ..plotting import MEASURED, MODEL, overhead_axes, panel_grid, plot_traces, save_figure
@@ -290,9 +291,8 @@ def write_json(data: dict, path: str | Path) -> Path:
     import json
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(_clean(data), indent=1) + "\n", encoding="utf-8")
-    tmp.replace(path)
+    text = json.dumps(_clean(data), indent=1) + "\n"
+    write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     return path
 
 
