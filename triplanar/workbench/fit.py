@@ -284,7 +284,8 @@ def fitted_parameters(cand: Candidate, outcome: FitOutcome, starts: Mapping[str,
         p = recipe[k]
         at_bound = f"{cand.effect}.{k}" in outcome.at_bound
         if p.per_test:
-            out[k] = replace(p, stderr=errs.get(k), status="per_test", at_bound=at_bound)
+            out[k] = replace(p, stderr=errs.get(k), status="per_test", at_bound=at_bound,
+                             per_test_values=dict(outcome.per_test.get(cand.effect, {}).get(k, {})))
             continue
         ci, status = interval95(values[k], errs[k], 0.0, n_tests, len(cand.shared), outcome.train_error_mm,
                                 scatter_mm, (p.spec.lower, p.spec.upper), float(starts[k]), p.bounds, bias_ratio)

@@ -23,7 +23,7 @@ fitted). :mod:`triplanar.workbench.intervals` says how the interval and its stat
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from ..effects import REGISTRY, EffectError, Parameter
@@ -46,6 +46,7 @@ class FitParameter:
         per_test: fitted for each test (its shared ``value`` is then the start; ``per_test_values`` by test).
         stderr, ci95, status, at_bound: the fit's standard error, 95 % interval ``(low, high)``, status
             (``STATUSES``) and whether it ended at an end of its range.
+        per_test_values: a per-test parameter's fitted value in each test (``{test_id: value}``).
     """
 
     effect: str
@@ -60,6 +61,7 @@ class FitParameter:
     ci95: tuple[float, float] | None = None
     status: str = "unfitted"
     at_bound: bool = False
+    per_test_values: dict[str, float] | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
         spec = self.spec
@@ -112,7 +114,7 @@ class FitParameter:
         if not spec.lower <= v <= spec.upper:
             raise EffectError(f"parameter {self.qualified}: {v} is outside [{spec.lower}, {spec.upper}] {spec.unit}")
         return replace(self, value=v, vary=False, per_test=False, start=None, stderr=None, ci95=None,
-                       status="fixed", at_bound=False)
+                       status="fixed", at_bound=False, per_test_values=None)
 
     def freed(self, min: float | None = None, max: float | None = None, start: float | None = None) -> FitParameter:
         """This parameter moved by the fit over ``min``-``max`` (default: its range if it varies already, else
@@ -124,13 +126,14 @@ class FitParameter:
         lo, hi = (lo if min is None else float(min)), (hi if max is None else float(max))
         s = s0 if start is not None else min_max(s0, lo, hi)
         return replace(self, value=s, vary=True, min=lo, max=hi, start=s, stderr=None, ci95=None,
-                       status="unfitted", at_bound=False)
+                       status="unfitted", at_bound=False, per_test_values=None)
 
     def to_json(self) -> dict[str, Any]:
         return {"value": self.value, "vary": self.vary, "min": self.min, "max": self.max, "start": self.start,
                 "per_test": self.per_test, "stderr": self.stderr,
                 "ci95": list(self.ci95) if self.ci95 is not None else None, "status": self.status,
-                "at_bound": self.at_bound}
+                "at_bound": self.at_bound,
+                **({"per_test_values": dict(self.per_test_values)} if self.per_test_values is not None else {})}
 
     def __str__(self) -> str:
         if not self.vary:

@@ -77,6 +77,18 @@ def test_a_fit_result_lands_on_the_parameter_objects() -> None:
     still = fitted_parameters(cand, moved, cand.start_values(), 12, 0.5, 1.0)["phi_deg"]
     assert (still.status, still.ci95, still.at_bound) == ("not_moved", None, False)
     assert math.isfinite(still.stderr)
+    assert still.to_json() == {"value": 0.0, "vary": True, "min": 0.0, "max": 30.0, "start": 0.0, "per_test": False,
+                               "stderr": 0.4, "ci95": None, "status": "not_moved", "at_bound": False}
+
+
+def test_a_per_test_parameter_carries_each_tests_value() -> None:
+    cand = default_candidate("tip_offset").with_per_test(["offset_m"])
+    outcome = FitOutcome("fit", ("tip_offset",), {"tip_offset": {}}, {}, (), 1.0, {}, {}, 3, 0.0, "",
+                         per_test={"tip_offset": {"offset_m": {"t1": -0.004, "t2": 0.003}}})
+    offset = fitted_parameters(cand, outcome, cand.start_values(), 2, 0.5, 1.0)["offset_m"]
+    assert (offset.per_test, offset.status, offset.ci95) == (True, "per_test", None)
+    assert offset.per_test_values == {"t1": -0.004, "t2": 0.003}
+    assert offset.fixed().per_test_values is None
 
 
 def test_effect_fit_takes_the_base_model_in_fit_and_refuses_it_in_the_constructor() -> None:
