@@ -177,6 +177,22 @@ class DiagnosisResult:
         """The result of a fitted :class:`~triplanar.workbench.diagnose.Diagnoser`."""
         return cls(diag.report_, diag.baseline_, diag.after_, diag.base_.describe(), diag.best_label_)
 
+    @property
+    def verdict(self) -> str:
+        return self.data["verdict"]
+
+    @property
+    def missing_effect(self) -> str | None:
+        return self.data["missing_effect"]
+
+    @property
+    def confidence(self) -> str:
+        return self.data["confidence"]
+
+    @property
+    def reason(self) -> str:
+        return self.data["reason"]
+
     def to_json(self) -> dict[str, Any]:
         return self.data
 

@@ -56,6 +56,7 @@ def test_diagnosis_result_prints_the_verdict_of_its_report() -> None:
               "reason": "it explains the data", "seconds": 1.0}
     result = DiagnosisResult(report, [], None, "case B", None)
     assert result.to_json() is report
+    assert (result.verdict, result.missing_effect, result.confidence) == ("library_effect", "end_friction", "high")
     text = result.report()
     assert "end_friction" in text and "phi_deg = 8 [7, 9]" in text
     assert "verdict: library_effect   missing effect: end_friction   confidence: high" in text
