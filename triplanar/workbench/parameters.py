@@ -23,6 +23,7 @@ fitted). :mod:`triplanar.workbench.intervals` says how the interval and its stat
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -68,7 +69,7 @@ class FitParameter:
         if self.status not in STATUSES:
             raise ValueError(f"parameter {self.qualified}: status {self.status!r} is not one of {', '.join(STATUSES)}")
         for what, v in (("value", self.value), ("min", self.min), ("max", self.max)):
-            if not isinstance(v, (int, float)) or math.isnan(v) and what != "value":
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or math.isnan(v) and what != "value":
                 raise EffectError(f"parameter {self.qualified}: {what} = {v!r} is not a number")
         if self.vary:
             if not spec.lower <= self.min < self.max <= spec.upper:

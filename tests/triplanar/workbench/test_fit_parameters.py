@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from triplanar.effects import REGISTRY, EffectError
@@ -55,6 +56,9 @@ def test_bounds_and_values_outside_the_effect_are_refused_naming_the_parameter()
         phi.fixed(90.0)
     with pytest.raises(EffectError, match=r"end_friction\.phi_deg: value 20\.0 is outside its fit range"):
         FitParameter("end_friction", "phi_deg", 20.0, True, 0.0, 10.0)
+    with pytest.raises(EffectError, match=r"end_friction\.phi_deg: min = nan is not a number"):
+        FitParameter("end_friction", "phi_deg", 1.0, True, math.nan, 10.0)
+    assert FitParameter("end_friction", "phi_deg", np.float32(1.0), True, np.float64(0.0), 10).value == 1.0
     with pytest.raises(EffectError, match="has no parameter 'phi'"):
         FitParameter("end_friction", "phi", 1.0)
     with pytest.raises(EffectError, match="unknown effect"):
