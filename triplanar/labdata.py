@@ -344,6 +344,8 @@ def write_lab_data(path: str | os.PathLike[str], tests: Sequence[MeasuredTest], 
         target.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(path)  # left by a killed earlier run
     remove_stale_temporaries(truth_file)
+    # Two files, one transaction: write_atomic replaces one file; here the truth JSON carries the CSV's digest, goes
+    # in first, and is put back if the CSV then cannot be moved into place, so the renames are done by hand.
     tmp_csv = Path(temporary_name(path))
     tmp_json = Path(temporary_name(truth_file))
     backup: bytes | None = None

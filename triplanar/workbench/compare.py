@@ -17,6 +17,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..atomic import write_atomic
 from ..measurement import MeasuredTest, read_measurements
 from ..specimen import Specimen
 from .discrepancy import TestDiscrepancy, rms
@@ -88,13 +89,15 @@ class Comparison:
         """Write the table (atomically); numbers with 6 significant digits, NaN as empty."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.tmp")
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.DictWriter(fh, fieldnames=TABLE_COLUMNS, lineterminator="\n")
-            writer.writeheader()
-            for row in self.rows():
-                writer.writerow({k: _fmt(v) for k, v in row.items()})
-        tmp.replace(path)
+        rows = self.rows()
+
+        def write(tmp: Path) -> None:
+            with open(tmp, "w", newline="", encoding="utf-8") as fh:
+                writer = csv.DictWriter(fh, fieldnames=TABLE_COLUMNS, lineterminator="\n")
+                writer.writeheader()
+                for row in rows:
+                    writer.writerow({k: _fmt(v) for k, v in row.items()})
+        write_atomic(path, write)
         return path
 
     def cp_by_load(self) -> tuple[list[float], np.ndarray]:
