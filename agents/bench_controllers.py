@@ -18,6 +18,7 @@ from envs.triplanar_shear_v1 import B_RANGE, B_STAGE
 from triplanar import kernel as K
 from triplanar.interpolate import linear
 from triplanar.model import Loading, Model, paper_model
+from triplanar.paths import lateral_dilation
 from triplanar.simulate import simulate
 
 from .limit import LimitController
@@ -143,7 +144,7 @@ def nominal_reference(load_N: float, travel_m: float) -> tuple[np.ndarray, np.nd
     """The nominal specimen's hydrostatic path (case C) at ``load_N``: travel (m) and the mean lateral (x3)
     displacement of the contact points (m), from rest. What the laboratory can compute before the test."""
     run = simulate(paper_model("C", float(load_N)), travel_m=travel_m)
-    lateral = (run.contact_points[:, :, 2] - run.contact_points[0, :, 2]).mean(axis=1)
+    lateral = lateral_dilation(run.contact_points, run.contact_points[0]).mean(axis=1)
     return np.asarray(run.travel, dtype=float), lateral
 
 

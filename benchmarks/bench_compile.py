@@ -39,8 +39,9 @@ print(json.dumps({"import_s": t1 - t0, "work_s": t2 - t1, "cpu_s": ru.ru_utime +
 STAGES = {
     "simulate": """
 from triplanar import paper_model, simulate
+from triplanar.outcome import Outcome
 t1 = time.perf_counter()
-assert simulate(paper_model("A", 30.0)).status.label == "travel"
+assert simulate(paper_model("A", 30.0)).status is Outcome.TRAVEL
 """,
     "env step": """
 import gymnasium as gym

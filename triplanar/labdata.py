@@ -59,6 +59,7 @@ from .result import SimulationResult
 from .simulate import simulate
 from .specimen import Foundation, Specimen, reference, to_toml
 from .outcome import Outcome
+from .paths import travel as path_travel
 
 #: Plan dimensions of the foundation block, metres: along e1, along e3 (paper section 2, Fig. 4).
 FOUNDATION_PLAN_M = (0.30, 0.45)
@@ -236,7 +237,7 @@ def run_lab_test(job: LabTest) -> tuple[dict, MeasuredTest | None]:
     if len(t_s) < 3:
         return {**record, "reason": f"only {len(t_s)} sample(s) at {rate_hz:g} Hz on the foundation block"}, None
     record.update(n_samples=len(t_s), duration_s=float(t_s[-1]),
-                  final_travel_m=float(clean[-1, 0, 0] - clean[0, 0, 0]))
+                  final_travel_m=float(path_travel(clean[-1], clean[0])))
     return record, MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=recorded_t[:cut])
 
 

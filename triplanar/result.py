@@ -14,6 +14,7 @@ from .interpolate import CubicHermite, distinct_times, linear
 from .measurement import MeasuredTest, write_measurements
 from .model import Model
 from .outcome import Outcome, event_name
+from .paths import travel as path_travel
 
 
 class Event(NamedTuple):
@@ -131,7 +132,7 @@ class SimulationResult:
     @property
     def travel(self) -> np.ndarray:
         """CP1's displacement along e1 since rest (m): the paper's Delta q1."""
-        return self.contact_points[:, 0, 0] - self.contact_points[0, 0, 0]
+        return path_travel(self.contact_points, self.contact_points[0])  # a simulated path: from its first row
 
     @cached_property
     def rotation_deg(self) -> np.ndarray:

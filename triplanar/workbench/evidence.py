@@ -27,6 +27,7 @@ import numpy as np
 
 from ..interpolate import linear
 from ..measurement import MeasuredTest
+from ..outcome import Outcome
 from .discrepancy import MM, TestDiscrepancy, rms
 
 #: Frequencies below this are trends, not oscillations (a test lasts 0.3-1 s).
@@ -221,7 +222,7 @@ def _level_scores(found: Sequence[TestDiscrepancy]) -> dict[str, tuple[list[floa
     from scipy.stats import t as student_t
     groups: dict[float, list[dict[str, float]]] = {}
     for d in found:
-        if d.status == "travel":
+        if d.status == Outcome.TRAVEL.label:
             groups.setdefault(d.force_N, []).append(_features(d))
     names = sorted({k for rows in groups.values() for row in rows for k in row})
     out = {}
