@@ -50,10 +50,10 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from . import PAPER_LOADS_N
+from .atomic import remove_stale_temporaries, temporary_path
 from .effects import ContactFriction, Effect, EndFriction
 from .executor import ExecutorLike, run_tasks
-from .measurement import (MeasuredTest, MeasurementError, remove_stale_temporaries, temporary_name,
-                          write_measurements)
+from .measurement import MeasuredTest, MeasurementError, write_measurements
 from .model import Model, paper_model
 from .result import SimulationResult
 from .simulate import simulate
@@ -347,8 +347,8 @@ def write_lab_data(path: str | os.PathLike[str], tests: Sequence[MeasuredTest], 
     remove_stale_temporaries(truth_file)
     # Two files, one transaction: write_atomic replaces one file; here the truth JSON carries the CSV's digest, goes
     # in first, and is put back if the CSV then cannot be moved into place, so the renames are done by hand.
-    tmp_csv = Path(temporary_name(path))
-    tmp_json = Path(temporary_name(truth_file))
+    tmp_csv = temporary_path(path)
+    tmp_json = temporary_path(truth_file)
     backup: bytes | None = None
     try:
         try:

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import matplotlib.pyplot as plt
 import pytest
 
-from triplanar.atomic import temporary_path, write_atomic
+from triplanar.atomic import MARK, remove_stale_temporaries, temporary_path, write_atomic
 from triplanar.plotting import save_figure
 
 
@@ -45,8 +48,33 @@ def test_a_failed_write_creates_nothing(tmp_path) -> None:
 def test_the_temporary_is_hidden_beside_the_target_with_its_suffix_last(tmp_path) -> None:
     seen: list[Path] = []
     write_atomic(tmp_path / "model.zip", lambda tmp: (seen.append(tmp), tmp.write_bytes(b"zip")))
-    assert seen == [temporary_path(tmp_path / "model.zip")]
-    assert seen[0].parent == tmp_path and seen[0].name.startswith(".") and seen[0].suffix == ".zip"
+    assert len(seen) == 1 and seen[0].parent == tmp_path and seen[0].name.startswith(".model.")
+    assert seen[0].name.endswith(f"{MARK}.zip") and f".{os.getpid()}." in seen[0].name
+
+
+def test_each_call_gets_its_own_temporary(tmp_path) -> None:
+    assert temporary_path(tmp_path / "a.csv") != temporary_path(tmp_path / "a.csv")  # two threads never share one
+
+
+def _dead_pid() -> int:
+    dead = subprocess.Popen([sys.executable, "-c", "pass"])
+    dead.wait()
+    return dead.pid
+
+
+def test_a_dead_writers_temporaries_are_removed_and_nothing_else(tmp_path) -> None:
+    target = tmp_path / "lab.csv"
+    dead = _dead_pid()
+    stale = temporary_path(target, pid=dead)
+    live = temporary_path(target, pid=os.getpid())                      # a writer still running
+    other = temporary_path(tmp_path / "lab.csv.truth.json", pid=dead)   # another target's
+    near = tmp_path / f".lab.{dead}.partial.csv"                        # not a name temporary_path makes
+    for p in (target, stale, live, other, near):
+        p.write_text("x")
+    remove_stale_temporaries(target)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(p.name for p in (target, live, other, near))
+    remove_stale_temporaries(tmp_path / "lab.csv.truth.json")
+    assert not other.exists()
 
 
 def test_save_figure_writes_a_png_and_closes_the_figure(tmp_path) -> None:
