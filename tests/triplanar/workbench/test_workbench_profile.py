@@ -1,5 +1,6 @@
 """Profile-likelihood intervals: equal to the curvature interval where the model is linear in the parameter,
-asymmetric where it is not, and each end where the calibrated profile statistic reaches the quantile."""
+asymmetric where it is not, and each end where the calibrated profile statistic reaches the quantile; the model-form
+interval, the hull of the supported alternatives."""
 
 from __future__ import annotations
 
@@ -86,3 +87,20 @@ def test_an_end_the_objective_never_reaches_is_the_bound() -> None:
     value = float(problem.natural(u)[0])
     ci = profile_interval(problem, u, jac, 0, 0.5, 2.0, (0.0, 5.0))
     assert ci is not None and ci[0] == 0.0 and ci[1] == pytest.approx(value + 1.0, abs=0.02)
+
+
+def test_the_model_form_interval_is_the_hull_of_the_supported_alternatives() -> None:
+    from triplanar.workbench.alternatives import model_interval, moved_outside
+    from triplanar.workbench.sweep import CandidateResult
+    best = CandidateResult("end_friction", {"phi_deg": 8.6}, {"phi_deg": 0.2}, 0.5, 0.5, 0.9, True, [],
+                           param_ci95={"phi_deg": [8.2, 9.0]}, param_profile_ci95={"phi_deg": [8.25, 9.1]})
+    best.model_form = {
+        "rate_friction": {"params": {"phi_deg": 7.7}, "added": {"a": 0.1}, "supported": True},
+        "cohesion": {"params": {"phi_deg": 6.0}, "added": {"c_N": 0.01}, "supported": False},   # not asked for
+        "tip_offset": {"params": {"phi_deg": 8.5}, "added": {"offset_m": 0.001}, "supported": True},
+    }
+    assert model_interval(best) == {"phi_deg": [7.7, 9.1]}
+    moved = moved_outside(best)
+    assert [(m["alternative"], m["value"]) for m in moved] == [("rate_friction", 7.7)]
+    best.model_form["rate_friction"]["supported"] = False
+    assert moved_outside(best) == [] and model_interval(best) == {"phi_deg": [8.2, 9.1]}

@@ -52,8 +52,8 @@ def test_forward_selection_finds_the_users_effect_beside_end_friction(user_drag)
 
 
 def test_the_named_entrys_interval_admits_a_supported_alternative_form(user_drag) -> None:
-    """End friction alone on data with a small drag: a one-parameter alternative that the data support moves the
-    estimate; the model-form interval covers that value and confidence is not high when it leaves the curvature one."""
+    """End friction alone on data with a small drag: rate friction, the library's look-alike of a drag, is an
+    alternative the data support; the model-form interval holds its value of the angle and the truth."""
     tests, _ = generate_lab_data(loads=(27.8, 32.5, 37.5, 42.5, 47.5, 55.6), repeats=2, seed=501, noise_m=5e-4,
                                  effects=[make_effect("end_friction:phi_deg=8"),
                                           make_effect("user_viscous_drag:c_N_s_m=3")])
@@ -67,8 +67,10 @@ def test_the_named_entrys_interval_admits_a_supported_alternative_form(user_drag
     supported = {n: a for n, a in best.model_form.items() if a["supported"]}
     for alt in supported.values():
         assert hull[0] <= alt["params"]["phi_deg"] <= hull[1]
+    assert "rate_friction" in supported, best.model_form     # the library's look-alike of a drag is asked for
+    assert hull[0] <= 8.0 <= hull[1]
     moved = [a for a in supported.values() if not ci[0] <= a["params"]["phi_deg"] <= ci[1]]
-    assert moved, best.model_form          # the drag shifts end friction; a library look-alike (rate friction) says so
-    assert diag.confidence_ != "high" and "depends on the model's form" in diag.reason_
+    if moved:       # (the rule itself: test_workbench_profile.py; here the CR3 interval may already hold the value)
+        assert diag.confidence_ != "high" and "depends on the model's form" in diag.reason_
     assert "user_viscous_drag" not in best.model_form
     assert diag.report_["candidates"][0]["param_model_ci95"]["phi_deg"] == hull
