@@ -369,8 +369,11 @@ def looks_like_radians(values: list[float]) -> bool:
 
 
 def _check_angles(specimen: Specimen, foundation: Foundation, source: str | None) -> None:
-    """Refuse angle fields whose values all look like radians (like millimetres for metres), with the override."""
-    groups = {"specimen.friction_deg": [*specimen.friction_deg, specimen.tip_friction_deg],
+    """Refuse angle fields whose values all look like radians (like millimetres for metres), with the override.
+    Each field on its own: a file copied from the reference keeps its tip friction in degrees while the contact
+    angles were typed in radians."""
+    groups = {"specimen.friction_deg": list(specimen.friction_deg),
+              "specimen.tip_friction_deg": [specimen.tip_friction_deg],
               "foundation.planes[*].dip_deg": [p.dip_deg for p in foundation.planes]}
     for where, values in groups.items():
         if looks_like_radians(values):
