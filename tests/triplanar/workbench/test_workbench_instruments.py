@@ -62,7 +62,8 @@ def test_clean_data_show_no_systematic_error() -> None:
 @pytest.mark.slow
 def test_smooth_residuals_of_a_missing_library_effect_are_not_periodic_and_a_ripple_still_is() -> None:
     """Case-A data with rate friction (a = 0.2) against case A: the smooth lag residual leaked into the lowest
-    spectral bins (3 of these 10 datasets were flagged periodic at about 3.5 Hz before the peak had to be a peak)."""
+    spectral bins (3 of these 10 datasets were flagged periodic at about 3.5 Hz before the peak had to be a peak); and
+    case-A data with actuator rise, cohesion or a tip offset against case A, 5 datasets each."""
     from triplanar import EFFECTS
     from triplanar.workbench.evidence import time_domain
     from triplanar.workbench.scenarios import ThrustRipple
@@ -70,6 +71,11 @@ def test_smooth_residuals_of_a_missing_library_effect_are_not_periodic_and_a_rip
     for seed in range(200, 210):
         found = discrepancies(evaluate_spec(CASE_A, lab(["rate_friction:a=0.2"], seed, loads, 2)))
         assert time_domain(found)["dominant_frequency_hz"] is None, seed
+    # the other smooth library effects a model as given may lack (compare and diagnose read the same time_domain)
+    for lacking in ("actuator_rise:tau_s=0.05", "cohesion:c_N=0.4", "tip_offset:offset_m=-0.005"):
+        for seed in range(200, 205):
+            found = discrepancies(evaluate_spec(CASE_A, lab([lacking], seed, loads, 2)))
+            assert time_domain(found)["dominant_frequency_hz"] is None, (lacking, seed)
     EFFECTS[ThrustRipple.name] = ThrustRipple
     try:
         tests, _ = generate_lab_data(loads=loads, repeats=2, seed=200, effects=[
