@@ -32,7 +32,7 @@ import numpy as np
 from envs.core import ShearConfig
 from triplanar.prior import fitted_intervals, load_prior
 
-from .estimator import PARAMETERS, SpecimenBank
+from .estimator import GEOMETRY, PARAMETERS, SpecimenBank
 from .planner import CEMPlanner
 
 
@@ -58,6 +58,7 @@ class MPCController:
     thrust_envelope: float = 0.4
     min_ess: float = 3.0
     model_error_m: float = 3e-4
+    vary_geometry: bool = True
     seed: int = 0
     stage_bandwidth_hz: float = 20.0
     thrust_bandwidth_hz: float = 30.0
@@ -79,7 +80,8 @@ class MPCController:
                       "stage_bandwidth_hz": self.stage_bandwidth_hz, "thrust_bandwidth_hz": self.thrust_bandwidth_hz,
                       "latency_s": self.latency_s, "sensor_noise_m": 0.0}
         self.bank = SpecimenBank(prior, foundation, env_kwargs, int(self.bank_size), int(self.seed),
-                                 float(self.sensor_noise_m), float(self.model_error_m), intervals)
+                                 float(self.sensor_noise_m), float(self.model_error_m), intervals,
+                                 bool(self.vary_geometry))
         self.bank.reset(load_N)
         self.planner = CEMPlanner(int(self.horizon), int(self.block), int(self.samples), int(self.iterations),
                                   int(self.elites), float(self.sigma0), int(self.seed), float(self.pace_s),
@@ -116,7 +118,7 @@ class MPCController:
         mean, _ = self.bank.mean_cov()
         self.info = {"estimator_fallback": self.bank.diverged, "fallbacks": self.bank.fallbacks, "held": held,
                      "planned": planned,
-                     "estimate": dict(zip(PARAMETERS, (float(v) for v in mean))),
+                     "estimate": dict(zip(PARAMETERS + GEOMETRY, (float(v) for v in mean))),
                      "tip_friction_interval_deg": self.bank.interval(0),
                      "cpu_s": time.process_time() - start}
         return self._last.astype(np.float32)

@@ -9,7 +9,7 @@ import pytest
 
 from agents.heldout import nominal_benches, run_episode
 from agents.limit import LimitController
-from agents.rollout import predict, snapshot
+from envs.prediction import predict, snapshot
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
 
 IDEAL = {"stage_bandwidth_hz": math.inf, "thrust_bandwidth_hz": math.inf, "latency_s": 0.0}
