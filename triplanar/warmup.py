@@ -16,11 +16,8 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-import warnings
-from .outcome import Outcome
 
-# Gymnasium's notice on making TriPlanarShear-v0 now that v1 exists (its convention for an older version).
-V0_OUT_OF_DATE = r".*TriPlanarShear-v0 is out of date"
+from .outcome import Outcome
 
 
 def warm_physics() -> None:
@@ -48,11 +45,10 @@ def warm_envs() -> bool:
         import gymnasium as gym
         import numpy as np
 
-        import envs  # noqa: F401 (registers TriPlanarShear-v0)
+        from envs import v0_on_purpose  # (importing envs registers TriPlanarShear-v0 and -v1)
     except ImportError:
         return False
-    with warnings.catch_warnings():  # v0 on purpose: its kernels are the ones to compile
-        warnings.filterwarnings("ignore", message=V0_OUT_OF_DATE, category=DeprecationWarning)
+    with v0_on_purpose():  # its kernels are the ones to compile
         env = gym.make("TriPlanarShear-v0")
         env.reset(seed=0)
         env.step(np.zeros(2, np.float32))

@@ -23,12 +23,13 @@ from typing import Callable, Iterable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..effects import REGISTRY, Effect, EffectError
+from ..effects import Effect, EffectError
 from ..measurement import MeasuredTest
 from ..result import SimulationResult
 from .candidates import Candidate, refit_candidate, resolve
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .intervals import interval95
+from .parameters import FitParameter
 from .executor import ExecutorLike, executor_scope
 from .fitbase import AT_BOUND, FitOutcome, ScaledBox, safe_evaluate
 from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
@@ -271,17 +272,39 @@ def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None,
                       problem.nfev, time.perf_counter() - began, str(message), tuple(float(v) for v in x))
 
 
+def fitted_parameters(cand: Candidate, outcome: FitOutcome, starts: Mapping[str, float], n_tests: int,
+                      scatter_mm: float, bias_ratio: float) -> dict[str, FitParameter]:
+    """One :class:`FitParameter` per parameter of ``cand`` with the joint fit's result: held ones first, then
+    the free ones in the recipe's order; intervals as :func:`~triplanar.workbench.intervals.interval95` (no
+    folds, so no jackknife part)."""
+    recipe = cand.parameters()
+    values, errs = outcome.values.get(cand.effect, {}), outcome.stderr.get(cand.effect, {})
+    out = {k: recipe[k] for k in cand.fixed}
+    for k in cand.free:
+        p = recipe[k]
+        at_bound = f"{cand.effect}.{k}" in outcome.at_bound
+        if p.per_test:
+            out[k] = replace(p, stderr=errs.get(k), status="per_test", at_bound=at_bound,
+                             per_test_values=dict(outcome.per_test.get(cand.effect, {}).get(k, {})))
+            continue
+        ci, status = interval95(values[k], errs[k], 0.0, n_tests, len(cand.shared), outcome.train_error_mm,
+                                scatter_mm, (p.spec.lower, p.spec.upper), float(starts[k]), p.bounds, bias_ratio)
+        out[k] = replace(p, value=values[k], start=float(starts[k]), stderr=errs[k],
+                         ci95=tuple(ci) if ci is not None else None, status="at_bound" if at_bound else status,
+                         at_bound=at_bound)
+    return out
+
+
 # -- the estimator -----------------------------------------------------------------------------------
 
 class EffectFit:
     """Add effects to a model and fit their parameters (scikit-learn style).
 
-    >>> fit = EffectFit(["end_friction"]).fit(tests)          # doctest: +SKIP
+    >>> fit = EffectFit(["end_friction"]).fit(tests, model)   # doctest: +SKIP
     >>> fit.params_, fit.stderr_, fit.error_mm_, fit.score(other_tests)
 
     Args:
         add: effect names or :class:`~triplanar.workbench.candidates.Candidate` recipes, fitted jointly.
-        base: the user's model (default: case B, reference specimen).
         start: optional ``{effect: {param: value}}`` start values (warm start).
         executor: runs the per-force simulations of each evaluation (``None``: 2-process pool).
         max_nfev: least-squares evaluations allowed.
@@ -289,7 +312,9 @@ class EffectFit:
             addition to those the effect declares ``Parameter(per_test=True)``; fitted by profiling
             (:mod:`~triplanar.workbench.pertest`).
 
-    Fitted attributes: ``params_``, ``stderr_``, ``at_bound_``, ``spec_`` (base plus the fitted effects),
+    Fitted attributes: ``parameters_`` (``{effect: {param: FitParameter}}``: value, vary, range, start, per-test,
+    standard error, interval and status of each parameter on one object, :mod:`~triplanar.workbench.parameters`)
+    and its views ``params_``, ``stderr_``, ``at_bound_``, ``ci95_``, ``status_``; ``spec_`` (base plus the fitted effects),
     ``effects_`` (Effect objects), ``baseline_error_mm_``, ``error_mm_``, ``baseline_by_load_``,
     ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``, ``ci95_`` (``{effect:
     {param: [low, high] or None}}``, :mod:`~triplanar.workbench.intervals`; the jackknife part is absent here, there
@@ -303,24 +328,26 @@ class EffectFit:
     the model gave them.
     """
 
-    def __init__(self, add: Sequence[str | Candidate], base: ModelSpec | None = None,
-                 start: Mapping[str, Mapping[str, float]] | None = None, executor: ExecutorLike = None,
-                 max_nfev: int = 40, per_test: Mapping[str, Sequence[str]] | None = None):
+    def __init__(self, add: Sequence[str | Candidate], start: Mapping[str, Mapping[str, float]] | None = None,
+                 executor: ExecutorLike = None, max_nfev: int = 40,
+                 per_test: Mapping[str, Sequence[str]] | None = None, *, base: object = None):
+        if base is not None or isinstance(start, ModelSpec):
+            raise TypeError("EffectFit takes the base model in fit(tests, base), as Diagnoser and ForwardSelection "
+                            "do: EffectFit(add, ...).fit(tests, base)")
         self.add = list(add)
         self.per_test = {k: list(v) for k, v in (per_test or {}).items()}
-        self.base = base or ModelSpec()
         self.start = start
         self.executor = executor
         self.max_nfev = max_nfev
 
     def _candidates(self) -> list[Candidate]:
         # an effect the model already has is *refitted*: freed, starting at the value the user gave it
-        given = {n: dict(v) for n, v in self.base.effects}
+        given = {n: dict(v) for n, v in self.base_.effects}
         again = [a for a in self.add if isinstance(a, str) and a in given]
         self.refitted_ = {a: dict(given[a]) for a in again}
-        self.fit_base_ = replace(self.base, effects=tuple(e for e in self.base.effects if e[0] not in again))
-        cands = [refit_candidate(a, given[a], self.base.specimen) if isinstance(a, str) and a in given
-                 else resolve([a], specimen=self.base.specimen)[0] for a in self.add]
+        self.fit_base_ = replace(self.base_, effects=tuple(e for e in self.base_.effects if e[0] not in again))
+        cands = [refit_candidate(a, given[a], self.base_.specimen) if isinstance(a, str) and a in given
+                 else resolve([a], specimen=self.base_.specimen)[0] for a in self.add]
         names = [c.effect for c in cands]
         duplicate = {n for n in names if names.count(n) > 1} | (set(names) & set(self.fit_base_.effect_names))
         if duplicate:
@@ -333,13 +360,16 @@ class EffectFit:
                               f"{', '.join(names)})")
         return [c.with_per_test(self.per_test[c.effect]) if c.effect in self.per_test else c for c in cands]
 
-    def fit(self, tests: Sequence[MeasuredTest]) -> EffectFit:
+    def fit(self, tests: Sequence[MeasuredTest], base: ModelSpec | None = None) -> EffectFit:
+        """Fit the added effects' parameters on ``tests`` with the model ``base`` (default: case B, reference
+        specimen) as the rest of the model."""
+        self.base_ = base or ModelSpec()
         cands = self._candidates()
         self.candidates_ = cands
         tests = list(tests)
         with executor_scope(self.executor, len(group_by_force(tests))) as ex:
             mapper = ex.map
-            self.baseline_ = discrepancies(evaluate_spec(self.base, tests, mapper))
+            self.baseline_ = discrepancies(evaluate_spec(self.base_, tests, mapper))
             start = None
             if self.start:
                 start = tuple(float(self.start.get(c.effect, {}).get(p, c.start_values()[p]))
@@ -355,29 +385,14 @@ class EffectFit:
                 self.discrepancies_ = evaluate_per_test(self.spec_, self.per_test_, tests, mapper)
             else:
                 self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
-        self.params_ = self.outcome_.values
-        self.stderr_ = self.outcome_.stderr
         from .evidence import model_form_allowance
         self.bias_ratio_ = model_form_allowance(self.discrepancies_)
-        self.at_bound_ = self.outcome_.at_bound
-        self.ci95_, self.status_ = {}, {}
-        scatter = repeat_scatter_mm(tests, self.base.rest_positions)
+        scatter = repeat_scatter_mm(tests, self.base_.rest_positions)
+        self.parameters_: dict[str, dict[str, FitParameter]] = {}
         for c in cands:
-            params = REGISTRY[c.effect].parameters
             starts = c.start_values() if start is None else dict(zip(c.shared, start[:len(c.shared)]))
-            ci, status = {}, {}
-            for p in c.shared:
-                ci[p], status[p] = interval95(self.params_[c.effect][p], self.stderr_[c.effect][p], 0.0, len(tests),
-                                              len(c.shared), self.outcome_.train_error_mm, scatter,
-                                              (params[p].lower, params[p].upper), float(starts[p]), c.bounds[p],
-                                              self.bias_ratio_)
-                if f"{c.effect}.{p}" in self.at_bound_:
-                    status[p] = "at_bound"
-            for p in c.per_test:
-                ci[p], status[p] = None, "per_test"
-            for p in c.fixed:
-                status[p] = "fixed"
-            self.ci95_[c.effect], self.status_[c.effect] = ci, status
+            self.parameters_[c.effect] = fitted_parameters(c, self.outcome_, starts, len(tests), scatter,
+                                                           self.bias_ratio_)
             if start is not None:
                 start = start[len(c.shared):]
         self.effects_: list[Effect] = self.spec_.build_effects()[len(self.fit_base_.effects):]
@@ -388,6 +403,36 @@ class EffectFit:
         from .pertest import summarize
         self.per_test_summary_ = {e: {p: summarize(v) for p, v in ps.items()} for e, ps in self.per_test_.items()}
         return self
+
+    # -- views of ``parameters_`` (the dictionaries of earlier versions, in the same order) ---------------
+    @property
+    def params_(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: value}}``: held and shared fitted values (per-test ones are in ``per_test_``)."""
+        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.parameters_.items()}
+
+    @property
+    def stderr_(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: standard error}}`` of the fitted shared parameters (the sandwich, ``fit`` module doc)."""
+        out = {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None} for e, ps in self.parameters_.items()}
+        return {e: v for e, v in out.items() if v}
+
+    @property
+    def ci95_(self) -> dict[str, dict[str, list[float] | None]]:
+        """``{effect: {param: [low, high] or None}}`` of the free parameters (per-test ones: ``None``)."""
+        return {c.effect: {k: (list(self.parameters_[c.effect][k].ci95) if self.parameters_[c.effect][k].ci95
+                               is not None else None) for k in (*c.shared, *c.per_test)} for c in self.candidates_}
+
+    @property
+    def status_(self) -> dict[str, dict[str, str]]:
+        """``{effect: {param: status}}`` (:mod:`~triplanar.workbench.parameters`)."""
+        return {c.effect: {k: self.parameters_[c.effect][k].status for k in (*c.shared, *c.per_test, *c.fixed)}
+                for c in self.candidates_}
+
+    @property
+    def at_bound_(self) -> tuple[str, ...]:
+        """``effect.param`` of the free parameters fitted to an end of their range (implausible)."""
+        return tuple(f"{c.effect}.{k}" for c in self.candidates_ for k in c.free
+                     if self.parameters_[c.effect][k].at_bound)
 
     def spec_for(self, test_id: str) -> ModelSpec:
         """The fitted model of one test (its own values of the per-test parameters; ``spec_`` without any)."""
@@ -407,7 +452,7 @@ class EffectFit:
     def score(self, tests: Sequence[MeasuredTest]) -> float:
         """Fraction of the base model's RMS discrepancy on ``tests`` that the fitted effects remove
         (1: perfect, 0: no better, negative: worse). Higher is better, as in scikit-learn."""
-        base = overall_error(discrepancies(evaluate_spec(self.base, tests)))
+        base = overall_error(discrepancies(evaluate_spec(self.base_, tests)))
         return 1.0 - self.error_mm(tests) / base if base > 0 else 0.0
 
     def predict(self, force_N: float, travel_m: float = 0.08) -> SimulationResult:

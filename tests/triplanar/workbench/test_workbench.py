@@ -144,7 +144,7 @@ def test_effect_fit_recovers_end_friction(case_a_data) -> None:
     assert fit.predict(40.0).status.label == "travel"
     # adding an effect the model already has refits it, from the value given
     given = ModelSpec.from_effects([make_effect("end_friction:phi_deg=4")])
-    refit = EffectFit(["end_friction"], given, executor="serial").fit(case_a_data)
+    refit = EffectFit(["end_friction"], executor="serial").fit(case_a_data, given)
     assert refit.refitted_ == {"end_friction": {"phi_deg": 4.0}}
     assert refit.params_["end_friction"]["phi_deg"] == pytest.approx(8.0, rel=0.15)
     with pytest.raises(EffectError, match="already in the model"):

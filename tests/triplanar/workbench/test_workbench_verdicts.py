@@ -80,7 +80,7 @@ def test_a_wrong_given_parameter_is_refitted_and_named() -> None:
     assert refit["ci95"][0] <= 8.0 <= refit["ci95"][1]
     assert refit["improvement"] > 0.7
     # the same from fit: an --add of an effect the model has frees it
-    fit = EffectFit(["end_friction"], given, executor="serial").fit(tests)
+    fit = EffectFit(["end_friction"], executor="serial").fit(tests, given)
     assert fit.refitted_ == {"end_friction": {"phi_deg": 4.0}}
     assert fit.params_["end_friction"]["phi_deg"] == pytest.approx(refit["fitted"], abs=0.05)
     assert fit.error_mm_ < 0.3 * fit.baseline_error_mm_
