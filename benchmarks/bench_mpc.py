@@ -163,6 +163,21 @@ def identify_then_control(fit: str, tip_deg: float | None, n: int) -> None:
               f"successes {row['mimicry_error_mm']:.2f} mm, score {row['score']:.2f} mm")
 
 
+def mpc_settings(pairs: list[str]) -> dict:
+    """``FIELD=VALUE`` pairs as MPCController settings (values parsed as JSON numbers or booleans)."""
+    from agents.mpc import MPCController
+    out = {}
+    for pair in pairs:
+        field, sep, value = pair.partition("=")
+        if not sep or field not in MPCController.__dataclass_fields__:
+            raise SystemExit(f"--mpc {pair!r}: expected FIELD=VALUE with FIELD one of MPCController's settings")
+        try:
+            out[field] = json.loads(value)
+        except json.JSONDecodeError:
+            raise SystemExit(f"--mpc {pair!r}: VALUE must be a number or true/false") from None
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--benches", type=int, default=50)
@@ -171,6 +186,9 @@ def main() -> None:
     parser.add_argument("--controllers", default="limit,mpc," + ",".join(SCRIPTED))
     parser.add_argument("--replan-every", type=int, default=None,
                         help="mpc replans every N control periods (default: the controller's, 2)")
+    parser.add_argument("--mpc", action="append", default=[], metavar="FIELD=VALUE",
+                        help="an MPCController setting for mpc and mpc_true, e.g. --mpc start_periods=0 (repeatable; "
+                             "the variants of docs/actuator-study.md)")
     parser.add_argument("--stream", type=int, default=HELDOUT_SEED,
                         help="draw the benches from this seed stream instead of the held-out one (an independent set)")
     parser.add_argument("--limit-sweep", action="store_true",
@@ -189,7 +207,9 @@ def main() -> None:
         return
     names = args.controllers.split(",")
     summary = {"benches": args.benches, "stream": args.stream, "controllers": {}}
-    mpc = {} if args.replan_every is None else {"replan_every": args.replan_every}
+    mpc = mpc_settings(args.mpc)
+    if args.replan_every is not None:
+        mpc["replan_every"] = args.replan_every
     own = {**SCRIPTED, "mpc": mpc, "mpc_true": mpc}
     for name in names:
         tasks = [(name, own.get(name, {}), i, args.benches, args.stream) for i in range(args.benches)]
