@@ -7,7 +7,8 @@ fit first scans a coarse grid so that it does not polish a local minimum near it
 
 Uncertainty (``stderr``): the cluster-robust sandwich ``(J'J)^-1 (sum_t J_t' r_t r_t' J_t) (J'J)^-1`` with
 one cluster per test (samples of one trace are strongly correlated; tests are the independent units),
-with the small-sample factor n/(n-p).
+with each test's residuals as they would be had the fit not seen it (CR3, the delete-one-test jackknife in closed
+form: :func:`~triplanar.workbench.fitbase.cluster_robust_stderr`).
 
 :func:`run_fit` is the pure unit of work of a sweep (a :class:`FitTask` in, a :class:`FitOutcome` out);
 :class:`EffectFit` is the estimator a user calls (``fit``, ``score``, ``predict``).
@@ -23,7 +24,7 @@ from typing import Callable, Iterable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..effects import Effect, EffectError
+from ..effects import REGISTRY, Effect, EffectError
 from ..measurement import MeasuredTest
 from ..result import SimulationResult
 from .candidates import Candidate, refit_candidate, resolve
@@ -31,11 +32,9 @@ from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .intervals import interval95
 from .parameters import FitParameter
 from .executor import ExecutorLike, executor_scope
-from .fitbase import AT_BOUND, FitOutcome, ScaledBox, safe_evaluate
+from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
 
-#: Finite-difference step, as a fraction of each parameter's fit range.
-DIFF_STEP = 2e-3
 
 
 # -- evaluating a model on tests --------------------------------------------------------------------
@@ -145,39 +144,53 @@ class Problem(ScaledBox):
 
 def grid_start(problem: Problem, candidate: Candidate, u0: np.ndarray | None = None) -> np.ndarray:
     """Scan the first candidate's coarse grid over its single parameter (the others held at ``u0``, default
-    the neutral start); return the best point (scaled), the start value included."""
+    the neutral start); return the best point (scaled), the start value included.
+
+    With other parameters fitted jointly (refits, forward selection's earlier entries), each grid point also tries
+    them moved by one Gauss-Newton step (:func:`_others_step`): their start values were fitted *without* the new
+    parameter and may sit far from its valley (end friction fitted alone absorbs a drag; with the drag held at any
+    grid value but zero, the old friction angle is worse than none, and the scan would return zero)."""
     u0 = problem.start() if u0 is None else np.asarray(u0, dtype=float)
     values = candidate.grid_values() + [candidate.start_values()[candidate.free[0]]]
     scaled = np.clip((np.array(values) - problem.lo[0]) / (problem.hi[0] - problem.lo[0]), 0.0, 1.0)
     grid = sorted({float(v) for v in scaled.round(12)})
     points = [np.concatenate([[g], u0[1:]]) for g in grid]
+    if problem.n > 1:
+        points += [_others_step(problem, u) for u in points]
     costs = [float(np.sum(problem.residuals(u) ** 2)) for u in points]
     return points[int(np.argmin(costs))]
 
 
+def _others_step(problem: Problem, u: np.ndarray) -> np.ndarray:
+    """``u`` with every parameter but the first moved by one Gauss-Newton step (forward differences, clipped to the
+    box): where the others would go with the first held."""
+    r0 = problem.residuals(u)
+    cols = []
+    for i in range(1, problem.n):
+        h = DIFF_STEP if u[i] + DIFF_STEP <= 1.0 else -DIFF_STEP
+        w = u.copy()
+        w[i] += h
+        cols.append((problem.residuals(w) - r0) / h)
+    step = np.linalg.lstsq(np.stack(cols, axis=1), -r0, rcond=None)[0]
+    out = u.copy()
+    out[1:] = np.clip(u[1:] + step, 0.0, 1.0)
+    return out
+
+
 def sandwich_stderr(problem: Problem, u: np.ndarray, jac: np.ndarray) -> np.ndarray:
-    """Cluster-robust (one cluster per test) standard errors in natural units."""
+    """Cluster-robust (one cluster per test, CR3: :func:`~triplanar.workbench.fitbase.cluster_robust_stderr`)
+    standard errors in natural units."""
     r, found = problem.evaluate(u)
-    scale = problem.hi - problem.lo
-    jn = jac / scale[None, :]                         # d r / d x (natural units)
-    bread = jn.T @ jn
-    try:
-        inv = np.linalg.pinv(bread)
-    except np.linalg.LinAlgError:
-        return np.full(problem.n, math.inf)
-    meat = np.zeros_like(bread)
-    start = 0
+    jn = jac / (problem.hi - problem.lo)[None, :]                         # d r / d x (natural units)
+    blocks, res, start = [], [], 0
     for d in found:
         stop = start + len(d.residuals)
-        g = jn[start:stop].T @ r[start:stop]
-        meat += np.outer(g, g)
+        blocks.append(jn[start:stop])
+        res.append(r[start:stop])
         start = stop
-    n_tests, p = len(found), problem.n
-    if n_tests <= p:        # no degrees of freedom left for the scatter: no standard error (and no 0 x inf)
-        return np.full(p, math.inf)
-    factor = n_tests / (n_tests - p)
-    cov = inv @ meat @ inv * factor
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    if not blocks:
+        return np.full(problem.n, math.inf)
+    return cluster_robust_stderr(blocks, res)
 
 
 def solve(problem: Problem, start: np.ndarray | None = None, max_nfev: int = 30,
@@ -318,7 +331,8 @@ class EffectFit:
     ``effects_`` (Effect objects), ``baseline_error_mm_``, ``error_mm_``, ``baseline_by_load_``,
     ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``, ``ci95_`` (``{effect:
     {param: [low, high] or None}}``, :mod:`~triplanar.workbench.intervals`; the jackknife part is absent here, there
-    are no folds), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
+    are no folds), ``profile_ci95_`` (the same, from the profile of the objective: :mod:`~triplanar.workbench.profile`;
+    empty with per-test parameters), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
     (effects of the model that were freed: ``{name: values the user gave}``), ``per_test_`` (``{effect: {param:
     {test_id: value}}}``, empty without per-test parameters; ``params_`` then holds the shared values, and the
     per-test parameters have the status ``per_test`` and no interval), ``per_test_summary_`` (``{effect: {param:
@@ -395,6 +409,7 @@ class EffectFit:
                                                            self.bias_ratio_)
             if start is not None:
                 start = start[len(c.shared):]
+        self.profile_ci95_ = {} if self.per_test_ else self._profile(cands, tests, scatter)
         self.effects_: list[Effect] = self.spec_.build_effects()[len(self.fit_base_.effects):]
         self.baseline_error_mm_ = overall_error(self.baseline_)
         self.error_mm_ = overall_error(self.discrepancies_)
@@ -403,6 +418,23 @@ class EffectFit:
         from .pertest import summarize
         self.per_test_summary_ = {e: {p: summarize(v) for p, v in ps.items()} for e, ps in self.per_test_.items()}
         return self
+
+    def _profile(self, cands: Sequence[Candidate], tests: Sequence[MeasuredTest],
+                 scatter: float) -> dict[str, dict[str, list[float] | None]]:
+        """Profile-likelihood intervals (:mod:`~triplanar.workbench.profile`) of the parameters that have a curvature
+        interval, with the same standard error and quantile."""
+        from .intervals import quantile, standard_error
+        from .profile import fitted_profile_intervals
+        problem = Problem(self.fit_base_, cands, tests)
+        names = problem.names
+        se = [standard_error(self.stderr_[e][p], 0.0, self.outcome_.train_error_mm, scatter, self.bias_ratio_)
+              if self.ci95_[e].get(p) is not None else math.nan for e, p in names]
+        bounds = [(REGISTRY[e].parameters[p].lower, REGISTRY[e].parameters[p].upper) for e, p in names]
+        found = fitted_profile_intervals(problem, self.outcome_.vector, se, quantile(len(tests), len(names)), bounds)
+        out: dict[str, dict[str, list[float] | None]] = {}
+        for (e, p), ci in zip(names, found):
+            out.setdefault(e, {})[p] = ci
+        return out
 
     # -- views of ``parameters_`` (the dictionaries of earlier versions, in the same order) ---------------
     @property

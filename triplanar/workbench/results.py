@@ -26,8 +26,11 @@ from .spec import ModelSpec
 __all__ = ["DiagnosisResult", "FitResult", "FitStep", "fit_added", "format_param"]
 
 
-def format_param(name: str, value: float, ci: Sequence[float] | None, status: str | None) -> str:
-    """``name = value [low, high]``, or what kept it from having an interval."""
+def format_param(name: str, value: float, ci: Sequence[float] | None, status: str | None,
+                 profile: Sequence[float] | None = None, model: Sequence[float] | None = None) -> str:
+    """``name = value [low, high]`` (then ``profile [low, high]`` and ``model form [low, high]`` when the
+    profile-likelihood interval and the one that admits model-form error are given), or what kept it from having an
+    interval."""
     if status == "fixed":
         return f"{name} = {value:.4g} (fixed)"
     if ci is None:
@@ -35,7 +38,9 @@ def format_param(name: str, value: float, ci: Sequence[float] | None, status: st
         return f"{name} = {value:.4g} ({why.get(status or '', 'no interval')})"
     note = {"at_bound": " (at the edge of its range)",
             "unidentified": " (not identified: the interval spans its whole plausible range)"}.get(status or "", "")
-    return f"{name} = {value:.4g} [{ci[0]:.4g}, {ci[1]:.4g}]{note}"
+    more = f" profile [{profile[0]:.4g}, {profile[1]:.4g}]" if profile is not None else ""
+    more += f" model form [{model[0]:.4g}, {model[1]:.4g}]" if model is not None else ""
+    return f"{name} = {value:.4g} [{ci[0]:.4g}, {ci[1]:.4g}]{more}{note}"
 
 
 def _by_load(errors: Mapping[float, float]) -> dict[str, float]:
@@ -63,6 +68,7 @@ class FitStep:
     per_test: dict[str, dict[str, Any]] = field(default_factory=dict)
     confidence: str | None = None
     reason: str | None = None
+    profile_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # profile.py
 
     @classmethod
     def model_as_given(cls, fit: EffectFit) -> FitStep:
@@ -72,7 +78,7 @@ class FitStep:
     def from_effect_fit(cls, added: str, fit: EffectFit) -> FitStep:
         return cls("fit", added, fit.params_, fit.stderr_, fit.error_mm_, dict(fit.error_by_load_), fit.ci95_,
                    fit.status_, tuple(fit.at_bound_), added in fit.refitted_, fit.refitted_.get(added),
-                   fit.per_test_summary_ if fit.per_test_ else {})
+                   fit.per_test_summary_ if fit.per_test_ else {}, profile_ci95=fit.profile_ci95_)
 
     @classmethod
     def from_selection(cls, step: SelectionStep) -> FitStep:
@@ -87,7 +93,8 @@ class FitStep:
             return {"added": None, "effects": self.effects, "param_stderr": self.stderr, "error_mm": self.error_mm,
                     "error_by_load_mm": _by_load(self.error_by_load)}
         return {"added": self.added, "refitted": self.refitted, "given": self.given, "effects": self.effects,
-                "param_stderr": self.stderr, "param_ci95": self.ci95, "param_status": self.status,
+                "param_stderr": self.stderr, "param_ci95": self.ci95,
+                **({"param_profile_ci95": self.profile_ci95} if self.profile_ci95 else {}), "param_status": self.status,
                 "at_bound": list(self.at_bound), "error_mm": self.error_mm,
                 **({"per_test": self.per_test} if self.per_test else {}),
                 "error_by_load_mm": _by_load(self.error_by_load)}
@@ -97,7 +104,7 @@ class FitStep:
         if cis:
             ci = cis.get(effect, {})
             status = self.status.get(effect, {}).get(name) or (None if name in ci else "fixed")
-            return format_param(name, value, ci.get(name), status)
+            return format_param(name, value, ci.get(name), status, self.profile_ci95.get(effect, {}).get(name))
         if name in self.stderr.get(effect, {}):
             return f"{name} = {value:.4g} +- {self.stderr[effect][name]:.2g}"
         return f"{name} = {value:.4g} (fixed)"
@@ -206,8 +213,9 @@ def _candidate_lines(report: Mapping[str, Any]) -> list[str]:
                     key=lambda x: (x[0] != x[0], x[0]))
     lines = []
     for i, (_, label, c) in enumerate(ranked, start=1):
-        params = ", ".join(format_param(k, v, c.get("param_ci95", {}).get(k), c.get("param_status", {}).get(k))
-                           for k, v in c["params"].items())
+        params = ", ".join(format_param(k, v, c.get("param_ci95", {}).get(k), c.get("param_status", {}).get(k),
+                                        (c.get("param_profile_ci95") or {}).get(k),
+                                        (c.get("param_model_ci95") or {}).get(k)) for k, v in c["params"].items())
         if c.get("per_test"):
             params = ", ".join([params, *(describe(k, summary) for k, summary in c["per_test"].items())])
         given = (" (given " + ", ".join(f"{k} = {v:.4g}" for k, v in c["given"].items()) + ")") if c.get("given") else ""
@@ -252,7 +260,8 @@ def format_diagnosis(report: Mapping[str, Any]) -> str:
              + (f"; instrument noise {noise['instrument_noise_mm']:.3f} mm, scatter it and the specimen explain "
                 f"{noise['expected_scatter_mm']:.3f} mm" if noise.get("expected_scatter_mm") else ""),
              "", "  rank  effect                    " + ("cv error mm" if report.get("cross_validated", True) else
-                                                         "in-sample mm") + "  improvement  parameters [95% interval]"]
+                                                         "in-sample mm") + "  improvement  parameters [95% interval]"
+             " (the named entry's profile-likelihood one, and the one that admits model-form error)"]
     lines += _candidate_lines(report)
     lines += _time_domain_lines(report)
     verdict = report["missing_effect"] or "none"
