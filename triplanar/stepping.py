@@ -201,12 +201,15 @@ def integrate(t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, armed:
     return out
 
 
-# integrate_ws in sections, compiled as dynamics_ws's are (triplanar/kernel.py: forceinline=True, inlined by LLVM into
-# the one caller ahead of numba's reference-count pruning; whole arrays and scalars in, scalars out).
+# integrate_ws in sections: whole arrays and scalars in, scalars out, as dynamics_ws's (triplanar/kernel.py), but
+# inlined by numba (inline="always") rather than by LLVM: these sections call the right-hand side, and a section
+# compiled on its own (forceinline) links in and optimises again the whole tree below it, which took the compile time
+# from an empty cache from 45 to 65 CPU-seconds; they run once per step, not per evaluation, and are as fast either
+# way (docs/performance.md).
 _STEP_TAKEN, _STEP_RETRY, _STEP_FAILED = 0, 1, 2
 
 
-@njit(cache=True, forceinline=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _try_step(method: int, t: float, y: np.ndarray, h: float, t_max: float, p: np.ndarray, armed: np.ndarray,
               rtol: float, atol: float, slow_speed: float, missed: np.ndarray, ws: np.ndarray) -> tuple:
     """One step from (t, y) into the workspace (``SW_YNEW``, its error ``SW_ERR``, ``SW_AUXNEW``): a fixed step cut
@@ -248,7 +251,7 @@ def _try_step(method: int, t: float, y: np.ndarray, h: float, t_max: float, p: n
     return _STEP_TAKEN, h_try, h, h_next, site
 
 
-@njit(cache=True, forceinline=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _step_event(method: int, t: float, y: np.ndarray, h_try: float, p: np.ndarray, armed: np.ndarray, site: int,
                 missed: np.ndarray, x1_target: float, slow_speed: float, ws: np.ndarray) -> tuple:
     """The first armed event the step crossed (-1: none; event values at its end into ``SW_EVNEW``), and whether it
@@ -276,7 +279,7 @@ def _step_event(method: int, t: float, y: np.ndarray, h_try: float, p: np.ndarra
     return hit, predicted, h_try
 
 
-@njit(cache=True, forceinline=True, error_model="numpy")
+@njit(cache=True, inline="always", error_model="numpy")
 def _after_step(hit: int, predicted: bool, t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,
                 x1_target: float, slow_speed: float, log: np.ndarray, ws: np.ndarray) -> tuple:
     """After an accepted step to (t, y): the event logged; a stop or a release applied (new modes, disarmed);
