@@ -201,137 +201,13 @@ def integrate(t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, armed:
     return out
 
 
-# integrate_ws in sections: whole arrays and scalars in, scalars out, as dynamics_ws's (triplanar/kernel.py), but
-# inlined by numba (inline="always") rather than by LLVM: these sections call the right-hand side, and a section
-# compiled on its own (forceinline) links in and optimises again the whole tree below it, which took the compile time
-# from an empty cache from 45 to 65 CPU-seconds; they run once per step, not per evaluation, and are as fast either
-# way (docs/performance.md).
-_STEP_TAKEN, _STEP_RETRY, _STEP_FAILED = 0, 1, 2
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _try_step(method: int, t: float, y: np.ndarray, h: float, t_max: float, p: np.ndarray, armed: np.ndarray,
-              rtol: float, atol: float, slow_speed: float, missed: np.ndarray, ws: np.ndarray) -> tuple:
-    """One step from (t, y) into the workspace (``SW_YNEW``, its error ``SW_ERR``, ``SW_AUXNEW``): a fixed step cut
-    to a sliding site's predicted stop (:func:`_predicted_stop`, :func:`_step_to_stop`), or a full one, DOPRI5's
-    checked against the tolerances. Returns (``_STEP_TAKEN``, ``_STEP_RETRY``: rejected, try again from ``h``, or
-    ``_STEP_FAILED``; the step taken ``h_try``; the step size ``h`` to go on with; the next step's ``h_next``; the
-    site whose stop the step was cut to, or -1)."""
-    fixed = method != METHOD_DOPRI5
-    y_new = ws[SW_YNEW, :N_STATE]
-    err = ws[SW_ERR, :N_STATE]
-    aux_new = ws[SW_AUXNEW, :N_AUX]
-    h_try = min(h, t_max - t)
-    site = -1
-    if fixed:
-        site, tau = _predicted_stop(y, p, ws[SW_AUX, :N_AUX], armed, slow_speed, missed, ws)
-        if site < 0 or tau >= h_try:
-            site = -1
-        else:
-            tau = max(tau, 1e-6 * h_try)  # (always progress: a huge deceleration must not stall time)
-    if site >= 0:
-        h_try = _step_to_stop(method, t, y, tau, h_try, p, site, slow_speed, y_new, err, aux_new, ws)
-        if h_try < 0.0:
-            return _STEP_FAILED, h_try, h, h, site
-    elif not _advance(method, t, y, h_try, p, y_new, err, aux_new, ws):
-        if not fixed and h_try > 1e-12:
-            ws[W_COUNT, C_NREJECT] += 1.0
-            return _STEP_RETRY, h_try, 0.25 * h_try, h, site
-        return _STEP_FAILED, h_try, h, h, site
-    h_next = h
-    if not fixed:
-        en = _error_norm(y, y_new, err, rtol, atol)
-        if en > 1.0:
-            h = h_try * max(0.2, 0.9 * en ** -0.2)
-            if h < 1e-12:
-                return _STEP_FAILED, h_try, h, h, site
-            ws[W_COUNT, C_NREJECT] += 1.0
-            return _STEP_RETRY, h_try, h, h, site
-        h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
-    return _STEP_TAKEN, h_try, h, h_next, site
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _step_event(method: int, t: float, y: np.ndarray, h_try: float, p: np.ndarray, armed: np.ndarray, site: int,
-                missed: np.ndarray, x1_target: float, slow_speed: float, ws: np.ndarray) -> tuple:
-    """The first armed event the step crossed (-1: none; event values at its end into ``SW_EVNEW``), and whether it
-    is the stop the step was cut to; another event is located (:func:`_locate`), the step shortened to it. Counts the
-    cut steps that missed their stop (``missed``). Returns (event, predicted, the step, < 0 if location failed)."""
-    ev_old = ws[SW_EVOLD, :N_EVENTS]
-    ev_new = ws[SW_EVNEW, :N_EVENTS]
-    event_values_ws(ws[SW_YNEW, :N_STATE], p, ws[SW_AUXNEW, :N_AUX], x1_target, slow_speed, ev_new, ws)
-    hit = -1
-    for k in range(N_EVENTS):
-        if (k == EV_SLOW and not armed[0]) or (EV_STOP <= k < EV_RELEASE and not armed[k - EV_STOP + 1]) \
-                or (k == EV_TIP_STOP and not armed[4]):
-            continue
-        if ev_new[k] > 0.0 and ev_old[k] <= 0.0:
-            hit = k
-            break
-    predicted = site >= 0 and hit == (EV_TIP_STOP if site == 3 else EV_STOP + site)
-    if site >= 0 and not predicted:
-        missed[site] += 1
-    else:
-        missed[:] = 0
-    if hit >= 0 and not predicted:  # (a predicted stop is already where it happens)
-        h_try = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
-                        ws[SW_YNEW, :N_STATE], ws[SW_ERR, :N_STATE], ws[SW_AUXNEW, :N_AUX], ws)
-    return hit, predicted, h_try
-
-
-@njit(cache=True, inline="always", error_model="numpy")
-def _after_step(hit: int, predicted: bool, t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,
-                x1_target: float, slow_speed: float, log: np.ndarray, ws: np.ndarray) -> tuple:
-    """After an accepted step to (t, y): the event logged; a stop or a release applied (new modes, disarmed);
-    directions at rest refreshed; the event values, aux and f(t, y) of the new state into ``SW_EVOLD``, ``SW_AUX``,
-    the first stage row; stop events armed once their site has moved. Returns (the outcome, RUNNING to go on;
-    False if the right-hand side failed)."""
-    aux_new = ws[SW_AUXNEW, :N_AUX]
-    dummy = ws[SW_DY, :N_STATE]
-    dy_ready = hit < 0 or predicted  # (an event search leaves f of its last trial in dummy)
-    ws[W_COUNT, C_NSTEP] += 1.0
-    status = RUNNING
-    if hit >= 0:
-        status = EVENT_OUTCOME[hit]
-        _log_event(log, ws[W_COUNT], t, hit)
-    second_stop = status == STOPPED and hit != EV_TIP_STOP and ws[W_MODES, M_STUCK] >= 0.0
-    if status == STOPPED and not second_stop or status == RELEASED:
-        apply_mode_event_ws(hit, t, y, p, ws)
-        if hit == EV_TIP_STOP:
-            armed[4] = False
-        elif hit < EV_RELEASE:
-            armed[hit - EV_STOP + 1] = False
-        if not rhs_ws(t, y, p, dummy, aux_new, ws):
-            return status, False
-        dy_ready = True
-        status = RUNNING
-    elif second_stop:
-        status = SLOW
-    # (the new d0 enters neither the right-hand side nor the events: it is used only below SLIP_BLEND, where it
-    # is not refreshed, so f(t, y) and the event values stay valid)
-    _refresh_directions(y, p, aux_new, ws)
-    ev_old = ws[SW_EVOLD, :N_EVENTS]
-    if hit < 0:
-        ev_old[:] = ws[SW_EVNEW, :N_EVENTS]
-    else:
-        event_values_ws(y, p, aux_new, x1_target, slow_speed, ev_old, ws)
-    ws[SW_AUX, :N_AUX] = aux_new
-    if dy_ready:
-        ws[SW_STAGES, :N_STATE] = dummy
-    elif not rhs_ws(t, y, p, ws[SW_STAGES, :N_STATE], aux_new, ws):
-        return status, False
-    if ev_old[EV_SLOW] < -slow_speed:
-        armed[0] = True  # arrest can only be detected once the block has really moved
-    for i in range(3):
-        if ev_old[EV_STOP + i] < -0.1 * slow_speed:
-            armed[i + 1] = True
-    if ev_old[EV_TIP_STOP] < -0.1 * slow_speed:
-        armed[4] = True
-    return status, True
-
-
+# Over the complexity limit (pyproject.toml) knowingly: a compiled kernel, whose split into helpers must be
+# shown to keep results bitwise (benchmarks/fingerprint.py), speed (benchmarks/bench_speed_ab.py) and compile time
+# (benchmarks/bench_compile.py). A split into three sections (a step, its event, what follows) was bitwise the same
+# and as fast, but compiled on their own (forceinline) the sections took compile time from 45 to 64 CPU-seconds
+# (docs/performance.md).
 @njit(cache=True, error_model="numpy")
-def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,
+def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,  # noqa: C901 (see above)
                  h: float, opts: StepOptions, rec: Recording, row0: int, ws: np.ndarray):
     """Integrate from (t0, y) until a terminal event, ``opts.t_end`` or a full buffer; ``y`` ends as the final state.
 
@@ -360,6 +236,7 @@ def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,
     record, out_t, out_y, out_dy, out_aux, log = rec.on, rec.t, rec.y, rec.dy, rec.aux, rec.log
     n = y.shape[0]
     aux = ws[SW_AUX, :N_AUX]
+    dummy = ws[SW_DY, :N_STATE]
     # f(t, y) of the current state lives in the first stage row: every step from (t, y), including retries and
     # event searches, starts with it, and the evaluation at a step's end (for aux) provides the next one.
     k1 = ws[SW_STAGES, :N_STATE]
@@ -367,6 +244,7 @@ def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,
     if not rhs_ws(t0, y, p, k1, aux, ws):
         return FAILED, -1, rows, h, t0
     ev_old = ws[SW_EVOLD, :N_EVENTS]
+    ev_new = ws[SW_EVNEW, :N_EVENTS]
     event_values_ws(y, p, aux, x1_target, slow_speed, ev_old, ws)
     if record and row0 == 0:
         out_t[0] = t0
@@ -377,11 +255,14 @@ def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,
         out_dy[max(row0 - 1, 0)] = k1
     t = t0
     y_new = ws[SW_YNEW, :N_STATE]
+    err = ws[SW_ERR, :N_STATE]
     aux_new = ws[SW_AUXNEW, :N_AUX]
+    count = ws[W_COUNT]
     for k in range(EV_SLOW):
         if ev_old[k] > 0.0:
-            _log_event(log, ws[W_COUNT], t, k)
+            _log_event(log, count, t, k)
             return EVENT_OUTCOME[k], k, rows, h, t
+    fixed = method != METHOD_DOPRI5
     # Consecutive predicted steps of each site that did not end in its stop. A stop is usually reached in a few
     # (each one refines the last); a slip that turns instead of stopping can make them shrink towards zero
     # (tests/triplanar/test_physics.py::test_a_turning_slip_does_not_stall_fixed_steps), so after MAX_MISSED_STOPS the next
@@ -392,21 +273,95 @@ def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,
             return BUFFER_FULL, -1, rows, h, t
         if t_max - t <= 1e-9 * h:
             return TIME_LIMIT, -1, rows, h, t
-        taken, h_try, h, h_next, site = _try_step(method, t, y, h, t_max, p, armed, rtol, atol, slow_speed, missed,
-                                                  ws)
-        if taken == _STEP_RETRY:
-            continue
-        if taken == _STEP_FAILED:
+        h_try = min(h, t_max - t)
+        site = -1
+        if fixed:
+            site, tau = _predicted_stop(y, p, aux, armed, slow_speed, missed, ws)
+            if site < 0 or tau >= h_try:
+                site = -1
+            else:
+                tau = max(tau, 1e-6 * h_try)  # (always progress: a huge deceleration must not stall time)
+        if site >= 0:
+            h_try = _step_to_stop(method, t, y, tau, h_try, p, site, slow_speed, y_new, err, aux_new, ws)
+            if h_try < 0.0:
+                return FAILED, -1, rows, h, t
+        elif not _advance(method, t, y, h_try, p, y_new, err, aux_new, ws):
+            if not fixed and h_try > 1e-12:
+                h = 0.25 * h_try
+                count[C_NREJECT] += 1.0
+                continue
             return FAILED, -1, rows, h, t
-        hit, predicted, h_try = _step_event(method, t, y, h_try, p, armed, site, missed, x1_target, slow_speed, ws)
-        if h_try < 0.0:
-            return FAILED, -1, rows, h, t
+        h_next = h
+        if not fixed:
+            en = _error_norm(y, y_new, err, rtol, atol)
+            if en > 1.0:
+                h = h_try * max(0.2, 0.9 * en ** -0.2)
+                if h < 1e-12:
+                    return FAILED, -1, rows, h, t
+                count[C_NREJECT] += 1.0
+                continue
+            h_next = h_try * min(5.0, 0.9 * en ** -0.2) if en > 0 else h_try * 5.0
+        event_values_ws(y_new, p, aux_new, x1_target, slow_speed, ev_new, ws)
+        hit = -1
+        for k in range(N_EVENTS):
+            if (k == EV_SLOW and not armed[0]) or (EV_STOP <= k < EV_RELEASE and not armed[k - EV_STOP + 1]) \
+                    or (k == EV_TIP_STOP and not armed[4]):
+                continue
+            if ev_new[k] > 0.0 and ev_old[k] <= 0.0:
+                hit = k
+                break
+        predicted = site >= 0 and hit == (EV_TIP_STOP if site == 3 else EV_STOP + site)
+        if site >= 0 and not predicted:
+            missed[site] += 1
+        else:
+            missed[:] = 0
+        if hit >= 0 and not predicted:  # (a predicted stop is already where it happens)
+            h_ev = _locate(method, t, y, h_try, p, ev_old[hit], ev_new[hit], hit, x1_target, slow_speed,
+                           y_new, err, aux_new, ws)
+            if h_ev < 0.0:
+                return FAILED, -1, rows, h, t
+            h_try = h_ev
         t = t + h_try
         for i in range(n):
             y[i] = y_new[i]
-        status, ok = _after_step(hit, predicted, t, y, p, armed, x1_target, slow_speed, log, ws)
-        if not ok:
+        dy_ready = hit < 0 or predicted  # (an event search leaves f of its last trial in dummy)
+        count[C_NSTEP] += 1.0
+        status = RUNNING
+        if hit >= 0:
+            status = EVENT_OUTCOME[hit]
+            _log_event(log, count, t, hit)
+        second_stop = status == STOPPED and hit != EV_TIP_STOP and ws[W_MODES, M_STUCK] >= 0.0
+        if status == STOPPED and not second_stop or status == RELEASED:
+            apply_mode_event_ws(hit, t, y, p, ws)
+            if hit == EV_TIP_STOP:
+                armed[4] = False
+            elif hit < EV_RELEASE:
+                armed[hit - EV_STOP + 1] = False
+            if not rhs_ws(t, y, p, dummy, aux_new, ws):
+                return FAILED, -1, rows, h, t
+            dy_ready = True
+            status = RUNNING
+        elif second_stop:
+            status = SLOW
+        # (the new d0 enters neither the right-hand side nor the events: it is used only below SLIP_BLEND, where it
+        # is not refreshed, so f(t, y) and the event values stay valid)
+        _refresh_directions(y, p, aux_new, ws)
+        if hit < 0:
+            ev_old[:] = ev_new
+        else:
+            event_values_ws(y, p, aux_new, x1_target, slow_speed, ev_old, ws)
+        aux[:] = aux_new
+        if dy_ready:
+            k1[:] = dummy
+        elif not rhs_ws(t, y, p, k1, aux_new, ws):
             return FAILED, -1, rows, h, t
+        if ev_old[EV_SLOW] < -slow_speed:
+            armed[0] = True  # arrest can only be detected once the block has really moved
+        for i in range(3):
+            if ev_old[EV_STOP + i] < -0.1 * slow_speed:
+                armed[i + 1] = True
+        if ev_old[EV_TIP_STOP] < -0.1 * slow_speed:
+            armed[4] = True
         if record:
             out_t[rows] = t
             out_y[rows] = y
