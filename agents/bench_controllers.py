@@ -16,7 +16,9 @@ import numpy as np
 from envs.triplanar_shear import ShearConfig
 from envs.triplanar_shear_v1 import B_RANGE, B_STAGE
 from triplanar import kernel as K
+from triplanar.interpolate import linear
 from triplanar.model import Loading, Model, paper_model
+from triplanar.paths import lateral_dilation
 from triplanar.simulate import simulate
 
 from .limit import LimitController
@@ -142,7 +144,7 @@ def nominal_reference(load_N: float, travel_m: float) -> tuple[np.ndarray, np.nd
     """The nominal specimen's hydrostatic path (case C) at ``load_N``: travel (m) and the mean lateral (x3)
     displacement of the contact points (m), from rest. What the laboratory can compute before the test."""
     run = simulate(paper_model("C", float(load_N)), travel_m=travel_m)
-    lateral = (run.contact_points[:, :, 2] - run.contact_points[0, :, 2]).mean(axis=1)
+    lateral = lateral_dilation(run.contact_points, run.contact_points[0]).mean(axis=1)
     return np.asarray(run.travel, dtype=float), lateral
 
 
@@ -166,7 +168,7 @@ class BenchPI(BenchMomentMatching):
         thrust, offset, _, _ = self.law(obs)
         positions = np.asarray(obs[B_RANGE:B_RANGE + 9], dtype=float).reshape(3, 3)
         travel, lateral = self._ref
-        error = float(positions[:, 2].mean() - np.interp(positions[0, 0], travel, lateral))
+        error = float(positions[:, 2].mean() - linear(positions[0, 0], travel, lateral))
         self._integral += error * self.config.dt
         return self.action(thrust, offset - self.kp * error - self.ki * self._integral)
 
@@ -188,7 +190,7 @@ class AdaptiveMomentMatching(BenchMomentMatching):
     def act(self, obs: np.ndarray) -> np.ndarray:
         positions = np.asarray(obs[B_RANGE:B_RANGE + 9], dtype=float).reshape(3, 3)
         travel, lateral = self._ref
-        error = float(positions[:, 2].mean() - np.interp(positions[0, 0], travel, lateral))
+        error = float(positions[:, 2].mean() - linear(positions[0, 0], travel, lateral))
         self.tip_friction_deg = min(20.0, max(0.0, self.tip_friction_deg
                                               + self.gain_deg_per_m_s * error * self.config.dt))
         thrust, offset, _, _ = self.law(obs)

@@ -1,5 +1,5 @@
 """``limit``: what a bench design allows, with perfect knowledge. The controller reads the env's exact state, true
-specimen, bench dynamics and the true specimen's case-C reference (:func:`agents.rollout.snapshot`), and each
+specimen, bench dynamics and the true specimen's case-C reference (:func:`envs.prediction.snapshot`), and each
 period replans the action sequence by the cross-entropy method over rollouts of the env's own compiled step
 (:class:`agents.planner.CEMPlanner`), sending the first action. No laboratory can build it (it sees the truth); it
 is the reference a design's real controllers are judged against (``docs/actuator-study.md``).
@@ -16,11 +16,10 @@ from typing import Any
 import numpy as np
 
 from envs.core import ShearConfig
+from envs.prediction import snapshot
 from envs.triplanar_shear_v1 import BS_PREV
 
 from .planner import CEMPlanner
-from .rollout import snapshot
-
 
 @dataclass
 class LimitController:

@@ -1,5 +1,5 @@
 """Receding-horizon optimisation of the bench's action sequence by the cross-entropy method (CEM) over candidate
-sequences scored in one batch by :func:`agents.rollout.rollout_costs` (the env's compiled step).
+sequences scored in one batch by :func:`envs.prediction.rollout_costs` (the env's compiled step).
 
 Why CEM: the cost is not differentiable (stick/slip switches, events, the failure penalty) and a batch of
 rollouts is what the compiled step does cheaply; CEM needs only costs and keeps the best candidate found. A plan is
@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .rollout import BenchState, predict
+from envs.prediction import BenchState, predict
 
 
 @dataclass

@@ -29,9 +29,10 @@ import gymnasium as gym
 import numpy as np
 from numba import njit
 
-import envs  # noqa: F401 (registers TriPlanarShear-v0)
+from envs import v0_on_purpose  # (importing envs registers TriPlanarShear-v0 and -v1)
 from envs.triplanar_shear import TriPlanarShearEnv
 from triplanar import kernel as K, stepping
+from triplanar.atomic import write_atomic
 from triplanar.outcome import Outcome
 
 
@@ -180,7 +181,8 @@ def v1_reset_cost(n: int) -> dict:
 
 
 def vector(num_envs: int, steps: int, policy: str) -> float:
-    vec = gym.make_vec("TriPlanarShear-v0", num_envs=num_envs, load_N=27.8)
+    with v0_on_purpose():
+        vec = gym.make_vec("TriPlanarShear-v0", num_envs=num_envs, load_N=27.8)
     vec.reset(seed=0)
     rng = np.random.default_rng(0)
     shape = (steps + 1, num_envs, 2)
@@ -194,7 +196,8 @@ def vector(num_envs: int, steps: int, policy: str) -> float:
 
 def vector_env_rate(env_id: str, num_envs: int, steps: int, seed: int, **kwargs) -> tuple[float, float]:
     """(env-steps/s of ``steps`` random-action steps of ``gym.make_vec(env_id)``, mean episode length in steps)."""
-    vec = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
+    with v0_on_purpose():
+        vec = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point", **kwargs)
     vec.reset(seed=seed)
     rng = np.random.default_rng(seed)
     batches = rng.uniform(-1, 1, (steps + 5, num_envs, 2)).astype(np.float32)
@@ -263,7 +266,7 @@ def main() -> int:
         for key, value in result.items():
             print(f"{key}: {value:,.2f}")
         if args.json:
-            Path(args.json).write_text(json.dumps(result, indent=2))
+            write_atomic(args.json, lambda tmp: tmp.write_text(json.dumps(result, indent=2)))
         return 0
     if args.v1:
         stats_v1: dict = {}
@@ -272,7 +275,7 @@ def main() -> int:
         for key, value in {**result, "stats": stats_v1}.items():
             print(f"{key}: {value if not isinstance(value, float) else f'{value:,.2f}'}")
         if args.json:
-            Path(args.json).write_text(json.dumps({**result, "stats": stats_v1}, indent=2))
+            write_atomic(args.json, lambda tmp: tmp.write_text(json.dumps({**result, "stats": stats_v1}, indent=2)))
         return 0
     scale = 0.1 if args.quick else 1.0
     stats: dict = {}
@@ -296,7 +299,7 @@ def main() -> int:
     for key, value in results.items():
         print(f"{key}: {value if not isinstance(value, float) else f'{value:,.0f}' if value > 100 else f'{value:.3f}'}")
     if args.json:
-        Path(args.json).write_text(json.dumps(results, indent=2))
+        write_atomic(args.json, lambda tmp: tmp.write_text(json.dumps(results, indent=2)))
     return 0
 
 

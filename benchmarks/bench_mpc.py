@@ -4,11 +4,15 @@
 ``PYTHONPATH=. python benchmarks/bench_mpc.py --benches 50 --out runs/bench_mpc [--workers 2]``;
 ``--limit-sweep``: ``limit`` at six nominal loads with shorter/longer horizons and more samples instead;
 ``--identify FIT.json [--tip-deg D]``: ``mpc`` with a fit as prior against the drawing's prior instead.
+``--stream 20020`` (the tuning stream, ``agents.heldout.TUNING_SEED``) and the controller ``mpc_true`` (``mpc``'s
+planner and settings with its bank replaced by the bench's true state: what ``mpc`` would do if it estimated
+perfectly) separate estimation error from planning error; for ``mpc`` the table also gives the RMS error of the
+estimator's final estimate against the bench's truth.
 
 Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
-``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table: success rate
-with its Wilson 95 % interval, mean mimicry error over successes with a t 95 % interval, the score (a failure
-counts 10 mm, ``agents.heldout``), the ratio of each score to ``limit``'s on the same benches, CPU time per episode
+``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table with the
+study's statistics (:func:`experiments.stats.row_stats`): success rate with its interval, mean mimicry error over
+successes and the score (a failure counts 10 mm, ``agents.heldout``) with their bootstrap 95 % intervals, the ratio of each score to ``limit``'s on the same benches, CPU time per episode
 and, for ``mpc``, per decision (``time.process_time`` around ``act``: estimator update plus planning, or the plan
 followed between replans). Results go to ``docs/actuator-study.md`` by hand, with the command.
 """
@@ -26,18 +30,57 @@ import numpy as np
 
 from agents.bench_controllers import make_controller
 from agents.heldout import (
+    FAILURE_SCORE_MM,
     HELDOUT_SEED,
     heldout_benches,
     random_benches,
     run_episode,
     summarise,
 )
+from experiments.stats import row_stats
 from triplanar.executor import TaskCheckpoint, pool_scope, run_tasks
 from triplanar.workbench.report import write_json
 
 SCRIPTED = {"frictionless_tip": {}, "moment_matching": {}, "pi_feedback": {"kp": -20.0, "ki": 200.0},
             "adaptive": {"gain_deg_per_m_s": -1e5}}
 ENV = {"frictionless_tip": {"tip_friction_deg": 0.0}}
+
+
+class TrueStateMPC:
+    """``mpc`` whose bank is the bench's true state (one hypothesis, tracked exactly with the commands sent): its
+    planner and settings with perfect estimation (a diagnosis, not a controller a laboratory could build)."""
+
+    needs_env = True
+
+    def __init__(self, **params) -> None:
+        from agents.mpc import MPCController
+        self.controller = MPCController(name="mpc_true", **params)
+        self.name, self.act = "mpc_true", self.controller.act
+
+    def bind(self, env) -> None:
+        self._env = env.unwrapped
+
+    def reset(self, load_N: float, config) -> None:
+        from agents.estimator import hypothesis_of
+        from envs.prediction import snapshot
+        self.controller.reset(load_N, config)
+        bank = self.controller.bank
+        bank.states, bank.theta = [snapshot(self._env)], hypothesis_of(self._env.episode_bench)[None, :]
+        bank.log_w, bank.alive, bank.jitter = np.zeros(1), np.ones(1, dtype=bool), 0.0
+
+    @property
+    def info(self) -> dict:
+        return self.controller.info
+
+
+def estimate_errors(estimate: dict, bench) -> dict:
+    """The final estimate's error against the bench's truth: tip and contact friction (deg), mass centre (mm)."""
+    from agents.estimator import hypothesis_of
+    truth = hypothesis_of(bench)
+    return {"tip_deg": [estimate["tip_friction_deg"] - truth[0]],
+            "friction_deg": [estimate[f"friction{k}_deg"] - truth[k] for k in (1, 2, 3)],
+            "mass_centre_mm": [1e3 * (estimate[f"mass_centre{k}_m"] - truth[3 + k]) for k in (1, 2, 3)],
+            "dip_deg": [estimate[f"dip{k}_deg"] - truth[7 + k] for k in (1, 2, 3)]}
 
 
 def episode(task: tuple[str, dict, int, int, int]) -> dict:
@@ -47,9 +90,9 @@ def episode(task: tuple[str, dict, int, int, int]) -> dict:
     if name == "frictionless_tip":
         from agents.heldout import with_tip
         bench = with_tip(bench, 0.0)
-    controller = make_controller(name, **params)
+    controller = TrueStateMPC(**params) if name == "mpc_true" else make_controller(name, **params)
     decisions: list[tuple[float, bool]] = []
-    if name == "mpc":
+    if name in ("mpc", "mpc_true"):
         act = controller.act
 
         def timed(obs):
@@ -63,6 +106,7 @@ def episode(task: tuple[str, dict, int, int, int]) -> dict:
     out.update(cpu_s=time.process_time() - start, decisions_cpu_s=decisions)
     if name == "mpc":
         out["fallbacks"] = controller.info["fallbacks"]
+        out["estimate_errors"] = estimate_errors(controller.info["estimate"], bench)
     return out
 
 
@@ -119,21 +163,19 @@ def identify_then_control(fit: str, tip_deg: float | None, n: int) -> None:
               f"successes {row['mimicry_error_mm']:.2f} mm, score {row['score']:.2f} mm")
 
 
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    if n == 0:
-        return math.nan, math.nan
-    p = k / n
-    centre, half = (p + z * z / (2 * n)) / (1 + z * z / n), z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return centre - half, centre + half
-
-
-def t_interval(values: list[float]) -> tuple[float, float]:
-    from scipy import stats
-    if len(values) < 2:
-        return math.nan, math.nan
-    m, s = float(np.mean(values)), float(np.std(values, ddof=1)) / math.sqrt(len(values))
-    half = float(stats.t.ppf(0.975, len(values) - 1)) * s
-    return m - half, m + half
+def mpc_settings(pairs: list[str]) -> dict:
+    """``FIELD=VALUE`` pairs as MPCController settings (values parsed as JSON numbers or booleans)."""
+    from agents.mpc import MPCController
+    out = {}
+    for pair in pairs:
+        field, sep, value = pair.partition("=")
+        if not sep or field not in MPCController.__dataclass_fields__:
+            raise SystemExit(f"--mpc {pair!r}: expected FIELD=VALUE with FIELD one of MPCController's settings")
+        try:
+            out[field] = json.loads(value)
+        except json.JSONDecodeError:
+            raise SystemExit(f"--mpc {pair!r}: VALUE must be a number or true/false") from None
+    return out
 
 
 def main() -> None:
@@ -144,6 +186,9 @@ def main() -> None:
     parser.add_argument("--controllers", default="limit,mpc," + ",".join(SCRIPTED))
     parser.add_argument("--replan-every", type=int, default=None,
                         help="mpc replans every N control periods (default: the controller's, 2)")
+    parser.add_argument("--mpc", action="append", default=[], metavar="FIELD=VALUE",
+                        help="an MPCController setting for mpc and mpc_true, e.g. --mpc start_periods=0 (repeatable; "
+                             "the variants of docs/actuator-study.md)")
     parser.add_argument("--stream", type=int, default=HELDOUT_SEED,
                         help="draw the benches from this seed stream instead of the held-out one (an independent set)")
     parser.add_argument("--limit-sweep", action="store_true",
@@ -162,7 +207,10 @@ def main() -> None:
         return
     names = args.controllers.split(",")
     summary = {"benches": args.benches, "stream": args.stream, "controllers": {}}
-    own = {**SCRIPTED, "mpc": {} if args.replan_every is None else {"replan_every": args.replan_every}}
+    mpc = mpc_settings(args.mpc)
+    if args.replan_every is not None:
+        mpc["replan_every"] = args.replan_every
+    own = {**SCRIPTED, "mpc": mpc, "mpc_true": mpc}
     for name in names:
         tasks = [(name, own.get(name, {}), i, args.benches, args.stream) for i in range(args.benches)]
         wall = time.perf_counter()
@@ -172,11 +220,10 @@ def main() -> None:
         wall = time.perf_counter() - wall
         from agents.heldout import Outcome
         outcomes = [Outcome(**{k: r[k] for k in Outcome.__dataclass_fields__}) for r in results]
-        row = summarise(outcomes)
-        ok = [o.mimicry_error_mm for o in outcomes if o.success]
-        row.update(success_ci95=wilson(len(ok), len(outcomes)), error_ci95_mm=t_interval(ok),
-                   cpu_s_per_episode=float(np.mean([r["cpu_s"] for r in results])), wall_s=wall,
-                   scores=[o.mimicry_error_mm if o.success else 10.0 for o in outcomes])
+        row = row_stats([[o.mimicry_error_mm for o in outcomes]], [[o.success for o in outcomes]],
+                        FAILURE_SCORE_MM)
+        row.update(cpu_s_per_episode=float(np.mean([r["cpu_s"] for r in results])), wall_s=wall,
+                   scores=[o.mimicry_error_mm if o.success else FAILURE_SCORE_MM for o in outcomes])
         decisions = [d for r in results for d in r["decisions_cpu_s"]]
         if decisions:
             cpu = np.array([d[0] for d in decisions])
@@ -187,19 +234,21 @@ def main() -> None:
                        planning_cpu_ms_p95=1e3 * float(np.percentile(cpu[planned], 95)),
                        following_cpu_ms_mean=1e3 * float(np.mean(cpu[~planned])) if (~planned).any() else math.nan,
                        fallbacks=int(sum(r.get("fallbacks", 0) for r in results)))
+        if any("estimate_errors" in r for r in results):
+            row["estimate_rms"] = {k: float(np.sqrt(np.mean([e ** 2 for r in results for e in r["estimate_errors"][k]])))
+                                   for k in results[0]["estimate_errors"]}
         summary["controllers"][name] = row
     if "limit" in summary["controllers"]:
         limit = summary["controllers"]["limit"]["score"]
         for row in summary["controllers"].values():
             row["ratio_to_limit"] = row["score"] / limit
     write_json(summary, out / "summary.json")
-    print("| controller | episodes | success (95 % CI) | error over successes, mm (95 % CI) | score, mm | / limit | "
-          "CPU s/episode |")
+    print("| controller | episodes | success (95 % CI) | error over successes, mm (95 % CI) | score, mm (95 % CI) | "
+          "/ limit | CPU s/episode |")
     for name, r in summary["controllers"].items():
-        lo, hi = r["success_ci95"]
-        elo, ehi = r["error_ci95_mm"]
-        print(f"| `{name}` | {r['n_episodes']} | {100 * r['success_rate']:.0f} % ({100 * lo:.0f}-{100 * hi:.0f}) | "
-              f"{r['mimicry_error_mm']:.2f} ({elo:.2f}-{ehi:.2f}) | {r['score']:.2f} | "
+        print(f"| `{name}` | {r['n_episodes']} | {100 * r['success_rate']:.0f} % ({100 * r['success_low']:.0f}-"
+              f"{100 * r['success_high']:.0f}) | {r['mimicry_error_mm']:.2f} ({r['error_low_mm']:.2f}-"
+              f"{r['error_high_mm']:.2f}) | {r['score']:.2f} ({r['score_low']:.2f}-{r['score_high']:.2f}) | "
               f"{r.get('ratio_to_limit', math.nan):.2f} | {r['cpu_s_per_episode']:.2f} |")
         if "decision_cpu_ms_mean" in r:
             print(f"  {name}: decision CPU {r['decision_cpu_ms_mean']:.2f} ms mean, {r['decision_cpu_ms_p95']:.2f} ms "
@@ -208,6 +257,8 @@ def main() -> None:
                   f"{r['fallbacks']}; wall {r['wall_s']:.0f} s")
         else:
             print(f"  {name}: wall {r['wall_s']:.0f} s")
+        if "estimate_rms" in r:
+            print(f"  {name}: RMS error of the final estimate: " + ", ".join(f"{k} {v:.2f}" for k, v in r["estimate_rms"].items()))
     print(json.dumps({k: v["score"] for k, v in summary["controllers"].items()}))
 
 

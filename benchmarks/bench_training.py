@@ -23,6 +23,8 @@ import time
 from pathlib import Path
 from typing import Any, Callable
 
+from triplanar.atomic import write_atomic
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -94,7 +96,7 @@ def main() -> int:
     for key, value in result.items():
         print(f"{key}: {value:,.2f}" if isinstance(value, float) else f"{key}: {value}")
     if args.json:
-        Path(args.json).write_text(json.dumps(result, indent=2))
+        write_atomic(args.json, lambda tmp: tmp.write_text(json.dumps(result, indent=2)))
     return 0
 
 

@@ -72,7 +72,7 @@ def bench_speed(data: Path, workers: int) -> None:
                            for k, v in c.params.items())
         print(f"   {c.effect:17s} cv {c.cv_error_mm:7.3f} mm  improvement {c.improvement:6.1%}  "
               f"fits {c.seconds:5.1f} s CPU ({c.nfev} evaluations)  {params}{'' if c.plausible else '  [implausible]'}")
-    fit, t_fit = timed(lambda: EffectFit(["end_friction"], base).fit(tests))
+    fit, t_fit = timed(lambda: EffectFit(["end_friction"]).fit(tests, base))
     print(f"fit --add end_friction ({workers} workers): {t_fit:.1f} s; phi = "
           f"{fit.params_['end_friction']['phi_deg']:.3f} +- {fit.stderr_['end_friction']['phi_deg']:.3f} deg; "
           f"error {fit.baseline_error_mm_:.2f} -> {fit.error_mm_:.3f} mm")

@@ -11,7 +11,10 @@
 
 from __future__ import annotations
 
+import warnings
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Iterator
 
 from gymnasium.envs.registration import register, registry
 
@@ -40,7 +43,20 @@ if ENV_ID not in registry:
     register(id=ENV_ID, entry_point="envs.triplanar_shear:TriPlanarShearEnv",
              vector_entry_point="envs.vector:TriPlanarShearVectorEnv")
 
-__all__ = ["ENV_ID", "ShearConfig", "TriPlanarShearEnv"]
+__all__ = ["ENV_ID", "ShearConfig", "TriPlanarShearEnv", "V0_OUT_OF_DATE", "v0_on_purpose"]
+
+# Gymnasium's notice on making TriPlanarShear-v0 now that v1 exists (its convention for an older version).
+V0_OUT_OF_DATE = r".*TriPlanarShear-v0 is out of date"
+
+
+@contextmanager
+def v0_on_purpose() -> Iterator[None]:
+    """Make ``TriPlanarShear-v0`` inside this without Gymnasium's out-of-date notice: the project's own commands,
+    warm-up and benchmarks make v0 on purpose (its kernels, its fingerprint), so the notice would only be noise there.
+    A user's own ``gym.make("TriPlanarShear-v0")`` still shows it."""
+    with warnings.catch_warnings():
+        warnings.filterwarnings("ignore", message=V0_OUT_OF_DATE, category=DeprecationWarning)
+        yield
 
 V1_ID = "TriPlanarShear-v1"
 if V1_ID not in registry:  # truncated by the env itself at time_limit_s (no max_episode_steps: one mechanism)

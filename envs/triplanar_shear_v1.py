@@ -233,17 +233,22 @@ def draw_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundat
             planes.append(Plane(plane.dip_deg + float(rng.uniform(-RANDOM_TILT_DEG, RANDOM_TILT_DEG)),
                                 plane.dip_direction_deg + float(rng.uniform(-RANDOM_TILT_DIRECTION_DEG,
                                                                             RANDOM_TILT_DIRECTION_DEG))))
-    foundation = Foundation(tuple(planes))
-    # The block sits on the tilted planes: each contact point's rest height follows its plane (a fraction of a mm,
-    # like a machining tolerance of the block).
+    load = float(rng.uniform(*RANDOM_LOAD_N))
+    return unknown_bench(specimen, friction, tip, scale, centre, tuple(planes), load, f"{specimen.name} (random)")
+
+
+def unknown_bench(specimen: Specimen, friction_deg: tuple[float, ...], tip_friction_deg: float, mass_scale: float,
+                  mass_centre_m: np.ndarray, planes: tuple[Plane, ...], load_N: float, name: str) -> Bench:
+    """``specimen`` with the given unknowns (the parameters :func:`draw_bench` draws) on a foundation of ``planes``.
+    The block sits on the tilted planes: each contact point's rest height follows its plane (a fraction of a mm,
+    like a machining tolerance of the block); the inertia tensor scales with the mass."""
     points = np.array(specimen.contact_points_m, dtype=float)
     for i, plane in enumerate(planes):
         points[i, 1] = float(plane.height(points[i, 0], points[i, 2]))
-    load = float(rng.uniform(*RANDOM_LOAD_N))
-    new = replace(specimen, contact_points_m=points, friction_deg=friction, tip_friction_deg=tip, mass_kg=specimen.mass_kg * scale,
-                  inertia_kg_m2=np.asarray(specimen.inertia_kg_m2) * scale, mass_centre_m=centre,
-                  name=f"{specimen.name} (random)")
-    return Bench(new, foundation, load)
+    new = replace(specimen, contact_points_m=points, friction_deg=friction_deg, tip_friction_deg=tip_friction_deg,
+                  mass_kg=specimen.mass_kg * mass_scale, inertia_kg_m2=np.asarray(specimen.inertia_kg_m2) * mass_scale,
+                  mass_centre_m=mass_centre_m, name=name)
+    return Bench(new, Foundation(tuple(planes)), load_N)
 
 
 def draw_bench_for(rng: np.random.Generator, config: ShearConfig, randomize: bool, specimen: Specimen,

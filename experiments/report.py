@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from triplanar.atomic import write_atomic
 from triplanar.outcome import Outcome
 
 from .plots import slug
@@ -309,6 +310,7 @@ def write_markdown(result: StudyResult, s: dict[str, Any], path: Path) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     rel = Path(os.path.relpath(result.out_dir, path.parent))
     seeds = _seeds(s)
-    path.write_text(_head(result, rel) + _question_and_controllers(seeds) + _results(result, s, rel, seeds)
-                    + _ppo_baseline(result, s) + _conclusions(result, s) + _caveats_and_reproduce(result, path, seeds))
+    text = (_head(result, rel) + _question_and_controllers(seeds) + _results(result, s, rel, seeds)
+            + _ppo_baseline(result, s) + _conclusions(result, s) + _caveats_and_reproduce(result, path, seeds))
+    write_atomic(path, lambda tmp: tmp.write_text(text))
 

@@ -84,6 +84,8 @@ def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
     final = zoo / name
     if final.exists() and not overwrite:
         raise ValueError(f"{final} exists: ship under another name or pass overwrite")
+    # A directory, not a file: write_atomic replaces one file, so the agent's folder is filled under a hidden name
+    # and renamed here by hand.
     tmp = zoo / f".{name}.tmp"
     shutil.rmtree(tmp, ignore_errors=True)
     try:

@@ -30,7 +30,9 @@ import numpy as np
 from agents import EpisodeResult, LowFrictionTip, MomentMatching, SteelTip, TrackingTip, evaluate
 from agents.train_ppo import DEFAULT_CONFIG, TrainResult, eval_loads, load_config, train_seeds
 from triplanar import PAPER_LOADS_N
+from triplanar.atomic import write_atomic
 from triplanar.executor import ExecutorLike, run_tasks
+from .tables import write_csv
 
 PPO_NAME = "PPO"
 
@@ -146,7 +148,7 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
     write_tables(result)
     plots.write_all(result)
     summary = report.summary(result)
-    (out_dir / "summary.json").write_text(json.dumps(summary, indent=2))
+    write_atomic(out_dir / "summary.json", lambda tmp: tmp.write_text(json.dumps(summary, indent=2)))
     if doc is not None:
         report.write_markdown(result, summary, Path(doc))
     log(f"study written to {out_dir}" + (f" and {doc}" if doc else ""))
@@ -154,18 +156,15 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
 
 
 def write_tables(result: StudyResult) -> None:
-    with open(result.out_dir / "episodes.csv", "w", newline="") as f:
-        writer = csv.writer(f)
-        writer.writerow(["controller", "load_N", "seed", "mimicry_error_mm", "reason", "travel_m", "steps",
-                         "duration_s", "return"])
-        for r in result.episodes:
-            writer.writerow([r.controller, r.load_N, r.seed, f"{r.mimicry_error_mm:.4f}", r.reason,
-                             f"{r.travel_m:.5f}", r.steps, f"{r.duration_s:.4f}", f"{r.episode_return:.4f}"])
-    with open(result.out_dir / "mimicry_table.csv", "w", newline="") as f:
-        writer = csv.writer(f)
-        names = [c for c in result.controllers if c != PPO_NAME]
-        writer.writerow(["load_N"] + [f"{c} (mm)" for c in names] + ["PPO mean (mm)", "PPO std (mm)", "PPO seeds"])
-        ppo = result.errors(PPO_NAME)
-        for j, load in enumerate(result.loads):
-            writer.writerow([load] + [f"{result.errors(c)[0, j]:.3f}" for c in names]
-                            + [f"{ppo[:, j].mean():.3f}", f"{ppo[:, j].std():.3f}", ppo.shape[0]])
+    write_csv(result.out_dir / "episodes.csv",
+              ["controller", "load_N", "seed", "mimicry_error_mm", "reason", "travel_m", "steps", "duration_s",
+               "return"],
+              ([r.controller, r.load_N, r.seed, f"{r.mimicry_error_mm:.4f}", r.reason, f"{r.travel_m:.5f}", r.steps,
+                f"{r.duration_s:.4f}", f"{r.episode_return:.4f}"] for r in result.episodes))
+    names = [c for c in result.controllers if c != PPO_NAME]
+    ppo = result.errors(PPO_NAME)
+    write_csv(result.out_dir / "mimicry_table.csv",
+              ["load_N"] + [f"{c} (mm)" for c in names] + ["PPO mean (mm)", "PPO std (mm)", "PPO seeds"],
+              ([load] + [f"{result.errors(c)[0, j]:.3f}" for c in names]
+               + [f"{ppo[:, j].mean():.3f}", f"{ppo[:, j].std():.3f}", ppo.shape[0]]
+               for j, load in enumerate(result.loads)))

@@ -9,6 +9,10 @@ the DOPRI5 steps that recorded the rows, which linear interpolation (O(h^2)) is 
 Rows may repeat a time (an event row): the interval search never picks a zero-length interval inside the
 span, and :func:`distinct_times` drops all but the last of a repeated time where a caller wants that.
 Queries outside the recorded span are clamped to its ends (no extrapolation).
+
+:func:`linear` is the same module's piecewise-linear interpolation, for data that have values but no slopes
+(measured samples, a controller's reference table, a resampling grid for a spectrum) or where only a first
+guess is wanted (the start of a Newton refinement on the cubic).
 """
 
 from __future__ import annotations
@@ -19,6 +23,19 @@ import numpy as np
 def distinct_times(t: np.ndarray) -> np.ndarray:
     """Boolean mask keeping the last row of each run of equal times (``t`` non-decreasing)."""
     return np.append(np.diff(t) > 0, True)
+
+
+def linear(x_query: float | np.ndarray, x: np.ndarray, y: np.ndarray,
+           right: float | None = None) -> np.ndarray | float:
+    """Piecewise-linear interpolation of ``y`` over increasing ``x`` at ``x_query`` (``numpy.interp``: queries
+    outside ``x`` take the end values, or ``right`` beyond the last when given).
+
+    Linear, not :class:`CubicHermite`, where the rows carry values only: a cubic Hermite needs each row's
+    derivative, which a measured sample or a lookup table does not have (estimating it by differences would
+    add overshoot between noisy samples without adding accuracy). Where a recorded trajectory has slopes,
+    use :class:`CubicHermite`; this gives at most a starting guess there.
+    """
+    return np.interp(x_query, x, y, right=right)
 
 
 class CubicHermite:

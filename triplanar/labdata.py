@@ -50,15 +50,16 @@ from typing import Iterable, Sequence
 import numpy as np
 
 from . import PAPER_LOADS_N
+from .atomic import remove_stale_temporaries, temporary_path
 from .effects import ContactFriction, Effect, EndFriction
 from .executor import ExecutorLike, run_tasks
-from .measurement import (MeasuredTest, MeasurementError, remove_stale_temporaries, temporary_name,
-                          write_measurements)
+from .measurement import MeasuredTest, MeasurementError, write_measurements
 from .model import Model, paper_model
 from .result import SimulationResult
 from .simulate import simulate
 from .specimen import Foundation, Specimen, reference, to_toml
 from .outcome import Outcome
+from .paths import travel as path_travel
 
 #: Plan dimensions of the foundation block, metres: along e1, along e3 (paper section 2, Fig. 4).
 FOUNDATION_PLAN_M = (0.30, 0.45)
@@ -236,7 +237,7 @@ def run_lab_test(job: LabTest) -> tuple[dict, MeasuredTest | None]:
     if len(t_s) < 3:
         return {**record, "reason": f"only {len(t_s)} sample(s) at {rate_hz:g} Hz on the foundation block"}, None
     record.update(n_samples=len(t_s), duration_s=float(t_s[-1]),
-                  final_travel_m=float(clean[-1, 0, 0] - clean[0, 0, 0]))
+                  final_travel_m=float(path_travel(clean[-1], clean[0])))
     return record, MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=recorded_t[:cut])
 
 
@@ -344,8 +345,10 @@ def write_lab_data(path: str | os.PathLike[str], tests: Sequence[MeasuredTest], 
         target.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_temporaries(path)  # left by a killed earlier run
     remove_stale_temporaries(truth_file)
-    tmp_csv = Path(temporary_name(path))
-    tmp_json = Path(temporary_name(truth_file))
+    # Two files, one transaction: write_atomic replaces one file; here the truth JSON carries the CSV's digest, goes
+    # in first, and is put back if the CSV then cannot be moved into place, so the renames are done by hand.
+    tmp_csv = temporary_path(path)
+    tmp_json = temporary_path(truth_file)
     backup: bytes | None = None
     try:
         try:

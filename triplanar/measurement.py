@@ -43,7 +43,6 @@ import math
 import re
 from array import array
 import os
-import secrets
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -51,7 +50,7 @@ from typing import Any
 
 import numpy as np
 
-from .atomic import write_atomic
+from .atomic import remove_stale_temporaries, write_atomic
 
 __all__ = [
     "MeasurementError",
@@ -608,41 +607,6 @@ def _validate_for_write(path: str, tests: list[MeasuredTest]) -> bool:
     return all(timed)
 
 
-def temporary_name(path: str | os.PathLike[str]) -> str:
-    """A hidden sibling of ``path`` to write before renaming: ``.NAME.PID.TOKEN.tmp`` (the PID lets a later
-    run tell a killed writer's leftover from a live writer's file)."""
-    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
-    return os.path.join(directory, f".{name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (PermissionError, OverflowError, ValueError):
-        return True
-    return True
-
-
-def remove_stale_temporaries(path: str | os.PathLike[str]) -> None:
-    """Remove the temporary siblings of ``path`` left by writers that were killed (SIGKILL, power loss)."""
-    directory, name = os.path.split(os.path.abspath(os.fspath(path)))
-    try:
-        entries = os.listdir(directory)
-    except OSError:
-        return
-    prefix = f".{name}."
-    for entry in entries:
-        if entry.startswith(prefix) and entry.endswith(".tmp"):
-            parts = entry[len(prefix):-len(".tmp")].split(".")
-            if len(parts) == 2 and parts[0].isdigit() and not _pid_alive(int(parts[0])):
-                try:
-                    os.unlink(os.path.join(directory, entry))
-                except OSError:
-                    pass
-
-
 def write_measurements(path: str | os.PathLike[str], tests: Iterable[MeasuredTest]) -> None:
     """Write tests to a measured-trace CSV file, atomically.
 
@@ -683,7 +647,7 @@ def write_measurements(path: str | os.PathLike[str], tests: Iterable[MeasuredTes
                 _write_rows(writer, mt, has_time)
             fh.flush()
             os.fsync(fh.fileno())
-    write_atomic(spath, write, tmp=temporary_name(spath))
+    write_atomic(spath, write)
 
 
 def _write_rows(writer: Any, mt: MeasuredTest, has_time: bool) -> None:

@@ -30,7 +30,7 @@ from .outcome import Outcome
 class Trajectory(Protocol):
     """What :func:`model_at_travel` needs of a simulated test (``SimulationResult`` or a stand-in)."""
 
-    status: str
+    status: Outcome | str  # a SimulationResult's Outcome, or a stand-in's label ("invalid": no run could be made)
 
     @property
     def t(self) -> np.ndarray: ...

@@ -15,6 +15,7 @@ matplotlib.use("Agg")  # files only; no display needed (CI, servers)
 import matplotlib.pyplot as plt
 import numpy as np
 
+from .atomic import write_atomic
 from .specimen import Foundation
 
 MEASURED = "black"
@@ -76,11 +77,12 @@ def panel_grid(n: int, ncols: int = 4, size: float = 3.0) -> tuple[plt.Figure, S
 
 
 def save_figure(fig: plt.Figure, path: str | Path, dpi: int = 120) -> Path:
-    """Write a PNG atomically (temp file then rename) and close the figure."""
+    """Write a PNG atomically (:func:`triplanar.atomic.write_atomic`; the temporary keeps the ``.png`` suffix that
+    matplotlib reads the format from) and close the figure, also when writing fails."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp.png")
-    fig.savefig(tmp, dpi=dpi, bbox_inches="tight")
-    plt.close(fig)
-    tmp.replace(path)
+    try:
+        write_atomic(path, lambda tmp: fig.savefig(tmp, dpi=dpi, bbox_inches="tight"))
+    finally:
+        plt.close(fig)
     return path

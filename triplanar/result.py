@@ -10,10 +10,11 @@ from typing import NamedTuple
 import numpy as np
 
 from . import kernel as K
-from .interpolate import CubicHermite, distinct_times
+from .interpolate import CubicHermite, distinct_times, linear
 from .measurement import MeasuredTest, write_measurements
 from .model import Model
 from .outcome import Outcome, event_name
+from .paths import travel as path_travel
 
 
 class Event(NamedTuple):
@@ -131,7 +132,7 @@ class SimulationResult:
     @property
     def travel(self) -> np.ndarray:
         """CP1's displacement along e1 since rest (m): the paper's Delta q1."""
-        return self.contact_points[:, 0, 0] - self.contact_points[0, 0, 0]
+        return path_travel(self.contact_points, self.contact_points[0])  # a simulated path: from its first row
 
     @cached_property
     def rotation_deg(self) -> np.ndarray:
@@ -203,7 +204,7 @@ class SimulationResult:
         s = self.travel
         if travel.size and (travel.min() < 0 or travel.max() > s[-1] + 1e-12):
             raise ValueError(f"travel must lie within [0, {s[-1]:.6g}] m, the simulated range")
-        t = np.interp(travel, s, self.t)
+        t = linear(travel, s, self.t)      # the start of the Newton refinement on the cubic
         for _ in range(3):
             pos, vel = self._travel_path.evaluate(t, derivative=True)
             t = np.clip(t - (pos - travel) / np.maximum(vel, 1e-9), self.t[0], self.t[-1])

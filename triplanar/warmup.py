@@ -3,10 +3,12 @@
 Runs what a user's first commands run, small: traces (the static-equilibrium LP, the sliding threshold of a rising
 actuator force, the start modes, DOPRI5; RK4 and Euler share its compiled code), a block at rest, the decoded
 block state, the contact and load points a rendering draws, and, when Gymnasium is installed, one episode start
-and step of each env (v0, v1, and both batched versions, v1's in both observation modes; the environments are imported only here, in :func:`warm_envs`, the one
-place below the commands where the core reaches the env layer, and only through its public API). Each compiled
-function lands in numba's cache (:func:`triplanar.compiled_cache.numba_cache_dir`); with a warm cache this only
-loads them (a few seconds, most of it importing torch for the vector env). Idempotent.
+and step of each env (v0, v1, and both batched versions, v1's in both observation modes) and the model-based
+controllers' prediction from a copy of v1's state (:mod:`envs.prediction`). The environments are imported only
+here, in :func:`warm_envs`, the one place below the commands where the core reaches the env layer, and only
+through its public API. Each compiled function lands in numba's cache
+(:func:`triplanar.compiled_cache.numba_cache_dir`); with a warm cache this only loads them (a few seconds, most of
+it importing torch for the vector env). Idempotent.
 """
 
 from __future__ import annotations
@@ -14,11 +16,8 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-import warnings
-from .outcome import Outcome
 
-# Gymnasium's notice on making TriPlanarShear-v0 now that v1 exists (its convention for an older version).
-V0_OUT_OF_DATE = r".*TriPlanarShear-v0 is out of date"
+from .outcome import Outcome
 
 
 def warm_physics() -> None:
@@ -46,18 +45,20 @@ def warm_envs() -> bool:
         import gymnasium as gym
         import numpy as np
 
-        import envs  # noqa: F401 (registers TriPlanarShear-v0)
+        from envs import v0_on_purpose  # (importing envs registers TriPlanarShear-v0 and -v1)
     except ImportError:
         return False
-    with warnings.catch_warnings():  # v0 on purpose: its kernels are the ones to compile
-        warnings.filterwarnings("ignore", message=V0_OUT_OF_DATE, category=DeprecationWarning)
+    with v0_on_purpose():  # its kernels are the ones to compile
         env = gym.make("TriPlanarShear-v0")
         env.reset(seed=0)
         env.step(np.zeros(2, np.float32))
         env.close()
-        # v1's bench layer (envs.triplanar_shear_v1.bench_command, bench_observation)
+        # v1's bench layer (envs.triplanar_shear_v1.bench_command, bench_observation), and the model-based
+        # controllers' prediction from a copy of its state (envs.prediction.step_state, rollout_costs)
+        from envs.prediction import warm_up as warm_prediction
         env = gym.make("TriPlanarShear-v1")
         env.reset(seed=0)
+        warm_prediction(env)
         env.step(np.zeros(2, np.float32))
         env.close()
         for env_id, kwargs in (("TriPlanarShear-v0", {}), ("TriPlanarShear-v1", {}),

@@ -9,7 +9,7 @@ import pytest
 
 from agents.heldout import nominal_benches, run_episode
 from agents.limit import LimitController
-from agents.rollout import predict, snapshot
+from envs.prediction import predict, snapshot
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
 
 IDEAL = {"stage_bandwidth_hz": math.inf, "thrust_bandwidth_hz": math.inf, "latency_s": 0.0}
@@ -69,9 +69,12 @@ def _known_specimen(tip_deg: float):
 
 @pytest.mark.slow
 def test_estimator_finds_a_known_tip_friction_on_noiseless_data():
+    """With commands that excite the tip from the first period. With the default start (8 periods of the nominal
+    command) the same bench's tip is confounded with the contact friction: 7.2 deg, interval 6.7-7.8 deg, which
+    misses the truth (``docs/actuator-study.md``)."""
     from agents.mpc import MPCController
     bench = _known_specimen(6.0)
-    controller = MPCController(sensor_noise_m=0.0)
+    controller = MPCController(sensor_noise_m=0.0, start_periods=0)
     outcome = run_episode(controller, bench, env_kwargs={"sensor_noise_m": 0.0})
     low, high = controller.info["tip_friction_interval_deg"]
     assert outcome.success, outcome.reason

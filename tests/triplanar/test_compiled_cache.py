@@ -78,13 +78,19 @@ def test_drop_if_stale_does_nothing_without_a_cache(tmp_path) -> None:
 
 @pytest.mark.slow
 def test_after_the_warmup_nothing_compiles(tmp_path) -> None:
-    """``make install`` runs the warm-up: then the first trace, env step and vector-env step compile nothing."""
+    """``make install`` runs the warm-up: then the first trace, env step, vector-env step and model-based control
+    decision (the prediction from a copied bench state) compile nothing."""
     warm = _run("import sys; from triplanar.warmup import main; sys.exit(main())", NUMBA_CACHE_DIR=str(tmp_path))
     assert "is out of date" not in warm.stderr  # the warm-up makes TriPlanarShear-v0 on purpose: no notice
     code = ("import numpy as np, gymnasium as gym, envs; from triplanar import Effect, paper_model, simulate; "
             "simulate(paper_model('B', 40.0)); e = gym.make('TriPlanarShear-v0'); e.reset(seed=1); "
             "e.step(np.ones(2, np.float32)); v = gym.make_vec('TriPlanarShear-v0', num_envs=3); v.reset(seed=2); "
             "v.step(np.ones((3, 2), np.float32))\n"
+            "from agents.mpc import MPCController; e1 = gym.make('TriPlanarShear-v1'); o, _ = e1.reset(seed=3)\n"
+            "c = MPCController(bank_size=4, hypotheses=2, samples=4, elites=2, start_periods=0)\n"
+            "c.reset(e1.unwrapped.episode_bench.load_N, "
+            "e1.unwrapped.config)\n"
+            "for _ in range(3): o = e1.step(c.act(o))[0]\n"
             "class Drag(Effect):\n    name, parameters = 'drag', {}\n"
             "    def wrench(self, t, state): return -2.0 * state.velocity, np.zeros(3)\n"
             "simulate(paper_model('A', 40.0, effects=[Drag()]))  # a user force: an object-mode block, not cached")

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from triplanar import kernel as K, paper_model, simulate
-from triplanar.interpolate import CubicHermite, distinct_times
+from triplanar.interpolate import CubicHermite, distinct_times, linear
 
 
 def test_hermite_reproduces_a_cubic_exactly_and_its_derivative() -> None:
@@ -79,3 +79,11 @@ def test_dydt_is_the_right_hand_side_the_run_went_on_with() -> None:
     a_point = (result.dydt[j, K.S_V:K.S_V + 3] + np.cross(result.dydt[j, K.S_W:K.S_W + 3], arm)
                + np.cross(omega, np.cross(omega, arm)))
     assert np.linalg.norm(a_point) < 1e-6 * np.linalg.norm(result.dydt[j, K.S_V:K.S_V + 3])
+
+
+def test_linear_interpolates_between_rows_and_holds_or_marks_the_ends() -> None:
+    x, y = np.array([0.0, 1.0, 3.0]), np.array([2.0, 4.0, 0.0])
+    assert np.array_equal(linear(np.array([-1.0, 0.5, 2.0, 5.0]), x, y), [2.0, 3.0, 2.0, 0.0])
+    beyond = linear(np.array([2.0, 4.0]), x, y, right=np.nan)
+    assert beyond[0] == 2.0 and np.isnan(beyond[1])
+    assert linear(1.5, x, y) == 3.0

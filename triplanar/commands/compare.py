@@ -17,6 +17,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
+    from ..atomic import write_atomic
     from ..workbench.cli_common import model_and_tests, out_dir, refuse_overwriting_inputs
     from ..workbench.compare import compare
     from ..workbench.report import (plot_deviations, plot_error_map, plot_overhead, plot_residuals,
@@ -29,7 +30,7 @@ def run(args: argparse.Namespace) -> int:
     cmp = compare(tests, spec)
     cmp.write_csv(out / "compare.csv")
     summary = cmp.summary()
-    (out / "summary.txt").write_text(summary + "\n", encoding="utf-8")
+    write_atomic(out / "summary.txt", lambda tmp: tmp.write_text(summary + "\n", encoding="utf-8"))
     plot_overhead(cmp, out / "overhead.png")
     plot_residuals(cmp, out / "residuals.png")
     plot_error_map(cmp, out / "error_map.png")

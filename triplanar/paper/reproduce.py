@@ -21,6 +21,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..atomic import write_atomic
 from ..effects import Effect
 from ..measurement import MeasuredTest, read_measurements
 from ..specimen import Foundation, Specimen, reference
@@ -143,9 +144,7 @@ def render_figures(specs: list[Fg.FigureSpec], out_dir: Path, workers: int = 2, 
     paths = []
     for spec, png in zip(specs, pngs):
         path = out_dir / spec.name
-        tmp = path.with_name(f".{path.name}.tmp")
-        tmp.write_bytes(png)
-        tmp.replace(path)
+        write_atomic(path, lambda tmp: tmp.write_bytes(png))
         paths.append(path)
     return paths
 
@@ -198,9 +197,7 @@ def report_md(rep: Reproduction, figure_names: list[str]) -> str:
 
 
 def _write_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
+    write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
 
 
 def write_outputs(rep: Reproduction, out_dir: str | os.PathLike[str], workers: int = 2,

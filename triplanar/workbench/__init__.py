@@ -8,7 +8,7 @@ Python API (each step is also a CLI command: ``triplanar compare|diagnose|fit``)
     cmp = compare(tests, model); print(cmp.summary())       # discrepancy table + where it fails
     diag = Diagnoser().fit(tests, model)                    # which effect is missing?
     print(diag.report_["verdict"], diag.report_["missing_effect"], diag.report_["confidence"])
-    fit = EffectFit(["end_friction"], model).fit(tests)     # add it, fit its parameter
+    fit = EffectFit(["end_friction"]).fit(tests, model)     # add it, fit its parameter
     print(fit.params_, fit.stderr_, fit.baseline_error_mm_, "->", fit.error_mm_)
     sel = ForwardSelection().fit(tests, model)              # diagnose-and-add until the error stops falling
 
@@ -23,6 +23,8 @@ from .diagnose import CandidateResult, CandidateTask, Diagnoser, run_candidate
 from .discrepancy import TestDiscrepancy, discrepancy, repeat_scatter_mm
 from .executor import SerialExecutor, run_tasks
 from .fit import EffectFit, FitOutcome, FitTask, errors_by_load, evaluate_spec, overall_error, run_fit
+from .parameters import FitParameter
+from .results import DiagnosisResult, FitResult, FitStep, fit_added
 from .select import ForwardSelection, SelectionStep
 from .spec import EvalResult, EvalTask, ModelSpec, evaluate
 
@@ -30,4 +32,5 @@ __all__ = ["BUILTIN", "Candidate", "builtin_candidates", "candidate_library", "C
            "describe_pattern", "load_tests", "CandidateResult", "CandidateTask", "Diagnoser", "run_candidate",
            "TestDiscrepancy", "discrepancy", "repeat_scatter_mm", "SerialExecutor", "run_tasks", "EffectFit",
            "FitOutcome", "FitTask", "errors_by_load", "evaluate_spec", "overall_error", "run_fit",
-           "ForwardSelection", "SelectionStep", "EvalResult", "EvalTask", "ModelSpec", "evaluate"]
+           "ForwardSelection", "SelectionStep", "EvalResult", "EvalTask", "ModelSpec", "evaluate", "FitParameter",
+           "DiagnosisResult", "FitResult", "FitStep", "fit_added"]

@@ -16,7 +16,8 @@ candidate.
 A user effect registered with :func:`triplanar.register` becomes a candidate the same way; with no fit
 metadata, every parameter is free over its declared bounds, starting at its default (so give the default the
 value at which the effect does nothing), and a one-parameter effect gets a grid of 7. Pass your own
-:class:`Candidate` for anything else.
+:class:`Candidate` for anything else, or edit a recipe parameter by parameter (:meth:`Candidate.parameters`,
+:meth:`Candidate.from_parameters`, :class:`~triplanar.workbench.parameters.FitParameter`).
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from typing import Iterable, Mapping
 
 from ..effects import BUILTIN, REGISTRY, EffectError
 from ..specimen import Specimen, reference
+from .parameters import FitParameter
 
 __all__ = ["BUILTIN", "Candidate", "builtin_candidates", "candidate_library", "default_candidate", "resolve"]
 
@@ -133,6 +135,51 @@ class Candidate:
             v = float(free_values[k])
             free[k] = start[k] if abs(v - start[k]) < self.snap.get(k, 0.0) else v
         return {**{k: float(v) for k, v in self.fixed.items()}, **free}
+
+    def parameters(self) -> dict[str, FitParameter]:
+        """The recipe as one :class:`~triplanar.workbench.parameters.FitParameter` per parameter of the effect
+        (free ones with their range and start, the others held at their fixed value or the effect's default)."""
+        params = REGISTRY[self.effect].parameters
+        start = self.start_values()
+        out = {}
+        for name, spec in params.items():
+            if name in self.free:
+                lo, hi = self.bounds[name]
+                out[name] = FitParameter(self.effect, name, start[name], True, lo, hi, start[name],
+                                         name in self.per_test)
+            else:
+                value = float(self.fixed.get(name, spec.default))
+                out[name] = FitParameter(self.effect, name, value, False, spec.lower, spec.upper, status="fixed")
+        return out
+
+    @classmethod
+    def from_parameters(cls, parameters: Iterable[FitParameter], grid: int | tuple[float, ...] | None = None,
+                        snap: Mapping[str, float] | None = None) -> Candidate:
+        """The candidate whose recipe the ``parameters`` of one effect describe (:meth:`parameters`, edited):
+        the ones that vary are free over their range from their start, the others held at their value; a
+        parameter not given keeps the effect's default. ``grid``: as the field (``None``: the effect's own
+        for a single shared free parameter, else none); ``snap``: the field (``None``: the effect's own)."""
+        parameters = list(parameters)
+        effects = {p.effect for p in parameters}
+        if len(effects) != 1:
+            raise EffectError(f"a candidate is one effect's parameters (given: {', '.join(sorted(effects)) or 'none'})")
+        effect = effects.pop()
+        names = [p.name for p in parameters]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise EffectError(f"parameter {effect}.{twice[0]} given twice")
+        specs = REGISTRY[effect].parameters
+        free = tuple(p.name for p in parameters if p.vary)
+        per_test = tuple(p.name for p in parameters if p.per_test)
+        if grid is None:
+            one = len(free) == 1 and not per_test
+            grid = (7 if specs[free[0]].grid is None else specs[free[0]].grid) if one else 0
+        if snap is None:
+            snap = {k: specs[k].snap for k in free if specs[k].snap}
+        return cls(effect, free, {p.name: p.bounds for p in parameters if p.vary},
+                   {p.name: p.value if p.start is None else p.start for p in parameters if p.vary},
+                   fixed={p.name: p.value for p in parameters if not p.vary}, grid=grid, snap=snap,
+                   per_test=per_test)
 
     def grid_values(self) -> list[float]:
         """The grid scan's values of the (single) free parameter, in natural units ([] for none)."""

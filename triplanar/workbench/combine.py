@@ -22,7 +22,7 @@ from dataclasses import replace
 from typing import TYPE_CHECKING, Any, Sequence
 
 from ..measurement import MeasuredTest
-from .candidates import without_effect
+from .candidates import resolve, without_effect
 from .parsimony import parsimonious
 from .spec import spec_with_values
 
@@ -72,8 +72,11 @@ def combine(diag: Diagnoser, tests: Sequence[MeasuredTest], max_effects: int = 3
         current = results[-1].cv_error_mm
         if current <= diag.explained_factor * diag.repeat_scatter_mm_:
             break
+        if not resolve(diag.candidates, exclude=(*base.effect_names, *added), specimen=base.specimen):
+            break                              # every candidate is in already (a short candidate list)
         nxt = type(diag)(diag.candidates, diag.folds, diag.executor, False, diag.max_nfev, refit_given=False,
-                         start=diag.start, combine=False)
+                         start=diag.start, combine=False,
+                         model_form=False)
         nxt.friction_scatter_deg = diag.friction_scatter_deg
         nxt.fit(tests, base, refit=added or None)
         # the best plausible entry by cross-validated error (nxt.best_ judges improvement against nxt's baseline,

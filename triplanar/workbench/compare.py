@@ -17,7 +17,9 @@ from typing import Sequence
 
 import numpy as np
 
+from ..atomic import write_atomic
 from ..measurement import MeasuredTest, read_measurements
+from ..outcome import Outcome
 from ..specimen import Specimen
 from .discrepancy import TestDiscrepancy, rms
 from .executor import ExecutorLike, run_tasks
@@ -61,9 +63,9 @@ class Comparison:
 
     def note(self, d: TestDiscrepancy) -> str:
         run = self.runs[d.force_N]
-        if d.status == "travel":
+        if d.status == Outcome.TRAVEL.label:
             return ""
-        if d.status == "held":
+        if d.status == Outcome.HELD.label:
             thr = f" (the model's sliding threshold is {run.threshold_N:.2f} N)" if run.threshold_N else ""
             return (f"the model never slides at {d.force_N:g} N{thr}, but the test did: compared against the "
                     "rest position")
@@ -88,13 +90,15 @@ class Comparison:
         """Write the table (atomically); numbers with 6 significant digits, NaN as empty."""
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.tmp")
-        with open(tmp, "w", newline="", encoding="utf-8") as fh:
-            writer = csv.DictWriter(fh, fieldnames=TABLE_COLUMNS, lineterminator="\n")
-            writer.writeheader()
-            for row in self.rows():
-                writer.writerow({k: _fmt(v) for k, v in row.items()})
-        tmp.replace(path)
+        rows = self.rows()
+
+        def write(tmp: Path) -> None:
+            with open(tmp, "w", newline="", encoding="utf-8") as fh:
+                writer = csv.DictWriter(fh, fieldnames=TABLE_COLUMNS, lineterminator="\n")
+                writer.writeheader()
+                for row in rows:
+                    writer.writerow({k: _fmt(v) for k, v in row.items()})
+        write_atomic(path, write)
         return path
 
     def cp_by_load(self) -> tuple[list[float], np.ndarray]:
@@ -219,9 +223,9 @@ def describe_pattern(found: Sequence[TestDiscrepancy], status: dict[float, str] 
         sentences.append(f"the residual oscillates at {td['dominant_frequency_hz']:.1f} Hz (a spectral peak in "
                          f"{td['periodic_fraction']:.0%} of the tests)")
     if status:
-        odd = {f: s for f, s in status.items() if s != "travel"}
+        odd = {f: s for f, s in status.items() if s != Outcome.TRAVEL.label}
         for f, s in sorted(odd.items()):
-            if s == "held":
+            if s == Outcome.HELD.label:
                 thr = (thresholds or {}).get(f)
                 extra = f", threshold {thr:.2f} N" if thr else ""
                 sentences.append(f"at {f:g} N the model never slides (below its sliding threshold{extra})")

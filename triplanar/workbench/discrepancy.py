@@ -33,6 +33,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..interpolate import linear
 from ..measurement import MeasuredTest
 from ..paths import lateral_dilation, model_at_travel, ran as _ran, rotation_deg, travel as path_travel
 from ..result import SimulationResult
@@ -234,7 +235,7 @@ def _interp_or_nan(grid: np.ndarray, s: np.ndarray, values: np.ndarray) -> np.nd
     ok = np.isfinite(values)
     if ok.sum() < 2:
         return np.full_like(grid, math.nan)
-    return np.interp(grid, s[ok], values[ok])
+    return linear(grid, s[ok], values[ok])
 
 
 def group_by_force(tests: Sequence[MeasuredTest]) -> dict[float, tuple[MeasuredTest, ...]]:
@@ -277,7 +278,7 @@ def repeat_scatter_mm(tests: list[MeasuredTest], rest_positions: np.ndarray, gri
             groups = 4
             t_end = min(float(t.t_s[-1]) for t in group)
             tg = np.linspace(0.0, t_end, grid_points)
-            s_t = np.array([np.interp(tg, t.t_s, s) for t, s in zip(group, travels)]) * MM
+            s_t = np.array([linear(tg, t.t_s, s) for t, s in zip(group, travels)]) * MM
             lag = np.mean((s_t - s_t.mean(axis=0)) ** 2, axis=1) * k / (k - 1)
             total = total + lag
         squares.extend((total / groups).tolist())

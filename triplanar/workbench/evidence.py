@@ -25,7 +25,9 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
+from ..interpolate import linear
 from ..measurement import MeasuredTest
+from ..outcome import Outcome
 from .discrepancy import MM, TestDiscrepancy, rms
 
 #: Frequencies below this are trends, not oscillations (a test lasts 0.3-1 s).
@@ -133,7 +135,7 @@ def residual_spectrum(d: TestDiscrepancy) -> tuple[np.ndarray, np.ndarray] | Non
         ok = np.isfinite(series)
         if ok.sum() < 24:
             continue
-        y = np.interp(grid, t[ok], series[ok])
+        y = linear(grid, t[ok], series[ok])
         y = y - basis @ np.linalg.lstsq(basis, y, rcond=None)[0]
         power += np.abs(np.fft.rfft(y * window)) ** 2
     return np.fft.rfftfreq(len(grid), dt), power
@@ -220,7 +222,7 @@ def _level_scores(found: Sequence[TestDiscrepancy]) -> dict[str, tuple[list[floa
     from scipy.stats import t as student_t
     groups: dict[float, list[dict[str, float]]] = {}
     for d in found:
-        if d.status == "travel":
+        if d.status == Outcome.TRAVEL.label:
             groups.setdefault(d.force_N, []).append(_features(d))
     names = sorted({k for rows in groups.values() for row in rows for k in row})
     out = {}

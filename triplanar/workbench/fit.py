@@ -7,7 +7,8 @@ fit first scans a coarse grid so that it does not polish a local minimum near it
 
 Uncertainty (``stderr``): the cluster-robust sandwich ``(J'J)^-1 (sum_t J_t' r_t r_t' J_t) (J'J)^-1`` with
 one cluster per test (samples of one trace are strongly correlated; tests are the independent units),
-with the small-sample factor n/(n-p).
+with each test's residuals as they would be had the fit not seen it (CR3, the delete-one-test jackknife in closed
+form: :func:`~triplanar.workbench.fitbase.cluster_robust_stderr`).
 
 :func:`run_fit` is the pure unit of work of a sweep (a :class:`FitTask` in, a :class:`FitOutcome` out);
 :class:`EffectFit` is the estimator a user calls (``fit``, ``score``, ``predict``).
@@ -29,12 +30,11 @@ from ..result import SimulationResult
 from .candidates import Candidate, refit_candidate, resolve
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .intervals import interval95
+from .parameters import FitParameter
 from .executor import ExecutorLike, executor_scope
-from .fitbase import AT_BOUND, FitOutcome, ScaledBox, safe_evaluate
+from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
 
-#: Finite-difference step, as a fraction of each parameter's fit range.
-DIFF_STEP = 2e-3
 
 
 # -- evaluating a model on tests --------------------------------------------------------------------
@@ -144,39 +144,53 @@ class Problem(ScaledBox):
 
 def grid_start(problem: Problem, candidate: Candidate, u0: np.ndarray | None = None) -> np.ndarray:
     """Scan the first candidate's coarse grid over its single parameter (the others held at ``u0``, default
-    the neutral start); return the best point (scaled), the start value included."""
+    the neutral start); return the best point (scaled), the start value included.
+
+    With other parameters fitted jointly (refits, forward selection's earlier entries), each grid point also tries
+    them moved by one Gauss-Newton step (:func:`_others_step`): their start values were fitted *without* the new
+    parameter and may sit far from its valley (end friction fitted alone absorbs a drag; with the drag held at any
+    grid value but zero, the old friction angle is worse than none, and the scan would return zero)."""
     u0 = problem.start() if u0 is None else np.asarray(u0, dtype=float)
     values = candidate.grid_values() + [candidate.start_values()[candidate.free[0]]]
     scaled = np.clip((np.array(values) - problem.lo[0]) / (problem.hi[0] - problem.lo[0]), 0.0, 1.0)
     grid = sorted({float(v) for v in scaled.round(12)})
     points = [np.concatenate([[g], u0[1:]]) for g in grid]
+    if problem.n > 1:
+        points += [_others_step(problem, u) for u in points]
     costs = [float(np.sum(problem.residuals(u) ** 2)) for u in points]
     return points[int(np.argmin(costs))]
 
 
+def _others_step(problem: Problem, u: np.ndarray) -> np.ndarray:
+    """``u`` with every parameter but the first moved by one Gauss-Newton step (forward differences, clipped to the
+    box): where the others would go with the first held."""
+    r0 = problem.residuals(u)
+    cols = []
+    for i in range(1, problem.n):
+        h = DIFF_STEP if u[i] + DIFF_STEP <= 1.0 else -DIFF_STEP
+        w = u.copy()
+        w[i] += h
+        cols.append((problem.residuals(w) - r0) / h)
+    step = np.linalg.lstsq(np.stack(cols, axis=1), -r0, rcond=None)[0]
+    out = u.copy()
+    out[1:] = np.clip(u[1:] + step, 0.0, 1.0)
+    return out
+
+
 def sandwich_stderr(problem: Problem, u: np.ndarray, jac: np.ndarray) -> np.ndarray:
-    """Cluster-robust (one cluster per test) standard errors in natural units."""
+    """Cluster-robust (one cluster per test, CR3: :func:`~triplanar.workbench.fitbase.cluster_robust_stderr`)
+    standard errors in natural units."""
     r, found = problem.evaluate(u)
-    scale = problem.hi - problem.lo
-    jn = jac / scale[None, :]                         # d r / d x (natural units)
-    bread = jn.T @ jn
-    try:
-        inv = np.linalg.pinv(bread)
-    except np.linalg.LinAlgError:
-        return np.full(problem.n, math.inf)
-    meat = np.zeros_like(bread)
-    start = 0
+    jn = jac / (problem.hi - problem.lo)[None, :]                         # d r / d x (natural units)
+    blocks, res, start = [], [], 0
     for d in found:
         stop = start + len(d.residuals)
-        g = jn[start:stop].T @ r[start:stop]
-        meat += np.outer(g, g)
+        blocks.append(jn[start:stop])
+        res.append(r[start:stop])
         start = stop
-    n_tests, p = len(found), problem.n
-    if n_tests <= p:        # no degrees of freedom left for the scatter: no standard error (and no 0 x inf)
-        return np.full(p, math.inf)
-    factor = n_tests / (n_tests - p)
-    cov = inv @ meat @ inv * factor
-    return np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    if not blocks:
+        return np.full(problem.n, math.inf)
+    return cluster_robust_stderr(blocks, res)
 
 
 def solve(problem: Problem, start: np.ndarray | None = None, max_nfev: int = 30,
@@ -271,17 +285,39 @@ def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None,
                       problem.nfev, time.perf_counter() - began, str(message), tuple(float(v) for v in x))
 
 
+def fitted_parameters(cand: Candidate, outcome: FitOutcome, starts: Mapping[str, float], n_tests: int,
+                      scatter_mm: float, bias_ratio: float) -> dict[str, FitParameter]:
+    """One :class:`FitParameter` per parameter of ``cand`` with the joint fit's result: held ones first, then
+    the free ones in the recipe's order; intervals as :func:`~triplanar.workbench.intervals.interval95` (no
+    folds, so no jackknife part)."""
+    recipe = cand.parameters()
+    values, errs = outcome.values.get(cand.effect, {}), outcome.stderr.get(cand.effect, {})
+    out = {k: recipe[k] for k in cand.fixed}
+    for k in cand.free:
+        p = recipe[k]
+        at_bound = f"{cand.effect}.{k}" in outcome.at_bound
+        if p.per_test:
+            out[k] = replace(p, stderr=errs.get(k), status="per_test", at_bound=at_bound,
+                             per_test_values=dict(outcome.per_test.get(cand.effect, {}).get(k, {})))
+            continue
+        ci, status = interval95(values[k], errs[k], 0.0, n_tests, len(cand.shared), outcome.train_error_mm,
+                                scatter_mm, (p.spec.lower, p.spec.upper), float(starts[k]), p.bounds, bias_ratio)
+        out[k] = replace(p, value=values[k], start=float(starts[k]), stderr=errs[k],
+                         ci95=tuple(ci) if ci is not None else None, status="at_bound" if at_bound else status,
+                         at_bound=at_bound)
+    return out
+
+
 # -- the estimator -----------------------------------------------------------------------------------
 
 class EffectFit:
     """Add effects to a model and fit their parameters (scikit-learn style).
 
-    >>> fit = EffectFit(["end_friction"]).fit(tests)          # doctest: +SKIP
+    >>> fit = EffectFit(["end_friction"]).fit(tests, model)   # doctest: +SKIP
     >>> fit.params_, fit.stderr_, fit.error_mm_, fit.score(other_tests)
 
     Args:
         add: effect names or :class:`~triplanar.workbench.candidates.Candidate` recipes, fitted jointly.
-        base: the user's model (default: case B, reference specimen).
         start: optional ``{effect: {param: value}}`` start values (warm start).
         executor: runs the per-force simulations of each evaluation (``None``: 2-process pool).
         max_nfev: least-squares evaluations allowed.
@@ -289,11 +325,14 @@ class EffectFit:
             addition to those the effect declares ``Parameter(per_test=True)``; fitted by profiling
             (:mod:`~triplanar.workbench.pertest`).
 
-    Fitted attributes: ``params_``, ``stderr_``, ``at_bound_``, ``spec_`` (base plus the fitted effects),
+    Fitted attributes: ``parameters_`` (``{effect: {param: FitParameter}}``: value, vary, range, start, per-test,
+    standard error, interval and status of each parameter on one object, :mod:`~triplanar.workbench.parameters`)
+    and its views ``params_``, ``stderr_``, ``at_bound_``, ``ci95_``, ``status_``; ``spec_`` (base plus the fitted effects),
     ``effects_`` (Effect objects), ``baseline_error_mm_``, ``error_mm_``, ``baseline_by_load_``,
     ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``, ``ci95_`` (``{effect:
     {param: [low, high] or None}}``, :mod:`~triplanar.workbench.intervals`; the jackknife part is absent here, there
-    are no folds), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
+    are no folds), ``profile_ci95_`` (the same, from the profile of the objective: :mod:`~triplanar.workbench.profile`;
+    empty with per-test parameters), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
     (effects of the model that were freed: ``{name: values the user gave}``), ``per_test_`` (``{effect: {param:
     {test_id: value}}}``, empty without per-test parameters; ``params_`` then holds the shared values, and the
     per-test parameters have the status ``per_test`` and no interval), ``per_test_summary_`` (``{effect: {param:
@@ -303,24 +342,26 @@ class EffectFit:
     the model gave them.
     """
 
-    def __init__(self, add: Sequence[str | Candidate], base: ModelSpec | None = None,
-                 start: Mapping[str, Mapping[str, float]] | None = None, executor: ExecutorLike = None,
-                 max_nfev: int = 40, per_test: Mapping[str, Sequence[str]] | None = None):
+    def __init__(self, add: Sequence[str | Candidate], start: Mapping[str, Mapping[str, float]] | None = None,
+                 executor: ExecutorLike = None, max_nfev: int = 40,
+                 per_test: Mapping[str, Sequence[str]] | None = None, *, base: object = None):
+        if base is not None or isinstance(start, ModelSpec):
+            raise TypeError("EffectFit takes the base model in fit(tests, base), as Diagnoser and ForwardSelection "
+                            "do: EffectFit(add, ...).fit(tests, base)")
         self.add = list(add)
         self.per_test = {k: list(v) for k, v in (per_test or {}).items()}
-        self.base = base or ModelSpec()
         self.start = start
         self.executor = executor
         self.max_nfev = max_nfev
 
     def _candidates(self) -> list[Candidate]:
         # an effect the model already has is *refitted*: freed, starting at the value the user gave it
-        given = {n: dict(v) for n, v in self.base.effects}
+        given = {n: dict(v) for n, v in self.base_.effects}
         again = [a for a in self.add if isinstance(a, str) and a in given]
         self.refitted_ = {a: dict(given[a]) for a in again}
-        self.fit_base_ = replace(self.base, effects=tuple(e for e in self.base.effects if e[0] not in again))
-        cands = [refit_candidate(a, given[a], self.base.specimen) if isinstance(a, str) and a in given
-                 else resolve([a], specimen=self.base.specimen)[0] for a in self.add]
+        self.fit_base_ = replace(self.base_, effects=tuple(e for e in self.base_.effects if e[0] not in again))
+        cands = [refit_candidate(a, given[a], self.base_.specimen) if isinstance(a, str) and a in given
+                 else resolve([a], specimen=self.base_.specimen)[0] for a in self.add]
         names = [c.effect for c in cands]
         duplicate = {n for n in names if names.count(n) > 1} | (set(names) & set(self.fit_base_.effect_names))
         if duplicate:
@@ -333,13 +374,16 @@ class EffectFit:
                               f"{', '.join(names)})")
         return [c.with_per_test(self.per_test[c.effect]) if c.effect in self.per_test else c for c in cands]
 
-    def fit(self, tests: Sequence[MeasuredTest]) -> EffectFit:
+    def fit(self, tests: Sequence[MeasuredTest], base: ModelSpec | None = None) -> EffectFit:
+        """Fit the added effects' parameters on ``tests`` with the model ``base`` (default: case B, reference
+        specimen) as the rest of the model."""
+        self.base_ = base or ModelSpec()
         cands = self._candidates()
         self.candidates_ = cands
         tests = list(tests)
         with executor_scope(self.executor, len(group_by_force(tests))) as ex:
             mapper = ex.map
-            self.baseline_ = discrepancies(evaluate_spec(self.base, tests, mapper))
+            self.baseline_ = discrepancies(evaluate_spec(self.base_, tests, mapper))
             start = None
             if self.start:
                 start = tuple(float(self.start.get(c.effect, {}).get(p, c.start_values()[p]))
@@ -355,31 +399,17 @@ class EffectFit:
                 self.discrepancies_ = evaluate_per_test(self.spec_, self.per_test_, tests, mapper)
             else:
                 self.discrepancies_ = discrepancies(evaluate_spec(self.spec_, tests, mapper))
-        self.params_ = self.outcome_.values
-        self.stderr_ = self.outcome_.stderr
         from .evidence import model_form_allowance
         self.bias_ratio_ = model_form_allowance(self.discrepancies_)
-        self.at_bound_ = self.outcome_.at_bound
-        self.ci95_, self.status_ = {}, {}
-        scatter = repeat_scatter_mm(tests, self.base.rest_positions)
+        scatter = repeat_scatter_mm(tests, self.base_.rest_positions)
+        self.parameters_: dict[str, dict[str, FitParameter]] = {}
         for c in cands:
-            params = REGISTRY[c.effect].parameters
             starts = c.start_values() if start is None else dict(zip(c.shared, start[:len(c.shared)]))
-            ci, status = {}, {}
-            for p in c.shared:
-                ci[p], status[p] = interval95(self.params_[c.effect][p], self.stderr_[c.effect][p], 0.0, len(tests),
-                                              len(c.shared), self.outcome_.train_error_mm, scatter,
-                                              (params[p].lower, params[p].upper), float(starts[p]), c.bounds[p],
-                                              self.bias_ratio_)
-                if f"{c.effect}.{p}" in self.at_bound_:
-                    status[p] = "at_bound"
-            for p in c.per_test:
-                ci[p], status[p] = None, "per_test"
-            for p in c.fixed:
-                status[p] = "fixed"
-            self.ci95_[c.effect], self.status_[c.effect] = ci, status
+            self.parameters_[c.effect] = fitted_parameters(c, self.outcome_, starts, len(tests), scatter,
+                                                           self.bias_ratio_)
             if start is not None:
                 start = start[len(c.shared):]
+        self.profile_ci95_ = {} if self.per_test_ else self._profile(cands, tests, scatter)
         self.effects_: list[Effect] = self.spec_.build_effects()[len(self.fit_base_.effects):]
         self.baseline_error_mm_ = overall_error(self.baseline_)
         self.error_mm_ = overall_error(self.discrepancies_)
@@ -388,6 +418,53 @@ class EffectFit:
         from .pertest import summarize
         self.per_test_summary_ = {e: {p: summarize(v) for p, v in ps.items()} for e, ps in self.per_test_.items()}
         return self
+
+    def _profile(self, cands: Sequence[Candidate], tests: Sequence[MeasuredTest],
+                 scatter: float) -> dict[str, dict[str, list[float] | None]]:
+        """Profile-likelihood intervals (:mod:`~triplanar.workbench.profile`) of the parameters that have a curvature
+        interval, with the same standard error and quantile."""
+        from .intervals import quantile, standard_error
+        from .profile import fitted_profile_intervals
+        problem = Problem(self.fit_base_, cands, tests)
+        names = problem.names
+        se = [standard_error(self.stderr_[e][p], 0.0, self.outcome_.train_error_mm, scatter, self.bias_ratio_)
+              if self.ci95_[e].get(p) is not None else math.nan for e, p in names]
+        bounds = [(REGISTRY[e].parameters[p].lower, REGISTRY[e].parameters[p].upper) for e, p in names]
+        found = fitted_profile_intervals(problem, self.outcome_.vector, se, quantile(len(tests), len(names)), bounds)
+        out: dict[str, dict[str, list[float] | None]] = {}
+        for (e, p), ci in zip(names, found):
+            out.setdefault(e, {})[p] = ci
+        return out
+
+    # -- views of ``parameters_`` (the dictionaries of earlier versions, in the same order) ---------------
+    @property
+    def params_(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: value}}``: held and shared fitted values (per-test ones are in ``per_test_``)."""
+        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.parameters_.items()}
+
+    @property
+    def stderr_(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: standard error}}`` of the fitted shared parameters (the sandwich, ``fit`` module doc)."""
+        out = {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None} for e, ps in self.parameters_.items()}
+        return {e: v for e, v in out.items() if v}
+
+    @property
+    def ci95_(self) -> dict[str, dict[str, list[float] | None]]:
+        """``{effect: {param: [low, high] or None}}`` of the free parameters (per-test ones: ``None``)."""
+        return {c.effect: {k: (list(self.parameters_[c.effect][k].ci95) if self.parameters_[c.effect][k].ci95
+                               is not None else None) for k in (*c.shared, *c.per_test)} for c in self.candidates_}
+
+    @property
+    def status_(self) -> dict[str, dict[str, str]]:
+        """``{effect: {param: status}}`` (:mod:`~triplanar.workbench.parameters`)."""
+        return {c.effect: {k: self.parameters_[c.effect][k].status for k in (*c.shared, *c.per_test, *c.fixed)}
+                for c in self.candidates_}
+
+    @property
+    def at_bound_(self) -> tuple[str, ...]:
+        """``effect.param`` of the free parameters fitted to an end of their range (implausible)."""
+        return tuple(f"{c.effect}.{k}" for c in self.candidates_ for k in c.free
+                     if self.parameters_[c.effect][k].at_bound)
 
     def spec_for(self, test_id: str) -> ModelSpec:
         """The fitted model of one test (its own values of the per-test parameters; ``spec_`` without any)."""
@@ -407,7 +484,7 @@ class EffectFit:
     def score(self, tests: Sequence[MeasuredTest]) -> float:
         """Fraction of the base model's RMS discrepancy on ``tests`` that the fitted effects remove
         (1: perfect, 0: no better, negative: worse). Higher is better, as in scikit-learn."""
-        base = overall_error(discrepancies(evaluate_spec(self.base, tests)))
+        base = overall_error(discrepancies(evaluate_spec(self.base_, tests)))
         return 1.0 - self.error_mm(tests) / base if base > 0 else 0.0
 
     def predict(self, force_N: float, travel_m: float = 0.08) -> SimulationResult:

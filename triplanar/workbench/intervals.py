@@ -37,6 +37,21 @@ def inflation(fit_error_mm: float, scatter_mm: float) -> float:
     return max(1.0, fit_error_mm / scatter_mm)
 
 
+def standard_error(sandwich_se: float, jackknife_se: float, fit_error_mm: float, scatter_mm: float,
+                   bias: float = 1.0) -> float:
+    """The interval's standard error: the larger of the sandwich and the jackknife, times the model-form factor (the
+    larger of :func:`inflation` and ``bias``); 0 when the sandwich is not finite (a degenerate covariance)."""
+    se = max(sandwich_se if math.isfinite(sandwich_se) else 0.0, jackknife_se if math.isfinite(jackknife_se) else 0.0)
+    if not math.isfinite(sandwich_se) or se <= 0.0:
+        return 0.0
+    return se * max(inflation(fit_error_mm, scatter_mm), bias if math.isfinite(bias) else 1.0)
+
+
+def quantile(n_tests: int, n_free: int) -> float:
+    """``t(0.975, n_tests - n_free)`` (at least one degree of freedom): tests are the independent units."""
+    return float(student_t.ppf(0.975, max(1, n_tests - n_free)))
+
+
 def interval95(value: float, sandwich_se: float, jackknife_se: float, n_tests: int, n_free: int,
                fit_error_mm: float, scatter_mm: float, bounds: tuple[float, float], start: float,
                fit_range: tuple[float, float], bias: float = 1.0) -> tuple[list[float] | None, str]:
@@ -45,12 +60,15 @@ def interval95(value: float, sandwich_se: float, jackknife_se: float, n_tests: i
     span = fit_range[1] - fit_range[0]
     if abs(value - start) <= 1e-9 * max(span, 1e-300):
         return None, "not_moved"
-    se = max(sandwich_se if math.isfinite(sandwich_se) else 0.0, jackknife_se if math.isfinite(jackknife_se) else 0.0)
-    if not math.isfinite(sandwich_se) or se <= 0.0:
+    se = standard_error(sandwich_se, jackknife_se, fit_error_mm, scatter_mm, bias)
+    if se <= 0.0:
         return None, "degenerate"
-    se *= max(inflation(fit_error_mm, scatter_mm), bias if math.isfinite(bias) else 1.0)
-    q = float(student_t.ppf(0.975, max(1, n_tests - n_free)))
+    q = quantile(n_tests, n_free)
     ci = [max(bounds[0], value - q * se), min(bounds[1], value + q * se)]
-    if ci[0] <= fit_range[0] and ci[1] >= fit_range[1]:
-        return ci, "unidentified"       # the data allow anything over the plausible range (e.g. 10 +- 2.7e9 Hz)
-    return ci, "fitted"
+    return ci, status_of(ci, fit_range)
+
+
+def status_of(ci: list[float], fit_range: tuple[float, float]) -> str:
+    """``unidentified`` when ``ci`` spans the whole fit range (the data allow anything over the plausible range, e.g.
+    10 +- 2.7e9 Hz), else ``fitted``."""
+    return "unidentified" if ci[0] <= fit_range[0] and ci[1] >= fit_range[1] else "fitted"

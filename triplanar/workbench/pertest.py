@@ -41,11 +41,9 @@ from scipy.optimize import least_squares
 from ..measurement import MeasuredTest
 from .candidates import Candidate
 from .discrepancy import TestDiscrepancy
-from .fitbase import AT_BOUND, FitOutcome, ScaledBox, safe_evaluate
+from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalTask, ModelSpec, spec_with_values
 
-#: Finite-difference step, as a fraction of each parameter's fit range (as :data:`fit.DIFF_STEP`).
-DIFF_STEP = 2e-3
 #: Least-squares evaluations of one test's profile (warm-started ones converge in 3-6).
 INNER_NFEV = 20
 
@@ -271,25 +269,9 @@ def sandwich(problem: ProfiledProblem, u: np.ndarray) -> np.ndarray:
     profiles = problem.profile(u)
     parts = problem.jacobians(u)
     jn = [projected(p.jac_shared, p.jac_phi) for p in parts]
-    p = problem.n
-    bread = sum(j.T @ j for j in jn) if jn else np.zeros((p, p))
-    inv = np.linalg.pinv(bread)
-    meat = np.zeros((p, p))
-    for j, prof in zip(jn, profiles):
-        # CR3 (the delete-one-test jackknife in closed form): each test's residuals as they would be had the fit
-        # not seen it, (I - H_tt)^-1 r_t with H_tt = J_t (J'J)^-1 J_t' (Woodbury: only p x p matrices). With a
-        # handful of tests the plain sandwich is too narrow (per-test offsets, 6 tests: 26/30 intervals held
-        # the truth; tests/triplanar/workbench/test_workbench_pertest.py measures the coverage with this correction).
-        a = j.T @ j
-        g = j.T @ prof.residuals
-        try:
-            g = g + a @ np.linalg.solve(bread - a, g)
-        except np.linalg.LinAlgError:
-            pass
-        meat += np.outer(g, g)
-    g_n = len(profiles)
-    factor = (g_n - 1) / g_n if g_n > p else math.inf      # the jackknife's (G - 1) / G
-    return np.sqrt(np.clip(np.diag(inv @ meat @ inv * factor), 0.0, None))
+    if not jn:
+        return np.full(problem.n, math.inf)
+    return cluster_robust_stderr(jn, [prof.residuals for prof in profiles])
 
 
 def solve_profiled(problem: ProfiledProblem, start: Sequence[float] | None = None, max_nfev: int = 30,

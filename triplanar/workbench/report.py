@@ -19,6 +19,8 @@ from typing import Sequence
 
 import numpy as np
 
+from ..atomic import write_atomic
+from ..interpolate import linear
 from ..paths import travel
 from ..plotting import MEASURED, MODEL, overhead_axes, panel_grid, plot_traces, save_figure
 from ..specimen import reference
@@ -213,8 +215,7 @@ def plot_time_residuals(before: Sequence, after: Sequence | None, path: str | Pa
             row[1].plot(d.t_s, d.lateral_mm[:, 0], color=colour(d.force_N), lw=0.7)
             spec = residual_spectrum(d)
             if spec is not None and np.any(spec[1] > 0):
-                spectra.append(np.interp(grid, spec[0], spec[1] / np.median(spec[1][spec[0] >= 2.0]),
-                                         right=np.nan))
+                spectra.append(linear(grid, spec[0], spec[1] / np.median(spec[1][spec[0] >= 2.0]), right=np.nan))
         if spectra:
             row[2].semilogy(grid, np.nanmedian(np.array(spectra), axis=0), color="black", lw=1)
         row[0].set_ylabel(f"{label}\ntravel lag, model - measured (mm)", fontsize=8)
@@ -290,9 +291,8 @@ def write_json(data: dict, path: str | Path) -> Path:
     import json
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(_clean(data), indent=1) + "\n", encoding="utf-8")
-    tmp.replace(path)
+    text = json.dumps(_clean(data), indent=1) + "\n"
+    write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
     return path
 
 

@@ -122,8 +122,10 @@ class ForwardSelection:
         return self
 
     def _diagnoser(self) -> Diagnoser:
+        # no model-form step per round (as in diagnose's combinations): adding effects one at a time is itself the
+        # search over the model's form, and the step would cost every round a refit per one-parameter effect
         return Diagnoser(self.candidates, self.folds, self.executor, self.progress, self.max_nfev, refit_given=False,
-                         combine=False)
+                         combine=False, model_form=False)
 
     @property
     def report_(self) -> dict[str, Any]:

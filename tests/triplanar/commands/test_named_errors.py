@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
+from triplanar.atomic import MARK, temporary_path
 from triplanar.cli import main
 from triplanar.effects import REGISTRY, Effect, EffectError, make_effect
 from triplanar.labdata import generate_lab_data, write_lab_data
@@ -43,18 +44,18 @@ def test_lab_data_into_a_missing_folder_writes_there(tmp_path, capsys) -> None:
     code, out, err = run(capsys, "lab-data", "--out", target, "--loads", "40", "--repeats", "1")
     assert code == 0, err
     assert target.exists() and Path(f"{target}.truth.json").exists()
-    assert not [p for p in target.parent.iterdir() if p.name.endswith(".tmp")]
+    assert sorted(p.name for p in target.parent.iterdir()) == ["lab.csv", "lab.csv.truth.json"]  # no temporary
 
 
 def test_no_tests_to_write_names_the_users_file(tmp_path) -> None:
     path = tmp_path / "lab.csv"
     with pytest.raises(MeasurementError) as err:
         write_lab_data(path, [], {})
-    assert err.value.path == str(path) and ".tmp" not in str(err.value)
+    assert err.value.path == str(path) and MARK not in str(err.value)
     tests, truth = generate_lab_data(loads=(40.0,), repeats=1, seed=1)
     with pytest.raises(MeasurementError) as err:  # a refusal from the writer names the user's file too
         write_lab_data(path, tests + tests, truth)
-    assert err.value.path == str(path) and ".tmp" not in str(err.value)
+    assert err.value.path == str(path) and MARK not in str(err.value)
     assert not list(tmp_path.iterdir())
 
 
@@ -70,6 +71,7 @@ def test_write_measurements_into_a_missing_folder_names_the_file(tmp_path) -> No
 SLOW_WRITE = """
 import sys, time
 import triplanar.labdata as L
+from triplanar.atomic import MARK, temporary_path
 from triplanar.cli import main
 real = L.write_measurements
 def slow(path, tests):
@@ -87,7 +89,7 @@ def test_sigterm_while_lab_data_writes_leaves_no_temporary_file(tmp_path) -> Non
     proc = subprocess.Popen([sys.executable, "-c", SLOW_WRITE, str(target)], cwd=ROOT, env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stdout.readline().strip() == "written", proc.stderr.read()
-    assert [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]  # the temporary file is there
+    assert [p for p in tmp_path.iterdir() if MARK in p.name]  # the temporary file is there
     proc.send_signal(signal.SIGTERM)
     proc.wait(60)
     assert proc.returncode == 128 + signal.SIGTERM
@@ -153,9 +155,8 @@ def test_a_killed_writers_leftover_is_removed_by_the_next_write(tmp_path, capsys
     dead = subprocess.Popen([sys.executable, "-c", "pass"])
     dead.wait()
     target = tmp_path / "lab.csv"
-    stale = [tmp_path / f".lab.csv.{dead.pid}.0123456789ab.tmp",
-             tmp_path / f".lab.csv.truth.json.{dead.pid}.0123456789ab.tmp"]
-    live = tmp_path / f".lab.csv.{os.getpid()}.ba9876543210.tmp"  # a writer still running: left alone
+    stale = [temporary_path(target, pid=dead.pid), temporary_path(f"{target}.truth.json", pid=dead.pid)]
+    live = temporary_path(target)  # a writer still running: left alone
     for p in stale + [live]:
         p.write_text("partial")
     code, out, err = run(capsys, "lab-data", "--out", target, "--loads", "40", "--repeats", "1")

@@ -42,3 +42,13 @@ def test_two_hidden_library_effects_are_both_named_with_their_shares(offset_m: f
     # the shares add up to what the combination removes, on held-out loads
     assert total == pytest.approx(1 - report["combination"]["cv_error_mm"] / report["baseline_error_mm"], rel=1e-9)
     assert report["combination"]["cv_error_mm"] <= 2 * report["repeat_scatter_mm"]
+
+
+def test_a_combination_stops_when_the_candidate_list_is_used_up() -> None:
+    """End friction the only candidate, on data with a tip offset too: it does not explain alone, and forward selection
+    has nothing left to add (it used to raise "no candidate effects to try")."""
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=3, effects=[
+        make_effect("end_friction:phi_deg=8"), make_effect("tip_offset:offset_m=0.004")])
+    diag = Diagnoser(["end_friction"], folds=2, progress=False, executor="serial", model_form=False).fit(tests)
+    assert diag.verdict_ == "outside_library" and diag.missing_effect_ == "end_friction", diag.reason_
+    assert [s["effect"] for s in diag.combination_["steps"]] == ["end_friction"]

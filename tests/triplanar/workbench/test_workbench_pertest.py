@@ -31,8 +31,8 @@ def offset_data(seed: int = 5):
 @pytest.mark.slow
 def test_a_per_test_offset_and_a_shared_friction_angle_are_recovered() -> None:
     tests, truth = offset_data()
-    fit = EffectFit(["end_friction", "tip_offset"], ModelSpec(), executor="serial",
-                    per_test={"tip_offset": ["offset_m"]}).fit(tests)
+    fit = EffectFit(["end_friction", "tip_offset"], executor="serial",
+                    per_test={"tip_offset": ["offset_m"]}).fit(tests, ModelSpec())
     phi = fit.params_["end_friction"]["phi_deg"]
     lo, hi = fit.ci95_["end_friction"]["phi_deg"]
     print(f"\n[per-test offset] phi {phi:.3f} [{lo:.3f}, {hi:.3f}] (8); error {fit.baseline_error_mm_:.2f} -> "
@@ -50,7 +50,7 @@ def test_a_per_test_offset_and_a_shared_friction_angle_are_recovered() -> None:
     one = truth["tests"][0]["test_id"]
     assert dict(dict(fit.spec_for(one).effects)["tip_offset"])["offset_m"] == pytest.approx(offsets[one])
     # a shared offset cannot do as well: the per-test values are what the data need
-    shared = EffectFit(["end_friction", "tip_offset"], ModelSpec(), executor="serial").fit(tests)
+    shared = EffectFit(["end_friction", "tip_offset"], executor="serial").fit(tests, ModelSpec())
     assert fit.error_mm_ < 0.7 * shared.error_mm_
     assert fit.per_test_summary_["tip_offset"]["offset_m"]["n"] == len(tests)
 
@@ -153,8 +153,8 @@ def test_shared_intervals_cover_the_truth_with_per_test_parameters() -> None:
                                      effects=[make_effect("end_friction:phi_deg=8"),
                                               make_effect("tip_offset:offset_m=0")],
                                      per_test={"tip_offset": {"offset_m": (-0.008, 0.008)}})
-        fit = EffectFit(["end_friction", "tip_offset"], ModelSpec(), executor="serial",
-                        per_test={"tip_offset": ["offset_m"]}).fit(tests)
+        fit = EffectFit(["end_friction", "tip_offset"], executor="serial",
+                        per_test={"tip_offset": ["offset_m"]}).fit(tests, ModelSpec())
         lo, hi = fit.ci95_["end_friction"]["phi_deg"]
         hits += lo <= 8.0 <= hi
         widths.append(hi - lo)

@@ -80,7 +80,7 @@ def test_a_wrong_given_parameter_is_refitted_and_named() -> None:
     assert refit["ci95"][0] <= 8.0 <= refit["ci95"][1]
     assert refit["improvement"] > 0.7
     # the same from fit: an --add of an effect the model has frees it
-    fit = EffectFit(["end_friction"], given, executor="serial").fit(tests)
+    fit = EffectFit(["end_friction"], executor="serial").fit(tests, given)
     assert fit.refitted_ == {"end_friction": {"phi_deg": 4.0}}
     assert fit.params_["end_friction"]["phi_deg"] == pytest.approx(refit["fitted"], abs=0.05)
     assert fit.error_mm_ < 0.3 * fit.baseline_error_mm_
@@ -137,7 +137,7 @@ def test_interval_coverage_over_seeded_datasets() -> None:
     for seed in COVERAGE_SEEDS:
         tests = lab([make_effect("end_friction:phi_deg=8")], seed=100 + seed, loads=(35.0, 45.0, 55.6))
         diag = Diagnoser(["end_friction"], folds=FOLDS, executor="serial", progress=False,
-                         refit_given=False).fit(tests)
+                         refit_given=False, model_form=False).fit(tests)      # the curvature interval only
         lo, hi = diag.candidates_[0].param_ci95["phi_deg"]
         hits += lo <= 8.0 <= hi
         widths.append(hi - lo)

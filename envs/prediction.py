@@ -1,11 +1,12 @@
-"""Prediction with the env's own compiled step: a bench's state (block, bench servos, latency queue, bookkeeping)
-copied out of a ``TriPlanarShear-v1`` env, and batched rollouts of candidate action sequences from it.
-
-A rollout runs exactly what :meth:`envs.triplanar_shear_v1.TriPlanarShearV1Env.step` runs (the compiled bench
-command, :func:`envs.triplanar_shear_v1.bench_command`, then v0's control step,
-:func:`envs.triplanar_shear.control_step`), so a prediction from the env's true state is the env's future to the
-last bit (``tests/agents/test_mpc.py``); there is no second physics. The controllers of :mod:`agents.limit` and
-:mod:`agents.mpc` score candidates with :func:`rollout_costs`.
+"""Prediction with the env's own compiled step, for the model-based controllers (:mod:`agents.limit`,
+:mod:`agents.mpc`): a bench's state (block, bench servos, latency queue, bookkeeping) copied out of a
+``TriPlanarShear-v1`` env (:func:`snapshot`), one bench period from such a state (:func:`step_state`: exactly what
+:meth:`envs.triplanar_shear_v1.TriPlanarShearV1Env.step` runs, the compiled bench command
+:func:`envs.triplanar_shear_v1.bench_command` then the control step :func:`envs.core.control_step`), and batched
+rollouts of candidate action sequences scored by the episode's metric (:func:`rollout_costs`, :func:`predict`). A
+prediction from the env's true state is the env's future to the last bit (``tests/agents/test_mpc.py``); there is
+no second physics. It lives with the env because it is the env's compiled step: the env's stale-cache check covers
+it, and :func:`triplanar.warmup.warm_envs` compiles it with the env's other kernels (:func:`warm_up`).
 
 **Cost of a candidate** (mm m, the numerator of the episode's mimicry error, ``docs/environment.md``): the
 travel-integrated distance to the reference so far, plus the distance at the horizon's end times the travel still
@@ -24,7 +25,9 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from envs.core import (
+from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
+
+from .core import (
     CF_FAIL,
     CF_TRAVEL,
     IN_DIST,
@@ -37,8 +40,7 @@ from envs.core import (
     control_step,
     new_workspace,
 )
-from envs.triplanar_shear_v1 import bench_command
-from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
+from .triplanar_shear_v1 import bench_command
 
 
 @dataclass
@@ -129,3 +131,12 @@ def predict(state: BenchState, plans: np.ndarray, pace_s: float = 1.0) -> tuple[
     rollout_costs(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, plans, float(pace_s), costs,
                   dists, codes)
     return costs, dists, codes
+
+
+def warm_up(env) -> None:
+    """Compile :func:`step_state` and :func:`rollout_costs` (with the argument types the controllers pass) from a
+    reset v1 ``env``; the env is left alone."""
+    state = snapshot(env)
+    predict(state, np.zeros((2, 3, 2)))
+    step_state(state.y, state.p, state.modes, state.armed, state.st, state.ref, state.cfg, state.bc, state.bs,
+               state.queue, np.zeros(2), np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO), new_workspace())

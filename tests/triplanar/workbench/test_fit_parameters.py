@@ -1,0 +1,102 @@
+"""One object per fitted parameter: a recipe edited parameter by parameter, its checks, and EffectFit's views."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from triplanar.effects import REGISTRY, EffectError
+from triplanar.workbench import EffectFit, ModelSpec
+from triplanar.workbench.candidates import Candidate, default_candidate
+from triplanar.workbench.fit import fitted_parameters
+from triplanar.workbench.fitbase import FitOutcome
+from triplanar.workbench.parameters import FitParameter
+
+
+def test_every_effects_recipe_round_trips_through_its_parameters() -> None:
+    for name in REGISTRY:
+        cand = default_candidate(name)
+        params = cand.parameters()
+        assert list(params) == list(REGISTRY[name].parameters)
+        assert {k for k, p in params.items() if p.vary} == set(cand.free)
+        assert Candidate.from_parameters(params.values()) == cand
+
+
+def test_fixing_and_freeing_a_parameter_changes_the_recipe() -> None:
+    params = default_candidate("end_friction").parameters()
+    held = params["phi_deg"].fixed(5.0)
+    assert (held.vary, held.value, held.status) == (False, 5.0, "fixed")
+    cand = Candidate.from_parameters([held])
+    assert cand.free == () and cand.fixed == {"phi_deg": 5.0} and cand.values({}) == {"phi_deg": 5.0}
+    free = held.freed(2.0, 12.0)
+    assert (free.vary, free.bounds, free.start, free.status) == (True, (2.0, 12.0), 5.0, "unfitted")
+    cand = Candidate.from_parameters([free])
+    assert cand.free == ("phi_deg",) and cand.bounds["phi_deg"] == (2.0, 12.0) and cand.start_values() == {
+        "phi_deg": 5.0}
+    # freed without a range: the effect's own plausible range around the start
+    spec = REGISTRY["end_friction"].parameters["phi_deg"]
+    assert held.freed().bounds == spec.fit_range(5.0)
+    # a parameter of a two-parameter effect held: the other stays free, without a grid scan of two
+    tilt = default_candidate("plane_tilt").parameters()
+    first = next(k for k, p in tilt.items() if p.vary)
+    tilt[first] = tilt[first].fixed()
+    cand = Candidate.from_parameters(tilt.values())
+    assert first not in cand.free and first in cand.fixed
+
+
+def test_bounds_and_values_outside_the_effect_are_refused_naming_the_parameter() -> None:
+    phi = default_candidate("end_friction").parameters()["phi_deg"]
+    with pytest.raises(EffectError, match=r"end_friction\.phi_deg: fit range \(-5\.0, 10\.0\)"):
+        phi.freed(-5.0, 10.0)
+    with pytest.raises(EffectError, match=r"end_friction\.phi_deg: fit range \(10\.0, 5\.0\)"):
+        phi.freed(10.0, 5.0)
+    with pytest.raises(EffectError, match=r"end_friction\.phi_deg: 90\.0 is outside"):
+        phi.fixed(90.0)
+    with pytest.raises(EffectError, match=r"end_friction\.phi_deg: value 20\.0 is outside its fit range"):
+        FitParameter("end_friction", "phi_deg", 20.0, True, 0.0, 10.0)
+    with pytest.raises(EffectError, match=r"end_friction\.phi_deg: min = nan is not a number"):
+        FitParameter("end_friction", "phi_deg", 1.0, True, math.nan, 10.0)
+    assert FitParameter("end_friction", "phi_deg", np.float32(1.0), True, np.float64(0.0), 10).value == 1.0
+    with pytest.raises(EffectError, match="has no parameter 'phi'"):
+        FitParameter("end_friction", "phi", 1.0)
+    with pytest.raises(EffectError, match="unknown effect"):
+        FitParameter("no_such_effect", "x", 1.0)
+    with pytest.raises(EffectError, match="one effect's parameters"):
+        Candidate.from_parameters([phi, default_candidate("tip_offset").parameters()["offset_m"]])
+    with pytest.raises(EffectError, match=r"end_friction\.phi_deg given twice"):
+        Candidate.from_parameters([phi, phi])
+
+
+def test_a_fit_result_lands_on_the_parameter_objects() -> None:
+    cand = default_candidate("end_friction")
+    outcome = FitOutcome("fit", ("end_friction",), {"end_friction": {"phi_deg": 29.9}},
+                         {"end_friction": {"phi_deg": 0.4}}, ("end_friction.phi_deg",), 1.0, {}, {}, 3, 0.0, "")
+    phi = fitted_parameters(cand, outcome, cand.start_values(), 12, 0.5, 1.0)["phi_deg"]
+    assert (phi.value, phi.stderr, phi.status, phi.at_bound, phi.start) == (29.9, 0.4, "at_bound", True, 0.0)
+    assert phi.ci95 is not None and phi.ci95[0] < 29.9 <= phi.ci95[1]
+    moved = FitOutcome("fit", ("end_friction",), {"end_friction": {"phi_deg": 0.0}},
+                       {"end_friction": {"phi_deg": 0.4}}, (), 1.0, {}, {}, 3, 0.0, "")
+    still = fitted_parameters(cand, moved, cand.start_values(), 12, 0.5, 1.0)["phi_deg"]
+    assert (still.status, still.ci95, still.at_bound) == ("not_moved", None, False)
+    assert math.isfinite(still.stderr)
+    assert still.to_json() == {"value": 0.0, "vary": True, "min": 0.0, "max": 30.0, "start": 0.0, "per_test": False,
+                               "stderr": 0.4, "ci95": None, "status": "not_moved", "at_bound": False}
+
+
+def test_a_per_test_parameter_carries_each_tests_value() -> None:
+    cand = default_candidate("tip_offset").with_per_test(["offset_m"])
+    outcome = FitOutcome("fit", ("tip_offset",), {"tip_offset": {}}, {}, (), 1.0, {}, {}, 3, 0.0, "",
+                         per_test={"tip_offset": {"offset_m": {"t1": -0.004, "t2": 0.003}}})
+    offset = fitted_parameters(cand, outcome, cand.start_values(), 2, 0.5, 1.0)["offset_m"]
+    assert (offset.per_test, offset.status, offset.ci95) == (True, "per_test", None)
+    assert offset.per_test_values == {"t1": -0.004, "t2": 0.003}
+    assert offset.fixed().per_test_values is None
+
+
+def test_effect_fit_takes_the_base_model_in_fit_and_refuses_it_in_the_constructor() -> None:
+    with pytest.raises(TypeError, match=r"fit\(tests, base\)"):
+        EffectFit(["end_friction"], ModelSpec())
+    with pytest.raises(TypeError, match=r"fit\(tests, base\)"):
+        EffectFit(["end_friction"], base=ModelSpec())

@@ -1,0 +1,231 @@
+"""The unit of work of a diagnosis: one candidate's cross-validated fit (:func:`run_candidate`) and its line of
+the report (:class:`CandidateResult`, :func:`assemble`).
+
+Folds are load levels, interleaved (fold k holds levels k, k+K, k+2K, ... of the sorted loads), so a candidate is
+judged on loads it was not fitted to. Every (candidate, fold) fit is an independent
+:class:`~triplanar.workbench.fit.FitTask`; :func:`run_candidate` runs one candidate's fits and is what
+:class:`~triplanar.workbench.diagnose.Diagnoser` maps over its executor.
+
+``param_stderr``: the larger of the cluster-robust sandwich error of the full fit and the delete-a-fold jackknife
+over the cross-validation fits (which also sees a parameter drifting with load); the 95 % intervals are
+:func:`~triplanar.workbench.intervals.interval95`'s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..effects import REGISTRY
+from ..measurement import MeasuredTest
+from .candidates import Candidate
+from .discrepancy import rms
+from .fit import FitOutcome, FitTask, discrepancies, evaluate_spec, run_fit
+from .intervals import interval95
+from .spec import ModelSpec, spec_with_values
+
+def load_folds(forces: Sequence[float], k: int) -> list[list[float]]:
+    """Interleaved folds of the sorted load levels (at most one fold per level)."""
+    levels = sorted(set(float(f) for f in forces))
+    k = max(1, min(k, len(levels)))
+    return [levels[i::k] for i in range(k)]
+
+
+@dataclass
+class CandidateResult:
+    """One candidate's line of the report."""
+
+    effect: str
+    params: dict[str, float]
+    param_stderr: dict[str, float]
+    cv_error_mm: float
+    fit_error_mm: float
+    improvement: float
+    plausible: bool
+    at_bound: list[str]
+    cv_error_by_load: dict[float, float] = field(default_factory=dict)
+    fold_params: list[dict[str, float]] = field(default_factory=list)
+    seconds: float = 0.0
+    nfev: int = 0
+    all_values: dict[str, dict[str, float]] = field(default_factory=dict)
+    all_stderr: dict[str, dict[str, float]] = field(default_factory=dict)
+    kind: str = "candidate"                       # "candidate" (added) or "refit" (a given effect, freed)
+    given: dict[str, float] = field(default_factory=dict)   # refit: the values the user gave
+    param_ci95: dict[str, list[float] | None] = field(default_factory=dict)
+    param_status: dict[str, str] = field(default_factory=dict)
+    fixed: dict[str, float] = field(default_factory=dict)
+    per_test: dict[str, dict[str, Any]] = field(default_factory=dict)   # param -> summary (pertest.summarize)
+    per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
+    all_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # every effect fitted with it
+    held_out_mm: dict[str, float] = field(default_factory=dict, repr=False)   # test_id -> its error when held out
+    bias_ratio: float = 1.0      # evidence.bias_ratio of the full fit (the intervals' model-form allowance)
+    param_profile_ci95: dict[str, list[float] | None] = field(default_factory=dict)   # profile.py; named entries
+    param_model_ci95: dict[str, list[float] | None] = field(default_factory=dict)     # alternatives.py; named
+    model_form: dict[str, dict[str, Any]] = field(default_factory=dict)              # alternatives.py; named
+
+    def as_json(self) -> dict[str, Any]:
+        return {"effect": self.effect, "params": self.params, "param_ci95": self.param_ci95,
+                **({"param_profile_ci95": self.param_profile_ci95} if self.param_profile_ci95 else {}),
+                **({"param_model_ci95": self.param_model_ci95, "model_form": self.model_form}
+                   if self.param_model_ci95 else {}),
+                **({"per_test": self.per_test} if self.per_test else {}),
+                "param_stderr": self.param_stderr,
+                "cv_error_mm": self.cv_error_mm, "improvement": self.improvement, "kind": self.kind,
+                "param_status": self.param_status, "fixed": self.fixed,
+                **({"given": self.given} if self.kind == "refit" else {}),
+                "fit_error_mm": self.fit_error_mm, "plausible": self.plausible, "at_bound": self.at_bound,
+                "cv_error_by_load_mm": {f"{k:g}": v for k, v in self.cv_error_by_load.items()},
+                "fold_params": self.fold_params, "fit_seconds": round(self.seconds, 3), "nfev": self.nfev,
+                **({"refitted": {k: v for k, v in self.all_values.items() if k != self.effect}}
+                   if len(self.all_values) > 1 else {})}
+
+
+
+
+def jackknife(folds: list[dict[str, float]]) -> dict[str, float]:
+    k = len(folds)
+    if k < 2:
+        return {}
+    out = {}
+    for name in folds[0]:
+        values = np.array([f[name] for f in folds])
+        out[name] = float(math.sqrt((k - 1) / k * np.sum((values - values.mean()) ** 2)))
+    return out
+
+
+@dataclass(frozen=True)
+class CandidateTask:
+    """Everything one candidate's cross-validated fit needs (picklable: the unit of a diagnose sweep)."""
+
+    base: ModelSpec
+    candidate: Candidate
+    tests: tuple[MeasuredTest, ...]
+    folds: tuple[tuple[float, ...], ...]
+    max_nfev: int = 30
+    refit: tuple[Candidate, ...] = ()
+    warm: Mapping[str, Mapping[str, float]] | None = None
+    kind: str = "candidate"
+
+    @property
+    def key(self) -> str:
+        return f"{self.kind}:{self.candidate.effect}"
+
+
+def run_candidate(task: CandidateTask) -> dict[str, FitOutcome]:
+    """Fit one candidate (jointly with the ``refit`` effects, warm-started at ``warm``) on all tests, then on
+    each fold's training levels, scoring the fold's held-out levels; returns ``{"all": ..., "fold0": ...}``.
+    Pure: the unit a diagnose sweep maps.
+
+    The full fit starts from the candidate's grid scan (or its neutral start); each fold's fit starts from
+    the full fit's optimum (a warm start: it converges in a few iterations; the fold's optimum itself depends
+    only on its training levels), its Jacobian started from the full fit's last Jacobian rows of its training
+    tests and updated by Broyden's secant rule along the steps (an iteration costs one evaluation instead of one
+    per parameter more; the fold's residuals are its own, the Jacobian only steers). All fits share one
+    evaluation cache (folds split by load level, so a level's tests are the same in every fit)."""
+    cache: dict = {}
+    cands = (task.candidate, *task.refit)
+    tests = list(task.tests)
+    out: dict[str, FitOutcome] = {}
+    rows: dict = {}
+    out["all"] = run_fit(FitTask(task.base, cands, tuple(tests), (), None, task.max_nfev, "all", task.warm),
+                         map, cache, rows_out=rows)
+    if not out["all"].per_test:     # the fitted model's residual means: the intervals' model-form allowance
+        from .evidence import model_form_allowance
+        spec = task.base
+        for name, values in out["all"].values.items():
+            spec = spec_with_values(spec, name, values)
+        out["all"] = replace(out["all"], bias_ratio=model_form_allowance(discrepancies(evaluate_spec(spec, tests))))
+    phis = None
+    if out["all"].per_test:  # per-test parameters: each training test starts at its value in the full fit
+        names = [(c.effect, p) for c in cands for p in c.per_test]
+        phis = {t.test_id: tuple(out["all"].per_test[e][p][t.test_id] for e, p in names) for t in tests
+                if all(t.test_id in out["all"].per_test[e][p] for e, p in names)}
+    for i, fold in enumerate(task.folds):
+        held = tuple(t for t in tests if t.shear_force_N in fold)
+        train = tuple(t for t in tests if t.shear_force_N not in fold) or held  # one level only: in sample
+        out[f"fold{i}"] = run_fit(FitTask(task.base, cands, train, held, out["all"].vector, task.max_nfev,
+                                          f"fold{i}", phi_start=phis), map, cache, chord=rows or None)
+    return out
+
+
+
+def assemble(task: CandidateTask, by_label: dict[str, FitOutcome], k: int, n_tests: int, baseline_mm: float,
+             scatter_mm: float) -> CandidateResult:
+    """One candidate's line of the report from its fits (``by_label["KEY/all"]``, ``"KEY/fold0"``, ...): cross-validated
+    error, parameters with their standard errors and 95 % intervals, and those of the effects refitted with it."""
+    cand = task.candidate
+    full = by_label[f"{task.key}/all"]
+    held: dict[str, tuple[float, float]] = {}
+    fold_params = []
+    for i in range(k):
+        out = by_label[f"{task.key}/fold{i}"]
+        held.update(out.held_out_errors)
+        fold_params.append({p: out.values[cand.effect][p] for p in cand.shared})
+    cv = rms([e for _, e in held.values()])
+    by_load: dict[float, list[float]] = {}
+    for force, err in held.values():
+        by_load.setdefault(force, []).append(err)
+    params = {p: full.values[cand.effect][p] for p in cand.shared}
+    sandwich = full.stderr.get(cand.effect, {})
+    jack = jackknife(fold_params) if k > 1 else {}
+    stderr = {p: float(max(sandwich.get(p, 0.0), jack.get(p, 0.0))) for p in cand.shared}
+    base = baseline_mm
+    improvement = 1.0 - cv / base if base > 0 and math.isfinite(cv) else 0.0
+    implausible = [a.split(".", 1)[1] for a in full.at_bound if a.split(".", 1)[0] == cand.effect]
+    seconds = full.seconds + sum(by_label[f"{task.key}/fold{i}"].seconds for i in range(k))
+    nfev = full.nfev + sum(by_label[f"{task.key}/fold{i}"].nfev for i in range(k))
+    start = cand.start_values()
+    ci, status = {}, {}
+    for p in cand.shared:
+        lo, hi = REGISTRY[cand.effect].parameters[p].lower, REGISTRY[cand.effect].parameters[p].upper
+        ci[p], status[p] = interval95(params[p], sandwich.get(p, math.nan), jack.get(p, 0.0), n_tests,
+                                      len(cand.shared), full.train_error_mm, scatter_mm,
+                                      (lo, hi), start[p], cand.bounds[p], full.bias_ratio)
+        if p in implausible and ci[p] is not None:   # (without an interval its status says why)
+            status[p] = "at_bound"
+    # the effects refitted jointly with it (forward selection, combinations): their intervals the same way
+    all_ci = {cand.effect: ci}
+    n_free = len(cand.shared) + sum(len(r.shared) for r in task.refit)
+    for other in task.refit:
+        folds_other = [by_label[f"{task.key}/fold{i}"].values[other.effect] for i in range(k)]
+        jack_other = jackknife([{p: f[p] for p in other.shared} for f in folds_other]) if k > 1 else {}
+        all_ci[other.effect] = {}
+        for p in other.shared:
+            par = REGISTRY[other.effect].parameters[p]
+            all_ci[other.effect][p] = interval95(
+                full.values[other.effect][p], full.stderr.get(other.effect, {}).get(p, math.nan),
+                jack_other.get(p, 0.0), n_tests, n_free, full.train_error_mm, scatter_mm,
+                (par.lower, par.upper), math.nan, other.bounds[p], full.bias_ratio)[0]
+    given = dict(cand.start or {}) if task.kind == "refit" else {}
+    from .pertest import summarize
+    per_test = {p: summarize(v) for p, v in full.per_test.get(cand.effect, {}).items()}
+    return CandidateResult(cand.effect, params, stderr, cv, full.train_error_mm, improvement,
+                           not implausible, implausible,
+                           {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
+                           full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed),
+                           per_test, full.per_test, all_ci, {t: e for t, (_, e) in held.items()},
+                           full.bias_ratio)
+
+
+def profile_result(task: CandidateTask, result: CandidateResult, tests: Sequence[MeasuredTest], scatter_mm: float,
+                   mapper: Callable = map) -> None:
+    """Fill ``result.param_profile_ci95`` (:mod:`~triplanar.workbench.profile`) for the candidate's own parameters
+    that have a curvature interval, with the same standard error and quantile (the effects refitted with it are
+    profiled over, not reported). Candidates with per-test parameters get none."""
+    if result.per_test:
+        return
+    from .fit import Problem
+    from .intervals import quantile, standard_error
+    from .profile import fitted_profile_intervals
+    cands = (task.candidate, *task.refit)
+    problem = Problem(task.base, cands, list(tests), mapper)
+    own = task.candidate.shared
+    vector = [result.all_values[c.effect][p] for c in cands for p in c.shared]
+    se = [standard_error(result.param_stderr[p], 0.0, result.fit_error_mm, scatter_mm, result.bias_ratio)
+          if result.param_ci95.get(p) is not None else math.nan for p in own] + [math.nan] * (problem.n - len(own))
+    bounds = [(REGISTRY[e].parameters[p].lower, REGISTRY[e].parameters[p].upper) for e, p in problem.names]
+    found = fitted_profile_intervals(problem, vector, se, quantile(len(tests), len(own)), bounds, only=len(own))
+    result.param_profile_ci95 = dict(zip(own, found))
