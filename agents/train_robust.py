@@ -273,41 +273,72 @@ def _refuse_another_configuration(run_dir: Path, config: dict[str, Any]) -> None
                              f"{now.get(key)!r}): give another --out, or --no-resume to replace it")
 
 
-def train_robust(task: RobustTask) -> dict[str, Any]:
-    """Train one seed (module-level and picklable for the executor); returns its summary. Resumes from the run's
-    checkpoint if there is one."""
-    import torch
-    from stable_baselines3.common.callbacks import BaseCallback
-    from stable_baselines3.common.vec_env import VecNormalize
-
-    from .heldout import TUNING_SEED, random_benches, summarise
-
-    config = task.resolved()
-    algo = config.get("algo", "ppo")
-    train = {"total_timesteps": 100_000, "eval_freq": 20_000, "checkpoint_freq": CHECKPOINT_FREQ, "torch_threads": 1,
-             **(config.get("train") or {})}
-    timesteps, eval_freq, checkpoint_freq = train["total_timesteps"], train["eval_freq"], train["checkpoint_freq"]
-    torch.set_num_threads(int(train["torch_threads"]))
-    # the single env's arguments (evaluation episodes): the batch's own keys left out
-    env_kwargs = {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS}
+def _prepare_run_dir(task: RobustTask, config: dict[str, Any]) -> Path:
+    """The seed's run directory: created, emptied of a previous run unless the task resumes, refused if it holds a
+    run of another configuration."""
     run_dir = Path(task.out_dir) / f"seed_{task.seed}"
     run_dir.mkdir(parents=True, exist_ok=True)
-    done = run_dir / "done.json"
     if not task.resume:
         import shutil
         for name in ("done.json", "final_model.zip", "vecnormalize.pkl", "learning_curve.csv"):
             (run_dir / name).unlink(missing_ok=True)
         shutil.rmtree(run_dir / "checkpoint", ignore_errors=True)
     _refuse_another_configuration(run_dir, config)
-    if done.exists():
-        return json.loads(done.read_text())
-    write_atomic(run_dir / "config.json", lambda p: p.write_text(json.dumps(config, indent=2)))
-    policy_cls = RecurrentPolicy if algo == "recurrent" else RobustPolicy
-    frames = frame_stack_of(config)
+    return run_dir
+
+
+@dataclass
+class _SeedRun:
+    """One seed's training under way: the model, its normalised env, the learning curve so far, and what the
+    curve's evaluations and the checkpoints need."""
+
+    algo: str
+    frames: int
+    model: Any
+    venv: Any
+    rows: list[dict[str, float]]
+    wall_before: float          # wall seconds spent before the checkpoint this run resumes from
+    ckpt: Path
+    env_kwargs: dict[str, Any]  # the single env's arguments (evaluation episodes)
+    curve_benches: list[Any]
+    started: float = 0.0
+
+    def wall(self) -> float:
+        return self.wall_before + time.perf_counter() - self.started
+
+    def evaluate(self) -> None:
+        """One point of the learning curve: the policy on the tuning benches."""
+        from .heldout import summarise
+
+        if self.algo == "recurrent":
+            policy = RecurrentPolicy(self.model, self.venv)
+        else:
+            policy = RobustPolicy(self.model, self.venv, frames=self.frames)
+        stats = summarise(evaluate_policy_on(policy, self.curve_benches, self.env_kwargs, "tuning"))
+        self.rows.append({"timesteps": self.model.num_timesteps, "wall_s": self.wall(), **stats})
+
+    def checkpoint(self) -> None:
+        self.ckpt.mkdir(exist_ok=True)
+        write_atomic(self.ckpt / "model.zip", lambda p: self.model.save(str(p)))
+        write_atomic(self.ckpt / "vecnormalize.pkl", lambda p: self.venv.save(str(p)))
+        state = {"timesteps": self.model.num_timesteps, "wall_s": self.wall(), "curve": self.rows}
+        write_atomic(self.ckpt / "state.json", lambda p: p.write_text(json.dumps(state)))
+
+
+def _start_or_resume(task: RobustTask, config: dict[str, Any], run_dir: Path) -> _SeedRun:
+    """A new model on a new normalised env, or the run's checkpoint (model, normalisation statistics, curve and
+    wall time so far) when there is one."""
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from .heldout import TUNING_SEED, random_benches
+
+    algo = config.get("algo", "ppo")
+    # the single env's arguments (evaluation episodes): the batch's own keys left out
+    env_kwargs = {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS}
     venv_raw = make_vec_env(config, task.seed)
     ckpt = run_dir / "checkpoint"
     rows: list[dict[str, float]] = []
-    wall_before = 0.0   # wall seconds spent before the checkpoint this run resumes from
+    wall_before = 0.0
     if (ckpt / "state.json").exists():
         state = json.loads((ckpt / "state.json").read_text())
         rows, wall_before = state["curve"], state["wall_s"]
@@ -319,48 +350,39 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
         venv = VecNormalize(venv_raw, **norm)
         model = _new_model(config, venv, task.seed)
     curve_benches = random_benches(CURVE_BENCHES, TUNING_SEED + 1, env_kwargs)
-    started = time.perf_counter()
+    return _SeedRun(algo, frame_stack_of(config), model, venv, rows, wall_before, ckpt, env_kwargs, curve_benches,
+                    started=time.perf_counter())
 
-    def wall() -> float:
-        return wall_before + time.perf_counter() - started
 
-    def evaluate() -> None:
-        policy = policy_cls(model, venv) if algo == "recurrent" else policy_cls(model, venv, frames=frames)
-        stats = summarise(evaluate_policy_on(policy, curve_benches, env_kwargs, "tuning"))
-        rows.append({"timesteps": model.num_timesteps, "wall_s": wall(), **stats})
-
-    def checkpoint() -> None:
-        ckpt.mkdir(exist_ok=True)
-        write_atomic(ckpt / "model.zip", lambda p: model.save(str(p)))
-        write_atomic(ckpt / "vecnormalize.pkl", lambda p: venv.save(str(p)))
-        state = {"timesteps": model.num_timesteps, "wall_s": wall(), "curve": rows}
-        write_atomic(ckpt / "state.json", lambda p: p.write_text(json.dumps(state)))
+def _curve_callback(run: _SeedRun, timesteps: int, eval_freq: int, checkpoint_freq: int) -> Any:
+    """The SB3 callback that evaluates the run every ``eval_freq`` steps (the learning curve) and checkpoints it every
+    ``checkpoint_freq`` steps, neither at the end (the run's end does both its own way)."""
+    from stable_baselines3.common.callbacks import BaseCallback
 
     class Curve(BaseCallback):
         def __init__(self) -> None:
             super().__init__()
-            self.next_eval = (rows[-1]["timesteps"] + eval_freq) if rows else 0
-            self.next_ckpt = model.num_timesteps + checkpoint_freq
+            self.next_eval = (run.rows[-1]["timesteps"] + eval_freq) if run.rows else 0
+            self.next_ckpt = run.model.num_timesteps + checkpoint_freq
 
         def _on_step(self) -> bool:
             if self.next_eval <= self.num_timesteps < timesteps:
                 self.next_eval += eval_freq
-                evaluate()
+                run.evaluate()
             return True
 
         def _on_rollout_end(self) -> None:
             if self.num_timesteps >= self.next_ckpt and self.num_timesteps < timesteps:
                 self.next_ckpt += checkpoint_freq
-                checkpoint()
+                run.checkpoint()
 
-    remaining = timesteps - model.num_timesteps
-    if remaining > 0:
-        callbacks = [Curve()]
-        if task.progress:
-            from .progress import progress_callback
-            callbacks.append(progress_callback(timesteps, f"{ALGOS[algo]} seed {task.seed}"))
-        model.learn(total_timesteps=remaining, callback=callbacks, reset_num_timesteps=model.num_timesteps == 0)
-    evaluate()
+    return Curve()
+
+
+def _write_results(run: _SeedRun, task: RobustTask, run_dir: Path) -> dict[str, Any]:
+    """The finished run's files (learning curve, model, normalisation statistics, then ``done.json``, each written
+    whole); returns its summary."""
+    rows = run.rows
 
     def write_curve(path: Path) -> None:
         with open(path, "w", newline="") as f:
@@ -369,18 +391,46 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
             writer.writerows(rows)
 
     write_atomic(run_dir / "learning_curve.csv", write_curve)
-    write_atomic(run_dir / "final_model.zip", lambda p: model.save(str(p)))
-    venv.venv = None  # the statistics only (as agents.train_ppo saves them)
+    write_atomic(run_dir / "final_model.zip", lambda p: run.model.save(str(p)))
+    run.venv.venv = None  # the statistics only (as agents.train_ppo saves them)
 
     def dump(p: Path) -> None:
         with open(p, "wb") as f:
-            pickle.dump(venv, f)
+            pickle.dump(run.venv, f)
 
     write_atomic(run_dir / "vecnormalize.pkl", dump)
-    summary = {"seed": task.seed, "algo": algo, "timesteps": int(model.num_timesteps), "wall_s": wall(),
+    summary = {"seed": task.seed, "algo": run.algo, "timesteps": int(run.model.num_timesteps), "wall_s": run.wall(),
                "run_dir": str(run_dir)}
-    write_atomic(done, lambda p: p.write_text(json.dumps(summary)))
+    write_atomic(run_dir / "done.json", lambda p: p.write_text(json.dumps(summary)))
     return summary
+
+
+def train_robust(task: RobustTask) -> dict[str, Any]:
+    """Train one seed (module-level and picklable for the executor); returns its summary. Resumes from the run's
+    checkpoint if there is one."""
+    import torch
+
+    config = task.resolved()
+    train = {"total_timesteps": 100_000, "eval_freq": 20_000, "checkpoint_freq": CHECKPOINT_FREQ, "torch_threads": 1,
+             **(config.get("train") or {})}
+    timesteps = train["total_timesteps"]
+    torch.set_num_threads(int(train["torch_threads"]))
+    run_dir = _prepare_run_dir(task, config)
+    done = run_dir / "done.json"
+    if done.exists():
+        return json.loads(done.read_text())
+    write_atomic(run_dir / "config.json", lambda p: p.write_text(json.dumps(config, indent=2)))
+    run = _start_or_resume(task, config, run_dir)
+    remaining = timesteps - run.model.num_timesteps
+    if remaining > 0:
+        callbacks = [_curve_callback(run, timesteps, train["eval_freq"], train["checkpoint_freq"])]
+        if task.progress:
+            from .progress import progress_callback
+            callbacks.append(progress_callback(timesteps, f"{ALGOS[run.algo]} seed {task.seed}"))
+        run.model.learn(total_timesteps=remaining, callback=callbacks,
+                        reset_num_timesteps=run.model.num_timesteps == 0)
+    run.evaluate()
+    return _write_results(run, task, run_dir)
 
 
 def seed_tasks(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps: int = 0, *,

@@ -370,10 +370,11 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.n
     return dynamics_ws(t, y, p, dy, aux, ws)
 
 
-# Over the complexity limit (pyproject.toml) knowingly: one function because splitting it costs speed. Split along
-# its sections into nine inline="always" helpers it stayed bitwise the same but ran 15-20 % slower (numba inlines at its
-# own IR level, where every array passed to or returned from a helper is a new reference: 51 increfs and 92 decrefs
-# in its LLVM IR against 32 and 66); as plain compiled functions 60 % slower (docs/performance.md).
+# Over the complexity limit (pyproject.toml) knowingly: one function, because no split met all three of bitwise
+# results, speed and compile time. The best (commit 032ddb6 on branch kernel2: eleven sections compiled with
+# forceinline=True, taking whole arrays and scalars and indexing workspace rows directly, no views) was bitwise the
+# same and 1-3 % faster, but compiled from an empty cache ~5 % slower; with views or numba's inline="always" it was
+# slower to run (docs/performance.md).
 @njit(cache=True, error_model="numpy")
 def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray,  # noqa: C901 (see above)
                 aux: np.ndarray, ws: np.ndarray) -> bool:

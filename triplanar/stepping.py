@@ -202,7 +202,10 @@ def integrate(t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, armed:
 
 
 # Over the complexity limit (pyproject.toml) knowingly: a compiled kernel, whose split into helpers must be
-# shown to keep results bitwise (benchmarks/fingerprint.py) and speed (benchmarks/bench_speed_ab.py).
+# shown to keep results bitwise (benchmarks/fingerprint.py), speed (benchmarks/bench_speed_ab.py) and compile time
+# (benchmarks/bench_compile.py). A split into three sections (a step, its event, what follows) was bitwise the same
+# and as fast, but compiled on their own (forceinline) the sections took compile time from 45 to 64 CPU-seconds
+# (docs/performance.md).
 @njit(cache=True, error_model="numpy")
 def integrate_ws(t0: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray,  # noqa: C901 (see above)
                  h: float, opts: StepOptions, rec: Recording, row0: int, ws: np.ndarray):
