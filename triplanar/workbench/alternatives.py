@@ -57,7 +57,7 @@ def alternative_names(diag: Diagnoser, best: CandidateResult) -> list[str]:
 
 def apply_alternatives(diag: Diagnoser, best: CandidateResult, task: CandidateTask,
                        tests: Sequence[MeasuredTest]) -> None:
-    """Fit ``best`` with each alternative (module doc) and fill ``best.model_form`` and ``best.param_model_ci95``."""
+    """Fit ``best`` with each alternative (module doc) and fill ``best.model_form`` and its model-form intervals (``param_model_ci95``)."""
     if best.per_test or not best.param_ci95:
         return
     names = alternative_names(diag, best)
@@ -79,7 +79,7 @@ def apply_alternatives(diag: Diagnoser, best: CandidateResult, task: CandidateTa
         best.model_form[name] = {"params": {p: out.values[best.effect][p] for p in best.params},
                                  "added": {param: value}, "added_stderr": {param: se}, "error_mm": out.train_error_mm,
                                  "supported": supported}
-    best.param_model_ci95 = model_interval(best)
+    best.set_intervals("model_form", model_interval(best))
 
 
 def model_interval(best: CandidateResult) -> dict[str, list[float] | None]:

@@ -47,6 +47,9 @@ class FitParameter:
         per_test: fitted for each test (its shared ``value`` is then the start; ``per_test_values`` by test).
         stderr, ci95, status, at_bound: the fit's standard error, 95 % interval ``(low, high)``, status
             (``STATUSES``) and whether it ended at an end of its range.
+        profile_ci95, model_ci95: a diagnosis's named entry only: the profile-likelihood interval
+            (:mod:`~triplanar.workbench.profile`) and the one that admits model-form error
+            (:mod:`~triplanar.workbench.alternatives`), ``None`` where there is none.
         per_test_values: a per-test parameter's fitted value in each test (``{test_id: value}``).
     """
 
@@ -62,6 +65,8 @@ class FitParameter:
     ci95: tuple[float, float] | None = None
     status: str = "unfitted"
     at_bound: bool = False
+    profile_ci95: tuple[float, float] | None = None
+    model_ci95: tuple[float, float] | None = None
     per_test_values: dict[str, float] | None = field(default=None, compare=False)
 
     def __post_init__(self) -> None:
@@ -115,7 +120,8 @@ class FitParameter:
         if not spec.lower <= v <= spec.upper:
             raise EffectError(f"parameter {self.qualified}: {v} is outside [{spec.lower}, {spec.upper}] {spec.unit}")
         return replace(self, value=v, vary=False, per_test=False, start=None, stderr=None, ci95=None,
-                       status="fixed", at_bound=False, per_test_values=None)
+                       status="fixed", at_bound=False, profile_ci95=None, model_ci95=None,
+                       per_test_values=None)
 
     def freed(self, min: float | None = None, max: float | None = None, start: float | None = None) -> FitParameter:
         """This parameter moved by the fit over ``min``-``max`` (default: its range if it varies already, else
@@ -127,13 +133,15 @@ class FitParameter:
         lo, hi = (lo if min is None else float(min)), (hi if max is None else float(max))
         s = s0 if start is not None else min_max(s0, lo, hi)
         return replace(self, value=s, vary=True, min=lo, max=hi, start=s, stderr=None, ci95=None,
-                       status="unfitted", at_bound=False, per_test_values=None)
+                       status="unfitted", at_bound=False, profile_ci95=None, model_ci95=None, per_test_values=None)
 
     def to_json(self) -> dict[str, Any]:
         return {"value": self.value, "vary": self.vary, "min": self.min, "max": self.max, "start": self.start,
                 "per_test": self.per_test, "stderr": self.stderr,
                 "ci95": list(self.ci95) if self.ci95 is not None else None, "status": self.status,
                 "at_bound": self.at_bound,
+                **({"profile_ci95": list(self.profile_ci95)} if self.profile_ci95 is not None else {}),
+                **({"model_ci95": list(self.model_ci95)} if self.model_ci95 is not None else {}),
                 **({"per_test_values": dict(self.per_test_values)} if self.per_test_values is not None else {})}
 
     def __str__(self) -> str:

@@ -25,6 +25,7 @@ from .candidates import Candidate
 from .discrepancy import rms
 from .fit import FitOutcome, FitTask, discrepancies, evaluate_spec, run_fit
 from .intervals import interval95
+from .parameters import FitParameter
 from .spec import ModelSpec, spec_with_values
 
 def load_folds(forces: Sequence[float], k: int) -> list[list[float]]:
@@ -36,11 +37,15 @@ def load_folds(forces: Sequence[float], k: int) -> list[list[float]]:
 
 @dataclass
 class CandidateResult:
-    """One candidate's line of the report."""
+    """One candidate's line of the report. ``parameters``: one
+    :class:`~triplanar.workbench.parameters.FitParameter` per shared free parameter of the candidate (value, standard
+    error, 95 % interval, status, and for the named entry its profile and model-form intervals); ``params``,
+    ``param_stderr``, ``param_ci95``, ``param_status``, ``param_profile_ci95`` and ``param_model_ci95`` are views of
+    it, in the report's form. ``intervals``: which further intervals were computed (``"profile"``: :func:`profile_result`;
+    ``"model_form"``: :func:`~triplanar.workbench.alternatives.apply_alternatives`)."""
 
     effect: str
-    params: dict[str, float]
-    param_stderr: dict[str, float]
+    parameters: dict[str, FitParameter]
     cv_error_mm: float
     fit_error_mm: float
     improvement: float
@@ -54,17 +59,47 @@ class CandidateResult:
     all_stderr: dict[str, dict[str, float]] = field(default_factory=dict)
     kind: str = "candidate"                       # "candidate" (added) or "refit" (a given effect, freed)
     given: dict[str, float] = field(default_factory=dict)   # refit: the values the user gave
-    param_ci95: dict[str, list[float] | None] = field(default_factory=dict)
-    param_status: dict[str, str] = field(default_factory=dict)
     fixed: dict[str, float] = field(default_factory=dict)
     per_test: dict[str, dict[str, Any]] = field(default_factory=dict)   # param -> summary (pertest.summarize)
     per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
     all_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # every effect fitted with it
     held_out_mm: dict[str, float] = field(default_factory=dict, repr=False)   # test_id -> its error when held out
     bias_ratio: float = 1.0      # evidence.bias_ratio of the full fit (the intervals' model-form allowance)
-    param_profile_ci95: dict[str, list[float] | None] = field(default_factory=dict)   # profile.py; named entries
-    param_model_ci95: dict[str, list[float] | None] = field(default_factory=dict)     # alternatives.py; named
     model_form: dict[str, dict[str, Any]] = field(default_factory=dict)              # alternatives.py; named
+    intervals: tuple[str, ...] = ()
+
+    # -- views of ``parameters`` (the report's dictionaries, in the recipe's order) -------------------------------
+    @property
+    def params(self) -> dict[str, float]:
+        return {k: p.value for k, p in self.parameters.items()}
+
+    @property
+    def param_stderr(self) -> dict[str, float]:
+        return {k: p.stderr for k, p in self.parameters.items() if p.stderr is not None}
+
+    @property
+    def param_ci95(self) -> dict[str, list[float] | None]:
+        return {k: _listed(p.ci95) for k, p in self.parameters.items()}
+
+    @property
+    def param_status(self) -> dict[str, str]:
+        return {k: p.status for k, p in self.parameters.items()}
+
+    @property
+    def param_profile_ci95(self) -> dict[str, list[float] | None]:
+        return {k: _listed(p.profile_ci95) for k, p in self.parameters.items()} if "profile" in self.intervals else {}
+
+    @property
+    def param_model_ci95(self) -> dict[str, list[float] | None]:
+        return ({k: _listed(p.model_ci95) for k, p in self.parameters.items()} if "model_form" in self.intervals
+                else {})
+
+    def set_intervals(self, kind: str, found: Mapping[str, Sequence[float] | None]) -> None:
+        """Record the ``"profile"`` or ``"model_form"`` intervals ``found`` (``{param: (low, high) or None}``)."""
+        field_name = {"profile": "profile_ci95", "model_form": "model_ci95"}[kind]
+        self.parameters = {k: replace(p, **{field_name: tuple(found[k]) if found.get(k) is not None else None})
+                           for k, p in self.parameters.items()}
+        self.intervals = (*(i for i in self.intervals if i != kind), kind)
 
     def as_json(self) -> dict[str, Any]:
         return {"effect": self.effect, "params": self.params, "param_ci95": self.param_ci95,
@@ -83,6 +118,8 @@ class CandidateResult:
                    if len(self.all_values) > 1 else {})}
 
 
+def _listed(interval: Sequence[float] | None) -> list[float] | None:
+    return list(interval) if interval is not None else None
 
 
 def jackknife(folds: list[dict[str, float]]) -> dict[str, float]:
@@ -178,6 +215,7 @@ def assemble(task: CandidateTask, by_label: dict[str, FitOutcome], k: int, n_tes
     seconds = full.seconds + sum(by_label[f"{task.key}/fold{i}"].seconds for i in range(k))
     nfev = full.nfev + sum(by_label[f"{task.key}/fold{i}"].nfev for i in range(k))
     start = cand.start_values()
+    recipe = cand.parameters()
     ci, status = {}, {}
     for p in cand.shared:
         lo, hi = REGISTRY[cand.effect].parameters[p].lower, REGISTRY[cand.effect].parameters[p].upper
@@ -202,18 +240,19 @@ def assemble(task: CandidateTask, by_label: dict[str, FitOutcome], k: int, n_tes
     given = dict(cand.start or {}) if task.kind == "refit" else {}
     from .pertest import summarize
     per_test = {p: summarize(v) for p, v in full.per_test.get(cand.effect, {}).items()}
-    return CandidateResult(cand.effect, params, stderr, cv, full.train_error_mm, improvement,
-                           not implausible, implausible,
-                           {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
-                           full.values, full.stderr, task.kind, given, ci, status, dict(cand.fixed),
-                           per_test, full.per_test, all_ci, {t: e for t, (_, e) in held.items()},
-                           full.bias_ratio)
+    parameters = {p: replace(recipe[p], value=params[p], start=start[p], stderr=stderr[p],
+                             ci95=tuple(ci[p]) if ci[p] is not None else None, status=status[p],
+                             at_bound=p in implausible) for p in cand.shared}
+    return CandidateResult(cand.effect, parameters, cv, full.train_error_mm, improvement, not implausible,
+                           implausible, {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
+                           full.values, full.stderr, task.kind, given, dict(cand.fixed), per_test, full.per_test,
+                           all_ci, {t: e for t, (_, e) in held.items()}, full.bias_ratio)
 
 
 def profile_result(task: CandidateTask, result: CandidateResult, tests: Sequence[MeasuredTest], scatter_mm: float,
                    mapper: Callable = map) -> None:
-    """Fill ``result.param_profile_ci95`` (:mod:`~triplanar.workbench.profile`) for the candidate's own parameters
-    that have a curvature interval, with the same standard error and quantile (the effects refitted with it are
+    """Record the profile-likelihood intervals (:mod:`~triplanar.workbench.profile`) of the candidate's own
+    parameters on ``result`` (``param_profile_ci95``) for those that have a curvature interval, with the same standard error and quantile (the effects refitted with it are
     profiled over, not reported). Candidates with per-test parameters get none."""
     if result.per_test:
         return
@@ -228,4 +267,4 @@ def profile_result(task: CandidateTask, result: CandidateResult, tests: Sequence
           if result.param_ci95.get(p) is not None else math.nan for p in own] + [math.nan] * (problem.n - len(own))
     bounds = [(REGISTRY[e].parameters[p].lower, REGISTRY[e].parameters[p].upper) for e, p in problem.names]
     found = fitted_profile_intervals(problem, vector, se, quantile(len(tests), len(own)), bounds, only=len(own))
-    result.param_profile_ci95 = dict(zip(own, found))
+    result.set_intervals("profile", dict(zip(own, found)))

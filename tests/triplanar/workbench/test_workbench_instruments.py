@@ -87,11 +87,15 @@ def test_smooth_residuals_of_a_missing_library_effect_are_not_periodic_and_a_rip
 
 
 def _entry(effect: str, kind: str, n_params: int, errors: list[float]):
+    from triplanar.effects import REGISTRY
     from triplanar.workbench.diagnose import CandidateResult
     from triplanar.workbench.discrepancy import rms
+    from triplanar.workbench.parameters import FitParameter
     held = {f"t{i}": e for i, e in enumerate(errors)}
-    return CandidateResult(effect, {f"p{i}": 1.0 for i in range(n_params)}, {}, rms(errors), rms(errors), 0.9, True,
-                           [], kind=kind, held_out_mm=held)
+    specs = list(REGISTRY[effect].parameters.items())[:n_params]
+    assert len(specs) == n_params, f"{effect} has fewer than {n_params} parameters"
+    params = {k: FitParameter(effect, k, 1.0, True, s.lower, s.upper) for k, s in specs}
+    return CandidateResult(effect, params, rms(errors), rms(errors), 0.9, True, [], kind=kind, held_out_mm=held)
 
 
 def test_one_standard_error_rule_prefers_the_simpler_entry_unless_the_flexible_one_wins_clearly() -> None:

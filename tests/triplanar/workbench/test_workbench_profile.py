@@ -91,9 +91,11 @@ def test_an_end_the_objective_never_reaches_is_the_bound() -> None:
 
 def test_the_model_form_interval_is_the_hull_of_the_supported_alternatives() -> None:
     from triplanar.workbench.alternatives import model_interval, moved_outside
+    from triplanar.workbench.parameters import FitParameter
     from triplanar.workbench.sweep import CandidateResult
-    best = CandidateResult("end_friction", {"phi_deg": 8.6}, {"phi_deg": 0.2}, 0.5, 0.5, 0.9, True, [],
-                           param_ci95={"phi_deg": [8.2, 9.0]}, param_profile_ci95={"phi_deg": [8.25, 9.1]})
+    phi = FitParameter("end_friction", "phi_deg", 8.6, True, 0.0, 20.0, stderr=0.2, ci95=(8.2, 9.0), status="fitted")
+    best = CandidateResult("end_friction", {"phi_deg": phi}, 0.5, 0.5, 0.9, True, [])
+    best.set_intervals("profile", {"phi_deg": [8.25, 9.1]})
     best.model_form = {
         "rate_friction": {"params": {"phi_deg": 7.7}, "added": {"a": 0.1}, "supported": True},
         "cohesion": {"params": {"phi_deg": 6.0}, "added": {"c_N": 0.01}, "supported": False},   # not asked for
@@ -104,3 +106,8 @@ def test_the_model_form_interval_is_the_hull_of_the_supported_alternatives() -> 
     assert [(m["alternative"], m["value"]) for m in moved] == [("rate_friction", 7.7)]
     best.model_form["rate_friction"]["supported"] = False
     assert moved_outside(best) == [] and model_interval(best) == {"phi_deg": [8.2, 9.1]}
+    best.set_intervals("model_form", model_interval(best))
+    report = best.as_json()
+    assert report["param_profile_ci95"] == {"phi_deg": [8.25, 9.1]} and report["param_model_ci95"] == {"phi_deg": [8.2, 9.1]}
+    assert best.parameters["phi_deg"].model_ci95 == (8.2, 9.1) and report["param_stderr"] == {"phi_deg": 0.2}
+    assert report["param_ci95"] == {"phi_deg": [8.2, 9.0]} and report["param_status"] == {"phi_deg": "fitted"}
