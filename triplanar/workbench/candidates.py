@@ -22,7 +22,7 @@ value at which the effect does nothing), and a one-parameter effect gets a grid 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 from typing import Iterable, Mapping
 
 from ..effects import BUILTIN, REGISTRY, EffectError
@@ -32,54 +32,94 @@ from .parameters import FitParameter
 __all__ = ["BUILTIN", "Candidate", "builtin_candidates", "candidate_library", "default_candidate", "resolve"]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, init=False)
 class Candidate:
     """An effect and how to fit it.
 
+    The recipe is one :class:`~triplanar.workbench.parameters.FitParameter` per parameter the recipe names
+    (``recipe``): the ones that vary are free over their range (``min``/``max``) from their start (``value``: the
+    start clipped into the range; ``start``: the start as given, ``None`` for the effect's default), per test or
+    shared (``per_test``); the others are held at their ``value`` (parameters not named: the effect's default).
+    ``free``, ``bounds``, ``start``, ``fixed`` and ``per_test`` are views of it, and the constructor takes either
+    those (``Candidate(effect, free, bounds, start, fixed, ...)``) or ``recipe=``.
+
     Attributes:
         effect: registered effect name.
-        free: parameters the fit moves.
-        bounds: fit (plausible) range of each free parameter.
-        start: start value of each free parameter (``None``: the effect's default).
-        fixed: values of the other parameters (missing ones: the effect's default).
+        recipe: the parameters (above).
         grid: a coarse grid scan before polishing (one free parameter only): a number of evenly spaced
             points over the range, or the values themselves; 0: none.
         snap: values closer than this to the start value are set to it (a parameter whose small values are
             unresolvable, or that the core integrates badly, like a rise time of microseconds).
-        per_test: free parameters that take their own value in every test (the others are shared by all
-            tests); a fit profiles them (:mod:`triplanar.workbench.pertest`).
         per_test_grid: the scan of each per-test parameter, per test, before polishing (a number of points
             over its range or the values; missing: the parameter's ``grid``, else 12 points).
+
+    Constructor args (instead of ``recipe``): ``free``: parameters the fit moves; ``bounds``: the fit (plausible)
+    range of each; ``start``: start values (missing: the effect's default); ``fixed``: values of other parameters
+    held (missing: the effect's default); ``per_test``: free parameters that take their own value in every test
+    (the others are shared by all tests; a fit profiles them: :mod:`triplanar.workbench.pertest`).
     """
 
     effect: str
-    free: tuple[str, ...]
-    bounds: Mapping[str, tuple[float, float]]
-    start: Mapping[str, float] | None = None
-    fixed: Mapping[str, float] = field(default_factory=dict)
-    grid: int | tuple[float, ...] = 0
-    snap: Mapping[str, float] = field(default_factory=dict)
-    per_test: tuple[str, ...] = ()
-    per_test_grid: Mapping[str, int | tuple[float, ...]] = field(default_factory=dict)
+    recipe: tuple[FitParameter, ...]
+    grid: int | tuple[float, ...]
+    snap: Mapping[str, float]
+    per_test_grid: Mapping[str, int | tuple[float, ...]]
 
-    def __post_init__(self) -> None:
-        if self.effect not in REGISTRY:
-            raise EffectError(f"unknown effect {self.effect!r}; known effects: {', '.join(sorted(REGISTRY))}")
-        params = REGISTRY[self.effect].parameters
-        for name in (*self.free, *self.fixed):
-            if name not in params:
-                raise EffectError(f"effect {self.effect!r} has no parameter {name!r} "
-                                  f"(its parameters: {', '.join(params) or 'none'})")
-        for name in self.free:
-            lo, hi = self.bounds[name]
-            spec = params[name]
-            if not (spec.lower <= lo < hi <= spec.upper):
-                raise EffectError(f"candidate {self.effect!r}: fit range of {name} ({lo}, {hi}) must lie within "
-                                  f"the effect's bounds [{spec.lower}, {spec.upper}]")
-        for name in self.per_test:
-            if name not in self.free:
-                raise EffectError(f"candidate {self.effect!r}: per-test parameter {name!r} is not a free parameter "
-                                  f"(free: {', '.join(self.free) or 'none'})")
+    def __init__(self, effect: str, free: Iterable[str] = (), bounds: Mapping[str, tuple[float, float]] | None = None,
+                 start: Mapping[str, float] | None = None, fixed: Mapping[str, float] | None = None,
+                 grid: int | tuple[float, ...] = 0, snap: Mapping[str, float] | None = None,
+                 per_test: Iterable[str] = (), per_test_grid: Mapping[str, int | tuple[float, ...]] | None = None,
+                 *, recipe: Iterable[FitParameter] | None = None) -> None:
+        if effect not in REGISTRY:
+            raise EffectError(f"unknown effect {effect!r}; known effects: {', '.join(sorted(REGISTRY))}")
+        if recipe is None:
+            recipe = _recipe(effect, tuple(free), bounds or {}, start, fixed or {}, tuple(per_test))
+        elif tuple(free) or bounds or start or fixed or tuple(per_test):
+            raise TypeError(f"candidate {effect!r}: give the recipe either as recipe= (FitParameter objects) or as "
+                            f"free/bounds/start/fixed/per_test, not both")
+        recipe = tuple(recipe)
+        others = sorted({p.effect for p in recipe} - {effect})
+        if others:
+            raise EffectError(f"candidate {effect!r}: its recipe has a parameter of effect {others[0]!r}")
+        names = [p.name for p in recipe]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise EffectError(f"parameter {effect}.{twice[0]} given twice")
+        for name, value in (("effect", effect), ("recipe", recipe), ("grid", grid), ("snap", dict(snap or {})),
+                            ("per_test_grid", dict(per_test_grid or {}))):
+            object.__setattr__(self, name, value)
+
+    # -- views of the recipe ------------------------------------------------------------------------------
+    @property
+    def free(self) -> tuple[str, ...]:
+        """The parameters the fit moves."""
+        return tuple(p.name for p in self.recipe if p.vary)
+
+    @property
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        """The fit (plausible) range of each free parameter."""
+        return {p.name: p.bounds for p in self.recipe if p.vary}
+
+    @property
+    def start(self) -> dict[str, float]:
+        """The start values given (a free parameter without one starts at the effect's default)."""
+        return {p.name: p.start for p in self.recipe if p.vary and p.start is not None}
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        """The values of the parameters the recipe holds."""
+        return {p.name: p.value for p in self.recipe if not p.vary}
+
+    @property
+    def per_test(self) -> tuple[str, ...]:
+        """The free parameters that take their own value in every test."""
+        return tuple(p.name for p in self.recipe if p.per_test)
+
+    def with_parameters(self, parameters: Iterable[FitParameter]) -> Candidate:
+        """This candidate with ``parameters`` in its recipe (each replacing the one of its name, else added)."""
+        new = {p.name: p for p in parameters}
+        recipe = [new.pop(p.name, p) for p in self.recipe] + list(new.values())
+        return Candidate(self.effect, grid=self.grid, snap=self.snap, per_test_grid=self.per_test_grid, recipe=recipe)
 
     @property
     def shared(self) -> tuple[str, ...]:
@@ -88,21 +128,22 @@ class Candidate:
 
     def with_per_test(self, names: Iterable[str]) -> Candidate:
         """This recipe with ``names`` (also) fitted per test (a parameter held by the recipe is freed)."""
-        from dataclasses import replace
         params = REGISTRY[self.effect].parameters
         names = list(names)
         for name in names:
             if name not in params:
                 raise EffectError(f"per-test parameter {self.effect}.{name}: effect {self.effect!r} has no parameter "
                                   f"{name!r} (its parameters: {', '.join(params) or 'none'})")
-        free = self.free + tuple(n for n in names if n not in self.free)
-        bounds = dict(self.bounds)
-        for n in names:
-            bounds.setdefault(n, params[n].fit_range(params[n].start_value))
-        per_test = self.per_test + tuple(n for n in names if n not in self.per_test)
-        fixed = {k: v for k, v in self.fixed.items() if k not in names}
-        grid = self.grid if len(free) - len(per_test) == 1 and not per_test else 0
-        return replace(self, free=free, bounds=bounds, per_test=per_test, fixed=fixed, grid=grid)
+        free = set(self.free)
+        # a free one becomes per test where it is; a held one is freed over the effect's fit range, after the free ones
+        recipe = [replace(p, per_test=True) if p.vary and p.name in names else p for p in self.recipe
+                  if p.vary or p.name not in names]
+        for n in dict.fromkeys(n for n in names if n not in free):
+            lo, hi = params[n].fit_range(params[n].start_value)
+            recipe.append(FitParameter(self.effect, n, _clip(params[n].default, lo, hi), True, lo, hi, per_test=True))
+        n_shared = sum(p.vary and not p.per_test for p in recipe)
+        grid = self.grid if n_shared == 1 and not any(p.per_test for p in recipe) else 0
+        return Candidate(self.effect, grid=grid, snap=self.snap, per_test_grid=self.per_test_grid, recipe=recipe)
 
     def per_test_grid_values(self, name: str, periodic: bool = False) -> list[float]:
         """The per-test scan of per-test parameter ``name`` (natural units); ``periodic``: over one period centred
@@ -119,13 +160,8 @@ class Candidate:
         return [float(v) for v in spec]
 
     def start_values(self) -> dict[str, float]:
-        params = REGISTRY[self.effect].parameters
-        start = dict(self.start or {})
-        out = {}
-        for name in self.free:
-            lo, hi = self.bounds[name]
-            out[name] = min(max(float(start.get(name, params[name].default)), lo), hi)
-        return out
+        """Where the fit starts each free parameter (its start, or the effect's default, clipped into its range)."""
+        return {p.name: p.value for p in self.recipe if p.vary}
 
     def values(self, free_values: Mapping[str, float]) -> dict[str, float]:
         """All parameter values: fixed ones plus the given free ones (snapped, see ``snap``)."""
@@ -139,16 +175,14 @@ class Candidate:
     def parameters(self) -> dict[str, FitParameter]:
         """The recipe as one :class:`~triplanar.workbench.parameters.FitParameter` per parameter of the effect
         (free ones with their range and start, the others held at their fixed value or the effect's default)."""
-        params = REGISTRY[self.effect].parameters
-        start = self.start_values()
+        mine = {p.name: p for p in self.recipe}
         out = {}
-        for name, spec in params.items():
-            if name in self.free:
-                lo, hi = self.bounds[name]
-                out[name] = FitParameter(self.effect, name, start[name], True, lo, hi, start[name],
-                                         name in self.per_test)
+        for name, spec in REGISTRY[self.effect].parameters.items():
+            p = mine.get(name)
+            if p is not None and p.vary:
+                out[name] = replace(p, start=p.value)
             else:
-                value = float(self.fixed.get(name, spec.default))
+                value = float(p.value if p is not None else spec.default)
                 out[name] = FitParameter(self.effect, name, value, False, spec.lower, spec.upper, status="fixed")
         return out
 
@@ -245,18 +279,56 @@ def refit_candidate(name: str, given: Mapping[str, float], specimen: Specimen | 
     """The recipe of effect ``name`` for re-estimating the values the user *gave* it: the same free
     parameters, starting at the given values (the grid scan, if any, still runs and includes them); a fit
     range widened to contain each given value (within the effect's physical bounds)."""
-    from dataclasses import replace
     cand = default_candidate(name, specimen)
     params = REGISTRY[name].parameters
-    start = {k: float(given.get(k, cand.start_values()[k])) for k in cand.free}
-    bounds = {}
-    for k in cand.free:
-        lo, hi = cand.bounds[k]
-        bounds[k] = (max(params[k].lower, min(lo, start[k])), min(params[k].upper, max(hi, start[k])))
-    fixed = {**cand.fixed, **{k: float(v) for k, v in given.items() if k not in cand.free}}
-    return replace(cand, start=start, bounds=bounds, fixed=fixed)
+    edits = []
+    for p in cand.recipe:
+        if p.vary:
+            s = float(given.get(p.name, p.value))
+            lo, hi = max(params[p.name].lower, min(p.min, s)), min(params[p.name].upper, max(p.max, s))
+            edits.append(replace(p, value=s, min=lo, max=hi, start=s))
+    free = set(cand.free)
+    edits += [FitParameter(name, k, float(v), False, params[k].lower, params[k].upper, status="fixed")
+              for k, v in given.items() if k not in free]
+    return cand.with_parameters(edits)
 
 
 def without_effect(effects: tuple, name: str) -> tuple:
     """A ``ModelSpec.effects`` tuple without effect ``name``."""
     return tuple(e for e in effects if e[0] != name)
+
+
+def _clip(v: float, lo: float, hi: float) -> float:
+    return min(max(float(v), lo), hi)
+
+
+def _recipe(effect: str, free: tuple[str, ...], bounds: Mapping[str, tuple[float, float]],
+            start: Mapping[str, float] | None, fixed: Mapping[str, float], per_test: tuple[str, ...]
+            ) -> list[FitParameter]:
+    """The recipe :class:`Candidate`'s keyword form describes, checked: names the effect has, a range within its
+    bounds for every free parameter, per-test parameters among the free ones."""
+    params = REGISTRY[effect].parameters
+    for name in (*free, *fixed):
+        if name not in params:
+            raise EffectError(f"effect {effect!r} has no parameter {name!r} "
+                              f"(its parameters: {', '.join(params) or 'none'})")
+    for name in per_test:
+        if name not in free:
+            raise EffectError(f"candidate {effect!r}: per-test parameter {name!r} is not a free parameter "
+                              f"(free: {', '.join(free) or 'none'})")
+    out = []
+    for name in free:
+        if name not in bounds:
+            raise EffectError(f"candidate {effect!r}: free parameter {name!r} has no fit range in bounds")
+        lo, hi = bounds[name]
+        spec = params[name]
+        if not (spec.lower <= lo < hi <= spec.upper):
+            raise EffectError(f"candidate {effect!r}: fit range of {name} ({lo}, {hi}) must lie within "
+                              f"the effect's bounds [{spec.lower}, {spec.upper}]")
+        given = (start or {}).get(name)
+        s = None if given is None else float(given)
+        out.append(FitParameter(effect, name, _clip(spec.default if s is None else s, lo, hi), True, lo, hi, s,
+                                name in per_test))
+    out += [FitParameter(effect, name, v, False, params[name].lower, params[name].upper, status="fixed")
+            for name, v in fixed.items() if name not in free]
+    return out

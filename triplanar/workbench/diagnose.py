@@ -180,14 +180,15 @@ class Diagnoser:
         if unknown:
             raise ValueError(f"start value for {cand.effect}.{unknown[0]}: not a free parameter of that candidate "
                              f"(free: {', '.join(cand.free) or 'none'})")
-        bounds = dict(cand.bounds)
+        recipe = {p.name: p for p in cand.recipe}
+        edits = []
         for k, v in given.items():
             if not params[k].lower <= v <= params[k].upper:
                 raise ValueError(f"start value {cand.effect}.{k} = {v} is outside [{params[k].lower}, "
                                  f"{params[k].upper}] {params[k].unit}")
-            lo, hi = bounds[k]
-            bounds[k] = (min(lo, v), max(hi, v))
-        return replace(cand, start={**cand.start_values(), **given}, bounds=bounds)
+            p = recipe[k]
+            edits.append(replace(p, value=float(v), start=float(v), min=min(p.min, v), max=max(p.max, v)))
+        return cand.with_parameters(edits)
 
     def _evidence(self, tests: list[MeasuredTest], base: ModelSpec) -> None:
         """Noise, expected scatter and the evidence in time (:mod:`triplanar.workbench.evidence`)."""

@@ -100,3 +100,25 @@ def test_effect_fit_takes_the_base_model_in_fit_and_refuses_it_in_the_constructo
         EffectFit(["end_friction"], ModelSpec())
     with pytest.raises(TypeError, match=r"fit\(tests, base\)"):
         EffectFit(["end_friction"], base=ModelSpec())
+
+
+def test_a_candidate_holds_its_recipe_as_fit_parameters() -> None:
+    cand = Candidate("plane_tilt", ("dip1_deg", "dip3_deg"), {"dip1_deg": (-1.0, 1.0), "dip3_deg": (-2.0, 2.0)},
+                     start={"dip3_deg": 2.5}, fixed={"dip2_deg": 0.5})
+    dip1, dip3, dip2 = cand.recipe
+    assert all(isinstance(p, FitParameter) for p in cand.recipe)
+    assert (dip1.vary, dip1.bounds, dip1.start) == (True, (-1.0, 1.0), None)
+    assert (dip3.value, dip3.start) == (2.0, 2.5)                 # the start given, clipped into its range
+    assert (dip2.vary, dip2.value) == (False, 0.5)
+    assert cand.free == ("dip1_deg", "dip3_deg") and cand.fixed == {"dip2_deg": 0.5} and cand.start == {"dip3_deg": 2.5}
+    assert Candidate("plane_tilt", recipe=cand.recipe) == cand
+    moved = cand.with_parameters([dip1.fixed(0.25)])
+    assert moved.free == ("dip3_deg",) and moved.fixed == {"dip1_deg": 0.25, "dip2_deg": 0.5}
+    with pytest.raises(TypeError, match="not both"):
+        Candidate("plane_tilt", ("dip1_deg",), {"dip1_deg": (-1.0, 1.0)}, recipe=cand.recipe)
+    with pytest.raises(EffectError, match="no fit range"):
+        Candidate("plane_tilt", ("dip1_deg",), {})
+    with pytest.raises(EffectError, match="given twice"):
+        Candidate("plane_tilt", recipe=[dip1, dip1])
+    with pytest.raises(EffectError, match="start 5.0 is outside"):
+        Candidate("plane_tilt", ("dip3_deg",), {"dip3_deg": (-2.0, 2.0)}, start={"dip3_deg": 5.0})
