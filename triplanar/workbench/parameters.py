@@ -12,7 +12,10 @@ parameter becomes a candidate again with :meth:`~triplanar.workbench.candidates.
     params["phi_deg"] = params["phi_deg"].freed(0.0, 15.0)       # or free it over 0-15 deg
 
 :class:`~triplanar.workbench.fit.EffectFit` reports its result as ``parameters_`` (``{effect: {param:
-FitParameter}}``); its ``params_``, ``stderr_``, ``ci95_``, ``status_`` and ``at_bound_`` are views of it.
+FitParameter}}``); its ``params_``, ``stderr_``, ``ci95_``, ``status_`` and ``at_bound_`` are views of it. A
+:class:`~triplanar.workbench.candidates.Candidate` holds its recipe as FitParameter objects (``recipe``), and each
+entry of a diagnosis (:class:`~triplanar.workbench.sweep.CandidateResult`) its result (``parameters``, with the
+named entry's ``profile_ci95`` and ``model_ci95``).
 
 Statuses: ``fitted`` (an interval), ``fixed`` (held), ``not_moved`` (never left its start), ``degenerate`` (the
 data do not pull on it), ``unidentified`` (its interval spans the whole range), ``at_bound`` (fitted to an end of
