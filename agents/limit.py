@@ -46,9 +46,7 @@ class LimitController:
 
     def reset(self, load_N: float, config: ShearConfig) -> None:
         self.config, self.load_N = config, float(load_N)
-        self._planner = CEMPlanner(int(self.horizon), int(self.block), int(self.samples), int(self.iterations),
-                                   int(self.elites), float(self.sigma0), int(self.seed),
-                                   float(self.pace_s))
+        self._planner = CEMPlanner.with_settings_of(self)
         self.decisions = []
 
     def act(self, obs: np.ndarray) -> np.ndarray:

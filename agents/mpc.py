@@ -88,9 +88,8 @@ class MPCController:
                                  float(self.sensor_noise_m), float(self.model_error_m), intervals,
                                  bool(self.vary_geometry))
         self.bank.reset(load_N)
-        self.planner = CEMPlanner(int(self.horizon), int(self.block), int(self.samples), int(self.iterations),
-                                  int(self.elites), float(self.sigma0), int(self.seed), float(self.pace_s),
-                                  (-self.thrust_envelope, -1.0), (self.thrust_envelope, 1.0))
+        self.planner = CEMPlanner.with_settings_of(self, low=(-self.thrust_envelope, -1.0),
+                                                   high=(self.thrust_envelope, 1.0))
         self._plan: np.ndarray | None = None
         self._age = 0
         self._last = np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])

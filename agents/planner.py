@@ -15,11 +15,14 @@ mean of its costs from each: the plan is good on average over what the specimen 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
 from envs.prediction import BenchState, predict
+
+_SETTINGS = ("horizon", "block", "samples", "iterations", "elites", "sigma0", "seed", "pace_s")
 
 
 @dataclass
@@ -42,6 +45,15 @@ class CEMPlanner:
     _rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
     last_cost: float = float("nan")
     evaluations: int = 0
+
+    @classmethod
+    def with_settings_of(cls, owner: Any, **bounds: Any) -> CEMPlanner:
+        """A planner whose settings (``horizon`` ... ``pace_s``) are read from the attributes of the same names on
+        ``owner`` (a controller that exposes them as its own fields, with its own defaults), converted to the
+        planner's types; ``bounds`` gives ``low``/``high``."""
+        settings = {f.name: type(f.default)(getattr(owner, f.name)) for f in fields(cls)
+                    if f.name in _SETTINGS}
+        return cls(**settings, **bounds)
 
     def __post_init__(self) -> None:
         for name in ("horizon", "block", "samples", "iterations", "elites"):
