@@ -15,14 +15,16 @@ not drawn (the bench's block started: the bank is filled with hypotheses that st
 the sensor noise for what no finite bank matches exactly.
 
 **Resample-move.** A finite bank collapses: within a few periods one hypothesis carries all the weight, and it is
-rarely the bench's specimen (with 32 hypotheses in 14 unknowns, the collapsed bank ended the tuning benches' episodes
-with a tip-friction error of 3.1 deg RMS, worse than the prior's spread). So whenever the effective sample size
-falls below ``rejuvenate_ess`` times the bank's size, the least likely half is replaced by perturbed copies of
-hypotheses drawn by weight, each run from its own start with every command sent so far and weighed by every
-measurement so far (:meth:`SpecimenBank._rejuvenate`). Every weight is then the whole history's likelihood, as
-if all hypotheses had been in the bank from the start (the copies' proposal density is not divided out: the bank
-is a set of points weighed by their likelihood, an approximation that concentrates it faster than the exact
-posterior would).
+rarely the bench's specimen (with 32 hypotheses in 14 unknowns, a fixed bank ended the tuning benches' episodes with
+a tip-friction error of 3.1 deg RMS, worse than the prior's spread). So whenever the effective sample size falls
+below ``rejuvenate_ess`` times the bank's size, the bank is resampled by weight and each hypothesis takes
+``move_steps`` Metropolis-Hastings steps whose target is the posterior given every measurement so far
+(:meth:`SpecimenBank._resample_move`, Gilks & Berzuini 2001): a perturbed copy is run from its own start with every
+command sent so far, weighed by every measurement so far and accepted against its parent with that likelihood ratio
+(the prior is uniform within its ranges among the specimens that start). The bank so stays a sample of the
+posterior, and its interval is one (``tests/agents/test_estimator_posterior.py``). ``move="greedy"`` keeps the
+earlier move (the least likely half replaced by perturbed copies kept when they fit better, the proposal density
+not divided out: it concentrates the bank faster than the posterior; ``docs/actuator-study.md`` compares them).
 
 **Divergence.** If every hypothesis is ruled out (each ended the test while the bench runs on, or its state is not
 finite), or the weighted covariance is not finite and positive definite, the weights go back to the prior
@@ -59,6 +61,7 @@ PARAMETERS = ("tip_friction_deg", "friction1_deg", "friction2_deg", "friction3_d
 GEOMETRY = ("mass_kg", "dip1_deg", "dip2_deg", "dip3_deg")  # varied with ``vary_geometry``, and reported
 DIRECTIONS = ("dip_direction1_deg", "dip_direction2_deg", "dip_direction3_deg")  # varied, not reported
 N_REPORTED = len(PARAMETERS) + len(GEOMETRY)
+MOVES = ("mh", "greedy")  # resample-move: a Metropolis-Hastings move, or the earlier greedy replacement
 
 
 def latin_hypercube(rng: np.random.Generator, n: int, low: np.ndarray, high: np.ndarray) -> np.ndarray:
@@ -132,8 +135,14 @@ class SpecimenBank:
     max_rounds: int = 8
     rejuvenate_ess: float = 0.5
     jitter: float = 0.5
+    move: str = "mh"
+    move_steps: int = 1
 
     def reset(self, load_N: float) -> None:
+        if self.move not in MOVES:
+            raise ValueError(f"move must be one of {MOVES}, got {self.move!r}")
+        if int(self.move_steps) < 1:
+            raise ValueError(f"move_steps must be a positive integer, got {self.move_steps!r}")
         self._env = TriPlanarShearV1Env(**self.env_kwargs)
         self.load_N = float(load_N)
         low, high = prior_ranges(self.prior, self.intervals)
@@ -156,11 +165,13 @@ class SpecimenBank:
         if not self.states:
             raise StartError(f"no hypothesis of the prior starts at {load_N:g} N")
         self.theta = np.array(self.theta)
-        self.log_w = np.zeros(len(self.states))
+        self.log_w = np.zeros(len(self.states))  # log weight: the likelihood since the last resampling
+        self.ll = np.zeros(len(self.states))  # the whole history's log-likelihood (the move's target)
         self.alive = np.ones(len(self.states), dtype=bool)
-        self.fallbacks = self.rejuvenations = 0
+        self.fallbacks = self.rejuvenations = self.proposed = self.accepted = 0
         self.diverged = False
         self._history: list[tuple[np.ndarray, np.ndarray]] = []
+        self._counted_from = 0  # measurements before a fallback no longer count
         self._applied, self._obs, self._inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
         self._ws = new_workspace()
 
@@ -205,6 +216,18 @@ class SpecimenBank:
             return -math.inf
         return ll
 
+    def _replay(self, s: BenchState) -> float:
+        """Run a new hypothesis from its start with every command sent so far: its whole history's
+        log-likelihood (-inf if it ended the test or does not explain a measurement)."""
+        ll = 0.0
+        for k, (raw, measured) in enumerate(self._history):
+            inc = self._advance(s, raw, measured)
+            if not math.isfinite(inc):
+                return -math.inf
+            if k >= self._counted_from:
+                ll += inc
+        return ll
+
     def update(self, action: np.ndarray, obs: np.ndarray) -> None:
         """Advance every hypothesis by the period the bench just ran with ``action`` and weigh it by ``obs``."""
         raw = np.array(action, dtype=np.float64)
@@ -212,7 +235,9 @@ class SpecimenBank:
         self._history.append((raw, measured))
         for i, s in enumerate(self.states):
             if self.alive[i]:
-                self.log_w[i] += self._advance(s, raw, measured)
+                inc = self._advance(s, raw, measured)
+                self.log_w[i] += inc
+                self.ll[i] += inc
                 self.alive[i] = math.isfinite(self.log_w[i])
         self.diverged = False
         if not self.alive.any() or not self._healthy():
@@ -220,8 +245,13 @@ class SpecimenBank:
             self.diverged = True
             self.alive[:] = np.array([np.all(np.isfinite(s.y)) for s in self.states])
             self.log_w[:] = np.where(self.alive, 0.0, -math.inf)
+            self.ll[:] = self.log_w
+            self._counted_from = len(self._history)
         elif self.jitter > 0 and self.ess() < self.rejuvenate_ess * len(self.states):
-            self._rejuvenate()
+            if self.move == "mh":
+                self._resample_move()
+            else:
+                self._rejuvenate()
 
     def ess(self) -> float:
         w = self.weights()
@@ -258,6 +288,63 @@ class SpecimenBank:
                     break
             if math.isfinite(ll) and (not self.alive[slot] or ll > self.log_w[slot]):
                 self.theta[slot], self.states[slot], self.log_w[slot], self.alive[slot] = full, state, ll, True
+                self.ll[slot] = ll
+        self.rejuvenations += 1
+
+    def _proposal(self) -> np.ndarray:
+        """The random walk's Cholesky factor: ``jitter`` times the bank's weighted covariance (the posterior's
+        shape, so that correlated unknowns such as the tip and the contact friction move together) plus the bank's
+        spacing on the diagonal (a floor once the bank has narrowed); a horizontal plane's direction (an angle around
+        the circle) moves by its spacing only; without ``vary_geometry`` the geometry stays the prior's."""
+        w = self.weights()
+        d = self.theta - w @ self.theta
+        cov = (d * w[:, None]).T @ d
+        free = ~self.circular
+        if not self.vary_geometry:
+            free[len(PARAMETERS):] = False
+        cov[~free, :] = 0.0
+        cov[:, ~free] = 0.0
+        spacing = (self.high - self.low) / len(self.states)
+        if not self.vary_geometry:
+            spacing[len(PARAMETERS):] = 0.0
+        moving = spacing > 0.0  # (a parameter fixed by its interval stays)
+        cov[~moving, :] = 0.0
+        cov[:, ~moving] = 0.0
+        cov = self.jitter ** 2 * cov + np.diag(spacing ** 2)
+        factor = np.zeros_like(cov)
+        factor[np.ix_(moving, moving)] = np.linalg.cholesky(cov[np.ix_(moving, moving)])
+        return factor
+
+    def _resample_move(self) -> None:
+        """Resample-move that keeps the bank a sample of the posterior given every measurement so far (Gilks &
+        Berzuini 2001): the bank is resampled by weight (systematic), then each hypothesis takes ``move_steps``
+        Metropolis-Hastings steps whose target is that posterior: a symmetric random-walk proposal
+        (:meth:`_proposal`) run from its own start with every command sent so far, accepted with probability
+        ``min(1, L(new) prior(new) / (L(old) prior(old)))``. v1 draws its unknowns uniformly within their ranges
+        (:func:`envs.triplanar_shear_v1.draw_bench`) among the specimens that start, so the prior ratio is 1 inside
+        the ranges for a proposal that starts and 0 otherwise (rejected). The weights are then equal."""
+        n = len(self.states)
+        factor = self._proposal()
+        w = self.weights()
+        parents = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + self._rng.random()) / n), n - 1)
+        theta, ll = self.theta[parents].copy(), self.ll[parents].copy()
+        states = [self.states[i].copy() for i in parents]
+        for _ in range(self.move_steps):
+            for i in range(n):
+                new = theta[i] + factor @ self._rng.standard_normal(len(theta[i]))
+                new = np.where(self.circular, np.mod(new, 360.0), new)
+                self.proposed += 1
+                if np.any(new < self.low) or np.any(new > self.high):
+                    continue  # outside the prior's ranges: prior density 0
+                state, full = self._start(self._bench_of(new))
+                if state is None:
+                    continue  # friction holds it at rest: not in the prior (the bench's block started)
+                new_ll = self._replay(state)
+                if math.isfinite(new_ll) and math.log(self._rng.random()) < new_ll - ll[i]:
+                    theta[i], states[i], ll[i] = full, state, new_ll
+                    self.accepted += 1
+        self.theta, self.states, self.ll = theta, states, ll
+        self.log_w, self.alive = np.zeros(n), np.ones(n, dtype=bool)
         self.rejuvenations += 1
 
     def weights(self) -> np.ndarray:
@@ -271,7 +358,8 @@ class SpecimenBank:
         mean, cov = self.mean_cov()
         if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))):
             return False
-        return bool(np.all(np.linalg.eigvalsh(cov) > 0.0))
+        varied = self.resolution > 0.0  # a parameter fixed by its interval has no spread: not a divergence
+        return bool(np.all(np.linalg.eigvalsh(cov[np.ix_(varied, varied)]) > 0.0))
 
     def mean_cov(self) -> tuple[np.ndarray, np.ndarray]:
         """Weighted mean and covariance of the parameters, the bank's spacing added (it bounds the resolution)."""

@@ -64,6 +64,10 @@ class MPCController:
     min_ess: float = 3.0
     model_error_m: float = 6e-4
     vary_geometry: bool = True
+    move: str = "mh"
+    move_steps: int = 1
+    start_thrust: float = 0.0
+    start_offset_m: float = 0.0
     seed: int = 0
     stage_bandwidth_hz: float = 20.0
     thrust_bandwidth_hz: float = 30.0
@@ -86,7 +90,7 @@ class MPCController:
                       "latency_s": self.latency_s, "sensor_noise_m": 0.0}
         self.bank = SpecimenBank(prior, foundation, env_kwargs, int(self.bank_size), int(self.seed),
                                  float(self.sensor_noise_m), float(self.model_error_m), intervals,
-                                 bool(self.vary_geometry))
+                                 bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps))
         self.bank.reset(load_N)
         self.planner = CEMPlanner.with_settings_of(self, low=(-self.thrust_envelope, -1.0),
                                                    high=(self.thrust_envelope, 1.0))
@@ -98,6 +102,14 @@ class MPCController:
         self._start = self._last.copy()
         self.info = {"estimator_fallback": False, "fallbacks": 0, "held": False, "cpu_s": 0.0}
 
+    def _excitation(self) -> np.ndarray:
+        """The start's command this period: the nominal one, with the thrust at ``1 +- start_thrust`` times the load
+        level and the tip offset at ``+- start_offset_m``, alternating every ``block`` periods (zero: constant)."""
+        sign = 1.0 if ((self._periods - 1) // int(self.block)) % 2 == 0 else -1.0
+        step = np.array([2.0 * self.start_thrust / self.config.thrust_scale,
+                         self.start_offset_m / self.config.offset_range_m])
+        return np.clip(self._start + sign * step, -1.0, 1.0)
+
     def act(self, obs: np.ndarray) -> np.ndarray:
         start = time.process_time()
         if not self._first:  # the observation of the period the last action ran
@@ -107,7 +119,7 @@ class MPCController:
         planned = self._periods > self.start_periods and (
             self._plan is None or self._age >= min(self.replan_every, len(self._plan)))
         if self._periods <= self.start_periods:  # the start: the nominal action while the data say little
-            self._plan, self._age = np.repeat(self._start[None, :], int(self.horizon), axis=0), 0
+            self._plan, self._age = np.repeat(self._excitation()[None, :], int(self.horizon), axis=0), 0
         elif planned:
             states, weights = self.bank.best(int(self.hypotheses), float(self.min_ess))
             self._plan = self.planner.plan(states, weights, self._last)

@@ -7,7 +7,9 @@
 ``--stream 20020`` (the tuning stream, ``agents.heldout.TUNING_SEED``) and the controller ``mpc_true`` (``mpc``'s
 planner and settings with its bank replaced by the bench's true state: what ``mpc`` would do if it estimated
 perfectly) separate estimation error from planning error; for ``mpc`` the table also gives the RMS error of the
-estimator's final estimate against the bench's truth.
+estimator's final estimate against the bench's truth. ``--set stress``: the stress set (outside v1's ranges) instead
+of the held-out benches; ``--against OUT``: also the bench-by-bench differences from an earlier run on the same
+benches (a variant against the current settings, with an interval).
 
 Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
 ``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table with the
@@ -35,6 +37,7 @@ from agents.heldout import (
     heldout_benches,
     random_benches,
     run_episode,
+    stress_benches,
     summarise,
 )
 from experiments.stats import row_stats
@@ -66,7 +69,7 @@ class TrueStateMPC:
         self.controller.reset(load_N, config)
         bank = self.controller.bank
         bank.states, bank.theta = [snapshot(self._env)], hypothesis_of(self._env.episode_bench)[None, :]
-        bank.log_w, bank.alive, bank.jitter = np.zeros(1), np.ones(1, dtype=bool), 0.0
+        bank.log_w, bank.ll, bank.alive, bank.jitter = np.zeros(1), np.zeros(1), np.ones(1, dtype=bool), 0.0
 
     @property
     def info(self) -> dict:
@@ -83,10 +86,17 @@ def estimate_errors(estimate: dict, bench) -> dict:
             "dip_deg": [estimate[f"dip{k}_deg"] - truth[7 + k] for k in (1, 2, 3)]}
 
 
-def episode(task: tuple[str, dict, int, int, int]) -> dict:
+def benches_of(n: int, stream: int | str) -> list:
+    """The held-out benches, the stress set (``stream`` "stress") or the first ``n`` draws of another stream."""
+    if stream == "stress":
+        return stress_benches(n)
+    return heldout_benches(n) if stream == HELDOUT_SEED else random_benches(n, stream)
+
+
+def episode(task: tuple[str, dict, int, int, int | str]) -> dict:
     """One held-out episode of controller ``name``: its outcome, CPU time and, for ``mpc``, per-decision times."""
     name, params, index, n, stream = task
-    bench = (heldout_benches(n) if stream == HELDOUT_SEED else random_benches(n, stream))[index]
+    bench = benches_of(n, stream)[index]
     if name == "frictionless_tip":
         from agents.heldout import with_tip
         bench = with_tip(bench, 0.0)
@@ -101,7 +111,8 @@ def episode(task: tuple[str, dict, int, int, int]) -> dict:
             return action
         controller.act = timed
     start = time.process_time()
-    outcome = run_episode(controller, bench, seed=index, index=index)
+    outcome = run_episode(controller, bench, seed=index, index=index,
+                          bench_set="stress" if stream == "stress" else "heldout")
     out = asdict(outcome)
     out.update(cpu_s=time.process_time() - start, decisions_cpu_s=decisions)
     if name == "mpc":
@@ -178,6 +189,26 @@ def mpc_settings(pairs: list[str]) -> dict:
     return out
 
 
+def paired_differences(summary: dict, against: Path) -> None:
+    """Bench-by-bench differences of each controller's score (and error, over benches both succeeded on) from the
+    same controller's in ``against``'s summary (a run on the same benches): mean and bootstrap 95 % interval
+    (:func:`experiments.stats.bootstrap_ci`), so that a variant is compared with the same benches' noise removed."""
+    from experiments.stats import bootstrap_ci, mean_of_successes
+    base = json.loads((against / "summary.json").read_text())
+    if (base["benches"], base["stream"]) != (summary["benches"], summary["stream"]):
+        raise SystemExit(f"--against {against}: other benches ({base['benches']} of stream {base['stream']})")
+    for name, row in summary["controllers"].items():
+        if name not in base["controllers"]:
+            continue
+        other = base["controllers"][name]
+        score = np.array(row["scores"]) - np.array(other["scores"])
+        ok = np.array(row["errors"], dtype=float) - np.array(other["errors"], dtype=float)  # NaN: either failed
+        d, lo, hi = bootstrap_ci(score[None, :], lambda t: float(np.mean(t)))
+        e, elo, ehi = bootstrap_ci(ok[None, :], mean_of_successes)
+        print(f"  {name} minus {against}: score {d:+.3f} mm ({lo:+.3f} to {hi:+.3f}), error over benches both "
+              f"succeeded on {e:+.3f} mm ({elo:+.3f} to {ehi:+.3f}, {int(np.isfinite(ok).sum())} benches)")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--benches", type=int, default=50)
@@ -191,12 +222,18 @@ def main() -> None:
                              "the variants of docs/actuator-study.md)")
     parser.add_argument("--stream", type=int, default=HELDOUT_SEED,
                         help="draw the benches from this seed stream instead of the held-out one (an independent set)")
+    parser.add_argument("--set", choices=("heldout", "stress"), default="heldout",
+                        help="stress: the stress set (agents.heldout.stress_benches: outside v1's ranges) instead of "
+                             "the held-out benches (--stream is then ignored)")
     parser.add_argument("--limit-sweep", action="store_true",
                         help="instead: limit at the nominal loads (default bench) with shorter and longer horizons "
                              "and more samples (does its figure still fall?)")
     parser.add_argument("--identify", metavar="FIT.json",
                         help="instead: mpc with this fit as prior against the drawing's prior (identify, then control)")
     parser.add_argument("--tip-deg", type=float, default=None, help="with --identify: the laboratory's tip friction")
+    parser.add_argument("--against", metavar="OUT", default=None,
+                        help="also print each controller's bench-by-bench differences from the same controller in "
+                             "this earlier run's summary (same --benches and --stream)")
     args = parser.parse_args()
     out = Path(args.out)
     if args.identify:
@@ -206,13 +243,14 @@ def main() -> None:
         limit_sweep(out, args.workers, [27.8, 32.5, 37.5, 42.5, 47.5, 51.6])
         return
     names = args.controllers.split(",")
-    summary = {"benches": args.benches, "stream": args.stream, "controllers": {}}
+    stream = "stress" if args.set == "stress" else args.stream
+    summary = {"benches": args.benches, "stream": stream, "controllers": {}}
     mpc = mpc_settings(args.mpc)
     if args.replan_every is not None:
         mpc["replan_every"] = args.replan_every
     own = {**SCRIPTED, "mpc": mpc, "mpc_true": mpc}
     for name in names:
-        tasks = [(name, own.get(name, {}), i, args.benches, args.stream) for i in range(args.benches)]
+        tasks = [(name, own.get(name, {}), i, args.benches, stream) for i in range(args.benches)]
         wall = time.perf_counter()
         with pool_scope(args.workers) as ex:
             results = run_tasks(episode, tasks, ex, progress=True, desc=name,
@@ -223,7 +261,8 @@ def main() -> None:
         row = row_stats([[o.mimicry_error_mm for o in outcomes]], [[o.success for o in outcomes]],
                         FAILURE_SCORE_MM)
         row.update(cpu_s_per_episode=float(np.mean([r["cpu_s"] for r in results])), wall_s=wall,
-                   scores=[o.mimicry_error_mm if o.success else FAILURE_SCORE_MM for o in outcomes])
+                   scores=[o.mimicry_error_mm if o.success else FAILURE_SCORE_MM for o in outcomes],
+                   errors=[o.mimicry_error_mm for o in outcomes])
         decisions = [d for r in results for d in r["decisions_cpu_s"]]
         if decisions:
             cpu = np.array([d[0] for d in decisions])
@@ -259,6 +298,8 @@ def main() -> None:
             print(f"  {name}: wall {r['wall_s']:.0f} s")
         if "estimate_rms" in r:
             print(f"  {name}: RMS error of the final estimate: " + ", ".join(f"{k} {v:.2f}" for k, v in r["estimate_rms"].items()))
+    if args.against:
+        paired_differences(summary, Path(args.against))
     print(json.dumps({k: v["score"] for k, v in summary["controllers"].items()}))
 
 
