@@ -136,7 +136,7 @@ class SpecimenBank:
     rejuvenate_ess: float = 0.5
     jitter: float = 0.5
     move: str = "mh"
-    move_steps: int = 1
+    move_steps: int = 3
 
     def reset(self, load_N: float) -> None:
         if self.move not in MOVES:
