@@ -30,7 +30,7 @@ from ..result import SimulationResult
 from .candidates import Candidate, refit_candidate, resolve
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .intervals import interval95
-from .parameters import FitParameter
+from .parameters import FitParameter, listed
 from .executor import ExecutorLike, executor_scope
 from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
@@ -332,7 +332,7 @@ class EffectFit:
     ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``, ``ci95_`` (``{effect:
     {param: [low, high] or None}}``, :mod:`~triplanar.workbench.intervals`; the jackknife part is absent here, there
     are no folds), ``profile_ci95_`` (the same, from the profile of the objective: :mod:`~triplanar.workbench.profile`;
-    empty with per-test parameters), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
+    empty with per-test parameters; ``intervals_`` then lacks ``"profile"``), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
     (effects of the model that were freed: ``{name: values the user gave}``), ``per_test_`` (``{effect: {param:
     {test_id: value}}}``, empty without per-test parameters; ``params_`` then holds the shared values, and the
     per-test parameters have the status ``per_test`` and no interval), ``per_test_summary_`` (``{effect: {param:
@@ -409,7 +409,12 @@ class EffectFit:
                                                            self.bias_ratio_)
             if start is not None:
                 start = start[len(c.shared):]
-        self.profile_ci95_ = {} if self.per_test_ else self._profile(cands, tests, scatter)
+        self.intervals_: tuple[str, ...] = ()
+        if not self.per_test_:       # the profile-likelihood intervals, recorded on the parameters
+            found = self._profile(cands, tests, scatter)
+            self.parameters_ = {e: {k: replace(p, profile_ci95=tuple(found[e][k])) if found.get(e, {}).get(k)
+                                    is not None else p for k, p in ps.items()} for e, ps in self.parameters_.items()}
+            self.intervals_ = ("profile",)
         self.effects_: list[Effect] = self.spec_.build_effects()[len(self.fit_base_.effects):]
         self.baseline_error_mm_ = overall_error(self.baseline_)
         self.error_mm_ = overall_error(self.discrepancies_)
@@ -459,6 +464,14 @@ class EffectFit:
         """``{effect: {param: status}}`` (:mod:`~triplanar.workbench.parameters`)."""
         return {c.effect: {k: self.parameters_[c.effect][k].status for k in (*c.shared, *c.per_test, *c.fixed)}
                 for c in self.candidates_}
+
+    @property
+    def profile_ci95_(self) -> dict[str, dict[str, list[float] | None]]:
+        """``{effect: {param: [low, high] or None}}`` of the free parameters, from the profile of the objective
+        (:mod:`~triplanar.workbench.profile`); empty with per-test parameters."""
+        if "profile" not in self.intervals_:
+            return {}
+        return {e: {k: listed(p.profile_ci95) for k, p in ps.items() if p.vary} for e, ps in self.parameters_.items()}
 
     @property
     def at_bound_(self) -> tuple[str, ...]:

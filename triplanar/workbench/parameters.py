@@ -2,7 +2,8 @@
 
 A :class:`FitParameter` carries, on one object, the recipe of one parameter of one effect (``vary``: whether the
 fit moves it; ``min``/``max``: the plausible range it may move over; ``start``; ``per_test``: its own value in
-every test) and, once fitted, the result (``value``, ``stderr``, ``ci95``, ``status``, ``at_bound``). The recipe
+every test; ``grid``: its coarse scan before polishing; ``snap``) and, once fitted, the result (``value``, ``stderr``,
+``ci95``, ``status``, ``at_bound``). The recipe
 defaults come from the effect's :class:`~triplanar.effects.Parameter` (its physical bounds, neutral value, fit
 range), through :meth:`~triplanar.workbench.candidates.Candidate.parameters`; a recipe edited parameter by
 parameter becomes a candidate again with :meth:`~triplanar.workbench.candidates.Candidate.from_parameters`::
@@ -12,7 +13,9 @@ parameter becomes a candidate again with :meth:`~triplanar.workbench.candidates.
     params["phi_deg"] = params["phi_deg"].freed(0.0, 15.0)       # or free it over 0-15 deg
 
 :class:`~triplanar.workbench.fit.EffectFit` reports its result as ``parameters_`` (``{effect: {param:
-FitParameter}}``); its ``params_``, ``stderr_``, ``ci95_``, ``status_`` and ``at_bound_`` are views of it. A
+FitParameter}}``, :data:`EffectParameters`); its ``params_``, ``stderr_``, ``ci95_``, ``status_``, ``at_bound_`` and
+``profile_ci95_`` are views of it, and so are the report dictionaries of each step of a fit
+(:class:`~triplanar.workbench.results.FitStep`, :class:`~triplanar.workbench.select.SelectionStep`). A
 :class:`~triplanar.workbench.candidates.Candidate` holds its recipe as FitParameter objects (``recipe``), and each
 entry of a diagnosis (:class:`~triplanar.workbench.sweep.CandidateResult`) its result (``parameters``, with the
 named entry's ``profile_ci95`` and ``model_ci95``).
@@ -32,7 +35,7 @@ from typing import Any
 
 from ..effects import REGISTRY, EffectError, Parameter
 
-__all__ = ["FitParameter", "STATUSES"]
+__all__ = ["EffectParameters", "FitParameter", "STATUSES", "listed"]
 
 STATUSES = ("unfitted", "fitted", "fixed", "not_moved", "degenerate", "unidentified", "at_bound", "per_test")
 
@@ -54,6 +57,12 @@ class FitParameter:
             (:mod:`~triplanar.workbench.profile`) and the one that admits model-form error
             (:mod:`~triplanar.workbench.alternatives`), ``None`` where there is none.
         per_test_values: a per-test parameter's fitted value in each test (``{test_id: value}``).
+        grid: the coarse scan over its range before polishing: a number of evenly spaced points, or the values
+            themselves. A shared parameter's is scanned when it is the only free parameter of its recipe (``None``
+            or 0: no scan); a per-test parameter's is its scan in each test (``None``: the effect's
+            ``Parameter.grid``, else 12 points).
+        snap: a fitted value closer than this to the start is set to the start (a parameter whose small values are
+            unresolvable, or that the core integrates badly, like a rise time of microseconds); 0: none.
     """
 
     effect: str
@@ -71,6 +80,8 @@ class FitParameter:
     profile_ci95: tuple[float, float] | None = None
     model_ci95: tuple[float, float] | None = None
     per_test_values: dict[str, float] | None = field(default=None, compare=False)
+    grid: int | tuple[float, ...] | None = None
+    snap: float = 0.0
 
     def __post_init__(self) -> None:
         spec = self.spec
@@ -88,6 +99,8 @@ class FitParameter:
                                   f"({self.min}, {self.max})")
         if self.per_test and not self.vary:
             raise EffectError(f"parameter {self.qualified}: a per-test parameter is fitted (vary=True)")
+        if self.snap < 0 or not math.isfinite(self.snap):
+            raise EffectError(f"parameter {self.qualified}: snap {self.snap!r} must be a finite number >= 0")
         if self.start is not None and not spec.lower <= self.start <= spec.upper:
             raise EffectError(f"parameter {self.qualified}: start {self.start} is outside [{spec.lower}, "
                               f"{spec.upper}] {spec.unit}")
@@ -156,3 +169,13 @@ class FitParameter:
 
 def min_max(v: float, lo: float, hi: float) -> float:
     return min(max(v, lo), hi)
+
+
+#: the parameters of several effects, ``{effect: {param: FitParameter}}`` in fit order (a fit's, a step's): the
+#: lmfit ``Parameters`` of a model with several effects
+EffectParameters = dict[str, dict[str, FitParameter]]
+
+
+def listed(interval: tuple[float, float] | None) -> list[float] | None:
+    """An interval in the JSON report's form (a list, or ``None``)."""
+    return list(interval) if interval is not None else None

@@ -122,3 +122,25 @@ def test_a_candidate_holds_its_recipe_as_fit_parameters() -> None:
         Candidate("plane_tilt", recipe=[dip1, dip1])
     with pytest.raises(EffectError, match="start 5.0 is outside"):
         Candidate("plane_tilt", ("dip3_deg",), {"dip3_deg": (-2.0, 2.0)}, start={"dip3_deg": 5.0})
+
+
+def test_grid_and_snap_live_on_the_parameter_they_scan() -> None:
+    rise = default_candidate("actuator_rise")
+    (tau,) = rise.recipe
+    assert tau.grid == (0.0, 0.01, 0.03, 0.08, 0.2) and tau.snap == 0.002     # the effect's own, on its parameter
+    assert rise.grid == tau.grid and rise.snap == {"tau_s": 0.002}            # the candidate's views of them
+    assert rise.grid_values() == [0.0, 0.01, 0.03, 0.08, 0.2]
+    assert rise.values({"tau_s": tau.value + 0.001}) == {"tau_s": tau.value}   # within snap: the start
+    kw = Candidate("end_friction", free=("phi_deg",), bounds={"phi_deg": (0.0, 20.0)}, grid=5, snap={"phi_deg": 0.5})
+    assert kw.recipe[0].grid == 5 and kw.recipe[0].snap == 0.5 and kw.grid_values() == [0.0, 5.0, 10.0, 15.0, 20.0]
+    per_test = default_candidate("tip_offset").with_per_test(["offset_m"])
+    assert per_test.recipe[0].grid is None and per_test.grid == 0              # scanned per test, not once
+    assert len(per_test.per_test_grid_values("offset_m")) == 9                # with the effect's grid
+    own = Candidate("tip_offset", free=("offset_m",), bounds={"offset_m": (-0.01, 0.01)}, per_test=("offset_m",),
+                    per_test_grid={"offset_m": 5})
+    assert own.recipe[0].grid == 5 and own.per_test_grid == {"offset_m": 5}
+    assert own.per_test_grid_values("offset_m") == pytest.approx([-0.01, -0.005, 0.0, 0.005, 0.01], abs=1e-15)
+    with pytest.raises(EffectError, match="per_test_grid names tip_offset.offset_m, which is not a per-test"):
+        Candidate("tip_offset", free=("offset_m",), bounds={"offset_m": (-0.01, 0.01)}, per_test_grid={"offset_m": 5})
+    with pytest.raises(TypeError, match="not both"):
+        Candidate("actuator_rise", grid=3, recipe=rise.recipe)
