@@ -44,8 +44,8 @@ class SelectionStep:
 
     @property
     def effects(self) -> dict[str, dict[str, float]]:
-        """``{effect: {param: value}}`` (held and shared parameters)."""
-        return {e: {k: p.value for k, p in ps.items()} for e, ps in self.parameters.items()}
+        """``{effect: {param: value}}`` (held and shared parameters; per-test ones have no shared value)."""
+        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.parameters.items()}
 
     @property
     def stderr(self) -> dict[str, dict[str, float]]:

@@ -62,9 +62,6 @@ class CandidateResult:
     joint: EffectParameters = field(default_factory=dict)
     kind: str = "candidate"                       # "candidate" (added) or "refit" (a given effect, freed)
     given: dict[str, float] = field(default_factory=dict)   # refit: the values the user gave
-    fixed: dict[str, float] = field(default_factory=dict)
-    per_test: dict[str, dict[str, Any]] = field(default_factory=dict)   # param -> summary (pertest.summarize)
-    per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
     held_out_mm: dict[str, float] = field(default_factory=dict, repr=False)   # test_id -> its error when held out
     bias_ratio: float = 1.0      # evidence.bias_ratio of the full fit (the intervals' model-form allowance)
     model_form: dict[str, dict[str, Any]] = field(default_factory=dict)              # alternatives.py; named
@@ -74,7 +71,27 @@ class CandidateResult:
     @property
     def all_values(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: value}}`` of every effect fitted with it (held and shared parameters)."""
-        return {e: {k: p.value for k, p in ps.items()} for e, ps in self.joint.items()}
+        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.joint.items()}
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        """``{param: value}`` of the parameters the candidate's recipe holds."""
+        return {k: p.value for k, p in self.joint.get(self.effect, {}).items() if not p.vary}
+
+    @property
+    def per_test_values(self) -> dict[str, dict[str, dict[str, float]]]:
+        """``{effect: {param: {test_id: value}}}`` of the per-test parameters of every effect fitted with it."""
+        out = {e: {k: dict(p.per_test_values or {}) for k, p in ps.items() if p.per_test}
+               for e, ps in self.joint.items()}
+        return {e: v for e, v in out.items() if v}
+
+    @property
+    def per_test(self) -> dict[str, dict[str, Any]]:
+        """``{param: summary}`` (:func:`~triplanar.workbench.pertest.summarize`) of the candidate's per-test
+        parameters."""
+        from .pertest import summarize
+        return {k: summarize(p.per_test_values or {}) for k, p in self.joint.get(self.effect, {}).items()
+                if p.per_test}
 
     @property
     def all_stderr(self) -> dict[str, dict[str, float]]:
@@ -253,15 +270,12 @@ def assemble(task: CandidateTask, by_label: dict[str, FitOutcome], k: int, n_tes
                 jack_other.get(p, 0.0), n_tests, n_free, full.train_error_mm, scatter_mm,
                 (par.lower, par.upper), math.nan, other.bounds[p], full.bias_ratio)
     given = dict(cand.start or {}) if task.kind == "refit" else {}
-    from .pertest import summarize
-    per_test = {p: summarize(v) for p, v in full.per_test.get(cand.effect, {}).items()}
     parameters = {p: replace(recipe[p], value=params[p], start=start[p], stderr=stderr[p],
                              ci95=tuple(ci[p]) if ci[p] is not None else None, status=status[p],
                              at_bound=p in implausible) for p in cand.shared}
     return CandidateResult(cand.effect, parameters, cv, full.train_error_mm, improvement, not implausible,
                            implausible, {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
                            joint=joint_parameters((cand, *task.refit), full, found), kind=task.kind, given=given,
-                           fixed=dict(cand.fixed), per_test=per_test, per_test_values=full.per_test,
                            held_out_mm={t: e for t, (_, e) in held.items()}, bias_ratio=full.bias_ratio)
 
 
@@ -271,7 +285,7 @@ def joint_parameters(cands: Sequence[Candidate], full: FitOutcome,
     """Every effect of a joint fit as FitParameter objects (:attr:`CandidateResult.joint`): each parameter of its
     recipe in the fit's order (held ones, then the free ones), with the value and sandwich standard error of the fit
     on all tests (``full``) and the interval and status ``found`` for its shared ones (``{effect: (ci95, status)}``);
-    per-test parameters, which have no shared value, are left out."""
+    then its per-test parameters, with their value in each test (``per_test_values``; their ``value`` is the start)."""
     out: EffectParameters = {}
     for c in cands:
         recipe = c.parameters()
@@ -282,6 +296,9 @@ def joint_parameters(cands: Sequence[Candidate], full: FitOutcome,
                                     status=status.get(k, recipe[k].status if not recipe[k].vary else "fitted"),
                                     at_bound=f"{c.effect}.{k}" in full.at_bound)
                          for k, v in full.values.get(c.effect, {}).items()}
+        out[c.effect].update({k: replace(recipe[k], status="per_test", at_bound=f"{c.effect}.{k}" in full.at_bound,
+                                         per_test_values=dict(full.per_test[c.effect][k]))
+                              for k in c.per_test if k in full.per_test.get(c.effect, {})})
     return out
 
 

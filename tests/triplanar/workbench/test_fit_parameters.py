@@ -144,3 +144,22 @@ def test_grid_and_snap_live_on_the_parameter_they_scan() -> None:
         Candidate("tip_offset", free=("offset_m",), bounds={"offset_m": (-0.01, 0.01)}, per_test_grid={"offset_m": 5})
     with pytest.raises(TypeError, match="not both"):
         Candidate("actuator_rise", grid=3, recipe=rise.recipe)
+
+
+def test_a_joint_fit_lands_on_the_parameter_objects_of_every_effect_fitted() -> None:
+    from triplanar.workbench.sweep import CandidateResult, joint_parameters
+    friction = default_candidate("end_friction")
+    offset = default_candidate("tip_offset").with_per_test(["offset_m"])
+    outcome = FitOutcome("all", ("end_friction", "tip_offset"), {"end_friction": {"phi_deg": 8.0}, "tip_offset": {}},
+                         {"end_friction": {"phi_deg": 0.2}}, (), 1.0, {}, {}, 3, 0.0, "",
+                         per_test={"tip_offset": {"offset_m": {"t1": -0.004, "t2": 0.002}}})
+    joint = joint_parameters((friction, offset), outcome, {"end_friction": ({"phi_deg": (7.6, 8.4)}, {"phi_deg": "fitted"})})
+    phi, per = joint["end_friction"]["phi_deg"], joint["tip_offset"]["offset_m"]
+    assert (phi.value, phi.stderr, phi.ci95, phi.status) == (8.0, 0.2, (7.6, 8.4), "fitted")
+    assert (per.per_test, per.status, per.per_test_values) == (True, "per_test", {"t1": -0.004, "t2": 0.002})
+    result = CandidateResult("tip_offset", {}, 1.0, 1.0, 0.5, True, [], joint=joint)
+    assert result.all_values == {"end_friction": {"phi_deg": 8.0}, "tip_offset": {}}     # per-test: no shared value
+    assert result.all_stderr == {"end_friction": {"phi_deg": 0.2}}
+    assert result.all_ci95 == {"end_friction": {"phi_deg": [7.6, 8.4]}, "tip_offset": {}}
+    assert result.per_test_values == {"tip_offset": {"offset_m": {"t1": -0.004, "t2": 0.002}}}
+    assert result.per_test["offset_m"]["n"] == 2 and result.fixed == {}
