@@ -30,7 +30,8 @@ from ..result import SimulationResult
 from .candidates import Candidate, refit_candidate, resolve
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .intervals import interval95
-from .parameters import FitParameter, listed
+from .parameters import (FitParameter, at_bound_of, intervals_of, profiles_of, shared_values, standard_errors,
+                         statuses_of)
 from .executor import ExecutorLike, executor_scope
 from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
@@ -445,39 +446,33 @@ class EffectFit:
     @property
     def params_(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: value}}``: held and shared fitted values (per-test ones are in ``per_test_``)."""
-        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.parameters_.items()}
+        return shared_values(self.parameters_)
 
     @property
     def stderr_(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: standard error}}`` of the fitted shared parameters (the sandwich, ``fit`` module doc)."""
-        out = {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None} for e, ps in self.parameters_.items()}
-        return {e: v for e, v in out.items() if v}
+        return standard_errors(self.parameters_)
 
     @property
     def ci95_(self) -> dict[str, dict[str, list[float] | None]]:
         """``{effect: {param: [low, high] or None}}`` of the free parameters (per-test ones: ``None``)."""
-        return {c.effect: {k: (list(self.parameters_[c.effect][k].ci95) if self.parameters_[c.effect][k].ci95
-                               is not None else None) for k in (*c.shared, *c.per_test)} for c in self.candidates_}
+        return intervals_of(self.parameters_)
 
     @property
     def status_(self) -> dict[str, dict[str, str]]:
         """``{effect: {param: status}}`` (:mod:`~triplanar.workbench.parameters`)."""
-        return {c.effect: {k: self.parameters_[c.effect][k].status for k in (*c.shared, *c.per_test, *c.fixed)}
-                for c in self.candidates_}
+        return statuses_of(self.parameters_)
 
     @property
     def profile_ci95_(self) -> dict[str, dict[str, list[float] | None]]:
         """``{effect: {param: [low, high] or None}}`` of the free parameters, from the profile of the objective
         (:mod:`~triplanar.workbench.profile`); empty with per-test parameters."""
-        if "profile" not in self.intervals_:
-            return {}
-        return {e: {k: listed(p.profile_ci95) for k, p in ps.items() if p.vary} for e, ps in self.parameters_.items()}
+        return profiles_of(self.parameters_) if "profile" in self.intervals_ else {}
 
     @property
     def at_bound_(self) -> tuple[str, ...]:
         """``effect.param`` of the free parameters fitted to an end of their range (implausible)."""
-        return tuple(f"{c.effect}.{k}" for c in self.candidates_ for k in c.free
-                     if self.parameters_[c.effect][k].at_bound)
+        return at_bound_of(self.parameters_)
 
     def spec_for(self, test_id: str) -> ModelSpec:
         """The fitted model of one test (its own values of the per-test parameters; ``spec_`` without any)."""

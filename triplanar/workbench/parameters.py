@@ -35,7 +35,8 @@ from typing import Any
 
 from ..effects import REGISTRY, EffectError, Parameter
 
-__all__ = ["EffectParameters", "FitParameter", "STATUSES", "listed"]
+__all__ = ["EffectParameters", "FitParameter", "STATUSES", "at_bound_of", "intervals_of", "listed", "profiles_of",
+           "shared_values", "standard_errors", "statuses_of"]
 
 STATUSES = ("unfitted", "fitted", "fixed", "not_moved", "degenerate", "unidentified", "at_bound", "per_test")
 
@@ -179,3 +180,41 @@ EffectParameters = dict[str, dict[str, FitParameter]]
 def listed(interval: tuple[float, float] | None) -> list[float] | None:
     """An interval in the JSON report's form (a list, or ``None``)."""
     return list(interval) if interval is not None else None
+
+
+# -- the report's dictionaries (``{effect: {param: ...}}``, as fit.json holds them) of EffectParameters -------------
+
+def shared_values(params: EffectParameters) -> dict[str, dict[str, float]]:
+    """``{effect: {param: value}}`` of the held and shared parameters (a per-test one has no shared value)."""
+    return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in params.items()}
+
+
+def standard_errors(params: EffectParameters) -> dict[str, dict[str, float]]:
+    """``{effect: {param: standard error}}`` of the parameters that have one (effects without any left out)."""
+    out = {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None} for e, ps in params.items()}
+    return {e: v for e, v in out.items() if v}
+
+
+def _free_shared_first(ps: dict[str, FitParameter]) -> list[tuple[str, FitParameter]]:
+    return [(k, p) for k, p in ps.items() if p.shared] + [(k, p) for k, p in ps.items() if p.per_test]
+
+
+def intervals_of(params: EffectParameters) -> dict[str, dict[str, list[float] | None]]:
+    """``{effect: {param: [low, high] or None}}`` of the free parameters, the shared ones first (per-test: ``None``)."""
+    return {e: {k: listed(p.ci95) for k, p in _free_shared_first(ps)} for e, ps in params.items()}
+
+
+def statuses_of(params: EffectParameters) -> dict[str, dict[str, str]]:
+    """``{effect: {param: status}}``: the free parameters (shared first), then the held ones."""
+    return {e: {k: p.status for k, p in (*_free_shared_first(ps), *((k, p) for k, p in ps.items() if not p.vary))}
+            for e, ps in params.items()}
+
+
+def at_bound_of(params: EffectParameters) -> tuple[str, ...]:
+    """``effect.param`` of the free parameters fitted to an end of their range (implausible)."""
+    return tuple(p.qualified for ps in params.values() for p in ps.values() if p.vary and p.at_bound)
+
+
+def profiles_of(params: EffectParameters) -> dict[str, dict[str, list[float] | None]]:
+    """``{effect: {param: [low, high] or None}}``: the free parameters' profile-likelihood intervals."""
+    return {e: {k: listed(p.profile_ci95) for k, p in ps.items() if p.vary} for e, ps in params.items()}

@@ -19,7 +19,8 @@ from .diagnose import Diagnoser
 from .discrepancy import TestDiscrepancy
 from .executor import ExecutorLike
 from .fit import EffectFit
-from .parameters import EffectParameters, FitParameter, listed
+from .parameters import (EffectParameters, FitParameter, at_bound_of, intervals_of, profiles_of, shared_values,
+                         standard_errors, statuses_of)
 from .pertest import describe, summarize
 from .select import SelectionStep
 from .spec import ModelSpec
@@ -87,36 +88,32 @@ class FitStep:
     @property
     def effects(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: value}}``: held and shared values (per-test ones: ``per_test``)."""
-        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.parameters.items()}
+        return shared_values(self.parameters)
 
     @property
     def stderr(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: standard error}}`` of the fitted parameters."""
-        out = {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None} for e, ps in self.parameters.items()}
-        return {e: v for e, v in out.items() if v}
+        return standard_errors(self.parameters)
 
     @property
     def ci95(self) -> dict[str, dict[str, list[float] | None]]:
         """``{effect: {param: [low, high] or None}}`` of the free parameters, shared ones first."""
-        return {e: {k: listed(p.ci95) for k, p in _free_shared_first(ps)} for e, ps in self.parameters.items()}
+        return intervals_of(self.parameters)
 
     @property
     def status(self) -> dict[str, dict[str, str]]:
         """``{effect: {param: status}}`` (:mod:`~triplanar.workbench.parameters`), free ones first."""
-        return {e: {k: p.status for k, p in (*_free_shared_first(ps), *((k, p) for k, p in ps.items() if not p.vary))}
-                for e, ps in self.parameters.items()}
+        return statuses_of(self.parameters)
 
     @property
     def at_bound(self) -> tuple[str, ...]:
         """``effect.param`` of the free parameters fitted to an end of their range (implausible)."""
-        return tuple(p.qualified for ps in self.parameters.values() for p in ps.values() if p.vary and p.at_bound)
+        return at_bound_of(self.parameters)
 
     @property
     def profile_ci95(self) -> dict[str, dict[str, list[float] | None]]:
         """``{effect: {param: [low, high] or None}}``: the profile-likelihood intervals, when computed."""
-        if "profile" not in self.intervals:
-            return {}
-        return {e: {k: listed(p.profile_ci95) for k, p in ps.items() if p.vary} for e, ps in self.parameters.items()}
+        return profiles_of(self.parameters) if "profile" in self.intervals else {}
 
     @property
     def per_test(self) -> dict[str, dict[str, Any]]:
@@ -159,11 +156,6 @@ class FitStep:
         if self.confidence:
             lines.append(f"  {'':24s} confidence {self.confidence}: {self.reason or ''}")
         return "\n".join(lines)
-
-
-def _free_shared_first(ps: Mapping[str, FitParameter]) -> list[tuple[str, FitParameter]]:
-    """The free parameters of one effect, the shared ones first, then the per-test ones (the report's order)."""
-    return [(k, p) for k, p in ps.items() if p.shared] + [(k, p) for k, p in ps.items() if p.per_test]
 
 
 def fit_added(add: Sequence[str], tests: Sequence[MeasuredTest], base: ModelSpec,

@@ -23,7 +23,7 @@ from .candidates import Candidate
 from .diagnose import Diagnoser
 from .executor import ExecutorLike
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
-from .parameters import EffectParameters, FitParameter, listed
+from .parameters import EffectParameters, FitParameter, listed, shared_values
 from .spec import ModelSpec
 
 
@@ -45,7 +45,7 @@ class SelectionStep:
     @property
     def effects(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: value}}`` (held and shared parameters; per-test ones have no shared value)."""
-        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.parameters.items()}
+        return shared_values(self.parameters)
 
     @property
     def stderr(self) -> dict[str, dict[str, float]]:

@@ -25,7 +25,7 @@ from .candidates import Candidate
 from .discrepancy import rms
 from .fit import FitOutcome, FitTask, discrepancies, evaluate_spec, run_fit
 from .intervals import interval95
-from .parameters import EffectParameters, FitParameter, listed
+from .parameters import EffectParameters, FitParameter, listed, shared_values, standard_errors
 from .spec import ModelSpec, spec_with_values
 
 def load_folds(forces: Sequence[float], k: int) -> list[list[float]]:
@@ -71,7 +71,7 @@ class CandidateResult:
     @property
     def all_values(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: value}}`` of every effect fitted with it (held and shared parameters)."""
-        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.joint.items()}
+        return shared_values(self.joint)
 
     @property
     def fixed(self) -> dict[str, float]:
@@ -96,8 +96,7 @@ class CandidateResult:
     @property
     def all_stderr(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: sandwich standard error}}`` of the free parameters of every effect fitted with it."""
-        out = {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None} for e, ps in self.joint.items()}
-        return {e: v for e, v in out.items() if v}
+        return standard_errors(self.joint)
 
     @property
     def all_ci95(self) -> dict[str, dict[str, list[float] | None]]:
