@@ -196,7 +196,7 @@ class Candidate:
                 out[name] = replace(p, start=p.value)
             else:
                 value = float(p.value if p is not None else spec.default)
-                out[name] = FitParameter(self.effect, name, value, False, spec.lower, spec.upper, status="fixed")
+                out[name] = FitParameter.held(self.effect, name, value)
         return out
 
     @classmethod
@@ -305,8 +305,7 @@ def refit_candidate(name: str, given: Mapping[str, float], specimen: Specimen | 
             lo, hi = max(params[p.name].lower, min(p.min, s)), min(params[p.name].upper, max(p.max, s))
             edits.append(replace(p, value=s, min=lo, max=hi, start=s))
     free = set(cand.free)
-    edits += [FitParameter(name, k, float(v), False, params[k].lower, params[k].upper, status="fixed")
-              for k, v in given.items() if k not in free]
+    edits += [FitParameter.held(name, k, v) for k, v in given.items() if k not in free]
     return cand.with_parameters(edits)
 
 
@@ -367,6 +366,5 @@ def _recipe(effect: str, free: tuple[str, ...], bounds: Mapping[str, tuple[float
         s = None if given is None else float(given)
         out.append(FitParameter(effect, name, _clip(spec.default if s is None else s, lo, hi), True, lo, hi, s,
                                 name in per_test))
-    out += [FitParameter(effect, name, v, False, params[name].lower, params[name].upper, status="fixed")
-            for name, v in fixed.items() if name not in free]
+    out += [FitParameter.held(effect, name, v) for name, v in fixed.items() if name not in free]
     return out

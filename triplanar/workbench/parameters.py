@@ -106,6 +106,12 @@ class FitParameter:
             raise EffectError(f"parameter {self.qualified}: start {self.start} is outside [{spec.lower}, "
                               f"{spec.upper}] {spec.unit}")
 
+    @classmethod
+    def held(cls, effect: str, name: str, value: float) -> FitParameter:
+        """Parameter ``effect.name`` held at ``value`` (status ``fixed``; its range: the effect's physical bounds)."""
+        spec = cls(effect, name, float(value), False, status="fixed").spec      # (names checked there)
+        return cls(effect, name, float(value), False, spec.lower, spec.upper, status="fixed")
+
     @property
     def spec(self) -> Parameter:
         """The effect's own description of the parameter (physical bounds, unit, meaning)."""

@@ -17,7 +17,6 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
 
-from ..effects import REGISTRY
 from ..measurement import MeasuredTest
 from .candidates import Candidate
 from .diagnose import Diagnoser
@@ -68,13 +67,7 @@ class SelectionStep:
 
 def held_parameters(values: Mapping[str, Mapping[str, float]]) -> EffectParameters:
     """``{effect: {param: value}}`` as FitParameter objects held at those values."""
-    out: EffectParameters = {}
-    for effect, ps in values.items():
-        specs = REGISTRY[effect].parameters if effect in REGISTRY else {}
-        out[effect] = {k: FitParameter(effect, k, float(v), False, specs[k].lower if k in specs else -math.inf,
-                                       specs[k].upper if k in specs else math.inf, status="fixed")
-                       for k, v in ps.items()}
-    return out
+    return {e: {k: FitParameter.held(e, k, v) for k, v in ps.items()} for e, ps in values.items()}
 
 
 class ForwardSelection:

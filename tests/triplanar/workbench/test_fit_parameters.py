@@ -163,3 +163,11 @@ def test_a_joint_fit_lands_on_the_parameter_objects_of_every_effect_fitted() -> 
     assert result.all_ci95 == {"end_friction": {"phi_deg": [7.6, 8.4]}, "tip_offset": {}}
     assert result.per_test_values == {"tip_offset": {"offset_m": {"t1": -0.004, "t2": 0.002}}}
     assert result.per_test["offset_m"]["n"] == 2 and result.fixed == {}
+
+
+def test_a_held_parameter_takes_the_effects_bounds_and_names_a_wrong_parameter() -> None:
+    held = FitParameter.held("end_friction", "phi_deg", 5)
+    spec = REGISTRY["end_friction"].parameters["phi_deg"]
+    assert (held.value, held.vary, held.bounds, held.status) == (5.0, False, (spec.lower, spec.upper), "fixed")
+    with pytest.raises(EffectError, match="effect 'end_friction' has no parameter 'nope'"):
+        FitParameter.held("end_friction", "nope", 1.0)
