@@ -16,11 +16,12 @@ $(STAMP): pyproject.toml constraints.txt
 install: $(STAMP)
 	$(PY) -m triplanar.warmup
 
-# The lint gate (ruff, configured in pyproject.toml and pinned through the `dev` extra) and the layering check (no
-# import circle, no upward import: tests/test_layering.py reads the sources, imports nothing); .ci/run runs it first.
+# The lint gate (ruff, configured in pyproject.toml and pinned through the `dev` extra), the layering check (no
+# import circle, no upward import: tests/test_layering.py) and the function-length check (tests/test_function_length.py);
+# both read the sources and import nothing. .ci/run runs it first.
 lint: $(STAMP)
 	$(VENV)/bin/ruff check .
-	$(PY) -m pytest -q -p no:cacheprovider tests/test_layering.py
+	$(PY) -m pytest -q -p no:cacheprovider tests/test_layering.py tests/test_function_length.py
 
 test: install
 	$(PY) -m pytest -q

@@ -123,7 +123,7 @@ def test_tutorial_identify_then_control(tmp_path):
 def test_v1_takes_a_fit_as_its_nominal_specimen(tmp_path):
     import gymnasium as gym
 
-    import envs  # noqa: F401
+    import envs  # noqa: F401  (registers the environments)
     path = _fit_json(tmp_path, {"end_friction": {"phi_deg": 6.5}})
     env = gym.make("TriPlanarShear-v1", nominal_specimen=str(path))
     env.reset(seed=0)

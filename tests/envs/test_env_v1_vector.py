@@ -22,36 +22,26 @@ def actions(steps: int, seed: int = 0) -> np.ndarray:
     return np.clip(rng.normal(0.0, 0.9, (steps, N, 2)), -1, 1).astype(np.float32)
 
 
-def compare_with_singles(steps: int, frame_stack: int = 1, **kwargs) -> set[str]:
-    """Step the batch and N single envs (seeded s + i) with the same actions; every output bitwise equal.
-    Returns the episode ends seen."""
-    vec = gym.make_vec("TriPlanarShear-v1", num_envs=N, vectorization_mode="vector_entry_point",
-                       frame_stack=frame_stack, **kwargs)
-    singles = [TriPlanarShearV1Env(**kwargs) for _ in range(N)]
-    if frame_stack > 1:
-        singles = [FrameStackObservation(env, frame_stack) for env in singles]
-    obs, _ = vec.reset(seed=40)
-    for i, env in enumerate(singles):
-        assert np.array_equal(obs[i], env.reset(seed=40 + i)[0])
-    ended, reasons = [False] * N, set()
-    for batch in actions(steps):
-        obs, rewards, terminated, truncated, info = vec.step(batch)
-        for i, env in enumerate(singles):
-            if ended[i]:  # next-step autoreset: the new episode's first observation, reward 0
-                expected = (env.reset()[0], 0.0, False, False)
-            else:
-                o, r, te, tr, inf = env.step(batch[i])
-                expected = (o, r, te, tr)
-                assert info["load_cell_N"][i] == inf["load_cell_N"]
-                assert info["reward_action_rate"][i] == inf["reward_action_rate"]
-                if te or tr:
-                    reasons.add(inf["reason"])
-                    assert info["reason_code"][i] == Outcome.from_label(inf["reason"])
-                    assert info["mimicry_error_mm"][i] == inf["mimicry_error_mm"]
-            assert obs[i].dtype == np.float32 and np.array_equal(obs[i], expected[0])
-            assert rewards[i] == expected[1] and terminated[i] == expected[2] and truncated[i] == expected[3]
-            ended[i] = bool(terminated[i] or truncated[i])
-    return reasons
+def _same_info(info: dict, i: int, inf: dict, te: bool, tr: bool) -> None:
+    assert info["load_cell_N"][i] == inf["load_cell_N"]
+    assert info["reward_action_rate"][i] == inf["reward_action_rate"]
+    if te or tr:
+        assert info["reason_code"][i] == Outcome.from_label(inf["reason"])
+        assert info["mimicry_error_mm"][i] == inf["mimicry_error_mm"]
+
+
+@pytest.fixture
+def compare_with_singles(beside_singles):
+    def compare(steps: int, frame_stack: int = 1, **kwargs) -> set[str]:
+        """Step the batch and N single envs (seeded s + i) with the same actions; every output bitwise equal.
+        Returns the episode ends seen."""
+        vec = gym.make_vec("TriPlanarShear-v1", num_envs=N, vectorization_mode="vector_entry_point",
+                           frame_stack=frame_stack, **kwargs)
+        singles = [TriPlanarShearV1Env(**kwargs) for _ in range(N)]
+        if frame_stack > 1:
+            singles = [FrameStackObservation(env, frame_stack) for env in singles]
+        return beside_singles(vec, singles, actions(steps), 40, _same_info)
+    return compare
 
 
 def test_declares_its_autoreset_mode_and_spaces() -> None:
@@ -65,20 +55,20 @@ def test_declares_its_autoreset_mode_and_spaces() -> None:
     assert obs.shape == (2, 4, 15) and vec.observation_space.contains(obs)
 
 
-def test_equals_single_envs_bench_mode_randomised_with_latency() -> None:
+def test_equals_single_envs_bench_mode_randomised_with_latency(compare_with_singles) -> None:
     reasons = compare_with_singles(300, randomize=True, latency_s=0.01)
     assert len(reasons) >= 2   # several kinds of episode end, hence autoresets, were compared
 
 
-def test_equals_single_envs_state_mode_randomised() -> None:
+def test_equals_single_envs_state_mode_randomised(compare_with_singles) -> None:
     assert len(compare_with_singles(400, observation_mode="state", randomize=True)) >= 2
 
 
-def test_equals_framestacked_single_envs() -> None:
+def test_equals_framestacked_single_envs(compare_with_singles) -> None:
     assert len(compare_with_singles(200, frame_stack=4, randomize=True, load_N=40.0)) >= 2
 
 
-def test_equals_single_envs_short() -> None:
+def test_equals_single_envs_short(compare_with_singles) -> None:
     compare_with_singles(30, randomize=True, latency_s=0.01, frame_stack=2)
 
 

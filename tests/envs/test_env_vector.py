@@ -31,26 +31,13 @@ def test_make_vec_uses_the_batched_env() -> None:
     assert set(S.INFO_KEYS) <= set(info)
 
 
-def test_vector_env_equals_n_single_envs() -> None:
-    vec = TriPlanarShearVectorEnv(num_envs=N)
-    singles = [TriPlanarShearEnv() for _ in range(N)]
-    obs, _ = vec.reset(seed=100)
-    for i, env in enumerate(singles):
-        assert np.array_equal(obs[i], env.reset(seed=100 + i)[0])
-    ended, reasons = [False] * N, set()
-    for batch in actions(250):
-        obs, rewards, terminated, truncated, info = vec.step(batch)
-        for i, env in enumerate(singles):
-            if ended[i]:  # next-step autoreset: the new episode's first observation, reward 0
-                expected = (env.reset()[0], 0.0, False, False)
-            else:
-                o, r, te, tr, inf = env.step(batch[i])
-                expected = (o, r, te, tr)
-                if te or tr:
-                    reasons.add(inf["reason"])
-                    assert info["reason_code"][i] == (Outcome.from_label(inf["reason"]) if te else Outcome.TIME_LIMIT)
-                    assert info["mimicry_error_mm"][i] == inf["mimicry_error_mm"]
-            assert np.array_equal(obs[i], expected[0])
-            assert rewards[i] == expected[1] and terminated[i] == expected[2] and truncated[i] == expected[3]
-            ended[i] = bool(terminated[i] or truncated[i])
+def _same_ending(info: dict, i: int, inf: dict, te: bool, tr: bool) -> None:
+    if te or tr:
+        assert info["reason_code"][i] == (Outcome.from_label(inf["reason"]) if te else Outcome.TIME_LIMIT)
+        assert info["mimicry_error_mm"][i] == inf["mimicry_error_mm"]
+
+
+def test_vector_env_equals_n_single_envs(beside_singles) -> None:
+    reasons = beside_singles(TriPlanarShearVectorEnv(num_envs=N), [TriPlanarShearEnv() for _ in range(N)],
+                             actions(250), 100, _same_ending)
     assert len(reasons) >= 2  # several kinds of ending were compared

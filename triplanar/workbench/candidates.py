@@ -39,31 +39,28 @@ class Candidate:
     The recipe is one :class:`~triplanar.workbench.parameters.FitParameter` per parameter the recipe names
     (``recipe``): the ones that vary are free over their range (``min``/``max``) from their start (``value``: the
     start clipped into the range; ``start``: the start as given, ``None`` for the effect's default), per test or
-    shared (``per_test``); the others are held at their ``value`` (parameters not named: the effect's default).
-    ``free``, ``bounds``, ``start``, ``fixed`` and ``per_test`` are views of it, and the constructor takes either
-    those (``Candidate(effect, free, bounds, start, fixed, ...)``) or ``recipe=``.
+    shared (``per_test``), with their coarse scan (``grid``) and ``snap``; the others are held at their ``value``
+    (parameters not named: the effect's default). ``free``, ``bounds``, ``start``, ``fixed``, ``per_test``,
+    ``grid``, ``snap`` and ``per_test_grid`` are views of it, and the constructor takes either those
+    (``Candidate(effect, free, bounds, start, fixed, ...)``) or ``recipe=``.
 
     Attributes:
         effect: registered effect name.
         recipe: the parameters (above).
-        grid: a coarse grid scan before polishing (one free parameter only): a number of evenly spaced
-            points over the range, or the values themselves; 0: none.
-        snap: values closer than this to the start value are set to it (a parameter whose small values are
-            unresolvable, or that the core integrates badly, like a rise time of microseconds).
-        per_test_grid: the scan of each per-test parameter, per test, before polishing (a number of points
-            over its range or the values; missing: the parameter's ``grid``, else 12 points).
 
     Constructor args (instead of ``recipe``): ``free``: parameters the fit moves; ``bounds``: the fit (plausible)
     range of each; ``start``: start values (missing: the effect's default); ``fixed``: values of other parameters
-    held (missing: the effect's default); ``per_test``: free parameters that take their own value in every test
-    (the others are shared by all tests; a fit profiles them: :mod:`triplanar.workbench.pertest`).
+    held (missing: the effect's default); ``grid``: a coarse grid scan before polishing, of the single shared
+    free parameter (a number of evenly spaced points over its range, or the values themselves; 0: none; each
+    shared free parameter carries it, and it is scanned while only one is free); ``snap``: ``{param: distance}``,
+    fitted values closer than this to the start are set to it; ``per_test``: free parameters that take their own
+    value in every test (the others are shared by all tests; a fit profiles them:
+    :mod:`triplanar.workbench.pertest`); ``per_test_grid``: the scan of each per-test parameter in each test
+    (missing: the effect's ``Parameter.grid``, else 12 points).
     """
 
     effect: str
     recipe: tuple[FitParameter, ...]
-    grid: int | tuple[float, ...]
-    snap: Mapping[str, float]
-    per_test_grid: Mapping[str, int | tuple[float, ...]]
 
     def __init__(self, effect: str, free: Iterable[str] = (), bounds: Mapping[str, tuple[float, float]] | None = None,
                  start: Mapping[str, float] | None = None, fixed: Mapping[str, float] | None = None,
@@ -74,9 +71,11 @@ class Candidate:
             raise EffectError(f"unknown effect {effect!r}; known effects: {', '.join(sorted(REGISTRY))}")
         if recipe is None:
             recipe = _recipe(effect, tuple(free), bounds or {}, start, fixed or {}, tuple(per_test))
-        elif tuple(free) or bounds or start or fixed or tuple(per_test):
-            raise TypeError(f"candidate {effect!r}: give the recipe either as recipe= (FitParameter objects) or as "
-                            f"free/bounds/start/fixed/per_test, not both")
+            recipe = _with_scans(effect, recipe, grid, snap or {}, per_test_grid or {})
+        elif tuple(free) or bounds or start or fixed or tuple(per_test) or grid or snap or per_test_grid:
+            raise TypeError(f"candidate {effect!r}: give the recipe either as recipe= (FitParameter objects, which "
+                            f"carry their grid and snap) or as free/bounds/start/fixed/grid/snap/per_test/"
+                            f"per_test_grid, not both")
         recipe = tuple(recipe)
         others = sorted({p.effect for p in recipe} - {effect})
         if others:
@@ -85,9 +84,8 @@ class Candidate:
         twice = sorted({n for n in names if names.count(n) > 1})
         if twice:
             raise EffectError(f"parameter {effect}.{twice[0]} given twice")
-        for name, value in (("effect", effect), ("recipe", recipe), ("grid", grid), ("snap", dict(snap or {})),
-                            ("per_test_grid", dict(per_test_grid or {}))):
-            object.__setattr__(self, name, value)
+        object.__setattr__(self, "effect", effect)
+        object.__setattr__(self, "recipe", recipe)
 
     # -- views of the recipe ------------------------------------------------------------------------------
     @property
@@ -115,11 +113,26 @@ class Candidate:
         """The free parameters that take their own value in every test."""
         return tuple(p.name for p in self.recipe if p.per_test)
 
+    @property
+    def grid(self) -> int | tuple[float, ...]:
+        """The coarse scan of the (first) shared free parameter (0: none); scanned while it is the only free one."""
+        return next((p.grid or 0 for p in self.recipe if p.shared), 0)
+
+    @property
+    def snap(self) -> dict[str, float]:
+        """``{param: distance}`` of the free parameters that snap to their start."""
+        return {p.name: p.snap for p in self.recipe if p.vary and p.snap}
+
+    @property
+    def per_test_grid(self) -> dict[str, int | tuple[float, ...]]:
+        """``{param: scan}`` of the per-test parameters given their own scan (the others: the effect's)."""
+        return {p.name: p.grid for p in self.recipe if p.per_test and p.grid is not None}
+
     def with_parameters(self, parameters: Iterable[FitParameter]) -> Candidate:
         """This candidate with ``parameters`` in its recipe (each replacing the one of its name, else added)."""
         new = {p.name: p for p in parameters}
         recipe = [new.pop(p.name, p) for p in self.recipe] + list(new.values())
-        return Candidate(self.effect, grid=self.grid, snap=self.snap, per_test_grid=self.per_test_grid, recipe=recipe)
+        return Candidate(self.effect, recipe=recipe)
 
     @property
     def shared(self) -> tuple[str, ...]:
@@ -135,22 +148,22 @@ class Candidate:
                 raise EffectError(f"per-test parameter {self.effect}.{name}: effect {self.effect!r} has no parameter "
                                   f"{name!r} (its parameters: {', '.join(params) or 'none'})")
         free = set(self.free)
-        # a free one becomes per test where it is; a held one is freed over the effect's fit range, after the free ones
-        recipe = [replace(p, per_test=True) if p.vary and p.name in names else p for p in self.recipe
-                  if p.vary or p.name not in names]
+        # a free one becomes per test where it is (scanned in each test with the effect's grid); a held one is freed
+        # over the effect's fit range, after the free ones; with a per-test parameter no shared one is grid-scanned
+        recipe = [replace(p, per_test=True, grid=None) if p.vary and p.name in names else
+                  replace(p, grid=None) if p.shared else p for p in self.recipe if p.vary or p.name not in names]
         for n in dict.fromkeys(n for n in names if n not in free):
             lo, hi = params[n].fit_range(params[n].start_value)
             recipe.append(FitParameter(self.effect, n, _clip(params[n].default, lo, hi), True, lo, hi, per_test=True))
-        n_shared = sum(p.vary and not p.per_test for p in recipe)
-        grid = self.grid if n_shared == 1 and not any(p.per_test for p in recipe) else 0
-        return Candidate(self.effect, grid=grid, snap=self.snap, per_test_grid=self.per_test_grid, recipe=recipe)
+        return Candidate(self.effect, recipe=recipe)
 
     def per_test_grid_values(self, name: str, periodic: bool = False) -> list[float]:
         """The per-test scan of per-test parameter ``name`` (natural units); ``periodic``: over one period centred
         on its range, without repeating the end."""
         param = REGISTRY[self.effect].parameters[name]
-        spec = self.per_test_grid.get(name, param.grid)
-        lo, hi = self.bounds[name]
+        mine = next(p for p in self.recipe if p.name == name)
+        spec = param.grid if mine.grid is None else mine.grid
+        lo, hi = mine.bounds
         spec = 12 if spec is None else spec
         if periodic and param.period is not None and isinstance(spec, int):
             mid = 0.5 * (lo + hi)
@@ -165,11 +178,11 @@ class Candidate:
 
     def values(self, free_values: Mapping[str, float]) -> dict[str, float]:
         """All parameter values: fixed ones plus the given free ones (snapped, see ``snap``)."""
-        start = self.start_values()
         free = {}
-        for k in self.free:
-            v = float(free_values[k])
-            free[k] = start[k] if abs(v - start[k]) < self.snap.get(k, 0.0) else v
+        for p in self.recipe:
+            if p.vary:
+                v = float(free_values[p.name])
+                free[p.name] = p.value if abs(v - p.value) < p.snap else v
         return {**{k: float(v) for k, v in self.fixed.items()}, **free}
 
     def parameters(self) -> dict[str, FitParameter]:
@@ -183,7 +196,7 @@ class Candidate:
                 out[name] = replace(p, start=p.value)
             else:
                 value = float(p.value if p is not None else spec.default)
-                out[name] = FitParameter(self.effect, name, value, False, spec.lower, spec.upper, status="fixed")
+                out[name] = FitParameter.held(self.effect, name, value)
         return out
 
     @classmethod
@@ -191,8 +204,9 @@ class Candidate:
                         snap: Mapping[str, float] | None = None) -> Candidate:
         """The candidate whose recipe the ``parameters`` of one effect describe (:meth:`parameters`, edited):
         the ones that vary are free over their range from their start, the others held at their value; a
-        parameter not given keeps the effect's default. ``grid``: as the field (``None``: the effect's own
-        for a single shared free parameter, else none); ``snap``: the field (``None``: the effect's own)."""
+        parameter not given keeps the effect's default. ``grid``: the constructor's (``None``: the parameters' own,
+        and the effect's own for a single shared free parameter without one, else none); ``snap``: the
+        constructor's (``None``: the parameters' own, else the effect's own)."""
         parameters = list(parameters)
         effects = {p.effect for p in parameters}
         if len(effects) != 1:
@@ -205,24 +219,27 @@ class Candidate:
         specs = REGISTRY[effect].parameters
         free = tuple(p.name for p in parameters if p.vary)
         per_test = tuple(p.name for p in parameters if p.per_test)
+        one = len(free) == 1 and not per_test
         if grid is None:
-            one = len(free) == 1 and not per_test
-            grid = (7 if specs[free[0]].grid is None else specs[free[0]].grid) if one else 0
+            own = next((p.grid for p in parameters if p.shared and p.grid is not None), None)
+            grid = own if own is not None else (7 if specs[free[0]].grid is None else specs[free[0]].grid) if one else 0
         if snap is None:
-            snap = {k: specs[k].snap for k in free if specs[k].snap}
+            snap = {p.name: p.snap or specs[p.name].snap for p in parameters if p.vary and (p.snap or specs[p.name].snap)}
         return cls(effect, free, {p.name: p.bounds for p in parameters if p.vary},
                    {p.name: p.value if p.start is None else p.start for p in parameters if p.vary},
                    fixed={p.name: p.value for p in parameters if not p.vary}, grid=grid, snap=snap,
-                   per_test=per_test)
+                   per_test=per_test, per_test_grid={p.name: p.grid for p in parameters
+                                                     if p.per_test and p.grid is not None})
 
     def grid_values(self) -> list[float]:
         """The grid scan's values of the (single) free parameter, in natural units ([] for none)."""
-        if not self.grid or len(self.free) != 1 or self.per_test:
+        free = [p for p in self.recipe if p.vary]
+        if len(free) != 1 or free[0].per_test or not free[0].grid:
             return []
-        lo, hi = self.bounds[self.free[0]]
-        if isinstance(self.grid, int):
-            return [lo + (hi - lo) * i / (self.grid - 1) for i in range(self.grid)] if self.grid > 1 else [lo]
-        return [float(v) for v in self.grid]
+        (lo, hi), grid = free[0].bounds, free[0].grid
+        if isinstance(grid, int):
+            return [lo + (hi - lo) * i / (grid - 1) for i in range(grid)] if grid > 1 else [lo]
+        return [float(v) for v in grid]
 
 
 def default_candidate(name: str, specimen: Specimen | None = None) -> Candidate:
@@ -288,8 +305,7 @@ def refit_candidate(name: str, given: Mapping[str, float], specimen: Specimen | 
             lo, hi = max(params[p.name].lower, min(p.min, s)), min(params[p.name].upper, max(p.max, s))
             edits.append(replace(p, value=s, min=lo, max=hi, start=s))
     free = set(cand.free)
-    edits += [FitParameter(name, k, float(v), False, params[k].lower, params[k].upper, status="fixed")
-              for k, v in given.items() if k not in free]
+    edits += [FitParameter.held(name, k, v) for k, v in given.items() if k not in free]
     return cand.with_parameters(edits)
 
 
@@ -300,6 +316,27 @@ def without_effect(effects: tuple, name: str) -> tuple:
 
 def _clip(v: float, lo: float, hi: float) -> float:
     return min(max(float(v), lo), hi)
+
+
+def _with_scans(effect: str, recipe: list[FitParameter], grid: int | tuple[float, ...],
+                snap: Mapping[str, float], per_test_grid: Mapping[str, int | tuple[float, ...]]) -> list[FitParameter]:
+    """The keyword form's ``grid`` (on every shared free parameter), ``snap`` and ``per_test_grid`` (on the per-test
+    parameters they name) put on the recipe's parameters."""
+    names = {p.name: p for p in recipe}
+    for name in per_test_grid:
+        if name not in names or not names[name].per_test:
+            raise EffectError(f"candidate {effect!r}: per_test_grid names {effect}.{name}, which is not a per-test "
+                              f"parameter (per test: {', '.join(p.name for p in recipe if p.per_test) or 'none'})")
+    for name in snap:
+        if name not in names:
+            raise EffectError(f"candidate {effect!r}: snap names {effect}.{name}, which the recipe does not name")
+    scan = tuple(float(v) for v in grid) if not isinstance(grid, int) else grid
+    return [replace(p, grid=scan if p.shared else _scan(per_test_grid.get(p.name)) if p.per_test else None,
+                    snap=float(snap.get(p.name, 0.0))) for p in recipe]
+
+
+def _scan(spec: int | Iterable[float] | None) -> int | tuple[float, ...] | None:
+    return spec if spec is None or isinstance(spec, int) else tuple(float(v) for v in spec)
 
 
 def _recipe(effect: str, free: tuple[str, ...], bounds: Mapping[str, tuple[float, float]],
@@ -329,6 +366,5 @@ def _recipe(effect: str, free: tuple[str, ...], bounds: Mapping[str, tuple[float
         s = None if given is None else float(given)
         out.append(FitParameter(effect, name, _clip(spec.default if s is None else s, lo, hi), True, lo, hi, s,
                                 name in per_test))
-    out += [FitParameter(effect, name, v, False, params[name].lower, params[name].upper, status="fixed")
-            for name, v in fixed.items() if name not in free]
+    out += [FitParameter.held(effect, name, v) for name, v in fixed.items() if name not in free]
     return out

@@ -63,9 +63,9 @@ class Comparison:
 
     def note(self, d: TestDiscrepancy) -> str:
         run = self.runs[d.force_N]
-        if d.status == Outcome.TRAVEL.label:
+        if d.outcome is Outcome.TRAVEL:
             return ""
-        if d.status == Outcome.HELD.label:
+        if d.outcome is Outcome.HELD:
             thr = f" (the model's sliding threshold is {run.threshold_N:.2f} N)" if run.threshold_N else ""
             return (f"the model never slides at {d.force_N:g} N{thr}, but the test did: compared against the "
                     "rest position")

@@ -39,6 +39,9 @@ from ..paths import lateral_dilation, model_at_travel, ran as _ran, rotation_deg
 from ..result import SimulationResult
 from ..outcome import Outcome
 
+#: a test's ``status`` when no model run could be made (:class:`NoRun`); any other is an :class:`Outcome`'s label
+NO_RUN = "invalid"
+
 MM = 1e3
 
 
@@ -90,6 +93,12 @@ class TestDiscrepancy:
     @property
     def has_time(self) -> bool:
         return math.isfinite(self.lag_rms_mm)
+
+    @property
+    def outcome(self) -> Outcome | None:
+        """How the model run ended, as an :class:`~triplanar.outcome.Outcome` (``status`` is its label, what the
+        reports write); ``None`` where no run could be made (``status`` :data:`NO_RUN`)."""
+        return None if self.status == NO_RUN else Outcome.from_label(self.status)
 
 
 def model_travel_at_time(result: SimulationResult, t: np.ndarray) -> np.ndarray:
@@ -210,7 +219,7 @@ class NoRun:
 
     rest_positions: np.ndarray
     message: str
-    status: str = "invalid"
+    status: str = NO_RUN
 
     @property
     def contact_points(self) -> np.ndarray:

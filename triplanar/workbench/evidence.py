@@ -222,7 +222,7 @@ def _level_scores(found: Sequence[TestDiscrepancy]) -> dict[str, tuple[list[floa
     from scipy.stats import t as student_t
     groups: dict[float, list[dict[str, float]]] = {}
     for d in found:
-        if d.status == Outcome.TRAVEL.label:
+        if d.outcome is Outcome.TRAVEL:
             groups.setdefault(d.force_N, []).append(_features(d))
     names = sorted({k for rows in groups.values() for row in rows for k in row})
     out = {}

@@ -30,6 +30,7 @@ from ..outcome import Outcome
 
 if TYPE_CHECKING:
     from .diagnose import Diagnoser
+    from .sweep import CandidateResult
 
 #: Samples per second of the simulated tests (the laboratory's rate).
 RATE_HZ = 200.0
@@ -120,7 +121,9 @@ def experiments_for(diag: Diagnoser, tests: Sequence[MeasuredTest]) -> list[dict
     grid = sorted(set(measured) | {round(f, 1) for f in np.linspace(measured[0], 1.3 * measured[-1], 8)}
                   | {round(k * measured[0], 1) for k in (0.8, 0.85, 0.9, 0.95)})
     longest = max((float(d.travel_m[-1]) for d in diag.baseline_ if len(d.travel_m)), default=0.08)
-    label = lambda c: f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"  # noqa: E731
+    def label(c: CandidateResult) -> str:
+        return f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"
+
     out = []
     for other in diag.lookalikes_[:2]:
         exp = deciding_experiment((label(diag.best_), diag._spec_of(diag.best_)), (label(other), diag._spec_of(other)),

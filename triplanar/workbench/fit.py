@@ -30,7 +30,8 @@ from ..result import SimulationResult
 from .candidates import Candidate, refit_candidate, resolve
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm, rms
 from .intervals import interval95
-from .parameters import FitParameter
+from .parameters import (FitParameter, at_bound_of, intervals_of, profiles_of, shared_values, standard_errors,
+                         statuses_of)
 from .executor import ExecutorLike, executor_scope
 from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
@@ -332,7 +333,7 @@ class EffectFit:
     ``error_by_load_``, ``discrepancies_`` (per test, fitted model), ``outcome_``, ``ci95_`` (``{effect:
     {param: [low, high] or None}}``, :mod:`~triplanar.workbench.intervals`; the jackknife part is absent here, there
     are no folds), ``profile_ci95_`` (the same, from the profile of the objective: :mod:`~triplanar.workbench.profile`;
-    empty with per-test parameters), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
+    empty with per-test parameters; ``intervals_`` then lacks ``"profile"``), ``status_`` (``fitted``, ``fixed``, ``not_moved``, ``degenerate``, ``at_bound``), ``refitted_``
     (effects of the model that were freed: ``{name: values the user gave}``), ``per_test_`` (``{effect: {param:
     {test_id: value}}}``, empty without per-test parameters; ``params_`` then holds the shared values, and the
     per-test parameters have the status ``per_test`` and no interval), ``per_test_summary_`` (``{effect: {param:
@@ -409,7 +410,12 @@ class EffectFit:
                                                            self.bias_ratio_)
             if start is not None:
                 start = start[len(c.shared):]
-        self.profile_ci95_ = {} if self.per_test_ else self._profile(cands, tests, scatter)
+        self.intervals_: tuple[str, ...] = ()
+        if not self.per_test_:       # the profile-likelihood intervals, recorded on the parameters
+            found = self._profile(cands, tests, scatter)
+            self.parameters_ = {e: {k: replace(p, profile_ci95=tuple(found[e][k])) if found.get(e, {}).get(k)
+                                    is not None else p for k, p in ps.items()} for e, ps in self.parameters_.items()}
+            self.intervals_ = ("profile",)
         self.effects_: list[Effect] = self.spec_.build_effects()[len(self.fit_base_.effects):]
         self.baseline_error_mm_ = overall_error(self.baseline_)
         self.error_mm_ = overall_error(self.discrepancies_)
@@ -440,31 +446,33 @@ class EffectFit:
     @property
     def params_(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: value}}``: held and shared fitted values (per-test ones are in ``per_test_``)."""
-        return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in self.parameters_.items()}
+        return shared_values(self.parameters_)
 
     @property
     def stderr_(self) -> dict[str, dict[str, float]]:
         """``{effect: {param: standard error}}`` of the fitted shared parameters (the sandwich, ``fit`` module doc)."""
-        out = {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None} for e, ps in self.parameters_.items()}
-        return {e: v for e, v in out.items() if v}
+        return standard_errors(self.parameters_)
 
     @property
     def ci95_(self) -> dict[str, dict[str, list[float] | None]]:
         """``{effect: {param: [low, high] or None}}`` of the free parameters (per-test ones: ``None``)."""
-        return {c.effect: {k: (list(self.parameters_[c.effect][k].ci95) if self.parameters_[c.effect][k].ci95
-                               is not None else None) for k in (*c.shared, *c.per_test)} for c in self.candidates_}
+        return intervals_of(self.parameters_)
 
     @property
     def status_(self) -> dict[str, dict[str, str]]:
         """``{effect: {param: status}}`` (:mod:`~triplanar.workbench.parameters`)."""
-        return {c.effect: {k: self.parameters_[c.effect][k].status for k in (*c.shared, *c.per_test, *c.fixed)}
-                for c in self.candidates_}
+        return statuses_of(self.parameters_)
+
+    @property
+    def profile_ci95_(self) -> dict[str, dict[str, list[float] | None]]:
+        """``{effect: {param: [low, high] or None}}`` of the free parameters, from the profile of the objective
+        (:mod:`~triplanar.workbench.profile`); empty with per-test parameters."""
+        return profiles_of(self.parameters_) if "profile" in self.intervals_ else {}
 
     @property
     def at_bound_(self) -> tuple[str, ...]:
         """``effect.param`` of the free parameters fitted to an end of their range (implausible)."""
-        return tuple(f"{c.effect}.{k}" for c in self.candidates_ for k in c.free
-                     if self.parameters_[c.effect][k].at_bound)
+        return at_bound_of(self.parameters_)
 
     def spec_for(self, test_id: str) -> ModelSpec:
         """The fitted model of one test (its own values of the per-test parameters; ``spec_`` without any)."""

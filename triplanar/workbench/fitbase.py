@@ -11,7 +11,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .discrepancy import NoRun, discrepancy_group, rms
+from .discrepancy import NO_RUN, NoRun, discrepancy_group, rms
 from .spec import EvalResult, EvalTask, evaluate
 
 #: A free parameter at most this fraction of its range from a bound is "at the bound" (implausible).
@@ -28,7 +28,7 @@ def safe_evaluate(task: EvalTask) -> EvalResult:
     except (ValueError, ArithmeticError) as err:
         rest = NoRun(task.spec.rest_positions, f"model refused: {err}")
         found = tuple(discrepancy_group(task.tests, rest))
-        return EvalResult(task.force_N, "invalid", rest.message, found)
+        return EvalResult(task.force_N, NO_RUN, rest.message, found)
 
 
 @dataclass(frozen=True)

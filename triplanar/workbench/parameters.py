@@ -2,7 +2,8 @@
 
 A :class:`FitParameter` carries, on one object, the recipe of one parameter of one effect (``vary``: whether the
 fit moves it; ``min``/``max``: the plausible range it may move over; ``start``; ``per_test``: its own value in
-every test) and, once fitted, the result (``value``, ``stderr``, ``ci95``, ``status``, ``at_bound``). The recipe
+every test; ``grid``: its coarse scan before polishing; ``snap``) and, once fitted, the result (``value``, ``stderr``,
+``ci95``, ``status``, ``at_bound``). The recipe
 defaults come from the effect's :class:`~triplanar.effects.Parameter` (its physical bounds, neutral value, fit
 range), through :meth:`~triplanar.workbench.candidates.Candidate.parameters`; a recipe edited parameter by
 parameter becomes a candidate again with :meth:`~triplanar.workbench.candidates.Candidate.from_parameters`::
@@ -12,7 +13,9 @@ parameter becomes a candidate again with :meth:`~triplanar.workbench.candidates.
     params["phi_deg"] = params["phi_deg"].freed(0.0, 15.0)       # or free it over 0-15 deg
 
 :class:`~triplanar.workbench.fit.EffectFit` reports its result as ``parameters_`` (``{effect: {param:
-FitParameter}}``); its ``params_``, ``stderr_``, ``ci95_``, ``status_`` and ``at_bound_`` are views of it. A
+FitParameter}}``, :data:`EffectParameters`); its ``params_``, ``stderr_``, ``ci95_``, ``status_``, ``at_bound_`` and
+``profile_ci95_`` are views of it, and so are the report dictionaries of each step of a fit
+(:class:`~triplanar.workbench.results.FitStep`, :class:`~triplanar.workbench.select.SelectionStep`). A
 :class:`~triplanar.workbench.candidates.Candidate` holds its recipe as FitParameter objects (``recipe``), and each
 entry of a diagnosis (:class:`~triplanar.workbench.sweep.CandidateResult`) its result (``parameters``, with the
 named entry's ``profile_ci95`` and ``model_ci95``).
@@ -32,7 +35,8 @@ from typing import Any
 
 from ..effects import REGISTRY, EffectError, Parameter
 
-__all__ = ["FitParameter", "STATUSES"]
+__all__ = ["EffectParameters", "FitParameter", "STATUSES", "at_bound_of", "intervals_of", "listed", "profiles_of",
+           "shared_values", "standard_errors", "statuses_of"]
 
 STATUSES = ("unfitted", "fitted", "fixed", "not_moved", "degenerate", "unidentified", "at_bound", "per_test")
 
@@ -54,6 +58,12 @@ class FitParameter:
             (:mod:`~triplanar.workbench.profile`) and the one that admits model-form error
             (:mod:`~triplanar.workbench.alternatives`), ``None`` where there is none.
         per_test_values: a per-test parameter's fitted value in each test (``{test_id: value}``).
+        grid: the coarse scan over its range before polishing: a number of evenly spaced points, or the values
+            themselves. A shared parameter's is scanned when it is the only free parameter of its recipe (``None``
+            or 0: no scan); a per-test parameter's is its scan in each test (``None``: the effect's
+            ``Parameter.grid``, else 12 points).
+        snap: a fitted value closer than this to the start is set to the start (a parameter whose small values are
+            unresolvable, or that the core integrates badly, like a rise time of microseconds); 0: none.
     """
 
     effect: str
@@ -71,6 +81,8 @@ class FitParameter:
     profile_ci95: tuple[float, float] | None = None
     model_ci95: tuple[float, float] | None = None
     per_test_values: dict[str, float] | None = field(default=None, compare=False)
+    grid: int | tuple[float, ...] | None = None
+    snap: float = 0.0
 
     def __post_init__(self) -> None:
         spec = self.spec
@@ -88,9 +100,17 @@ class FitParameter:
                                   f"({self.min}, {self.max})")
         if self.per_test and not self.vary:
             raise EffectError(f"parameter {self.qualified}: a per-test parameter is fitted (vary=True)")
+        if self.snap < 0 or not math.isfinite(self.snap):
+            raise EffectError(f"parameter {self.qualified}: snap {self.snap!r} must be a finite number >= 0")
         if self.start is not None and not spec.lower <= self.start <= spec.upper:
             raise EffectError(f"parameter {self.qualified}: start {self.start} is outside [{spec.lower}, "
                               f"{spec.upper}] {spec.unit}")
+
+    @classmethod
+    def held(cls, effect: str, name: str, value: float) -> FitParameter:
+        """Parameter ``effect.name`` held at ``value`` (status ``fixed``; its range: the effect's physical bounds)."""
+        spec = cls(effect, name, float(value), False, status="fixed").spec      # (names checked there)
+        return cls(effect, name, float(value), False, spec.lower, spec.upper, status="fixed")
 
     @property
     def spec(self) -> Parameter:
@@ -156,3 +176,51 @@ class FitParameter:
 
 def min_max(v: float, lo: float, hi: float) -> float:
     return min(max(v, lo), hi)
+
+
+#: the parameters of several effects, ``{effect: {param: FitParameter}}`` in fit order (a fit's, a step's): the
+#: lmfit ``Parameters`` of a model with several effects
+EffectParameters = dict[str, dict[str, FitParameter]]
+
+
+def listed(interval: tuple[float, float] | None) -> list[float] | None:
+    """An interval in the JSON report's form (a list, or ``None``)."""
+    return list(interval) if interval is not None else None
+
+
+# -- the report's dictionaries (``{effect: {param: ...}}``, as fit.json holds them) of EffectParameters -------------
+
+def shared_values(params: EffectParameters) -> dict[str, dict[str, float]]:
+    """``{effect: {param: value}}`` of the held and shared parameters (a per-test one has no shared value)."""
+    return {e: {k: p.value for k, p in ps.items() if not p.per_test} for e, ps in params.items()}
+
+
+def standard_errors(params: EffectParameters) -> dict[str, dict[str, float]]:
+    """``{effect: {param: standard error}}`` of the parameters that have one (effects without any left out)."""
+    out = {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None} for e, ps in params.items()}
+    return {e: v for e, v in out.items() if v}
+
+
+def _free_shared_first(ps: dict[str, FitParameter]) -> list[tuple[str, FitParameter]]:
+    return [(k, p) for k, p in ps.items() if p.shared] + [(k, p) for k, p in ps.items() if p.per_test]
+
+
+def intervals_of(params: EffectParameters) -> dict[str, dict[str, list[float] | None]]:
+    """``{effect: {param: [low, high] or None}}`` of the free parameters, the shared ones first (per-test: ``None``)."""
+    return {e: {k: listed(p.ci95) for k, p in _free_shared_first(ps)} for e, ps in params.items()}
+
+
+def statuses_of(params: EffectParameters) -> dict[str, dict[str, str]]:
+    """``{effect: {param: status}}``: the free parameters (shared first), then the held ones."""
+    return {e: {k: p.status for k, p in (*_free_shared_first(ps), *((k, p) for k, p in ps.items() if not p.vary))}
+            for e, ps in params.items()}
+
+
+def at_bound_of(params: EffectParameters) -> tuple[str, ...]:
+    """``effect.param`` of the free parameters fitted to an end of their range (implausible)."""
+    return tuple(p.qualified for ps in params.values() for p in ps.values() if p.vary and p.at_bound)
+
+
+def profiles_of(params: EffectParameters) -> dict[str, dict[str, list[float] | None]]:
+    """``{effect: {param: [low, high] or None}}``: the free parameters' profile-likelihood intervals."""
+    return {e: {k: listed(p.profile_ci95) for k, p in ps.items() if p.vary} for e, ps in params.items()}

@@ -19,7 +19,9 @@ from .diagnose import Diagnoser
 from .discrepancy import TestDiscrepancy
 from .executor import ExecutorLike
 from .fit import EffectFit
-from .pertest import describe
+from .parameters import (EffectParameters, FitParameter, at_bound_of, intervals_of, profiles_of, shared_values,
+                         standard_errors, statuses_of)
+from .pertest import describe, summarize
 from .select import SelectionStep
 from .spec import ModelSpec
 
@@ -51,72 +53,104 @@ def _by_load(errors: Mapping[float, float]) -> dict[str, float]:
 class FitStep:
     """The model after one step of a fit. ``kind``: ``"given"`` (the model as given, before any addition),
     ``"fit"`` (an ``--add`` effect, fitted jointly with the earlier ones: :class:`EffectFit`) or ``"selection"``
-    (an effect forward selection added, or its step 0). ``effects``/``stderr``/``ci95``/``status``: ``{effect:
-    {param: ...}}`` of every effect fitted so far."""
+    (an effect forward selection added, or its step 0). ``parameters``: every effect fitted so far, ``{effect:
+    {param: FitParameter}}`` (value, vary, range, start, per-test values, standard error, intervals, status);
+    ``effects``, ``stderr``, ``ci95``, ``status``, ``at_bound``, ``profile_ci95`` and ``per_test`` are views of it
+    in the report's form. ``intervals``: which further intervals were computed (``"profile"``:
+    :mod:`~triplanar.workbench.profile`)."""
 
     kind: str
     added: str | None
-    effects: dict[str, dict[str, float]]
-    stderr: dict[str, dict[str, float]]
+    parameters: EffectParameters
     error_mm: float
     error_by_load: dict[float, float]
-    ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)
-    status: dict[str, dict[str, str]] = field(default_factory=dict)
-    at_bound: tuple[str, ...] = ()
     refitted: bool = False
     given: dict[str, float] | None = None
-    per_test: dict[str, dict[str, Any]] = field(default_factory=dict)
     confidence: str | None = None
     reason: str | None = None
-    profile_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # profile.py
+    intervals: tuple[str, ...] = ()
 
     @classmethod
     def model_as_given(cls, fit: EffectFit) -> FitStep:
-        return cls("given", None, {}, {}, fit.baseline_error_mm_, dict(fit.baseline_by_load_))
+        return cls("given", None, {}, fit.baseline_error_mm_, dict(fit.baseline_by_load_))
 
     @classmethod
     def from_effect_fit(cls, added: str, fit: EffectFit) -> FitStep:
-        return cls("fit", added, fit.params_, fit.stderr_, fit.error_mm_, dict(fit.error_by_load_), fit.ci95_,
-                   fit.status_, tuple(fit.at_bound_), added in fit.refitted_, fit.refitted_.get(added),
-                   fit.per_test_summary_ if fit.per_test_ else {}, profile_ci95=fit.profile_ci95_)
+        return cls("fit", added, fit.parameters_, fit.error_mm_, dict(fit.error_by_load_), added in fit.refitted_,
+                   fit.refitted_.get(added), intervals=fit.intervals_)
 
     @classmethod
     def from_selection(cls, step: SelectionStep) -> FitStep:
-        return cls("selection", step.added, step.effects, step.stderr, step.error_mm, dict(step.error_by_load),
-                   step.ci95, confidence=step.confidence, reason=step.reason)
+        return cls("selection", step.added, step.parameters, step.error_mm, dict(step.error_by_load),
+                   confidence=step.confidence, reason=step.reason)
+
+    # -- views of ``parameters`` ------------------------------------------------------------------------------
+    @property
+    def effects(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: value}}``: held and shared values (per-test ones: ``per_test``)."""
+        return shared_values(self.parameters)
+
+    @property
+    def stderr(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: standard error}}`` of the fitted parameters."""
+        return standard_errors(self.parameters)
+
+    @property
+    def ci95(self) -> dict[str, dict[str, list[float] | None]]:
+        """``{effect: {param: [low, high] or None}}`` of the free parameters, shared ones first."""
+        return intervals_of(self.parameters)
+
+    @property
+    def status(self) -> dict[str, dict[str, str]]:
+        """``{effect: {param: status}}`` (:mod:`~triplanar.workbench.parameters`), free ones first."""
+        return statuses_of(self.parameters)
+
+    @property
+    def at_bound(self) -> tuple[str, ...]:
+        """``effect.param`` of the free parameters fitted to an end of their range (implausible)."""
+        return at_bound_of(self.parameters)
+
+    @property
+    def profile_ci95(self) -> dict[str, dict[str, list[float] | None]]:
+        """``{effect: {param: [low, high] or None}}``: the profile-likelihood intervals, when computed."""
+        return profiles_of(self.parameters) if "profile" in self.intervals else {}
+
+    @property
+    def per_test(self) -> dict[str, dict[str, Any]]:
+        """``{effect: {param: summary}}`` of the per-test parameters (:func:`~triplanar.workbench.pertest.summarize`)."""
+        out = {e: {k: summarize(p.per_test_values or {}) for k, p in ps.items() if p.per_test}
+               for e, ps in self.parameters.items()}
+        return {e: v for e, v in out.items() if v}
 
     def to_json(self) -> dict[str, Any]:
         if self.kind == "selection":
-            return SelectionStep(self.added, self.effects, self.stderr, self.error_mm, self.error_by_load,
-                                 self.confidence, None, self.ci95, self.reason).as_json()
+            return SelectionStep(self.added, self.parameters, self.error_mm, self.error_by_load, self.confidence,
+                                 None, self.reason).as_json()
         if self.kind == "given":
             return {"added": None, "effects": self.effects, "param_stderr": self.stderr, "error_mm": self.error_mm,
                     "error_by_load_mm": _by_load(self.error_by_load)}
+        per_test, profile = self.per_test, self.profile_ci95
         return {"added": self.added, "refitted": self.refitted, "given": self.given, "effects": self.effects,
                 "param_stderr": self.stderr, "param_ci95": self.ci95,
-                **({"param_profile_ci95": self.profile_ci95} if self.profile_ci95 else {}), "param_status": self.status,
+                **({"param_profile_ci95": profile} if profile else {}), "param_status": self.status,
                 "at_bound": list(self.at_bound), "error_mm": self.error_mm,
-                **({"per_test": self.per_test} if self.per_test else {}),
+                **({"per_test": per_test} if per_test else {}),
                 "error_by_load_mm": _by_load(self.error_by_load)}
 
-    def _param(self, effect: str, name: str, value: float) -> str:
-        cis = self.ci95
-        if cis:
-            ci = cis.get(effect, {})
-            status = self.status.get(effect, {}).get(name) or (None if name in ci else "fixed")
-            return format_param(name, value, ci.get(name), status, self.profile_ci95.get(effect, {}).get(name))
-        if name in self.stderr.get(effect, {}):
-            return f"{name} = {value:.4g} +- {self.stderr[effect][name]:.2g}"
-        return f"{name} = {value:.4g} (fixed)"
+    def _param(self, p: FitParameter) -> str:
+        if self.kind == "given":
+            return f"{p.name} = {p.value:.4g} (fixed)"
+        return format_param(p.name, p.value, p.ci95 if p.shared else None, p.status, p.profile_ci95)
 
     def report(self) -> str:
         """The step's line(s) of ``triplanar fit``'s printout."""
         what = ("model as given" if self.added is None else
                 f"refit {self.added}" if self.refitted else f"+ {self.added}")
-        params = "; ".join(f"{e}: " + ", ".join(self._param(e, k, v) for k, v in ps.items())
-                           for e, ps in self.effects.items())
-        if self.per_test:
-            params += "; " + "; ".join(f"{e}: {describe(p, summary)}" for e, ps in self.per_test.items()
+        params = "; ".join(f"{e}: " + ", ".join(self._param(p) for p in ps.values() if not p.per_test)
+                           for e, ps in self.parameters.items())
+        per_test = self.per_test
+        if per_test:
+            params += "; " + "; ".join(f"{e}: {describe(p, summary)}" for e, ps in per_test.items()
                                        for p, summary in ps.items())
         lines = [f"  {what:24s} RMS discrepancy {self.error_mm:8.3f} mm   {params}"]
         if self.confidence:

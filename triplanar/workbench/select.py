@@ -22,28 +22,52 @@ from .candidates import Candidate
 from .diagnose import Diagnoser
 from .executor import ExecutorLike
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
+from .parameters import EffectParameters, FitParameter, listed, shared_values
 from .spec import ModelSpec
 
 
 @dataclass
 class SelectionStep:
-    """The model after one addition (step 0: the user's model)."""
+    """The model after one addition (step 0: the user's model, with the effects it started from held at their
+    values). ``parameters``: every effect added so far as FitParameter objects from the joint fit of that round
+    (:attr:`~triplanar.workbench.sweep.CandidateResult.joint`); ``effects``, ``stderr`` and ``ci95`` are views of
+    it in the report's form."""
 
     added: str | None
-    effects: dict[str, dict[str, float]]
-    stderr: dict[str, dict[str, float]]
+    parameters: EffectParameters
     error_mm: float
     error_by_load: dict[float, float]
     confidence: str | None = None
     diagnosis: dict[str, Any] | None = field(default=None, repr=False)
-    ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)
     reason: str | None = None
+
+    @property
+    def effects(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: value}}`` (held and shared parameters; per-test ones have no shared value)."""
+        return shared_values(self.parameters)
+
+    @property
+    def stderr(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: standard error}}`` of every fitted effect's free parameters."""
+        return {e: {k: p.stderr for k, p in ps.items() if p.stderr is not None}
+                for e, ps in self.parameters.items() if any(p.vary for p in ps.values())}
+
+    @property
+    def ci95(self) -> dict[str, dict[str, list[float] | None]]:
+        """``{effect: {param: [low, high] or None}}`` of every fitted effect's shared parameters."""
+        return {e: {k: listed(p.ci95) for k, p in ps.items() if p.shared}
+                for e, ps in self.parameters.items() if any(p.vary for p in ps.values())}
 
     def as_json(self) -> dict[str, Any]:
         return {"added": self.added, "effects": self.effects, "param_stderr": self.stderr,
                 "param_ci95": self.ci95,
                 "error_mm": self.error_mm, "error_by_load_mm": {f"{k:g}": v for k, v in self.error_by_load.items()},
                 "confidence": self.confidence, "reason": self.reason}
+
+
+def held_parameters(values: Mapping[str, Mapping[str, float]]) -> EffectParameters:
+    """``{effect: {param: value}}`` as FitParameter objects held at those values."""
+    return {e: {k: FitParameter.held(e, k, v) for k, v in ps.items()} for e, ps in values.items()}
 
 
 class ForwardSelection:
@@ -83,7 +107,8 @@ class ForwardSelection:
         values: dict[str, dict[str, float]] = {k: dict(v) for k, v in (initial or {}).items()}
         added: list[str] = list(values)
         diag = self._diagnoser().fit(tests, base, refit=values or None)
-        self.steps_ = [SelectionStep(None, dict(values), {}, diag.baseline_error_mm_, dict(diag.baseline_by_load_))]
+        self.steps_ = [SelectionStep(None, held_parameters(values), diag.baseline_error_mm_,
+                                     dict(diag.baseline_by_load_))]
         self.diagnoses_ = [diag]
         self.stop_reason_ = f"{self.max_effects} effect(s) added (max_effects)"
         current = diag.base_
@@ -105,9 +130,8 @@ class ForwardSelection:
             added.append(name)
             values = {k: dict(best.all_values[k]) for k in added}
             current = spec
-            self.steps_.append(SelectionStep(name, values, {k: dict(best.all_stderr.get(k, {})) for k in added},
-                                             error, errors_by_load(found), diag.confidence_, diag.report_,
-                                             {k: dict(best.all_ci95.get(k, {})) for k in added}, diag.reason_))
+            self.steps_.append(SelectionStep(name, {k: dict(best.joint[k]) for k in added}, error,
+                                             errors_by_load(found), diag.confidence_, diag.report_, diag.reason_))
             if len(added) - len(initial or {}) >= self.max_effects:
                 break
             scatter = diag.repeat_scatter_mm_

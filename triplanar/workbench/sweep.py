@@ -25,7 +25,7 @@ from .candidates import Candidate
 from .discrepancy import rms
 from .fit import FitOutcome, FitTask, discrepancies, evaluate_spec, run_fit
 from .intervals import interval95
-from .parameters import FitParameter
+from .parameters import EffectParameters, FitParameter, listed, shared_values, standard_errors
 from .spec import ModelSpec, spec_with_values
 
 def load_folds(forces: Sequence[float], k: int) -> list[list[float]]:
@@ -42,7 +42,11 @@ class CandidateResult:
     error, 95 % interval, status, and for the named entry its profile and model-form intervals); ``params``,
     ``param_stderr``, ``param_ci95``, ``param_status``, ``param_profile_ci95`` and ``param_model_ci95`` are views of
     it, in the report's form. ``intervals``: which further intervals were computed (``"profile"``: :func:`profile_result`;
-    ``"model_form"``: :func:`~triplanar.workbench.alternatives.apply_alternatives`)."""
+    ``"model_form"``: :func:`~triplanar.workbench.alternatives.apply_alternatives`). ``joint``: every effect fitted
+    with it (the candidate and the effects refitted jointly), each parameter the recipe names as a FitParameter from
+    the fit on all tests (value, the sandwich standard error, the 95 % interval of a shared one, status);
+    ``all_values``, ``all_stderr`` and ``all_ci95`` are views of it. (The candidate's own ``parameters`` take the
+    larger of the sandwich and the jackknife over the folds as their standard error.)"""
 
     effect: str
     parameters: dict[str, FitParameter]
@@ -55,18 +59,49 @@ class CandidateResult:
     fold_params: list[dict[str, float]] = field(default_factory=list)
     seconds: float = 0.0
     nfev: int = 0
-    all_values: dict[str, dict[str, float]] = field(default_factory=dict)
-    all_stderr: dict[str, dict[str, float]] = field(default_factory=dict)
+    joint: EffectParameters = field(default_factory=dict)
     kind: str = "candidate"                       # "candidate" (added) or "refit" (a given effect, freed)
     given: dict[str, float] = field(default_factory=dict)   # refit: the values the user gave
-    fixed: dict[str, float] = field(default_factory=dict)
-    per_test: dict[str, dict[str, Any]] = field(default_factory=dict)   # param -> summary (pertest.summarize)
-    per_test_values: dict[str, dict[str, dict[str, float]]] = field(default_factory=dict, repr=False)
-    all_ci95: dict[str, dict[str, list[float] | None]] = field(default_factory=dict)   # every effect fitted with it
     held_out_mm: dict[str, float] = field(default_factory=dict, repr=False)   # test_id -> its error when held out
     bias_ratio: float = 1.0      # evidence.bias_ratio of the full fit (the intervals' model-form allowance)
     model_form: dict[str, dict[str, Any]] = field(default_factory=dict)              # alternatives.py; named
     intervals: tuple[str, ...] = ()
+
+    # -- views of ``joint`` ----------------------------------------------------------------------------------------
+    @property
+    def all_values(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: value}}`` of every effect fitted with it (held and shared parameters)."""
+        return shared_values(self.joint)
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        """``{param: value}`` of the parameters the candidate's recipe holds."""
+        return {k: p.value for k, p in self.joint.get(self.effect, {}).items() if not p.vary}
+
+    @property
+    def per_test_values(self) -> dict[str, dict[str, dict[str, float]]]:
+        """``{effect: {param: {test_id: value}}}`` of the per-test parameters of every effect fitted with it."""
+        out = {e: {k: dict(p.per_test_values or {}) for k, p in ps.items() if p.per_test}
+               for e, ps in self.joint.items()}
+        return {e: v for e, v in out.items() if v}
+
+    @property
+    def per_test(self) -> dict[str, dict[str, Any]]:
+        """``{param: summary}`` (:func:`~triplanar.workbench.pertest.summarize`) of the candidate's per-test
+        parameters."""
+        from .pertest import summarize
+        return {k: summarize(p.per_test_values or {}) for k, p in self.joint.get(self.effect, {}).items()
+                if p.per_test}
+
+    @property
+    def all_stderr(self) -> dict[str, dict[str, float]]:
+        """``{effect: {param: sandwich standard error}}`` of the free parameters of every effect fitted with it."""
+        return standard_errors(self.joint)
+
+    @property
+    def all_ci95(self) -> dict[str, dict[str, list[float] | None]]:
+        """``{effect: {param: [low, high] or None}}`` of the shared parameters of every effect fitted with it."""
+        return {e: {k: listed(p.ci95) for k, p in ps.items() if p.shared} for e, ps in self.joint.items()}
 
     # -- views of ``parameters`` (the report's dictionaries, in the recipe's order) -------------------------------
     @property
@@ -79,7 +114,7 @@ class CandidateResult:
 
     @property
     def param_ci95(self) -> dict[str, list[float] | None]:
-        return {k: _listed(p.ci95) for k, p in self.parameters.items()}
+        return {k: listed(p.ci95) for k, p in self.parameters.items()}
 
     @property
     def param_status(self) -> dict[str, str]:
@@ -87,11 +122,11 @@ class CandidateResult:
 
     @property
     def param_profile_ci95(self) -> dict[str, list[float] | None]:
-        return {k: _listed(p.profile_ci95) for k, p in self.parameters.items()} if "profile" in self.intervals else {}
+        return {k: listed(p.profile_ci95) for k, p in self.parameters.items()} if "profile" in self.intervals else {}
 
     @property
     def param_model_ci95(self) -> dict[str, list[float] | None]:
-        return ({k: _listed(p.model_ci95) for k, p in self.parameters.items()} if "model_form" in self.intervals
+        return ({k: listed(p.model_ci95) for k, p in self.parameters.items()} if "model_form" in self.intervals
                 else {})
 
     def set_intervals(self, kind: str, found: Mapping[str, Sequence[float] | None]) -> None:
@@ -116,10 +151,6 @@ class CandidateResult:
                 "fold_params": self.fold_params, "fit_seconds": round(self.seconds, 3), "nfev": self.nfev,
                 **({"refitted": {k: v for k, v in self.all_values.items() if k != self.effect}}
                    if len(self.all_values) > 1 else {})}
-
-
-def _listed(interval: Sequence[float] | None) -> list[float] | None:
-    return list(interval) if interval is not None else None
 
 
 def jackknife(folds: list[dict[str, float]]) -> dict[str, float]:
@@ -225,28 +256,49 @@ def assemble(task: CandidateTask, by_label: dict[str, FitOutcome], k: int, n_tes
         if p in implausible and ci[p] is not None:   # (without an interval its status says why)
             status[p] = "at_bound"
     # the effects refitted jointly with it (forward selection, combinations): their intervals the same way
-    all_ci = {cand.effect: ci}
+    found = {cand.effect: (ci, status)}
     n_free = len(cand.shared) + sum(len(r.shared) for r in task.refit)
     for other in task.refit:
         folds_other = [by_label[f"{task.key}/fold{i}"].values[other.effect] for i in range(k)]
         jack_other = jackknife([{p: f[p] for p in other.shared} for f in folds_other]) if k > 1 else {}
-        all_ci[other.effect] = {}
+        found[other.effect] = ({}, {})
         for p in other.shared:
             par = REGISTRY[other.effect].parameters[p]
-            all_ci[other.effect][p] = interval95(
+            found[other.effect][0][p], found[other.effect][1][p] = interval95(
                 full.values[other.effect][p], full.stderr.get(other.effect, {}).get(p, math.nan),
                 jack_other.get(p, 0.0), n_tests, n_free, full.train_error_mm, scatter_mm,
-                (par.lower, par.upper), math.nan, other.bounds[p], full.bias_ratio)[0]
+                (par.lower, par.upper), math.nan, other.bounds[p], full.bias_ratio)
     given = dict(cand.start or {}) if task.kind == "refit" else {}
-    from .pertest import summarize
-    per_test = {p: summarize(v) for p, v in full.per_test.get(cand.effect, {}).items()}
     parameters = {p: replace(recipe[p], value=params[p], start=start[p], stderr=stderr[p],
                              ci95=tuple(ci[p]) if ci[p] is not None else None, status=status[p],
                              at_bound=p in implausible) for p in cand.shared}
     return CandidateResult(cand.effect, parameters, cv, full.train_error_mm, improvement, not implausible,
                            implausible, {f: rms(v) for f, v in sorted(by_load.items())}, fold_params, seconds, nfev,
-                           full.values, full.stderr, task.kind, given, dict(cand.fixed), per_test, full.per_test,
-                           all_ci, {t: e for t, (_, e) in held.items()}, full.bias_ratio)
+                           joint=joint_parameters((cand, *task.refit), full, found), kind=task.kind, given=given,
+                           held_out_mm={t: e for t, (_, e) in held.items()}, bias_ratio=full.bias_ratio)
+
+
+def joint_parameters(cands: Sequence[Candidate], full: FitOutcome,
+                     found: Mapping[str, tuple[Mapping[str, Sequence[float] | None], Mapping[str, str]]]
+                     ) -> EffectParameters:
+    """Every effect of a joint fit as FitParameter objects (:attr:`CandidateResult.joint`): each parameter of its
+    recipe in the fit's order (held ones, then the free ones), with the value and sandwich standard error of the fit
+    on all tests (``full``) and the interval and status ``found`` for its shared ones (``{effect: (ci95, status)}``);
+    then its per-test parameters, with their value in each test (``per_test_values``; their ``value`` is the start)."""
+    out: EffectParameters = {}
+    for c in cands:
+        recipe = c.parameters()
+        errs = full.stderr.get(c.effect, {})
+        ci, status = found.get(c.effect, ({}, {}))
+        out[c.effect] = {k: replace(recipe[k], value=float(v), stderr=errs.get(k) if recipe[k].vary else None,
+                                    ci95=tuple(ci[k]) if ci.get(k) is not None else None,
+                                    status=status.get(k, recipe[k].status if not recipe[k].vary else "fitted"),
+                                    at_bound=f"{c.effect}.{k}" in full.at_bound)
+                         for k, v in full.values.get(c.effect, {}).items()}
+        out[c.effect].update({k: replace(recipe[k], status="per_test", at_bound=f"{c.effect}.{k}" in full.at_bound,
+                                         per_test_values=dict(full.per_test[c.effect][k]))
+                              for k in c.per_test if k in full.per_test.get(c.effect, {})})
+    return out
 
 
 def profile_result(task: CandidateTask, result: CandidateResult, tests: Sequence[MeasuredTest], scatter_mm: float,

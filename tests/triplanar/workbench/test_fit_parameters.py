@@ -122,3 +122,52 @@ def test_a_candidate_holds_its_recipe_as_fit_parameters() -> None:
         Candidate("plane_tilt", recipe=[dip1, dip1])
     with pytest.raises(EffectError, match="start 5.0 is outside"):
         Candidate("plane_tilt", ("dip3_deg",), {"dip3_deg": (-2.0, 2.0)}, start={"dip3_deg": 5.0})
+
+
+def test_grid_and_snap_live_on_the_parameter_they_scan() -> None:
+    rise = default_candidate("actuator_rise")
+    (tau,) = rise.recipe
+    assert tau.grid == (0.0, 0.01, 0.03, 0.08, 0.2) and tau.snap == 0.002     # the effect's own, on its parameter
+    assert rise.grid == tau.grid and rise.snap == {"tau_s": 0.002}            # the candidate's views of them
+    assert rise.grid_values() == [0.0, 0.01, 0.03, 0.08, 0.2]
+    assert rise.values({"tau_s": tau.value + 0.001}) == {"tau_s": tau.value}   # within snap: the start
+    kw = Candidate("end_friction", free=("phi_deg",), bounds={"phi_deg": (0.0, 20.0)}, grid=5, snap={"phi_deg": 0.5})
+    assert kw.recipe[0].grid == 5 and kw.recipe[0].snap == 0.5 and kw.grid_values() == [0.0, 5.0, 10.0, 15.0, 20.0]
+    per_test = default_candidate("tip_offset").with_per_test(["offset_m"])
+    assert per_test.recipe[0].grid is None and per_test.grid == 0              # scanned per test, not once
+    assert len(per_test.per_test_grid_values("offset_m")) == 9                # with the effect's grid
+    own = Candidate("tip_offset", free=("offset_m",), bounds={"offset_m": (-0.01, 0.01)}, per_test=("offset_m",),
+                    per_test_grid={"offset_m": 5})
+    assert own.recipe[0].grid == 5 and own.per_test_grid == {"offset_m": 5}
+    assert own.per_test_grid_values("offset_m") == pytest.approx([-0.01, -0.005, 0.0, 0.005, 0.01], abs=1e-15)
+    with pytest.raises(EffectError, match="per_test_grid names tip_offset.offset_m, which is not a per-test"):
+        Candidate("tip_offset", free=("offset_m",), bounds={"offset_m": (-0.01, 0.01)}, per_test_grid={"offset_m": 5})
+    with pytest.raises(TypeError, match="not both"):
+        Candidate("actuator_rise", grid=3, recipe=rise.recipe)
+
+
+def test_a_joint_fit_lands_on_the_parameter_objects_of_every_effect_fitted() -> None:
+    from triplanar.workbench.sweep import CandidateResult, joint_parameters
+    friction = default_candidate("end_friction")
+    offset = default_candidate("tip_offset").with_per_test(["offset_m"])
+    outcome = FitOutcome("all", ("end_friction", "tip_offset"), {"end_friction": {"phi_deg": 8.0}, "tip_offset": {}},
+                         {"end_friction": {"phi_deg": 0.2}}, (), 1.0, {}, {}, 3, 0.0, "",
+                         per_test={"tip_offset": {"offset_m": {"t1": -0.004, "t2": 0.002}}})
+    joint = joint_parameters((friction, offset), outcome, {"end_friction": ({"phi_deg": (7.6, 8.4)}, {"phi_deg": "fitted"})})
+    phi, per = joint["end_friction"]["phi_deg"], joint["tip_offset"]["offset_m"]
+    assert (phi.value, phi.stderr, phi.ci95, phi.status) == (8.0, 0.2, (7.6, 8.4), "fitted")
+    assert (per.per_test, per.status, per.per_test_values) == (True, "per_test", {"t1": -0.004, "t2": 0.002})
+    result = CandidateResult("tip_offset", {}, 1.0, 1.0, 0.5, True, [], joint=joint)
+    assert result.all_values == {"end_friction": {"phi_deg": 8.0}, "tip_offset": {}}     # per-test: no shared value
+    assert result.all_stderr == {"end_friction": {"phi_deg": 0.2}}
+    assert result.all_ci95 == {"end_friction": {"phi_deg": [7.6, 8.4]}, "tip_offset": {}}
+    assert result.per_test_values == {"tip_offset": {"offset_m": {"t1": -0.004, "t2": 0.002}}}
+    assert result.per_test["offset_m"]["n"] == 2 and result.fixed == {}
+
+
+def test_a_held_parameter_takes_the_effects_bounds_and_names_a_wrong_parameter() -> None:
+    held = FitParameter.held("end_friction", "phi_deg", 5)
+    spec = REGISTRY["end_friction"].parameters["phi_deg"]
+    assert (held.value, held.vary, held.bounds, held.status) == (5.0, False, (spec.lower, spec.upper), "fixed")
+    with pytest.raises(EffectError, match="effect 'end_friction' has no parameter 'nope'"):
+        FitParameter.held("end_friction", "nope", 1.0)

@@ -17,6 +17,7 @@ from triplanar.workbench import (Candidate, CandidateTask, Diagnoser, EffectFit,
                                  describe_pattern, discrepancy, evaluate, repeat_scatter_mm)
 from triplanar.workbench.candidates import candidate_library
 from triplanar.workbench.diagnose import load_folds
+from triplanar.outcome import Outcome
 from triplanar.workbench.fit import safe_evaluate
 
 LOADS = (27.8, 40.0, 55.6)
@@ -84,6 +85,9 @@ def test_a_model_the_core_refuses_counts_as_not_moving_in_fits() -> None:
     out = safe_evaluate(EvalTask(spec, 40.0, (measured,)))
     assert out.status == "invalid" and "refused" in out.message
     assert out.discrepancies[0].error_mm > 10.0
+    assert out.discrepancies[0].status == "invalid" and out.discrepancies[0].outcome is None   # no run: no Outcome
+    ran = safe_evaluate(EvalTask(ModelSpec(), 40.0, (measured,))).discrepancies[0]
+    assert ran.outcome is Outcome.from_label(ran.status) and ran.outcome is not None
 
 
 def test_repeat_scatter() -> None:
