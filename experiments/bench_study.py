@@ -111,13 +111,20 @@ def evaluation_batches(pi: dict[str, float], adaptive: dict[str, float], n: int,
     return batches
 
 
+def _checkpoint(out_dir: Path, batches: Sequence[EpisodeBatch], rerun: Sequence[str]) -> TaskCheckpoint:
+    """The study's task store, with the stored batches of the controllers named in ``rerun`` removed."""
+    checkpoint = TaskCheckpoint(out_dir / "tasks")
+    checkpoint.forget(run_batch, [b for b in batches if b.label.split("|")[-1] in rerun])
+    return checkpoint
+
+
 def evaluate_default_bench(out_dir: Path, pi, adaptive, n: int, runs, scripted_seeds, in_sample_run,
-                           executor: ExecutorLike, model_based: Sequence[str] = tuple(MODEL_BASED)
-                           ) -> list[dict[str, Any]]:
+                           executor: ExecutorLike, model_based: Sequence[str] = tuple(MODEL_BASED),
+                           rerun: Sequence[str] = ()) -> list[dict[str, Any]]:
     """Step 3: the held-out tables (CSV, episodes CSV, plot); returns the rows."""
     batches = evaluation_batches(pi, adaptive, n, runs, scripted_seeds, in_sample_run, model_based)
     results = run_tasks(run_batch, batches, executor=executor, progress=True, desc="held-out and stress evaluation",
-                        checkpoint=TaskCheckpoint(out_dir / "tasks"))
+                        checkpoint=_checkpoint(out_dir, batches, rerun))
     grouped = _rows(batches, results, lambda b: (b.label, b.bench_set))
     rows = [{"controller": c, "bench_set": s, **g["stats"], "_outcomes": g["outcomes"]}
             for (c, s), g in grouped.items()]
@@ -136,7 +143,8 @@ def evaluate_default_bench(out_dir: Path, pi, adaptive, n: int, runs, scripted_s
 
 def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design], design_seeds: Sequence[int],
                  design_ppo_timesteps: int, scripted_seeds: Sequence[int], executor: ExecutorLike,
-                 model_based: Sequence[str] = tuple(MODEL_BASED), n_model_based: int = N_MODEL_BASED) -> list[dict]:
+                 model_based: Sequence[str] = tuple(MODEL_BASED), n_model_based: int = N_MODEL_BASED,
+                 rerun: Sequence[str] = ()) -> list[dict]:
     """Step 4: robust PPO per design and seed, every design's controllers on the held-out benches; returns the
     rows (best scripted and PPO per design) and writes designs.csv and designs.png."""
     tasks = [(str(out_dir / "ppo_designs" / d.name), d, design_ppo_timesteps, s) for d in designs
@@ -156,7 +164,7 @@ def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design],
         batches.append(EpisodeBatch(f"{design.name}|ppo_robust", f"ppo:{run['run_dir']}", (), "heldout", n,
                                     design.tip_friction_deg, kwargs_of[design.name], seed))
     results = run_tasks(run_batch, batches, executor=executor, progress=True, desc="design sweep",
-                        checkpoint=TaskCheckpoint(out_dir / "tasks"))
+                        checkpoint=_checkpoint(out_dir, batches, rerun))
     grouped = _rows(batches, results, lambda b: b.label)
     rows = []
     for label, g in grouped.items():
@@ -253,8 +261,10 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
                     scripted_seeds: Sequence[int] = SCRIPTED_SEEDS, in_sample_run: str | Path | None = None,
                     designs: Sequence[Design] = DESIGNS, executor: ExecutorLike = None, doc: str | Path | None = None,
                     model_based: Sequence[str] = tuple(MODEL_BASED), n_model_based: int = N_MODEL_BASED,
-                    log=print) -> dict[str, Any]:
-    """The whole study (resumable in ``out_dir``); ``recurrent_timesteps=None`` leaves the recurrent PPO out."""
+                    rerun: Sequence[str] = (), log=print) -> dict[str, Any]:
+    """The whole study (resumable in ``out_dir``); ``recurrent_timesteps=None`` leaves the recurrent PPO out.
+    ``rerun`` names scripted or model-based controllers whose stored evaluation batches are run again (their code
+    changed since they ran); pass it once: a run resumed with it again redoes them again."""
     from agents.train_robust import seed_tasks, train_robust
 
     from . import bench_plots, bench_report
@@ -280,12 +290,12 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
 
     started = time.perf_counter()
     heldout_rows = evaluate_default_bench(out_dir, pi, adaptive, n, trained, scripted_seeds, in_sample_run, executor,
-                                          model_based)
+                                          model_based, rerun)
     timings["evaluation_s"] = time.perf_counter() - started
 
     started = time.perf_counter()
     design_rows = design_sweep(out_dir, pi, adaptive, n, designs, design_seeds, design_ppo_timesteps, scripted_seeds,
-                               executor, model_based, n_model_based)
+                               executor, model_based, n_model_based, rerun)
     timings["design_sweep_s"] = time.perf_counter() - started
     recommendation = recommend(design_rows)
     tables.write_atomic(out_dir / "recommendation.txt", lambda p: p.write_text(recommendation + "\n"))
@@ -322,6 +332,9 @@ def main(argv: Iterable[str] | None = None) -> int:
                         help="model-based controllers to evaluate (default: mpc limit; none: leave them out)")
     parser.add_argument("--n-model-based", type=int, default=N_MODEL_BASED,
                         help="benches per design for the model-based controllers")
+    parser.add_argument("--rerun", nargs="+", default=[], choices=[*SCRIPTED, *MODEL_BASED],
+                        help="run these controllers' evaluation batches again though they are stored (their code "
+                             "changed); give it once, not on every resume")
     args = parser.parse_args(None if argv is None else list(argv))
     if args.recurrent_timesteps < 0:
         parser.error("--recurrent-timesteps must be >= 0")
@@ -334,7 +347,7 @@ def main(argv: Iterable[str] | None = None) -> int:
                     recurrent_timesteps=args.recurrent_timesteps or None, design_seeds=args.design_seeds,
                     design_ppo_timesteps=args.design_ppo_timesteps, n_heldout=args.n_heldout,
                     scripted_seeds=args.scripted_seeds, in_sample_run=args.in_sample_run, doc=args.doc,
-                    model_based=args.model_based, n_model_based=args.n_model_based)
+                    model_based=args.model_based, n_model_based=args.n_model_based, rerun=args.rerun)
     return 0
 
 

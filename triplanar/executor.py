@@ -233,6 +233,17 @@ class TaskCheckpoint:
                 pickle.dump(result, f, protocol=5)
         write_atomic(self.directory / f"{key}.pkl", dump)
 
+    def forget(self, fn: Callable, tasks: Sequence[Any]) -> int:
+        """Remove the stored results of ``tasks`` (run by ``fn``), so that they run again (their code changed);
+        returns how many were stored."""
+        removed = 0
+        for task in tasks:
+            key = self.key(fn, task)
+            if key is not None and (self.directory / f"{key}.pkl").exists():
+                (self.directory / f"{key}.pkl").unlink()
+                removed += 1
+        return removed
+
     def clear(self) -> None:
         """Remove the directory (the sweep finished and its outputs are written)."""
         shutil.rmtree(self.directory, ignore_errors=True)

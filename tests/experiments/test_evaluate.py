@@ -105,6 +105,22 @@ def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, bench_set):
 
 
 @pytest.mark.slow
+def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
+    """The repository's shipped LSTM policy (agents/zoo/ppo_recurrent): one training seed on the card's 200
+    held-out benches gives that seed's error on the card exactly (an episode's noise seed is its bench index, so
+    the evaluation is deterministic); one seed of five keeps the test to about a fifth of the full card's time."""
+    card = zoo.read_card("ppo_recurrent")
+    want = card["figures"]["heldout"]
+    seed = card["seeds"][-1]
+    assert cli.main(["evaluate", "--controller", "ppo_recurrent", "--benches", "heldout", "--n",
+                     str(want["n_benches"]), "--seeds", str(seed), "--out", str(tmp_path)]) == 0
+    got = json.loads((tmp_path / "heldout.json").read_text())
+    assert got["n_episodes"] == want["n_benches"]
+    assert got["mimicry_error_mm"] == pytest.approx(want["seed_errors_mm"][-1], rel=1e-9)
+    assert got["score"] == pytest.approx(want["seed_scores_mm"][-1], rel=1e-9)
+
+
+@pytest.mark.slow
 def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_files(tiny_zoo, monkeypatch, tmp_path,
                                                                                      capsys):
     card = zoo.read_card("tiny_ppo", tiny_zoo)

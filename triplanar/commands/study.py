@@ -53,6 +53,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--n-model-based", type=positive_int, default=50,
                         help="with --bench: benches per design of the sweep for the model-based controllers (default "
                              "50: limit costs ~10 s of CPU per episode)")
+    parser.add_argument("--rerun", nargs="+", default=[], metavar="CONTROLLER",
+                        help="with --bench: run these scripted or model-based controllers' evaluation batches again "
+                             "though the output folder holds them (their code changed); give it once, not on every "
+                             "resume")
     add_executor_arguments(parser)  # the tasks: one per PPO seed, then one per controller (its episodes at every load)
 
 
@@ -61,6 +65,11 @@ def run(args: argparse.Namespace) -> int:
     with executor_from_args(args) as executor:
         if args.bench:
             from experiments.bench_study import SEEDS, run_bench_study
+            from experiments.evaluate import MODEL_BASED, SCRIPTED
+            unknown = sorted(set(args.rerun) - {*SCRIPTED, *MODEL_BASED})
+            if unknown:
+                raise SystemExit(f"--rerun: unknown controller(s) {', '.join(unknown)}; valid: "
+                                 f"{', '.join([*SCRIPTED, *MODEL_BASED])}")
             timesteps = args.timesteps or 2_000_000
             recurrent = timesteps if args.recurrent_timesteps is None else args.recurrent_timesteps
             if recurrent < 0:
@@ -71,7 +80,8 @@ def run(args: argparse.Namespace) -> int:
                             recurrent_timesteps=recurrent or None,
                             design_seeds=args.design_seeds, design_ppo_timesteps=args.design_timesteps,
                             n_heldout=args.n_heldout, in_sample_run=args.in_sample_run, doc=args.doc,
-                            model_based=args.model_based, n_model_based=args.n_model_based, executor=executor)
+                            model_based=args.model_based, n_model_based=args.n_model_based, rerun=args.rerun,
+                            executor=executor)
             return 0
         from experiments.study import run_study  # the RL stack, only when run
         run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds or [0, 1, 2], timesteps=args.timesteps,
