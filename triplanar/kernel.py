@@ -377,8 +377,9 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.n
 # reference count (an atomic increment and decrement). Measured (docs/performance.md): this form bitwise the same as
 # the whole function and 0-5 % faster; the same sections with views of the rows 10 % slower; numba's inline="always"
 # (at its own IR level, where each array passed becomes a new reference) 15-20 % slower; plain calls 60 %. Each section
-# is a compile of its own (0.1-0.7 CPU-s: benchmarks/compile_profile.py); from an empty cache the whole compiles in
-# about the same time as the one function did (benchmarks/bench_compile.py --ab).
+# is a compile of its own (0.1-0.7 CPU-s: benchmarks/compile_profile.py), together about 0.7 s more than the one
+# function from an empty cache, which removing duplicate compiled versions elsewhere paid for: the same total as
+# before the split within 10 paired rounds (benchmarks/bench_compile.py --ab; docs/performance.md).
 @njit(cache=True, forceinline=True, error_model="numpy")
 def _points_of_action(y: np.ndarray, p: np.ndarray, ws: np.ndarray, actuator: bool) -> tuple:
     """Rows of ``W_RHO``, relative to the mass centre (world): 0-2 the contacts, 3 the load point. Returns the load's
