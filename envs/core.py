@@ -400,7 +400,7 @@ assert all(globals()[name] == value for name, value in WORKSPACE.constants().ite
 @njit(cache=True, error_model="numpy")
 def new_workspace() -> np.ndarray:
     """Scratch memory for one env's (or one vector env's) control steps."""
-    return K.allocate_workspace(N_WS_ROWS)
+    return K.allocate_workspace(np.int64(N_WS_ROWS))  # (not a literal: one compiled version for every module)
 
 
 @njit(cache=True, inline="always", error_model="numpy")  # (one caller: DEVELOPERS.md, compile time)

@@ -49,7 +49,7 @@ assert WORKSPACE.named_in(globals())
 @njit(cache=True, error_model="numpy")
 def new_workspace() -> np.ndarray:
     """Scratch memory for the driver and everything below it."""
-    return K.allocate_workspace(N_WS_ROWS)
+    return K.allocate_workspace(np.int64(N_WS_ROWS))  # (not a literal: one compiled version for every module)
 
 
 # DOPRI5 tolerances (rtol; atol = rtol / 1000) of a redo, tried in turn until the energy balance holds; the last is
@@ -127,7 +127,7 @@ def drive(t: float, y: np.ndarray, p: np.ndarray, armed: np.ndarray, h: float, o
         if p[P_USER] != 0.0:
             _user_wrench_at_rest(t, y, p)
         if E.holds(y, p, K.thrust(t, p), p[P_EXTF:P_EXTF + 3], p[P_EXTM:P_EXTM + 3]):
-            stepping.log_outcome(rec.log, count, t, -1, ARRESTED)
+            stepping.log_outcome(rec.log, count, t, np.int64(-1), np.int64(ARRESTED))  # (the integrator's version)
             return ARRESTED, -1, rows, h, t
         count[C_NSTART] += 1.0
         stepping.start_motion_ws(t, y, p, ws)

@@ -101,7 +101,7 @@ def _iterate(t: np.ndarray, basis: np.ndarray, n: int, obj: int, opt_tol: float,
     degenerate = 0
     while True:
         bland = degenerate >= bland_after
-        s = -1
+        s = np.int64(-1)  # (typed, not a literal: numba would compile _pivot for the literal too)
         best = -opt_tol
         for j in range(n):  # Dantzig: most negative reduced cost; Bland: the first negative one
             d = t[obj, j]
@@ -126,7 +126,7 @@ def _iterate(t: np.ndarray, basis: np.ndarray, n: int, obj: int, opt_tol: float,
         # among rows within rounding of the minimum ratio: the largest pivot (stable), or under Bland's rule
         # the smallest basic index (which is what makes it finite)
         limit = theta + 1e-12 * (1.0 + theta)
-        r = -1
+        r = np.int64(-1)
         for i in range(m):
             a = t[i, s]
             if a > PIVOT_TOL and max(t[i, rhs], 0.0) / a <= limit:
@@ -188,7 +188,7 @@ def simplex(a: np.ndarray, b: np.ndarray, c: np.ndarray, x: np.ndarray,  # noqa:
     t[m + 1, rhs] = -s
 
     x[:] = 0.0
-    status, done = _iterate(t, basis, n, m + 1, OPTIMALITY_TOL * max(w_scale, 1e-300), max_iter, bland_after, 0)
+    status, done = _iterate(t, basis, n, m + 1, OPTIMALITY_TOL * max(w_scale, 1e-300), max_iter, bland_after, np.int64(0))
     if status == ITERATION_LIMIT:
         for i in range(m):
             if basis[i] < n:
@@ -203,7 +203,7 @@ def simplex(a: np.ndarray, b: np.ndarray, c: np.ndarray, x: np.ndarray,  # noqa:
     for i in range(m):  # artificials still basic (at zero): pivot them out, or drop their (redundant) row
         if basis[i] < n:
             continue
-        best, s_best = PIVOT_TOL, -1
+        best, s_best = PIVOT_TOL, np.int64(-1)
         for j in range(n):
             if abs(t[i, j]) > best:
                 best, s_best = abs(t[i, j]), j

@@ -206,7 +206,7 @@ def modes_of(ws: np.ndarray) -> np.ndarray:
 @njit(cache=True, error_model="numpy")
 def new_workspace() -> np.ndarray:
     """Scratch memory for the kernel's own functions (the right-hand side, projection, events)."""
-    return allocate_workspace(N_KERNEL_WS_ROWS)
+    return allocate_workspace(np.int64(N_KERNEL_WS_ROWS))  # (not a literal: one compiled version for every module)
 
 
 @njit(cache=True, inline="always", error_model="numpy")
@@ -337,7 +337,7 @@ def _friction_direction(v0, v1, v2, speed, d0, d1, d2):
 def load_arm(y: np.ndarray, p: np.ndarray, R: np.ndarray, out: np.ndarray) -> None:
     """Load point relative to the mass centre: ``P_L`` where the tip line (through P0_CL + u e3, along e1)
     meets the aft face (plane through P_CL with normal g1), paper eq. 27-28; ``P_CL`` for case C."""
-    _rotate(R, p, P_PCL, out)
+    _rotate(R, p, np.int64(P_PCL), out)  # (not a literal: the version the contacts' rows use)
     if p[P_CASE] == 0.0:
         tx = p[P_TIP0] - y[S_R]
         ty = p[P_TIP0 + 1] - y[S_R + 1]
@@ -370,14 +370,285 @@ def dynamics(t: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, dy: np.n
     return dynamics_ws(t, y, p, dy, aux, ws)
 
 
-# Over the complexity limit (pyproject.toml) knowingly: one function, because no split met all three of bitwise
-# results, speed and compile time. The best (commit 032ddb6 on branch kernel2: eleven sections compiled with
-# forceinline=True, taking whole arrays and scalars and indexing workspace rows directly, no views) was bitwise the
-# same and 1-3 % faster, but compiled from an empty cache ~5 % slower; with views or numba's inline="always" it was
-# slower to run (docs/performance.md).
+# dynamics_ws in sections. Each section is compiled on its own and inlined into its one caller by LLVM (numba's
+# forceinline=True: LLVM's alwaysinline), ahead of numba's pass that removes paired reference counts, which then sees
+# the whole. The sections take only the whole arrays (y, p, ws, aux, dy) and scalars, return scalars, and index the
+# workspace's rows directly (ws[W_FX, k]), making views only to pass to the kernel's other functions: each view is a
+# reference count (an atomic increment and decrement). Measured (docs/performance.md): this form bitwise the same as
+# the whole function and 0-5 % faster; the same sections with views of the rows 10 % slower; numba's inline="always"
+# (at its own IR level, where each array passed becomes a new reference) 15-20 % slower; plain calls 60 %. Each section
+# is a compile of its own (0.1-0.7 CPU-s: benchmarks/compile_profile.py), together about 0.7 s more than the one
+# function from an empty cache, which removing duplicate compiled versions elsewhere paid for: the same total as
+# before the split within 10 paired rounds (benchmarks/bench_compile.py --ab; docs/performance.md).
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _points_of_action(y: np.ndarray, p: np.ndarray, ws: np.ndarray, actuator: bool) -> tuple:
+    """Rows of ``W_RHO``, relative to the mass centre (world): 0-2 the contacts, 3 the load point. Returns the load's
+    direction (e1 for the actuator, g1 for case C) and the material velocity at the load point."""
+    R = ws[W_R:W_R + 3, :3]
+    tmp = ws[W_TMP, :3]
+    for j in range(4):
+        if j < 3:
+            _rotate(R, p, P_C + 3 * j, tmp)
+        else:
+            load_arm(y, p, R, tmp)
+        ws[W_RHO + j, 0] = tmp[0]; ws[W_RHO + j, 1] = tmp[1]; ws[W_RHO + j, 2] = tmp[2]
+    if actuator:
+        ld0, ld1, ld2 = 1.0, 0.0, 0.0
+    else:
+        ld0, ld1, ld2 = ws[W_R, 0], ws[W_R + 1, 0], ws[W_R + 2, 0]
+    c0, c1, c2 = _cross(y[S_W], y[S_W + 1], y[S_W + 2], ws[W_RHO + 3, 0], ws[W_RHO + 3, 1], ws[W_RHO + 3, 2])
+    return ld0, ld1, ld2, y[S_V] + c0, y[S_V + 1] + c1, y[S_V + 2] + c2
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _applied_wrench(y: np.ndarray, p: np.ndarray, ws: np.ndarray, F_T: float, ld0: float, ld1: float, ld2: float,
+                    vb0: float, vb1: float, vb2: float) -> tuple:
+    """Applied force and moment about the mass centre (world) into ``W_FX``, ``W_MX``: weight, thrust along the load's
+    direction at the load point, user force and moment. Returns the power of the user wrench and of the load."""
+    ws[W_FX, 0] = p[P_EXTF] + F_T * ld0
+    ws[W_FX, 1] = p[P_EXTF + 1] + F_T * ld1 - p[P_MASS] * p[P_G]
+    ws[W_FX, 2] = p[P_EXTF + 2] + F_T * ld2
+    m0, m1, m2 = _cross(ws[W_RHO + 3, 0], ws[W_RHO + 3, 1], ws[W_RHO + 3, 2], F_T * ld0, F_T * ld1, F_T * ld2)
+    ws[W_MX, 0] = p[P_EXTM] + m0; ws[W_MX, 1] = p[P_EXTM + 1] + m1; ws[W_MX, 2] = p[P_EXTM + 2] + m2
+    p_other = p[P_EXTF] * y[S_V] + p[P_EXTF + 1] * y[S_V + 1] + p[P_EXTF + 2] * y[S_V + 2] \
+        + p[P_EXTM] * y[S_W] + p[P_EXTM + 1] * y[S_W + 1] + p[P_EXTM + 2] * y[S_W + 2]
+    return p_other, F_T * (ld0 * vb0 + ld1 * vb1 + ld2 * vb2)
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _end_friction(ws: np.ndarray, aux: np.ndarray, tan_ef: float, tip_stuck: bool, tip_limit: float, p_load: float,
+                  wv0: float, wv1: float, wv2: float, vb0: float, vb1: float, vb2: float) -> tuple:
+    """Sliding end friction (eq. 32-33 in continuous time). The slip of the face relative to the tip: the tip moves
+    along e1 (whatever keeps contact) and laterally at udot, so the slip is ``wv = v_B - udot e3`` projected along e1
+    onto the face (into ``aux[A_SLIP]``). A slipping tip's friction is added to ``W_FX``, ``W_MX``. Returns the e1
+    speed ``kk`` of that projection, the load's power with the friction's work through the tip's own motion, and the
+    power dissipated at the tip."""
+    g1x = ws[W_R, 0]
+    kk = (wv0 * g1x + wv1 * ws[W_R + 1, 0] + wv2 * ws[W_R + 2, 0]) / g1x
+    s0, s1, s2 = wv0 - kk, wv1, wv2
+    slip_speed = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+    aux[A_SLIP] = s0; aux[A_SLIP + 1] = s1; aux[A_SLIP + 2] = s2
+    p_tip = 0.0
+    if tan_ef > 0.0 and not tip_stuck:
+        d0, d1, d2 = _friction_direction(s0, s1, s2, slip_speed, ws[W_MODES, M_D0 + 9],
+                                         ws[W_MODES, M_D0 + 10], ws[W_MODES, M_D0 + 11])
+        f0, f1, f2 = -tip_limit * d0, -tip_limit * d1, -tip_limit * d2
+        ws[W_FX, 0] += f0; ws[W_FX, 1] += f1; ws[W_FX, 2] += f2
+        m0, m1, m2 = _cross(ws[W_RHO + 3, 0], ws[W_RHO + 3, 1], ws[W_RHO + 3, 2], f0, f1, f2)
+        ws[W_MX, 0] += m0; ws[W_MX, 1] += m1; ws[W_MX, 2] += m2
+        # The friction's work through the tip's own motion (v_B - slip) is delivered by the actuator.
+        p_load += f0 * (vb0 - s0) + f1 * (vb1 - s1) + f2 * (vb2 - s2)
+        p_tip = tip_limit * (d0 * s0 + d1 * s1 + d2 * s2)
+    return kk, p_load, p_tip
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _gyroscopic(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> None:
+    """I dw/dt = M - w x (I w): the gyroscopic term into ``W_MX``; the world inverse inertia into ``W_IINV``."""
+    R = ws[W_R:W_R + 3, :3]
+    _world_inertia_times(R, p, y[S_W:S_W + 3], ws[W_IW, :3], ws[W_WB, :3])
+    c0, c1, c2 = _cross(y[S_W], y[S_W + 1], y[S_W + 2], ws[W_IW, 0], ws[W_IW, 1], ws[W_IW, 2])
+    ws[W_MX, 0] -= c0; ws[W_MX, 1] -= c1; ws[W_MX, 2] -= c2
+    _world_inverse_inertia(R, p, ws[W_IINV:W_IINV + 3, :3])
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _contact_unknowns(y: np.ndarray, p: np.ndarray, ws: np.ndarray, stuck: int) -> None:
+    """The normal reactions as the first three unknowns (rows 0-2 of ``W_FU``, ``W_CR``, ``W_AT``): N_j acts along
+    f_j = n_j - mu_j d_j while sliding (eq. 21), along n_j when stuck. Each contact's speed, friction coefficient
+    (rate friction) and dissipated power per unit friction force d_j . v_j into ``W_SPEEDS``, ``W_MU``, ``W_POWER``.
+    Cohesion's constant part -c d_j of the sliding friction is a known force, added to ``W_FX``, ``W_MX``."""
+    w0, w1, w2 = y[S_W], y[S_W + 1], y[S_W + 2]
+    coh = p[P_COHESION]
+    for j in range(3):
+        r0, r1, r2 = ws[W_RHO + j, 0], ws[W_RHO + j, 1], ws[W_RHO + j, 2]
+        c0, c1, c2 = _cross(w0, w1, w2, r0, r1, r2)
+        vj0, vj1, vj2 = y[S_V] + c0, y[S_V + 1] + c1, y[S_V + 2] + c2
+        sp = math.sqrt(vj0 * vj0 + vj1 * vj1 + vj2 * vj2)
+        ws[W_SPEEDS, j] = sp
+        if j == stuck:
+            d0, d1, d2 = 0.0, 0.0, 0.0
+        else:
+            k = M_D0 + 3 * j
+            d0, d1, d2 = _friction_direction(vj0, vj1, vj2, sp, ws[W_MODES, k], ws[W_MODES, k + 1],
+                                             ws[W_MODES, k + 2])
+        ws[W_POWER, j] = d0 * vj0 + d1 * vj1 + d2 * vj2
+        mu_j = p[P_TANPHI + j]
+        if p[P_RATE_A] != 0.0:
+            mu_j *= 1.0 + p[P_RATE_A] * math.log1p(sp / p[P_RATE_V0])
+        ws[W_MU, j] = mu_j
+        if coh != 0.0 and j != stuck:
+            f0, f1, f2 = -coh * d0, -coh * d1, -coh * d2
+            ws[W_FX, 0] += f0; ws[W_FX, 1] += f1; ws[W_FX, 2] += f2
+            m0, m1, m2 = _cross(r0, r1, r2, f0, f1, f2)
+            ws[W_MX, 0] += m0; ws[W_MX, 1] += m1; ws[W_MX, 2] += m2
+        n0, n1, n2 = p[P_N + 3 * j], p[P_N + 3 * j + 1], p[P_N + 3 * j + 2]
+        ws[W_CR + j, 0] = n0; ws[W_CR + j, 1] = n1; ws[W_CR + j, 2] = n2
+        ws[W_FU + j, 0] = n0 - mu_j * d0; ws[W_FU + j, 1] = n1 - mu_j * d1; ws[W_FU + j, 2] = n2 - mu_j * d2
+        ws[W_AT, j] = j
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _static_friction_rows(y: np.ndarray, p: np.ndarray, ws: np.ndarray, stuck: int, tip_stuck: bool,
+                          wv0: float, wv1: float, wv2: float) -> int:
+    """Unknowns and rows of static friction after the three contacts: the two tangential forces at a stuck contact
+    (its slip acceleration in the plane is a constraint), the two face forces at a stuck tip (the face's slip on the
+    tip is one, rows from :func:`_face_rows`); then every row's velocity-dependent acceleration into ``W_BIAS``.
+    Returns the number of unknowns."""
+    w0, w1, w2 = y[S_W], y[S_W + 1], y[S_W + 2]
+    nu = 3
+    if stuck >= 0:
+        cr = ws[W_CR:W_CR + 7, :3]  # rows of this view: the argument type tangent_basis's other callers pass
+        tangent_basis(p, stuck, cr[3], cr[4])
+        for r in (3, 4):
+            ws[W_FU + r, 0] = ws[W_CR + r, 0]; ws[W_FU + r, 1] = ws[W_CR + r, 1]; ws[W_FU + r, 2] = ws[W_CR + r, 2]
+            ws[W_AT, r] = stuck
+        nu = 5
+    i_tip = nu
+    if tip_stuck:
+        R = ws[W_R:W_R + 3, :3]
+        for a in (1, 2):
+            dh0, dh1, dh2 = _face_rows(R, y[S_W:S_W + 3], a, ws[W_H, :3])
+            ws[W_CR + nu, 0] = ws[W_H, 0]; ws[W_CR + nu, 1] = ws[W_H, 1]; ws[W_CR + nu, 2] = ws[W_H, 2]
+            ws[W_FU + nu, 0] = R[0, a]; ws[W_FU + nu, 1] = R[1, a]; ws[W_FU + nu, 2] = R[2, a]
+            ws[W_AT, nu] = 3
+            ws[W_BIAS, nu] = wv0 * dh0 + wv1 * dh1 + wv2 * dh2
+            nu += 1
+    for r in range(nu):
+        if r < i_tip:
+            ws[W_BIAS, r] = 0.0
+        i = int(ws[W_AT, r])
+        c0, c1, c2 = _cross(w0, w1, w2, ws[W_RHO + i, 0], ws[W_RHO + i, 1], ws[W_RHO + i, 2])
+        e0, e1, e2 = _cross(w0, w1, w2, c0, c1, c2)
+        ws[W_BIAS, r] += ws[W_CR + r, 0] * e0 + ws[W_CR + r, 1] * e1 + ws[W_CR + r, 2] * e2
+    return nu
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _solve_unknowns(p: np.ndarray, ws: np.ndarray, nu: int) -> bool:
+    """The ``nu`` unknowns into ``W_X``, from one small linear system: each row's acceleration, that of the known
+    forces (``W_FX``; ``W_MX``, whose angular acceleration goes into ``W_ALPHA0``) plus that of the unknowns (their
+    ``I^-1 (rho x f)`` into ``W_RXF``), is zero. False if singular."""
+    m = p[P_MASS]
+    mx0, mx1, mx2 = ws[W_MX, 0], ws[W_MX, 1], ws[W_MX, 2]
+    for k in range(3):
+        ws[W_ALPHA0, k] = ws[W_IINV + k, 0] * mx0 + ws[W_IINV + k, 1] * mx1 + ws[W_IINV + k, 2] * mx2
+    for u in range(nu):
+        j = int(ws[W_AT, u])
+        a0, a1, a2 = _cross(ws[W_RHO + j, 0], ws[W_RHO + j, 1], ws[W_RHO + j, 2],
+                            ws[W_FU + u, 0], ws[W_FU + u, 1], ws[W_FU + u, 2])
+        for k in range(3):
+            ws[W_RXF + u, k] = ws[W_IINV + k, 0] * a0 + ws[W_IINV + k, 1] * a1 + ws[W_IINV + k, 2] * a2
+    for r in range(nu):
+        i = int(ws[W_AT, r])
+        n0, n1, n2 = ws[W_CR + r, 0], ws[W_CR + r, 1], ws[W_CR + r, 2]
+        rn0, rn1, rn2 = _cross(ws[W_RHO + i, 0], ws[W_RHO + i, 1], ws[W_RHO + i, 2], n0, n1, n2)
+        for u in range(nu):
+            ws[W_MAT + r, u] = (n0 * ws[W_FU + u, 0] + n1 * ws[W_FU + u, 1] + n2 * ws[W_FU + u, 2]) / m \
+                + rn0 * ws[W_RXF + u, 0] + rn1 * ws[W_RXF + u, 1] + rn2 * ws[W_RXF + u, 2]
+        ws[W_B, r] = -ws[W_BIAS, r] - (n0 * ws[W_FX, 0] + n1 * ws[W_FX, 1] + n2 * ws[W_FX, 2]) / m \
+            - (rn0 * ws[W_ALPHA0, 0] + rn1 * ws[W_ALPHA0, 1] + rn2 * ws[W_ALPHA0, 2])
+    return _solve_small(ws[W_MAT:W_MAT + 7, :7], ws[W_B, :7], nu, ws[W_X, :7])
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _accelerations(p: np.ndarray, ws: np.ndarray, nu: int) -> None:
+    """Linear and angular acceleration (``W_ACC``, ``W_ALPHA``) from the known forces and the solved unknowns."""
+    m = p[P_MASS]
+    for k in range(3):
+        ws[W_ACC, k] = ws[W_FX, k] / m
+        ws[W_ALPHA, k] = ws[W_ALPHA0, k]
+        for u in range(nu):
+            ws[W_ACC, k] += ws[W_X, u] * ws[W_FU + u, k] / m
+            ws[W_ALPHA, k] += ws[W_X, u] * ws[W_RXF + u, k]
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _static_friction(p: np.ndarray, aux: np.ndarray, ws: np.ndarray, stuck: int, tip_stuck: bool, nu: int,
+                     tip_limit: float, p_load: float, vb0: float, vb1: float, vb2: float) -> float:
+    """Static friction at a stuck contact or tip into ``aux``: its force, and how far it is from leaving its cone
+    (``A_STICK``, ``A_TIP_STICK``; -1 when nothing sticks). Returns the load's power with the stuck tip's friction,
+    which works through the tip's motion (no slip)."""
+    aux[A_STICK] = -1.0
+    aux[A_TIP_STICK] = -1.0
+    for k in range(3):
+        aux[A_STICK_F + k] = 0.0
+        aux[A_TIP_F + k] = 0.0
+    if stuck >= 0:  # its two tangential forces are unknowns 3 and 4
+        x3, x4 = ws[W_X, 3], ws[W_X, 4]
+        aux[A_STICK] = math.sqrt(x3 ** 2 + x4 ** 2) - ws[W_MU, stuck] * ws[W_X, stuck]
+        if p[P_COHESION] != 0.0:
+            aux[A_STICK] -= p[P_COHESION]
+        for k in range(3):
+            aux[A_STICK_F + k] = x3 * ws[W_FU + 3, k] + x4 * ws[W_FU + 4, k]
+    if tip_stuck:  # its two face forces are the last two unknowns
+        i = nu - 2
+        xa, xb = ws[W_X, i], ws[W_X, i + 1]
+        aux[A_TIP_STICK] = math.sqrt(xa ** 2 + xb ** 2) - tip_limit
+        for k in range(3):
+            f = xa * ws[W_FU + i, k] + xb * ws[W_FU + i + 1, k]
+            aux[A_TIP_F + k] = f
+            p_load += f * (vb0 if k == 0 else (vb1 if k == 1 else vb2))
+    return p_load
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _state_derivative(y: np.ndarray, p: np.ndarray, dy: np.ndarray, ws: np.ndarray, stuck: int, F_T: float,
+                      p_load: float, p_tip: float, p_other: float) -> None:
+    """dy/dt: kinematics, accelerations, the record of F_T and u, and the rates of the energy integrals."""
+    for k in range(3):
+        dy[S_R + k] = y[S_V + k]
+        dy[S_V + k] = ws[W_ACC, k]
+        dy[S_W + k] = ws[W_ALPHA, k]
+    w0, w1, w2 = y[S_W], y[S_W + 1], y[S_W + 2]
+    qw, qx, qy, qz = y[S_Q], y[S_Q + 1], y[S_Q + 2], y[S_Q + 3]
+    dy[S_Q] = 0.5 * (-w0 * qx - w1 * qy - w2 * qz)
+    dy[S_Q + 1] = 0.5 * (w0 * qw + w1 * qz - w2 * qy)
+    dy[S_Q + 2] = 0.5 * (-w0 * qz + w1 * qw + w2 * qx)
+    dy[S_Q + 3] = 0.5 * (w0 * qy - w1 * qx + w2 * qw)
+    tau = p[P_TAU]
+    dy[S_F] = (p[P_FCMD] - F_T) / tau if tau > 0.0 else 0.0  # the record of F_T; nothing feeds back
+    dy[S_U] = p[P_UDOT]
+    dy[S_WLOAD] = p_load
+    coh = p[P_COHESION]
+    for j in range(3):
+        dy[S_DC + j] = 0.0 if j == stuck else ws[W_MU, j] * ws[W_X, j] * ws[W_POWER, j]
+        if coh != 0.0 and j != stuck:
+            dy[S_DC + j] = (ws[W_MU, j] * ws[W_X, j] + coh) * ws[W_POWER, j]
+    dy[S_DTIP] = p_tip
+    dy[S_WOTHER] = p_other
+
+
+@njit(cache=True, forceinline=True, error_model="numpy")
+def _site_accelerations(y: np.ndarray, aux: np.ndarray, ws: np.ndarray, kk: float,
+                        wv0: float, wv1: float, wv2: float) -> None:
+    """Into ``aux``: the reactions, the contacts' speeds, the slip accelerations of each site (for incipient motion)
+    and the load point."""
+    w0, w1, w2 = y[S_W], y[S_W + 1], y[S_W + 2]
+    al0, al1, al2 = ws[W_ALPHA, 0], ws[W_ALPHA, 1], ws[W_ALPHA, 2]
+    for j in range(4):
+        r0, r1, r2 = ws[W_RHO + j, 0], ws[W_RHO + j, 1], ws[W_RHO + j, 2]
+        c0, c1, c2 = _cross(al0, al1, al2, r0, r1, r2)
+        e0, e1, e2 = _cross(w0, w1, w2, r0, r1, r2)
+        e0, e1, e2 = _cross(w0, w1, w2, e0, e1, e2)
+        a0, a1, a2 = ws[W_ACC, 0] + c0 + e0, ws[W_ACC, 1] + c1 + e1, ws[W_ACC, 2] + c2 + e2
+        if j < 3:
+            aux[A_N + j] = ws[W_X, j]
+            aux[A_SPEED + j] = ws[W_SPEEDS, j]
+            aux[A_ACC + 3 * j] = a0; aux[A_ACC + 3 * j + 1] = a1; aux[A_ACC + 3 * j + 2] = a2
+        else:
+            # d/dt of the slip when it is zero: (a_B - (a_B . g1 + wv . dg1/dt)/g1x e1) with the tip moving
+            # with the face (its e1-speed kk); evaluated where slip ~ 0, which is where it is used.
+            g1x, g1y, g1z = ws[W_R, 0], ws[W_R + 1, 0], ws[W_R + 2, 0]
+            d10, d11, d12 = _cross(w0, w1, w2, g1x, g1y, g1z)
+            k2 = (a0 * g1x + a1 * g1y + a2 * g1z + wv0 * d10 + wv1 * d11 + wv2 * d12 - kk * d10) / g1x
+            aux[A_ACC + 9] = a0 - k2; aux[A_ACC + 10] = a1; aux[A_ACC + 11] = a2
+    for i in range(3):
+        aux[A_PL + i] = y[S_R + i] + ws[W_RHO + 3, i]
+
+
 @njit(cache=True, error_model="numpy")
-def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray,  # noqa: C901 (see above)
-                aux: np.ndarray, ws: np.ndarray) -> bool:
+def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray, aux: np.ndarray, ws: np.ndarray) -> bool:
     """Time derivative of the state, and the normal reactions etc. in ``aux``. False if singular.
 
     Forces (paper section 3.3-3.4, ``docs/physics.md``): weight ``-W e2`` at the mass centre; at each
@@ -390,229 +661,29 @@ def dynamics_ws(t: float, y: np.ndarray, p: np.ndarray, dy: np.ndarray,  # noqa:
     A contact (``modes[M_STUCK]``) or the tip (``modes[M_TIP_STUCK]``) that sticks is held by static friction instead
     its tangential force becomes an unknown and its slip acceleration a constraint row. The unknowns
     (normal reactions, stuck tangential forces) solve one small linear system: the paper's eq. 39 with
-    the rigid-frame multipliers eliminated.
+    the rigid-frame multipliers eliminated. The sections above do the work, in this order, in the workspace's rows.
     """
-    m = p[P_MASS]
     R = ws[W_R:W_R + 3, :3]
     quat_to_matrix(y[S_Q:S_Q + 4], R)
-    v = y[S_V:S_V + 3]
-    w = y[S_W:S_W + 3]
-    tau = p[P_TAU]
     F_T = thrust(t, p)
-    udot = p[P_UDOT]
     actuator = p[P_CASE] == 0.0
-    g1x, g1y, g1z = R[0, 0], R[1, 0], R[2, 0]
-
-    # Points of action relative to the mass centre: rows 0-2 the contacts, row 3 the load point.
-    rho = ws[W_RHO:W_RHO + 4, :3]
-    tmp = ws[W_TMP, :3]
-    for j in range(3):
-        _rotate(R, p, P_C + 3 * j, tmp)
-        rho[j, 0] = tmp[0]; rho[j, 1] = tmp[1]; rho[j, 2] = tmp[2]
-    load_arm(y, p, R, tmp)
-    rho[3, 0] = tmp[0]; rho[3, 1] = tmp[1]; rho[3, 2] = tmp[2]
-    if actuator:
-        ld0, ld1, ld2 = 1.0, 0.0, 0.0
-    else:
-        ld0, ld1, ld2 = g1x, g1y, g1z
-    c0, c1, c2 = _cross(w[0], w[1], w[2], rho[3, 0], rho[3, 1], rho[3, 2])
-    vb0, vb1, vb2 = v[0] + c0, v[1] + c1, v[2] + c2  # material velocity at the load point
-
-    # Applied force and moment about the mass centre (world), and the power they deliver.
-    fx = ws[W_FX, :3]
-    mx = ws[W_MX, :3]
-    fx[0] = p[P_EXTF] + F_T * ld0
-    fx[1] = p[P_EXTF + 1] + F_T * ld1 - m * p[P_G]
-    fx[2] = p[P_EXTF + 2] + F_T * ld2
-    m0, m1, m2 = _cross(rho[3, 0], rho[3, 1], rho[3, 2], F_T * ld0, F_T * ld1, F_T * ld2)
-    mx[0] = p[P_EXTM] + m0; mx[1] = p[P_EXTM + 1] + m1; mx[2] = p[P_EXTM + 2] + m2
-    p_other = p[P_EXTF] * v[0] + p[P_EXTF + 1] * v[1] + p[P_EXTF + 2] * v[2] \
-        + p[P_EXTM] * w[0] + p[P_EXTM + 1] * w[1] + p[P_EXTM + 2] * w[2]
-    p_load = F_T * (ld0 * vb0 + ld1 * vb1 + ld2 * vb2)
-    p_tip = 0.0
-
-    # End friction. Slip of the face relative to the tip: the tip moves along e1 (whatever keeps contact)
-    # and laterally at udot, so the slip is (v_B - udot e3) projected along e1 onto the face.
+    ld0, ld1, ld2, vb0, vb1, vb2 = _points_of_action(y, p, ws, actuator)
+    p_other, p_load = _applied_wrench(y, p, ws, F_T, ld0, ld1, ld2, vb0, vb1, vb2)
     tan_ef = p[P_TANEF] if actuator else 0.0
     tip_stuck = tan_ef > 0.0 and ws[W_MODES, M_TIP_STUCK] != 0.0
-    wv0, wv1, wv2 = vb0, vb1, vb2 - udot
-    kk = (wv0 * g1x + wv1 * g1y + wv2 * g1z) / g1x
-    s0, s1, s2 = wv0 - kk, wv1, wv2
-    slip_speed = math.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
-    aux[A_SLIP] = s0; aux[A_SLIP + 1] = s1; aux[A_SLIP + 2] = s2
-    tip_limit = F_T * g1x * tan_ef
-    if tan_ef > 0.0 and not tip_stuck:
-        d0, d1, d2 = _friction_direction(s0, s1, s2, slip_speed, ws[W_MODES, M_D0 + 9],
-                                         ws[W_MODES, M_D0 + 10], ws[W_MODES, M_D0 + 11])
-        f0, f1, f2 = -tip_limit * d0, -tip_limit * d1, -tip_limit * d2
-        fx[0] += f0; fx[1] += f1; fx[2] += f2
-        m0, m1, m2 = _cross(rho[3, 0], rho[3, 1], rho[3, 2], f0, f1, f2)
-        mx[0] += m0; mx[1] += m1; mx[2] += m2
-        # The friction's work through the tip's own motion (v_B - slip) is delivered by the actuator.
-        p_load += f0 * (vb0 - s0) + f1 * (vb1 - s1) + f2 * (vb2 - s2)
-        p_tip = tip_limit * (d0 * s0 + d1 * s1 + d2 * s2)
-
-    # Gyroscopic term: I dw/dt = M - w x (I w).
-    iw = ws[W_IW, :3]
-    _world_inertia_times(R, p, w, iw, ws[W_WB, :3])
-    c0, c1, c2 = _cross(w[0], w[1], w[2], iw[0], iw[1], iw[2])
-    mx[0] -= c0; mx[1] -= c1; mx[2] -= c2
-    iinv = ws[W_IINV:W_IINV + 3, :3]
-    _world_inverse_inertia(R, p, iinv)
-
-    # Unknowns u (force direction fu at point `at`) and rows r (constraint direction cr at point `at`,
-    # velocity-dependent acceleration `bias`): N_j along f_j = n_j - mu_j d_j (sliding, eq. 21) or n_j
-    # (stuck), two tangential forces at a stuck contact, two face forces at a stuck tip.
+    tip_limit = F_T * ws[W_R, 0] * tan_ef
+    wv0, wv1, wv2 = vb0, vb1, vb2 - p[P_UDOT]
+    kk, p_load, p_tip = _end_friction(ws, aux, tan_ef, tip_stuck, tip_limit, p_load, wv0, wv1, wv2, vb0, vb1, vb2)
+    _gyroscopic(y, p, ws)
     stuck = int(ws[W_MODES, M_STUCK])
-    fu = ws[W_FU:W_FU + 7, :3]
-    cr = ws[W_CR:W_CR + 7, :3]
-    at = ws[W_AT, :7]
-    bias = ws[W_BIAS, :7]
-    mu = ws[W_MU, :3]
-    speeds = ws[W_SPEEDS, :3]
-    power_dir = ws[W_POWER, :3]  # d_j . v_j: dissipated power per unit friction force
-    coh = p[P_COHESION]
-    for j in range(3):
-        c0, c1, c2 = _cross(w[0], w[1], w[2], rho[j, 0], rho[j, 1], rho[j, 2])
-        vj0, vj1, vj2 = v[0] + c0, v[1] + c1, v[2] + c2
-        sp = math.sqrt(vj0 * vj0 + vj1 * vj1 + vj2 * vj2)
-        speeds[j] = sp
-        if j == stuck:
-            d0, d1, d2 = 0.0, 0.0, 0.0
-        else:
-            k = M_D0 + 3 * j
-            d0, d1, d2 = _friction_direction(vj0, vj1, vj2, sp, ws[W_MODES, k], ws[W_MODES, k + 1],
-                                             ws[W_MODES, k + 2])
-        power_dir[j] = d0 * vj0 + d1 * vj1 + d2 * vj2
-        mu_j = p[P_TANPHI + j]
-        if p[P_RATE_A] != 0.0:
-            mu_j *= 1.0 + p[P_RATE_A] * math.log1p(sp / p[P_RATE_V0])
-        mu[j] = mu_j
-        if coh != 0.0 and j != stuck:
-            # Cohesion: the constant part -c d_j of the sliding friction is a known force at P_j.
-            f0, f1, f2 = -coh * d0, -coh * d1, -coh * d2
-            fx[0] += f0; fx[1] += f1; fx[2] += f2
-            m0, m1, m2 = _cross(rho[j, 0], rho[j, 1], rho[j, 2], f0, f1, f2)
-            mx[0] += m0; mx[1] += m1; mx[2] += m2
-        for k in range(3):
-            cr[j, k] = p[P_N + 3 * j + k]
-        fu[j, 0] = cr[j, 0] - mu_j * d0
-        fu[j, 1] = cr[j, 1] - mu_j * d1
-        fu[j, 2] = cr[j, 2] - mu_j * d2
-        at[j] = j
-    nu = 3
-    i_stick = nu
-    if stuck >= 0:
-        tangent_basis(p, stuck, cr[3], cr[4])
-        for r in (3, 4):
-            fu[r, 0] = cr[r, 0]; fu[r, 1] = cr[r, 1]; fu[r, 2] = cr[r, 2]
-            at[r] = stuck
-        nu = 5
-    i_tip = nu
-    if tip_stuck:
-        h = ws[W_H, :3]
-        for a in (1, 2):
-            dh0, dh1, dh2 = _face_rows(R, w, a, h)
-            cr[nu, 0] = h[0]; cr[nu, 1] = h[1]; cr[nu, 2] = h[2]
-            fu[nu, 0] = R[0, a]; fu[nu, 1] = R[1, a]; fu[nu, 2] = R[2, a]
-            at[nu] = 3
-            bias[nu] = wv0 * dh0 + wv1 * dh1 + wv2 * dh2
-            nu += 1
-    for r in range(nu):
-        if r < i_tip:
-            bias[r] = 0.0
-        i = int(at[r])
-        c0, c1, c2 = _cross(w[0], w[1], w[2], rho[i, 0], rho[i, 1], rho[i, 2])
-        e0, e1, e2 = _cross(w[0], w[1], w[2], c0, c1, c2)
-        bias[r] += cr[r, 0] * e0 + cr[r, 1] * e1 + cr[r, 2] * e2
-
-    alpha0 = ws[W_ALPHA0, :3]
-    for k in range(3):
-        alpha0[k] = iinv[k, 0] * mx[0] + iinv[k, 1] * mx[1] + iinv[k, 2] * mx[2]
-    rxf = ws[W_RXF:W_RXF + 7, :3]  # I^-1 (rho x f) of each unknown
-    for u in range(nu):
-        j = int(at[u])
-        a0, a1, a2 = _cross(rho[j, 0], rho[j, 1], rho[j, 2], fu[u, 0], fu[u, 1], fu[u, 2])
-        for k in range(3):
-            rxf[u, k] = iinv[k, 0] * a0 + iinv[k, 1] * a1 + iinv[k, 2] * a2
-    amat = ws[W_MAT:W_MAT + 7, :7]
-    bvec = ws[W_B, :7]
-    for r in range(nu):
-        i = int(at[r])
-        n0, n1, n2 = cr[r, 0], cr[r, 1], cr[r, 2]
-        rn0, rn1, rn2 = _cross(rho[i, 0], rho[i, 1], rho[i, 2], n0, n1, n2)
-        for u in range(nu):
-            amat[r, u] = (n0 * fu[u, 0] + n1 * fu[u, 1] + n2 * fu[u, 2]) / m \
-                + rn0 * rxf[u, 0] + rn1 * rxf[u, 1] + rn2 * rxf[u, 2]
-        bvec[r] = -bias[r] - (n0 * fx[0] + n1 * fx[1] + n2 * fx[2]) / m \
-            - (rn0 * alpha0[0] + rn1 * alpha0[1] + rn2 * alpha0[2])
-    x = ws[W_X, :7]
-    if not _solve_small(amat, bvec, nu, x):
+    _contact_unknowns(y, p, ws, stuck)
+    nu = _static_friction_rows(y, p, ws, stuck, tip_stuck, wv0, wv1, wv2)
+    if not _solve_unknowns(p, ws, nu):
         return False
-
-    acc = ws[W_ACC, :3]
-    alpha = ws[W_ALPHA, :3]
-    for k in range(3):
-        acc[k] = fx[k] / m
-        alpha[k] = alpha0[k]
-        for u in range(nu):
-            acc[k] += x[u] * fu[u, k] / m
-            alpha[k] += x[u] * rxf[u, k]
-    aux[A_STICK] = -1.0
-    aux[A_TIP_STICK] = -1.0
-    for k in range(3):
-        aux[A_STICK_F + k] = 0.0
-        aux[A_TIP_F + k] = 0.0
-    if stuck >= 0:
-        aux[A_STICK] = math.sqrt(x[i_stick] ** 2 + x[i_stick + 1] ** 2) - mu[stuck] * x[stuck]
-        if coh != 0.0:
-            aux[A_STICK] -= coh
-        for k in range(3):
-            aux[A_STICK_F + k] = x[i_stick] * fu[i_stick, k] + x[i_stick + 1] * fu[i_stick + 1, k]
-    if tip_stuck:
-        aux[A_TIP_STICK] = math.sqrt(x[i_tip] ** 2 + x[i_tip + 1] ** 2) - tip_limit
-        for k in range(3):  # the static end friction works through the tip's motion (no slip)
-            f = x[i_tip] * fu[i_tip, k] + x[i_tip + 1] * fu[i_tip + 1, k]
-            aux[A_TIP_F + k] = f
-            p_load += f * (vb0 if k == 0 else (vb1 if k == 1 else vb2))
-
-    for k in range(3):
-        dy[S_R + k] = v[k]
-        dy[S_V + k] = acc[k]
-        dy[S_W + k] = alpha[k]
-    qw, qx, qy, qz = y[S_Q], y[S_Q + 1], y[S_Q + 2], y[S_Q + 3]
-    dy[S_Q] = 0.5 * (-w[0] * qx - w[1] * qy - w[2] * qz)
-    dy[S_Q + 1] = 0.5 * (w[0] * qw + w[1] * qz - w[2] * qy)
-    dy[S_Q + 2] = 0.5 * (-w[0] * qz + w[1] * qw + w[2] * qx)
-    dy[S_Q + 3] = 0.5 * (w[0] * qy - w[1] * qx + w[2] * qw)
-    dy[S_F] = (p[P_FCMD] - F_T) / tau if tau > 0.0 else 0.0  # the record of F_T; nothing feeds back
-    dy[S_U] = udot
-    dy[S_WLOAD] = p_load
-    for j in range(3):
-        dy[S_DC + j] = 0.0 if j == stuck else mu[j] * x[j] * power_dir[j]
-        if coh != 0.0 and j != stuck:
-            dy[S_DC + j] = (mu[j] * x[j] + coh) * power_dir[j]
-    dy[S_DTIP] = p_tip
-    dy[S_WOTHER] = p_other
-
-    # Aux: reactions, speeds, and the slip accelerations of each site (for incipient motion).
-    for j in range(4):
-        c0, c1, c2 = _cross(alpha[0], alpha[1], alpha[2], rho[j, 0], rho[j, 1], rho[j, 2])
-        e0, e1, e2 = _cross(w[0], w[1], w[2], rho[j, 0], rho[j, 1], rho[j, 2])
-        e0, e1, e2 = _cross(w[0], w[1], w[2], e0, e1, e2)
-        a0, a1, a2 = acc[0] + c0 + e0, acc[1] + c1 + e1, acc[2] + c2 + e2
-        if j < 3:
-            aux[A_N + j] = x[j]
-            aux[A_SPEED + j] = speeds[j]
-            aux[A_ACC + 3 * j] = a0; aux[A_ACC + 3 * j + 1] = a1; aux[A_ACC + 3 * j + 2] = a2
-        else:
-            # d/dt of the slip when it is zero: (a_B - (a_B . g1 + wv . dg1/dt)/g1x e1) with the tip moving
-            # with the face (its e1-speed kk); evaluated where slip ~ 0, which is where it is used.
-            d10, d11, d12 = _cross(w[0], w[1], w[2], g1x, g1y, g1z)
-            k2 = (a0 * g1x + a1 * g1y + a2 * g1z + wv0 * d10 + wv1 * d11 + wv2 * d12 - kk * d10) / g1x
-            aux[A_ACC + 9] = a0 - k2; aux[A_ACC + 10] = a1; aux[A_ACC + 11] = a2
-    for i in range(3):
-        aux[A_PL + i] = y[S_R + i] + rho[3, i]
+    _accelerations(p, ws, nu)
+    p_load = _static_friction(p, aux, ws, stuck, tip_stuck, nu, tip_limit, p_load, vb0, vb1, vb2)
+    _state_derivative(y, p, dy, ws, stuck, F_T, p_load, p_tip, p_other)
+    _site_accelerations(y, aux, ws, kk, wv0, wv1, wv2)
     aux[A_FT] = F_T
     return True
 

@@ -55,7 +55,7 @@ assert WORKSPACE.named_in(globals())
 @njit(cache=True, error_model="numpy")
 def new_workspace() -> np.ndarray:
     """Scratch memory for the steppers and everything below them (the kernel's rows included)."""
-    return allocate_workspace(N_WS_ROWS)
+    return allocate_workspace(np.int64(N_WS_ROWS))  # (not a literal: one compiled version for every module)
 
 
 MAX_MISSED_STOPS = 8  # predicted stops of one site in a row that may miss before a full step is taken
