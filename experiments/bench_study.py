@@ -268,6 +268,10 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
     from agents.train_robust import seed_tasks, train_robust
 
     from . import bench_plots, bench_report
+    unknown = sorted(set(rerun) - {*SCRIPTED, *MODEL_BASED})
+    if unknown:  # before anything runs: a misspelt name would silently rerun nothing
+        raise ValueError(f"rerun: unknown controller(s) {', '.join(unknown)}; valid: "
+                         f"{', '.join([*SCRIPTED, *MODEL_BASED])}")
     n = N_HELDOUT if n_heldout is None else int(n_heldout)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -239,8 +239,9 @@ class TaskCheckpoint:
         removed = 0
         for task in tasks:
             key = self.key(fn, task)
-            if key is not None and (self.directory / f"{key}.pkl").exists():
-                (self.directory / f"{key}.pkl").unlink()
+            path = self.directory / f"{key}.pkl"
+            if key is not None and path.exists():
+                path.unlink()
                 removed += 1
         return removed
 

@@ -65,11 +65,6 @@ def run(args: argparse.Namespace) -> int:
     with executor_from_args(args) as executor:
         if args.bench:
             from experiments.bench_study import SEEDS, run_bench_study
-            from experiments.evaluate import MODEL_BASED, SCRIPTED
-            unknown = sorted(set(args.rerun) - {*SCRIPTED, *MODEL_BASED})
-            if unknown:
-                raise SystemExit(f"--rerun: unknown controller(s) {', '.join(unknown)}; valid: "
-                                 f"{', '.join([*SCRIPTED, *MODEL_BASED])}")
             timesteps = args.timesteps or 2_000_000
             recurrent = timesteps if args.recurrent_timesteps is None else args.recurrent_timesteps
             if recurrent < 0:
