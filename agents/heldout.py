@@ -5,7 +5,8 @@ tuning uses, plus the nominal bench; failures are counted, never averaged into a
   from the env's own seeded generator, tuning from ``TUNING_SEED``: different streams);
 * :func:`stress_benches`: benches outside the training ranges (:data:`STRESS_RANGES`), drawn from their own
   stream ``STRESS_SEED``; every stress bench has at least one parameter outside v1's randomisation ranges;
-* :func:`bench_set`: any of the sets above by name (:data:`BENCH_SETS`);
+* :func:`bench_set`: any of the sets above by name (:data:`BENCH_SETS`), optionally with a design's known tip
+  (a bench that tip cannot start is skipped too: :func:`first_startable`);
 * :func:`run_episode`: one controller on one bench -> :class:`Outcome` (``success``, ``mimicry_error_mm`` only when
   successful, else NaN);
 * :func:`summarise`: success rate, mimicry error over successful episodes, and the score (below).
@@ -17,9 +18,10 @@ tuning uses, plus the nominal bench; failures are counted, never averaged into a
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, replace
-from typing import Any, Sequence
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 
@@ -57,23 +59,35 @@ def _startable(bench: Bench, env_kwargs: dict[str, Any]) -> bool:
     return True
 
 
-def random_benches(n: int, seed: int, env_kwargs: dict[str, Any] | None = None) -> list[Bench]:
+def random_benches(n: int, seed: int, env_kwargs: dict[str, Any] | None = None,
+                   tip_friction_deg: float | None = None) -> list[Bench]:
     """The first ``n`` startable draws of the stream ``seed`` (a draw that friction holds at rest is skipped, as a
-    laboratory would not run it)."""
+    laboratory would not run it), with the tip ``tip_friction_deg`` where given (:func:`first_startable`)."""
     config = make_config(None, **_shear_kwargs(env_kwargs))
     specimen, foundation = config.base_specimen()
+    draws = (draw_bench(np.random.default_rng([seed, i]), specimen, foundation) for i in itertools.count())
+    return first_startable(draws, n, tip_friction_deg, env_kwargs)
+
+
+def first_startable(draws: Iterable[Bench], n: int, tip_friction_deg: float | None = None,
+                    env_kwargs: dict[str, Any] | None = None) -> list[Bench]:
+    """The first ``n`` of ``draws`` that start as drawn and, with a design's known tip ``tip_friction_deg``, also
+    with that tip; returned with the tip. Both conditions, not the second alone, so that every design runs a subset
+    of one stream of specimens (designs compare on common benches) and a set without a tip is unchanged."""
     out: list[Bench] = []
-    i = 0
-    while len(out) < n:
-        bench = draw_bench(np.random.default_rng([seed, i]), specimen, foundation)
-        if _startable(bench, env_kwargs or {}):
-            out.append(bench)
-        i += 1
+    for bench in draws:
+        if len(out) == n:
+            break
+        if not _startable(bench, env_kwargs or {}):
+            continue
+        tipped = with_tip(bench, tip_friction_deg)
+        if tip_friction_deg is None or _startable(tipped, env_kwargs or {}):
+            out.append(tipped)
     return out
 
 
-def heldout_benches(n: int = 50) -> list[Bench]:
-    return random_benches(n, HELDOUT_SEED)
+def heldout_benches(n: int = 50, tip_friction_deg: float | None = None) -> list[Bench]:
+    return random_benches(n, HELDOUT_SEED, tip_friction_deg=tip_friction_deg)
 
 
 def draw_stress_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundation) -> Bench:
@@ -120,29 +134,25 @@ def outside_training_ranges(bench: Bench, foundation: Foundation) -> list[str]:
     return out
 
 
-def stress_benches(n: int = 50) -> list[Bench]:
+def stress_benches(n: int = 50, tip_friction_deg: float | None = None) -> list[Bench]:
     """The first ``n`` startable draws of :func:`draw_stress_bench` from the stream ``STRESS_SEED`` that lie
-    outside the training ranges in at least one parameter (a draw inside all of them is skipped)."""
+    outside the training ranges in at least one parameter (a draw inside all of them is skipped), with the tip
+    ``tip_friction_deg`` where given (:func:`first_startable`)."""
     specimen, foundation = make_config(None).base_specimen()
-    out: list[Bench] = []
-    i = 0
-    while len(out) < n:
-        bench = draw_stress_bench(np.random.default_rng([STRESS_SEED, i]), specimen, foundation)
-        if outside_training_ranges(bench, foundation) and _startable(bench, {}):
-            out.append(bench)
-        i += 1
-    return out
+    draws = (draw_stress_bench(np.random.default_rng([STRESS_SEED, i]), specimen, foundation)
+             for i in itertools.count())
+    return first_startable((b for b in draws if outside_training_ranges(b, foundation)), n, tip_friction_deg)
 
 
-def bench_set(name: str, n: int) -> list[Bench]:
+def bench_set(name: str, n: int, tip_friction_deg: float | None = None) -> list[Bench]:
     """The bench set ``name`` (:data:`BENCH_SETS`): ``n`` held-out or stress benches, or the nominal bench at the
-    paper's loads (``n`` is then ignored: there are 12)."""
+    paper's loads (``n`` is then ignored: there are 12); with a design's known tip ``tip_friction_deg`` where given."""
     if name == "heldout":
-        return heldout_benches(n)
+        return heldout_benches(n, tip_friction_deg)
     if name == "stress":
-        return stress_benches(n)
+        return stress_benches(n, tip_friction_deg)
     if name == "nominal":
-        return nominal_benches()
+        return [with_tip(b, tip_friction_deg) for b in nominal_benches()]
     raise ValueError(f"unknown bench set {name!r}; choose from {list(BENCH_SETS)}")
 
 

@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 
 from agents.bench_controllers import make_controller
-from agents.heldout import TUNING_SEED, Outcome, bench_set, random_benches, run_episode, with_tip
+from agents.heldout import TUNING_SEED, Outcome, bench_set, random_benches, run_episode
 
 NOISE_SEED = 40_040
 
@@ -45,9 +45,10 @@ class EpisodeBatch:
 
 
 def benches_of(batch: EpisodeBatch) -> list[Any]:
+    """The batch's benches, with its design's tip where it has one."""
     if batch.bench_set == "tuning":
-        return random_benches(batch.n, TUNING_SEED)
-    return bench_set(batch.bench_set, batch.n)
+        return random_benches(batch.n, TUNING_SEED, tip_friction_deg=batch.tip_friction_deg)
+    return bench_set(batch.bench_set, batch.n, batch.tip_friction_deg)
 
 
 @dataclass
@@ -88,9 +89,8 @@ def controller_of(batch: EpisodeBatch) -> tuple[Any, dict[str, Any], bool]:
 
 def run_batch(batch: EpisodeBatch) -> list[Outcome]:
     controller, env_kwargs, learned = controller_of(batch)
-    benches = [with_tip(b, batch.tip_friction_deg) for b in benches_of(batch)]
     return [run_episode(controller, b, env_kwargs=env_kwargs, seed=i if learned else noise_seed(i, batch.seed),
-                        bench_set=batch.bench_set, index=i) for i, b in enumerate(benches)]
+                        bench_set=batch.bench_set, index=i) for i, b in enumerate(benches_of(batch))]
 
 
 def outcome_table(batches: list[EpisodeBatch], results: list[list[Outcome]]) -> tuple[np.ndarray, np.ndarray]:

@@ -81,7 +81,8 @@ def batches_for(controller: str, design: Design | None, bench_set: str, n: int, 
     if unknown:
         raise ValueError(f"--seeds {unknown}: shipped agent {controller!r} has seeds {card['seeds']}")
     kwargs = tuple(sorted(design.env_kwargs().items())) if design is not None else ()
-    tip = design.tip_friction_deg if design is not None else None
+    # Without a design the agent runs on its own hardware (its card's arguments), known tip included.
+    tip = design.tip_friction_deg if design is not None else card["env_kwargs"].get("tip_friction_deg")
     return [EpisodeBatch(controller, f"shipped:{controller}", (), bench_set, n, tip, kwargs, s,
                          str(zoo_dir) if zoo_dir else None) for s in chosen]
 

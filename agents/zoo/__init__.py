@@ -131,8 +131,8 @@ def card_markdown(card: dict[str, Any]) -> str:
              "frame(s)", "", "| bench set | benches | episodes | success (95 % CI) | mimicry error over successes, "
              "mm (95 % CI) | CVaR 10 %, mm | score, mm (95 % CI) |", "|---|---|---|---|---|---|---|"]
     for bench_set, r in card["figures"].items():
-        lines.append(f"| {bench_set} | {r['n_benches']} | {r['n_episodes']} | {100 * r['success_rate']:.0f} % "
-                     f"({100 * r['success_low']:.0f}-{100 * r['success_high']:.0f}) | {r['mimicry_error_mm']:.2f} "
+        lines.append(f"| {bench_set} | {r['n_benches']} | {r['n_episodes']} | {100 * r['success_rate']:.1f} % "
+                     f"({100 * r['success_low']:.1f}-{100 * r['success_high']:.1f}) | {r['mimicry_error_mm']:.2f} "
                      f"({r['error_low_mm']:.2f}-{r['error_high_mm']:.2f}) | {r['cvar10_mm']:.2f} | {r['score']:.2f} "
                      f"({r['score_low']:.2f}-{r['score_high']:.2f}) |")
     lines += ["", "The model files are pickles: load them only through `agents.zoo.load_shipped` (trusted input, "

@@ -25,6 +25,21 @@ def test_stress_benches_lie_outside_the_training_ranges_and_apart_from_the_heldo
     assert [b.load_N for b in heldout.stress_benches(5)] == [b.load_N for b in stress[:5]]   # deterministic
 
 
+def test_a_design_tip_set_keeps_the_streams_benches_that_start_with_that_tip():
+    """A design's known tip (8 deg: the steel designs) is put on the set's benches; a stress bench that it holds at
+    rest is skipped (it used to stop the card's stress evaluation with StartError), and the held-out set is the
+    tipless one with the tip (what the design sweep's stored evaluations ran)."""
+    plain, tipped = heldout.stress_benches(170), heldout.bench_set("stress", 170, 8.0)
+    assert all(b.specimen.tip_friction_deg == 8.0 and heldout._startable(b, {}) for b in tipped)
+    held_at_rest = [b for b in plain if not heldout._startable(heldout.with_tip(b, 8.0), {})]
+    assert held_at_rest, "the stream's first 170 stress benches should include one an 8 deg tip cannot start"
+    assert not {b.load_N for b in held_at_rest} & {b.load_N for b in tipped}
+    assert [b.load_N for b in tipped[:5]] == [b.load_N for b in plain[:5]]
+    held, held_tipped = heldout.heldout_benches(100), heldout.bench_set("heldout", 100, 8.0)
+    assert [(b.load_N, b.specimen.friction_deg) for b in held_tipped] == [(b.load_N, b.specimen.friction_deg)
+                                                                          for b in held]
+
+
 def test_evaluate_refuses_unknown_names_listing_the_valid_ones(tmp_path, capsys):
     assert cli.main(["evaluate", "--controller", "nope", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
@@ -90,13 +105,15 @@ def test_evaluate_on_a_shipped_agent_reproduces_its_card(tiny_zoo, tmp_path, mon
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("name", ["ppo_robust", "ppo_steel_slow_noisy"])
 @pytest.mark.parametrize("bench_set", ["heldout", "stress"])
-def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, bench_set):
-    """The repository's own shipped agent (agents/zoo/ppo_robust: 5 seeds x 2 M steps): evaluate on the card's
-    benches gives the card's figures, each inside the card's interval."""
-    card = zoo.read_card("ppo_robust")
+def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, name, bench_set):
+    """The repository's own shipped agents (agents/zoo/ppo_robust: the default bench, 5 seeds x 2 M steps;
+    ppo_steel_slow_noisy: the study's recommended design, 3 seeds x 1 M steps, whose known 8 deg tip evaluate takes
+    from its card): evaluate on the card's benches gives the card's figures, each inside the card's interval."""
+    card = zoo.read_card(name)
     want = card["figures"][bench_set]
-    assert cli.main(["evaluate", "--controller", "ppo_robust", "--benches", bench_set, "--n", str(want["n_benches"]),
+    assert cli.main(["evaluate", "--controller", name, "--benches", bench_set, "--n", str(want["n_benches"]),
                      "--out", str(tmp_path)]) == 0
     got = json.loads((tmp_path / f"{bench_set}.json").read_text())
     assert got["n_episodes"] == want["n_episodes"] == want["n_benches"] * len(card["seeds"])

@@ -24,7 +24,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "frictionless_tip, tracking_tip, moment_matching, pi_feedback, adaptive) or a shipped agent "
                         "(a directory of agents/zoo); an unknown name lists them all")
     parser.add_argument("--design", default="default", help="actuator design of the bench study's sweep (default: "
-                        "the default bench); an unknown name lists them")
+                        "the default bench; a shipped agent runs on its model card's bench, known tip included); an "
+                        "unknown name lists them")
     parser.add_argument("--benches", default="heldout", choices=("heldout", "stress", "nominal"),
                         help="held-out specimens (the training ranges), stress specimens (outside them), or the "
                              "nominal specimen at the paper's 12 loads (default heldout)")
