@@ -22,14 +22,15 @@ import numpy as np
 
 from envs.prediction import BenchState, predict
 
-_SETTINGS = ("horizon", "block", "samples", "iterations", "elites", "sigma0", "seed", "pace_s")
+_SETTINGS = ("horizon", "block", "samples", "iterations", "elites", "sigma0", "seed", "pace_s", "normal_margin")
 
 
 @dataclass
 class CEMPlanner:
     """Cross-entropy planner (module docstring). ``samples`` candidates per iteration, ``iterations`` per decision,
     the ``elites`` best refit the sampling mean and spread (``sigma0`` at the start of each decision, in action
-    units); candidates stay within ``low``-``high`` (per action: a safety envelope)."""
+    units); candidates stay within ``low``-``high`` (per action: a safety envelope); ``normal_margin`` is
+    :func:`envs.prediction.predict`'s safety margin (zero: none)."""
 
     horizon: int = 20
     block: int = 4
@@ -39,6 +40,7 @@ class CEMPlanner:
     sigma0: float = 0.3
     seed: int = 0
     pace_s: float = 0.5
+    normal_margin: float = 0.0
     low: tuple[float, float] = (-1.0, -1.0)
     high: tuple[float, float] = (1.0, 1.0)
     _mean: np.ndarray | None = None
@@ -49,10 +51,10 @@ class CEMPlanner:
     @classmethod
     def with_settings_of(cls, owner: Any, **bounds: Any) -> CEMPlanner:
         """A planner whose settings (``horizon`` ... ``pace_s``) are read from the attributes of the same names on
-        ``owner`` (a controller that exposes them as its own fields, with its own defaults), converted to the
-        planner's types; ``bounds`` gives ``low``/``high``."""
+        ``owner`` (a controller that exposes them as its own fields, with its own defaults; one it lacks keeps the
+        planner's default), converted to the planner's types; ``bounds`` gives ``low``/``high``."""
         settings = {f.name: type(f.default)(getattr(owner, f.name)) for f in fields(cls)
-                    if f.name in _SETTINGS}
+                    if f.name in _SETTINGS and hasattr(owner, f.name)}
         return cls(**settings, **bounds)
 
     def __post_init__(self) -> None:
@@ -97,7 +99,7 @@ class CEMPlanner:
             plans = self._expand(cand)
             for state, weight in zip(states, w):
                 if weight > 0:
-                    costs += weight * predict(state, plans, self.pace_s)[0]
+                    costs += weight * predict(state, plans, self.pace_s, self.normal_margin)[0]
             self.evaluations += self.samples * len(states)
             order = np.argsort(costs, kind="stable")
             if costs[order[0]] < best_cost:

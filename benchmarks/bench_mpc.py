@@ -9,7 +9,8 @@ planner and settings with its bank replaced by the bench's true state: what ``mp
 perfectly) separate estimation error from planning error; for ``mpc`` the table also gives the RMS error of the
 estimator's final estimate against the bench's truth. ``--set stress``: the stress set (outside v1's ranges) instead
 of the held-out benches; ``--against OUT``: also the bench-by-bench differences from an earlier run on the same
-benches (a variant against the current settings, with an interval).
+benches (a variant against the current settings, with an interval); ``--against-study CSV``: the same against the
+study's rows of the same controller and of ``limit`` (its per-episode CSV), with the ratio to the limit.
 
 Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
 ``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table with the
@@ -189,24 +190,56 @@ def mpc_settings(pairs: list[str]) -> dict:
     return out
 
 
-def paired_differences(summary: dict, against: Path) -> None:
+def paired_differences(summary: dict, base: dict[str, tuple[list, list]], label: str) -> None:
     """Bench-by-bench differences of each controller's score (and error, over benches both succeeded on) from the
-    same controller's in ``against``'s summary (a run on the same benches): mean and bootstrap 95 % interval
-    (:func:`experiments.stats.bootstrap_ci`), so that a variant is compared with the same benches' noise removed."""
-    from experiments.stats import bootstrap_ci, mean_of_successes
+    same controller's in ``base`` (name -> scores, errors on the same benches, e.g. an earlier run's summary or the
+    study's rows): mean and bootstrap 95 % interval (:func:`experiments.stats.bootstrap_ci`), so that a variant is
+    compared with the same benches' noise removed; with ``base["limit"]`` also the ratio of the scores' means with
+    its paired bootstrap interval."""
+    from experiments.stats import bootstrap_ci, hierarchical_resamples, mean_of_successes
+    for name, row in summary["controllers"].items():
+        for other in dict.fromkeys((name, "limit")):
+            if other not in base:
+                continue
+            scores, errors = (np.asarray(v, dtype=float) for v in base[other])
+            score = np.array(row["scores"]) - scores
+            ok = np.array(row["errors"], dtype=float) - errors  # NaN: either failed
+            d, lo, hi = bootstrap_ci(score[None, :], lambda t: float(np.mean(t)))
+            e, elo, ehi = bootstrap_ci(ok[None, :], mean_of_successes)
+            print(f"  {name} minus {other} of {label}: score {d:+.3f} mm ({lo:+.3f} to {hi:+.3f}), error over benches "
+                  f"both succeeded on {e:+.3f} mm ({elo:+.3f} to {ehi:+.3f}, {int(np.isfinite(ok).sum())} benches)")
+            if other == "limit" and name != "limit":
+                mine = np.array(row["scores"])
+                _, benches = hierarchical_resamples(1, len(mine))  # the same benches for both: paired
+                rlo, rhi = np.quantile(mine[benches].mean(axis=1) / scores[benches].mean(axis=1), [0.025, 0.975])
+                r = mine.mean() / scores.mean()
+                print(f"  {name} score / limit's of {label}: {r:.2f} ({rlo:.2f}-{rhi:.2f})")
+
+
+def run_base(summary: dict, against: Path) -> dict[str, tuple[list, list]]:
+    """An earlier run's scores and errors per controller (``--against``), checked to be on the same benches."""
     base = json.loads((against / "summary.json").read_text())
     if (base["benches"], base["stream"]) != (summary["benches"], summary["stream"]):
         raise SystemExit(f"--against {against}: other benches ({base['benches']} of stream {base['stream']})")
-    for name, row in summary["controllers"].items():
-        if name not in base["controllers"]:
-            continue
-        other = base["controllers"][name]
-        score = np.array(row["scores"]) - np.array(other["scores"])
-        ok = np.array(row["errors"], dtype=float) - np.array(other["errors"], dtype=float)  # NaN: either failed
-        d, lo, hi = bootstrap_ci(score[None, :], lambda t: float(np.mean(t)))
-        e, elo, ehi = bootstrap_ci(ok[None, :], mean_of_successes)
-        print(f"  {name} minus {against}: score {d:+.3f} mm ({lo:+.3f} to {hi:+.3f}), error over benches both "
-              f"succeeded on {e:+.3f} mm ({elo:+.3f} to {ehi:+.3f}, {int(np.isfinite(ok).sum())} benches)")
+    return {name: (row["scores"], row["errors"]) for name, row in base["controllers"].items()}
+
+
+def study_base(summary: dict, episodes_csv: Path) -> dict[str, tuple[list, list]]:
+    """The study's one-replicate rows (seed 0) of the same bench set from its per-episode CSV
+    (``heldout_episodes.csv``, ``--against-study``): scores and errors per controller, first ``--benches`` benches."""
+    import csv
+    set_name = "stress" if summary["stream"] == "stress" else "heldout"
+    if summary["stream"] not in ("stress", HELDOUT_SEED):
+        raise SystemExit("--against-study: the study's rows are of the held-out and stress benches only")
+    n, base = summary["benches"], {}
+    with open(episodes_csv, newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["bench_set"] == set_name and r["seed"] == "0"]
+    for name in {r["controller"] for r in rows}:
+        mine = sorted((r for r in rows if r["controller"] == name), key=lambda r: int(r["index"]))[:n]
+        if len(mine) == n:
+            errors = [float(r["mimicry_error_mm"]) if r["success"] == "1" else math.nan for r in mine]
+            base[name] = ([FAILURE_SCORE_MM if math.isnan(e) else e for e in errors], errors)
+    return base
 
 
 def main() -> None:
@@ -234,6 +267,10 @@ def main() -> None:
     parser.add_argument("--against", metavar="OUT", default=None,
                         help="also print each controller's bench-by-bench differences from the same controller in "
                              "this earlier run's summary (same --benches and --stream)")
+    parser.add_argument("--against-study", metavar="CSV", default=None,
+                        help="also the differences from the study's rows of the same controller and its limit in "
+                             "this per-episode CSV (docs/actuator-study/heldout_episodes.csv), with the ratio to "
+                             "the limit")
     args = parser.parse_args()
     out = Path(args.out)
     if args.identify:
@@ -299,7 +336,9 @@ def main() -> None:
         if "estimate_rms" in r:
             print(f"  {name}: RMS error of the final estimate: " + ", ".join(f"{k} {v:.2f}" for k, v in r["estimate_rms"].items()))
     if args.against:
-        paired_differences(summary, Path(args.against))
+        paired_differences(summary, run_base(summary, Path(args.against)), str(args.against))
+    if args.against_study:
+        paired_differences(summary, study_base(summary, Path(args.against_study)), "the study")
     print(json.dumps({k: v["score"] for k, v in summary["controllers"].items()}))
 
 

@@ -16,6 +16,15 @@ into the time limit (the score counts a failure as 10 mm; this is 50 mm by defau
 plus ``cfg[CF_FAIL]`` times the travel by which the block lags a pace of the whole travel in ``pace_s`` at the
 horizon's end (without it a short horizon lets the block creep: creeping costs nothing within the horizon, and
 the time limit or an arrest lies beyond it).
+
+**Safety margin** (optional, zero by default: ``limit`` plans on the truth and needs none). A controller that
+predicts with a hypothesis rather than the bench's state (``mpc``) can ask a candidate to keep its distance from
+lift-off (``triplanar.outcome``): each period the smallest normal reaction is compared with ``normal_margin`` times
+the normal load, and the deepest intrusion into that margin over the horizon, as a fraction of the margin (0-1), adds
+that fraction of the failure penalty. A graded penalty rather than a hard one, so that a plan that starts inside the
+margin still has a direction out of it. (Leaving a plane has no such margin: at rest a contact point already sits
+within 10 um in height of a neighbouring plane, so the kernel's left-plane event value does not measure a distance to
+that failure.)
 """
 
 from __future__ import annotations
@@ -27,6 +36,8 @@ from numba import njit
 
 from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
+from triplanar import kernel as K
+
 from .core import (
     CF_FAIL,
     CF_TRAVEL,
@@ -35,7 +46,10 @@ from .core import (
     IN_TRUNC,
     N_INFO,
     OBS_DIM,
+    EW_AUX,
+    EW_DY,
     ST_ERR_NUM,
+    ST_LOAD,
     ST_T,
     control_step,
     new_workspace,
@@ -82,20 +96,33 @@ def step_state(y, p, modes, armed, st, ref, cfg, bc, bs, queue, raw, applied, ob
 
 
 @njit(cache=True, error_model="numpy")
+def margin_intrusion(y, p, st, normal_margin, ws) -> float:
+    """How deep the block is into the normal-reaction margin (module docstring), as a fraction 0-1 of it."""
+    aux, dy = ws[EW_AUX, :K.N_AUX], ws[EW_DY, :K.N_STATE]
+    K.rhs_ws(st[ST_T], y, p, dy, aux, ws)
+    limit = normal_margin * st[ST_LOAD]
+    worst = 0.0
+    for i in range(3):
+        worst = max(worst, (limit - aux[K.A_N + i]) / limit)
+    return min(worst, 1.0)
+
+
+@njit(cache=True, error_model="numpy")
 def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans, pace_s, costs, dists,
-                  codes) -> None:
+                  codes, normal_margin=0.0) -> None:
     """Run every candidate ``plans[i]`` (horizon x 2 raw actions) from the given state; write its cost (module
     docstring) into ``costs[i]``, the distance after each period (mm) into ``dists[i]`` and the outcome of each
     period into ``codes[i]`` (-1 after the end; ``TIME_LIMIT`` for a truncation)."""
     n, horizon = plans.shape[0], plans.shape[1]
     ws = new_workspace()
     applied, obs, inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
+    guarded = normal_margin > 0.0
     travel = cfg[CF_TRAVEL]
     for i in range(n):
         y, p, modes, armed, st = y0.copy(), p0.copy(), modes0.copy(), armed0.copy(), st0.copy()
         bs, queue = bs0.copy(), queue0.copy()
         failed = False
-        dist, s = 0.0, 0.0
+        dist, s, intrusion = 0.0, 0.0, 0.0
         for k in range(horizon):
             codes[i, k] = -1
             dists[i, k] = np.nan
@@ -111,9 +138,12 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
             if code != RUNNING:
                 failed = code != TRAVEL
                 break
+            if guarded:
+                intrusion = max(intrusion, margin_intrusion(y, p, st, normal_margin, ws))
         cost = st[ST_ERR_NUM] + dist * max(travel - s, 0.0)
         if not failed and s < travel:
             cost += cfg[CF_FAIL] * max(travel * st[ST_T] / pace_s - s, 0.0)
+        cost += cfg[CF_FAIL] * travel * intrusion
         if failed or not np.isfinite(cost):
             cost = st[ST_ERR_NUM] + cfg[CF_FAIL] * travel
             if not np.isfinite(cost):
@@ -121,15 +151,17 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
         costs[i] = cost
 
 
-def predict(state: BenchState, plans: np.ndarray, pace_s: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def predict(state: BenchState, plans: np.ndarray, pace_s: float = 1.0,
+            normal_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Costs, distances and outcome codes of the candidates ``plans`` (n x horizon x 2) from ``state``; ``pace_s``
-    (module docstring) is half the env's 2 s time limit by default."""
+    (module docstring) is half the env's 2 s time limit by default; ``normal_margin`` (a fraction of the normal
+    load) is the safety margin (module docstring; zero: none)."""
     plans = np.ascontiguousarray(plans, dtype=np.float64)
     n, horizon = plans.shape[:2]
     costs, dists, codes = np.empty(n), np.empty((n, horizon)), np.empty((n, horizon), dtype=np.int64)
     s = state
     rollout_costs(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, plans, float(pace_s), costs,
-                  dists, codes)
+                  dists, codes, float(normal_margin))
     return costs, dists, codes
 
 
@@ -138,5 +170,6 @@ def warm_up(env) -> None:
     reset v1 ``env``; the env is left alone."""
     state = snapshot(env)
     predict(state, np.zeros((2, 3, 2)))
+    predict(state, np.zeros((2, 3, 2)), 1.0, 0.1)
     step_state(state.y, state.p, state.modes, state.armed, state.st, state.ref, state.cfg, state.bc, state.bs,
                state.queue, np.zeros(2), np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO), new_workspace())

@@ -93,3 +93,22 @@ def test_estimator_divergence_falls_back_to_the_prior_and_sends_finite_actions()
     action = controller.act(obs)
     assert controller.info["estimator_fallback"] and controller.info["fallbacks"] == 1
     assert np.all(np.isfinite(action))
+
+
+def test_normal_margin_penalises_without_changing_the_prediction():
+    """The safety margin only adds to a candidate's cost: the predicted paths and outcomes are the same, the cost
+    grows with the margin, and a margin of zero is the plain cost bitwise."""
+    env = TriPlanarShearV1Env(observation_mode="state")
+    env.reset(seed=0, options={"bench": nominal_benches([30.0])[0]})
+    state = snapshot(env)
+    plans = np.random.default_rng(5).uniform(-1.0, 1.0, (12, 20, 2))
+    costs, dists, codes = predict(state, plans, 0.3)
+    previous = costs
+    for margin in (0.0, 0.2, 0.4):
+        c, d, k = predict(state, plans, 0.3, margin)
+        np.testing.assert_array_equal(d, dists)
+        np.testing.assert_array_equal(k, codes)
+        assert np.all(c >= previous)
+        previous = c
+    assert np.array_equal(predict(state, plans, 0.3, 0.0)[0], costs)
+    assert np.any(previous > costs)  # at 0.4 of the load some candidate's smallest reaction is inside the margin

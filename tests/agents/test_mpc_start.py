@@ -32,3 +32,26 @@ def test_without_excitation_the_start_is_the_nominal_command():
     actions = np.array([controller.act(obs) for _ in range(3)], dtype=float)
     nominal = [2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m]
     assert np.allclose(actions, nominal, atol=1e-7)
+
+
+@pytest.mark.parametrize("ramp", [0, 4])
+def test_the_plans_envelope_opens_after_the_start_and_keeps_the_offset_range(ramp):
+    """The planner's bounds: the thrust within 1 +- thrust_envelope load levels and the tip within +- offset_envelope
+    of its range; with ramp_periods they open linearly over that many periods after the start (variants of the
+    tuning rounds)."""
+    config = make_config(None)
+    controller = MPCController(bank_size=4, samples=4, elites=2, iterations=1, horizon=4, start_periods=2,
+                               replan_every=1, thrust_envelope=0.4, offset_envelope=0.5, ramp_periods=ramp)
+    controller.reset(40.0, config)
+    obs = np.zeros(15, dtype=np.float32)
+    highs = []
+    for _ in range(2 + 6):
+        controller.act(obs)
+        highs.append(controller.planner.high)
+    full = (0.4, 0.5)
+    if ramp == 0:
+        assert all(h == pytest.approx(full) for h in highs)
+    else:  # periods 3-6 after a 2-period start: 1/4, 2/4, 3/4, 1 of the envelope, then 1
+        assert [h[1] for h in highs[2:]] == pytest.approx([0.125, 0.25, 0.375, 0.5, 0.5, 0.5])
+        assert [h[0] for h in highs[2:]] == pytest.approx([0.1, 0.2, 0.3, 0.4, 0.4, 0.4])
+    assert controller.planner.low == pytest.approx((-0.4, -0.5))
