@@ -31,7 +31,8 @@ iterations are ``limit``'s kind of setting and were not searched (with the bench
 The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
 specimen (``prior``: the env's nominal specimen by default, or a ``Specimen``, or the path of a ``fit.json`` or
 specimen TOML, :func:`triplanar.prior.load_prior`; a fit's 95 % intervals then bound the hypotheses of what it
-fitted, e.g. the tip friction), never the bench's true specimen.
+fitted, e.g. the tip friction), never the bench's true specimen. Where the laboratory knows its tip's friction (a
+design of the bench study, whose tip is fixed), ``tip_friction_deg`` holds every hypothesis at it.
 After each ``act`` its :attr:`MPCController.info` holds the estimate (mean, tip-friction interval), whether the
 estimator fell back to the prior this period (``estimator_fallback``) and how often in the episode, and the CPU
 time of the decision. It never sends a non-finite action: if the plan is not finite it holds its last action and
@@ -89,6 +90,7 @@ class MPCController:
     thrust_bandwidth_hz: float = 30.0
     latency_s: float = 0.005
     sensor_noise_m: float = 2e-4
+    tip_friction_deg: float | None = None
     prior: Any = None
     info: dict = field(default_factory=dict)
 
@@ -100,6 +102,8 @@ class MPCController:
         if isinstance(prior, (str, Path)):  # a fit: its specimen, and its intervals narrow the hypotheses
             intervals = fitted_intervals(prior)
             prior = load_prior(prior, specimen, foundation)
+        if self.tip_friction_deg is not None:  # a tip the laboratory knows (a design's): every hypothesis holds it
+            intervals["tip_friction_deg"] = (float(self.tip_friction_deg),) * 2
         shear = {f: getattr(config, f) for f in ShearConfig.__dataclass_fields__ if f not in ("specimen", "foundation")}
         env_kwargs = {**shear, "specimen": prior, "foundation": foundation, "observation_mode": "state",
                       "stage_bandwidth_hz": self.stage_bandwidth_hz, "thrust_bandwidth_hz": self.thrust_bandwidth_hz,

@@ -62,6 +62,8 @@ def scripted_batch(name: str, design: Design | None, bench_set: str, n: int, see
         params.update(pi or PI_GAINS)
     if factory == "adaptive":
         params.update(adaptive or ADAPTIVE_GAINS)
+    if factory == "mpc" and design is not None:  # it predicts with the hardware and the tip the laboratory built
+        params.update(design.env_kwargs(), tip_friction_deg=design.tip_friction_deg)
     kwargs = tuple(sorted(design.env_kwargs().items())) if design is not None else ()
     return EpisodeBatch(label or name, factory, tuple(params.items()), bench_set, n,
                         fixed_tip if fixed_tip is not None else bench_tip, kwargs, seed)

@@ -177,3 +177,19 @@ def test_help_texts_format(capsys):
         assert exit_.value.code == 0
     out = capsys.readouterr().out
     assert "stress" in out and "agents/zoo" in out
+
+
+def test_mpc_on_a_design_predicts_with_its_hardware_and_known_tip():
+    """On a design of the sweep ``mpc`` is told what the laboratory built (stage, latency, noise, the tip's
+    friction), as ``limit`` reads it from the env; on the default bench it keeps v1's defaults and an unknown tip."""
+    from agents.bench_controllers import make_controller
+    from experiments.designs import design_by_name
+    design = design_by_name("rolling_slow_noisy")
+    batch = ev.scripted_batch("mpc", design, "heldout", 2, 0)
+    params = dict(batch.params)
+    assert params == {**design.env_kwargs(), "tip_friction_deg": design.tip_friction_deg}
+    assert dict(ev.scripted_batch("mpc", None, "heldout", 2, 0).params) == {}
+    controller = make_controller("mpc", **params, bank_size=6)
+    controller.reset(40.0, make_config(None))
+    assert np.all(controller.bank.theta[:, 0] == design.tip_friction_deg)  # every hypothesis holds the known tip
+    assert controller.bank.env_kwargs["stage_bandwidth_hz"] == design.stage_bandwidth_hz
