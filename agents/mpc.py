@@ -24,9 +24,9 @@ hypotheses held safe. ``start_periods``, ``start_thrust``, ``start_offset_m``, `
 ``thrust_envelope``, ``pace_s``, ``bank_size``, ``hypotheses`` and ``normal_margin`` were chosen on the tuning benches
 only (stream ``agents.heldout.TUNING_SEED``, 30, 60 then 200 benches, one setting at a time, by the score and the
 bench-by-bench difference in error; ``docs/actuator-study.md`` lists the variants tried, ``ramp_periods`` and
-``offset_envelope`` among them, left at their defaults), never on the held-out ones; the planner's horizon, candidates and
-iterations are ``limit``'s kind of setting and were not searched (with the bench's true state this planner is within
-5 % of ``limit`` on the tuning benches).
+``offset_envelope`` among them, left at their defaults), never on the held-out ones; the planner's horizon,
+candidates and iterations are ``limit``'s kind of setting and were not searched (with the bench's true state this
+planner is within 5 % of ``limit`` on the tuning benches).
 
 The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
 specimen (``prior``: the env's nominal specimen by default, or a ``Specimen``, or the path of a ``fit.json`` or

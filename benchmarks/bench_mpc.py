@@ -10,7 +10,8 @@ perfectly) separate estimation error from planning error; for ``mpc`` the table 
 estimator's final estimate against the bench's truth. ``--set stress``: the stress set (outside v1's ranges) instead
 of the held-out benches; ``--against OUT``: also the bench-by-bench differences from an earlier run on the same
 benches (a variant against the current settings, with an interval); ``--against-study CSV``: the same against the
-study's rows of the same controller and of ``limit`` (its per-episode CSV), with the ratio to the limit.
+study's rows of the same controller and of ``limit`` (its per-episode CSV), with the ratio to the limit;
+``--mpc FIELD=VALUE`` / ``--limit FIELD=VALUE``: a setting of ``mpc`` (and ``mpc_true``) / ``limit`` (variants).
 
 Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
 ``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table with the
@@ -175,18 +176,18 @@ def identify_then_control(fit: str, tip_deg: float | None, n: int) -> None:
               f"successes {row['mimicry_error_mm']:.2f} mm, score {row['score']:.2f} mm")
 
 
-def mpc_settings(pairs: list[str]) -> dict:
-    """``FIELD=VALUE`` pairs as MPCController settings (values parsed as JSON numbers or booleans)."""
-    from agents.mpc import MPCController
+def controller_settings(pairs: list[str], option: str, cls: type) -> dict:
+    """``FIELD=VALUE`` pairs of ``option`` as settings of the dataclass ``cls`` (values parsed as JSON numbers or
+    booleans)."""
     out = {}
     for pair in pairs:
         field, sep, value = pair.partition("=")
-        if not sep or field not in MPCController.__dataclass_fields__:
-            raise SystemExit(f"--mpc {pair!r}: expected FIELD=VALUE with FIELD one of MPCController's settings")
+        if not sep or field not in cls.__dataclass_fields__:
+            raise SystemExit(f"{option} {pair!r}: expected FIELD=VALUE with FIELD one of {cls.__name__}'s settings")
         try:
             out[field] = json.loads(value)
         except json.JSONDecodeError:
-            raise SystemExit(f"--mpc {pair!r}: VALUE must be a number or true/false") from None
+            raise SystemExit(f"{option} {pair!r}: VALUE must be a number or true/false") from None
     return out
 
 
@@ -253,6 +254,8 @@ def main() -> None:
     parser.add_argument("--mpc", action="append", default=[], metavar="FIELD=VALUE",
                         help="an MPCController setting for mpc and mpc_true, e.g. --mpc start_periods=0 (repeatable; "
                              "the variants of docs/actuator-study.md)")
+    parser.add_argument("--limit", action="append", default=[], metavar="FIELD=VALUE",
+                        help="a LimitController setting, e.g. --limit normal_margin=0.1 (repeatable)")
     parser.add_argument("--stream", type=int, default=HELDOUT_SEED,
                         help="draw the benches from this seed stream instead of the held-out one (an independent set)")
     parser.add_argument("--set", choices=("heldout", "stress"), default="heldout",
@@ -282,10 +285,12 @@ def main() -> None:
     names = args.controllers.split(",")
     stream = "stress" if args.set == "stress" else args.stream
     summary = {"benches": args.benches, "stream": stream, "controllers": {}}
-    mpc = mpc_settings(args.mpc)
+    from agents.limit import LimitController
+    from agents.mpc import MPCController
+    mpc = controller_settings(args.mpc, "--mpc", MPCController)
     if args.replan_every is not None:
         mpc["replan_every"] = args.replan_every
-    own = {**SCRIPTED, "mpc": mpc, "mpc_true": mpc}
+    own = {**SCRIPTED, "mpc": mpc, "mpc_true": mpc, "limit": controller_settings(args.limit, "--limit", LimitController)}
     for name in names:
         tasks = [(name, own.get(name, {}), i, args.benches, stream) for i in range(args.benches)]
         wall = time.perf_counter()

@@ -3,12 +3,12 @@
 ``PYTHONPATH=. python benchmarks/design_mpc.py --out runs/design_mpc [--n 50] [--workers 2]
 [--study docs/actuator-study/designs.csv]``
 
-For each design: ``triplanar evaluate --controller mpc --design D --n N`` (the design's first ``N`` held-out benches
-with its tip, the benches of the study's model-based rows; ``mpc`` told the design's hardware and known tip,
-:func:`experiments.evaluate.scripted_batch`), written to ``OUT/D/`` as ``evaluate`` writes it; a design whose
-``OUT/D/heldout.json`` exists is not run again (resumable). Then a table per design: the new ``mpc`` row, the
-study's ``limit`` (same benches) and the ratio of the scores, the study's own ``mpc`` row, and the best buildable
-controller among the study's rows and the new ``mpc`` with its distance to the limit. Results go to
+For each design and each of ``mpc`` and ``limit``: ``triplanar evaluate --controller C --design D --n N`` (the
+design's first ``N`` held-out benches with its tip, the benches of the study's model-based rows; ``mpc`` told the
+design's hardware and known tip, :func:`experiments.evaluate.scripted_batch`), written to ``OUT/C/D/`` as
+``evaluate`` writes it; one whose ``heldout.json`` exists is not run again (resumable). Then a table per design: the
+current ``mpc`` and ``limit`` rows and the ratio of their scores, the study's rows of both, and the best buildable
+controller among the study's rows and the current ``mpc`` with its distance to the current limit. Results go to
 ``docs/actuator-study.md`` by hand, with the command.
 """
 
@@ -24,10 +24,11 @@ from experiments.evaluate import evaluate, write
 from triplanar.executor import pool_scope, run_tasks
 
 
-def run_design(task: tuple[str, int, str]) -> str:
-    name, n, out = task
-    if not (Path(out) / name / "heldout.json").exists():
-        write(evaluate("mpc", design=name, n=n, progress=False), Path(out) / name)
+def run_design(task: tuple[str, str, int, str]) -> str:
+    controller, name, n, out = task
+    where = Path(out) / controller / name
+    if not (where / "heldout.json").exists():
+        write(evaluate(controller, design=name, n=n, progress=False), where)
     return name
 
 
@@ -48,23 +49,25 @@ def main() -> None:
     parser.add_argument("--study", default="docs/actuator-study/designs.csv")
     args = parser.parse_args()
     names = [d.name for d in DESIGNS]
+    tasks = [(controller, name, args.n, args.out) for name in names for controller in ("mpc", "limit")]
     with pool_scope(args.workers) as ex:
-        run_tasks(run_design, [(name, args.n, args.out) for name in names], ex, progress=True, desc="designs")
+        run_tasks(run_design, tasks, ex, progress=True, desc="designs")
     study = study_rows(Path(args.study))
-    print("| design | `mpc` now: success, % (95 % CI) | error over successes, mm (95 % CI) | score, mm (95 % CI) | "
-          "`limit` (study), score | `mpc` now / limit | `mpc` in the study, score | best buildable | best / limit |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| design | `mpc` now: success, % | error over successes, mm (95 % CI) | score, mm (95 % CI) | "
+          "`limit` now: success, % | score, mm (95 % CI) | `mpc` / limit | study: `mpc`, `limit` scores | "
+          "best buildable | best / limit |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for name in names:
-        r = json.loads((Path(args.out) / name / "heldout.json").read_text())
-        limit = float(study[name]["limit"]["score"])
-        old = float(study[name]["mpc"]["score"])
+        r, lim = (json.loads((Path(args.out) / c / name / "heldout.json").read_text()) for c in ("mpc", "limit"))
         others = {c: float(v["score"]) for c, v in study[name].items() if c not in ("mpc", "limit")}
         others["mpc"] = r["score"]
         best = min(others, key=others.get)
-        print(f"| {name} | {100 * r['success_rate']:.1f} ({100 * r['success_low']:.1f}-{100 * r['success_high']:.1f}) | "
-              f"{r['mimicry_error_mm']:.2f} ({r['error_low_mm']:.2f}-{r['error_high_mm']:.2f}) | {r['score']:.2f} "
-              f"({r['score_low']:.2f}-{r['score_high']:.2f}) | {limit:.2f} | {r['score'] / limit:.2f} | {old:.2f} | "
-              f"`{best}` {others[best]:.2f} | {others[best] / limit:.2f} |")
+        print(f"| {name} | {100 * r['success_rate']:.0f} | {r['mimicry_error_mm']:.2f} ({r['error_low_mm']:.2f}-"
+              f"{r['error_high_mm']:.2f}) | {r['score']:.2f} ({r['score_low']:.2f}-{r['score_high']:.2f}) | "
+              f"{100 * lim['success_rate']:.0f} | {lim['score']:.2f} ({lim['score_low']:.2f}-{lim['score_high']:.2f}) | "
+              f"{r['score'] / lim['score']:.2f} | {float(study[name]['mpc']['score']):.2f}, "
+              f"{float(study[name]['limit']['score']):.2f} | `{best}` {others[best]:.2f} | "
+              f"{others[best] / lim['score']:.2f} |")
 
 
 if __name__ == "__main__":

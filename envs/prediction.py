@@ -17,14 +17,14 @@ plus ``cfg[CF_FAIL]`` times the travel by which the block lags a pace of the who
 horizon's end (without it a short horizon lets the block creep: creeping costs nothing within the horizon, and
 the time limit or an arrest lies beyond it).
 
-**Safety margin** (optional, zero by default: ``limit`` plans on the truth and needs none). A controller that
-predicts with a hypothesis rather than the bench's state (``mpc``) can ask a candidate to keep its distance from
-lift-off (``triplanar.outcome``): each period the smallest normal reaction is compared with ``normal_margin`` times
-the normal load, and the deepest intrusion into that margin over the horizon, as a fraction of the margin (0-1), adds
-that fraction of the failure penalty. A graded penalty rather than a hard one, so that a plan that starts inside the
-margin still has a direction out of it. (Leaving a plane has no such margin: at rest a contact point already sits
-within 10 um in height of a neighbouring plane, so the kernel's left-plane event value does not measure a distance to
-that failure.)
+**Safety margin** (optional, zero by default). A controller can ask a candidate to keep its distance from lift-off
+(``triplanar.outcome``): ``mpc``, whose hypotheses are not the bench, and ``limit``, whose search does not see past
+its horizon, both ask for 0.1 of the normal load. Each period the smallest normal reaction is compared with
+``normal_margin`` times the normal load, and the deepest intrusion into that margin over the horizon, as a fraction of
+the margin (0-1), adds that fraction of the failure penalty. A graded penalty rather than a hard one, so that a plan
+that starts inside the margin still has a direction out of it. (Leaving a plane has no such margin: at rest a contact
+point already sits within 10 um in height of a neighbouring plane, so the kernel's left-plane event value does not
+measure a distance to that failure.)
 """
 
 from __future__ import annotations
@@ -34,20 +34,19 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
-
 from triplanar import kernel as K
+from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
 from .core import (
     CF_FAIL,
     CF_TRAVEL,
+    EW_AUX,
+    EW_DY,
     IN_DIST,
     IN_TRAVEL,
     IN_TRUNC,
     N_INFO,
     OBS_DIM,
-    EW_AUX,
-    EW_DY,
     ST_ERR_NUM,
     ST_LOAD,
     ST_T,
