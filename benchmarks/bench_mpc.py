@@ -243,7 +243,7 @@ def study_base(summary: dict, episodes_csv: Path) -> dict[str, tuple[list, list]
     return base
 
 
-def main() -> None:
+def parse_args() -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--benches", type=int, default=50)
     parser.add_argument("--out", default="runs/bench_mpc")
@@ -274,7 +274,11 @@ def main() -> None:
                         help="also the differences from the study's rows of the same controller and its limit in "
                              "this per-episode CSV (docs/actuator-study/heldout_episodes.csv), with the ratio to "
                              "the limit")
-    args = parser.parse_args()
+    return parser.parse_args()
+
+
+def main() -> None:
+    args = parse_args()
     out = Path(args.out)
     if args.identify:
         identify_then_control(args.identify, args.tip_deg, args.benches)
