@@ -3,9 +3,9 @@ specimen, bench dynamics and the true specimen's case-C reference (:func:`envs.p
 period replans the action sequence by the cross-entropy method over rollouts of the env's own compiled step
 (:class:`agents.planner.CEMPlanner`), sending the first action. Its plans keep ``mpc``'s margin from lift-off
 (0.1 of the normal load): with the truth a plan at the edge of lift-off is no error, but the cross-entropy search
-over a 120 ms horizon does not see what lies beyond it: without the margin it lifted the block off on 1 of the 200
-held-out benches of the default bench and 1 of 50 of ``steel_ideal``, with it on none (``docs/actuator-study.md``;
-its arrests on the fast PTFE designs, from the pace, remain). No laboratory can build it (it sees the truth); it
+over a 120 ms horizon does not see what lies beyond it: without the margin it failed on 1 of the 200 held-out
+benches of the default bench (an arrest) and 1 of 50 of ``steel_ideal``, with it on none (``docs/actuator-study.md``;
+its arrests on the fast PTFE designs remain). No laboratory can build it (it sees the truth); it
 is the reference a design's real controllers are judged against (``docs/actuator-study.md``).
 
 It needs the env: :func:`agents.heldout.run_episode` hands it over through :meth:`bind` (a controller with
