@@ -1,14 +1,14 @@
 """``limit``: what a bench design allows, with perfect knowledge. The controller reads the env's exact state, true
 specimen, bench dynamics and the true specimen's case-C reference (:func:`envs.prediction.snapshot`), and each
 period replans the action sequence by the cross-entropy method over rollouts of the env's own compiled step
-(:class:`agents.planner.CEMPlanner`), sending the first action. Its plans keep ``mpc``'s margin from lift-off
-(0.1 of the normal load) and ``mpc``'s pace (0.3 s): with the truth neither should be needed, but the
-cross-entropy search over a 120 ms horizon does not see what lies beyond it. With pace 0.5 s and no margin (the
-study run's ``limit``) it failed on 1 of the 200 held-out benches of the default bench (an arrest) and on 1-2 of 50
-on 9 of the 14 designs; with the margin still on 5 designs, every failure an arrest (the block let slow until
-friction held it). Margin then pace lowered its score on the default bench from 0.54 to 0.47 to 0.42 mm
-(``docs/actuator-study.md``): the limit is the best plan this search finds, an upper bound on the optimum. No laboratory can build it (it sees the truth); it
-is the reference a design's real controllers are judged against (``docs/actuator-study.md``).
+(:class:`agents.planner.CEMPlanner`), sending the first action. Its plans keep ``mpc``'s margin from lift-off (0.1 of
+the normal load) and ``mpc``'s pace (0.3 s): with the truth neither should be needed, but the cross-entropy search
+over a 120 ms horizon does not see what lies beyond it. With pace 0.5 s and no margin (the study run's ``limit``) it
+failed on 1 of the 200 held-out benches of the default bench (an arrest) and on 1-2 of 50 on 9 of the 14 designs; with
+the margin still on 5 designs, every failure an arrest (the block let slow until friction held it). Margin then pace
+lowered its score on the default bench from 0.54 to 0.47 to 0.42 mm (``docs/actuator-study.md``): the limit is the
+best plan this search finds, an upper bound on the optimum. No laboratory can build it (it sees the truth); it is the
+reference a design's real controllers are judged against (``docs/actuator-study.md``).
 
 It needs the env: :func:`agents.heldout.run_episode` hands it over through :meth:`bind` (a controller with
 ``needs_env = True``).

@@ -49,13 +49,12 @@ class CEMPlanner:
     evaluations: int = 0
 
     @classmethod
-    def with_settings_of(cls, owner: Any, **bounds: Any) -> CEMPlanner:
-        """A planner whose settings (``horizon`` ... ``pace_s``) are read from the attributes of the same names on
-        ``owner`` (a controller that exposes them as its own fields, with its own defaults; one it lacks keeps the
-        planner's default), converted to the planner's types; ``bounds`` gives ``low``/``high``."""
-        settings = {f.name: type(f.default)(getattr(owner, f.name)) for f in fields(cls)
-                    if f.name in _SETTINGS and hasattr(owner, f.name)}
-        return cls(**settings, **bounds)
+    def with_settings_of(cls, owner: Any) -> CEMPlanner:
+        """A planner whose settings (``horizon`` ... ``normal_margin``) are read from the attributes of the same names
+        on ``owner`` (a controller that exposes them as its own fields, with its own defaults), converted to the
+        planner's types; ``low``/``high`` are the owner's to set (``mpc`` sets its envelope)."""
+        settings = {f.name: type(f.default)(getattr(owner, f.name)) for f in fields(cls) if f.name in _SETTINGS}
+        return cls(**settings)
 
     def __post_init__(self) -> None:
         for name in ("horizon", "block", "samples", "iterations", "elites"):
