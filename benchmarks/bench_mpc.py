@@ -6,12 +6,13 @@
 ``--identify FIT.json [--tip-deg D]``: ``mpc`` with a fit as prior against the drawing's prior instead.
 ``--stream 20020`` (the tuning stream, ``agents.heldout.TUNING_SEED``) and the controller ``mpc_true`` (``mpc``'s
 planner and settings with its bank replaced by the bench's true state: what ``mpc`` would do if it estimated
-perfectly) separate estimation error from planning error; for ``mpc`` the table also gives the RMS error of the
+perfectly) separate estimation error from planning error, and ``mpc_given_GROUPS`` (``mpc`` told some unknowns
+exactly, e.g. ``mpc_given_tip``, ``mpc_given_tip_friction_centre``: :class:`GivenMPC`) what each unknown costs; for ``mpc`` the table also gives the RMS error of the
 estimator's final estimate against the bench's truth. ``--set stress``: the stress set (outside v1's ranges) instead
 of the held-out benches; ``--against OUT``: also the bench-by-bench differences from an earlier run on the same
 benches (a variant against the current settings, with an interval); ``--against-study CSV``: the same against the
 study's rows of the same controller and of ``limit`` (its per-episode CSV), with the ratio to the limit;
-``--mpc FIELD=VALUE`` / ``--limit FIELD=VALUE``: a setting of ``mpc`` (and ``mpc_true``) / ``limit`` (variants).
+``--mpc FIELD=VALUE`` / ``--limit FIELD=VALUE``: a setting of ``mpc`` (and ``mpc_true``, ``mpc_given_*``) / ``limit`` (variants).
 
 Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
 ``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table with the
@@ -78,6 +79,49 @@ class TrueStateMPC:
         return self.controller.info
 
 
+GIVEN = {"tip": ("tip_friction_deg",), "friction": ("friction1_deg", "friction2_deg", "friction3_deg"),
+         "centre": ("mass_centre1_m", "mass_centre2_m", "mass_centre3_m")}
+
+
+def given_groups(name: str) -> list[str]:
+    """The groups of :data:`GIVEN` a ``mpc_given_...`` controller is told (a clear error for an unknown one)."""
+    groups = name.removeprefix("mpc_given_").split("_")
+    unknown = [g for g in groups if g not in GIVEN]
+    if unknown:
+        raise SystemExit(f"--controllers {name}: {unknown} not among the groups {sorted(GIVEN)}")
+    return groups
+
+
+class GivenMPC:
+    """``mpc`` told some of the bench's unknowns exactly (``mpc_given_tip``, ``mpc_given_friction_centre``, ...: the
+    groups of :data:`GIVEN` joined by ``_``): every hypothesis holds them at the truth, the rest is estimated as
+    ``mpc`` does. What knowing each unknown is worth (a diagnosis, not a controller a laboratory could build)."""
+
+    needs_env = True
+
+    def __init__(self, name: str, **params) -> None:
+        from agents.mpc import MPCController
+        self.groups = given_groups(name)
+        self.controller = MPCController(name=name, **params)
+        self.name, self.act = name, self.controller.act
+
+    def bind(self, env) -> None:
+        self._env = env.unwrapped
+
+    def reset(self, load_N: float, config) -> None:
+        from agents.estimator import PARAMETERS, hypothesis_of
+        self.controller.reset(load_N, config)
+        truth = hypothesis_of(self._env.episode_bench)
+        bank = self.controller.bank
+        bank.intervals = {**(bank.intervals or {}),
+                          **{f: (float(truth[PARAMETERS.index(f)]),) * 2 for g in self.groups for f in GIVEN[g]}}
+        bank.reset(load_N)
+
+    @property
+    def info(self) -> dict:
+        return self.controller.info
+
+
 def estimate_errors(estimate: dict, bench) -> dict:
     """The final estimate's error against the bench's truth: tip and contact friction (deg), mass centre (mm)."""
     from agents.estimator import hypothesis_of
@@ -102,9 +146,14 @@ def episode(task: tuple[str, dict, int, int, int | str]) -> dict:
     if name == "frictionless_tip":
         from agents.heldout import with_tip
         bench = with_tip(bench, 0.0)
-    controller = TrueStateMPC(**params) if name == "mpc_true" else make_controller(name, **params)
+    if name == "mpc_true":
+        controller = TrueStateMPC(**params)
+    elif name.startswith("mpc_given_"):
+        controller = GivenMPC(name, **params)
+    else:
+        controller = make_controller(name, **params)
     decisions: list[tuple[float, bool]] = []
-    if name in ("mpc", "mpc_true"):
+    if name.startswith("mpc"):
         act = controller.act
 
         def timed(obs):
@@ -117,7 +166,7 @@ def episode(task: tuple[str, dict, int, int, int | str]) -> dict:
                           bench_set="stress" if stream == "stress" else "heldout")
     out = asdict(outcome)
     out.update(cpu_s=time.process_time() - start, decisions_cpu_s=decisions)
-    if name == "mpc":
+    if name == "mpc" or name.startswith("mpc_given_"):
         out["fallbacks"] = controller.info["fallbacks"]
         out["estimate_errors"] = estimate_errors(controller.info["estimate"], bench)
     return out
@@ -252,8 +301,8 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--replan-every", type=int, default=None,
                         help="mpc replans every N control periods (default: the controller's, 2)")
     parser.add_argument("--mpc", action="append", default=[], metavar="FIELD=VALUE",
-                        help="an MPCController setting for mpc and mpc_true, e.g. --mpc start_periods=0 (repeatable; "
-                             "the variants of docs/actuator-study.md)")
+                        help="an MPCController setting for mpc, mpc_true and mpc_given_*, e.g. --mpc start_periods=0 "
+                             "(repeatable; the variants of docs/actuator-study.md)")
     parser.add_argument("--limit", action="append", default=[], metavar="FIELD=VALUE",
                         help="a LimitController setting, e.g. --limit normal_margin=0.1 (repeatable)")
     parser.add_argument("--stream", type=int, default=HELDOUT_SEED,
@@ -287,6 +336,9 @@ def main() -> None:
         limit_sweep(out, args.workers, [27.8, 32.5, 37.5, 42.5, 47.5, 51.6])
         return
     names = args.controllers.split(",")
+    for name in names:
+        if name.startswith("mpc_given_"):
+            given_groups(name)
     stream = "stress" if args.set == "stress" else args.stream
     summary = {"benches": args.benches, "stream": stream, "controllers": {}}
     from agents.limit import LimitController
@@ -294,9 +346,10 @@ def main() -> None:
     mpc = controller_settings(args.mpc, "--mpc", MPCController)
     if args.replan_every is not None:
         mpc["replan_every"] = args.replan_every
-    own = {**SCRIPTED, "mpc": mpc, "mpc_true": mpc, "limit": controller_settings(args.limit, "--limit", LimitController)}
+    own = {**SCRIPTED, "limit": controller_settings(args.limit, "--limit", LimitController)}
     for name in names:
-        tasks = [(name, own.get(name, {}), i, args.benches, stream) for i in range(args.benches)]
+        params = mpc if name.startswith("mpc") else own.get(name, {})
+        tasks = [(name, params, i, args.benches, stream) for i in range(args.benches)]
         wall = time.perf_counter()
         with pool_scope(args.workers) as ex:
             results = run_tasks(episode, tasks, ex, progress=True, desc=name,
