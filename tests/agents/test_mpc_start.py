@@ -55,3 +55,18 @@ def test_the_plans_envelope_opens_after_the_start_and_keeps_the_offset_range(ram
         assert [h[1] for h in highs[2:]] == pytest.approx([0.125, 0.25, 0.375, 0.5, 0.5, 0.5])
         assert [h[0] for h in highs[2:]] == pytest.approx([0.1, 0.2, 0.3, 0.4, 0.4, 0.4])
     assert controller.planner.low == pytest.approx((-0.4, -0.5))
+
+
+def test_the_first_plan_comes_replan_every_periods_after_the_start_began_its_last_period():
+    """The start is followed like a plan: its last command runs ``replan_every`` periods (the tuned behaviour)."""
+    config = make_config(None)
+    controller = MPCController(bank_size=4, samples=4, elites=2, iterations=1, horizon=4, block=4, start_periods=8,
+                               replan_every=2)
+    controller.reset(40.0, config)
+    obs = np.zeros(15, dtype=np.float32)
+    actions, planned = [], []
+    for _ in range(10):
+        actions.append(controller.act(obs))
+        planned.append(controller.info["planned"])
+    assert planned == [False] * 9 + [True]
+    assert np.array_equal(actions[8], actions[7])  # period 9 holds the start's last command
