@@ -137,8 +137,6 @@ class SpecimenBank:
     jitter: float = 0.5
     move: str = "mh"
     move_steps: int = 3
-    model_error_final_m: float | None = None
-    anneal_periods: int = 30
 
     def reset(self, load_N: float) -> None:
         if self.move not in MOVES:
@@ -208,24 +206,12 @@ class SpecimenBank:
             return None, hypothesis_of(bench)
         return snapshot(self._env), hypothesis_of(bench)
 
-    def _variance(self, k: int) -> float:
-        """The variance of a rangefinder's residual in the ``k``-th measured period (0: the first): the sensor
-        noise plus the model error, which with ``model_error_final_m`` shrinks linearly from ``model_error_m`` to
-        it over ``anneal_periods`` (the bank, refined by its moves, matches the bench more closely as the episode
-        goes on). A function of the period, not of the time it is evaluated, so that a replay weighs a history as
-        the bank did."""
-        error = self.model_error_m
-        if self.model_error_final_m is not None:
-            f = min(k / max(int(self.anneal_periods), 1), 1.0)
-            error = self.model_error_m + f * (self.model_error_final_m - self.model_error_m)
-        return self.sensor_noise_m ** 2 + error ** 2
-
-    def _advance(self, s: BenchState, raw: np.ndarray, measured: np.ndarray, k: int) -> float:
-        """Period ``k`` of hypothesis ``s``; the log-likelihood of ``measured`` (-inf if it ended the test)."""
+    def _advance(self, s: BenchState, raw: np.ndarray, measured: np.ndarray) -> float:
+        """One period of hypothesis ``s``; the log-likelihood of ``measured`` (-inf if it ended the test)."""
         code = step_state(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, raw,
                           self._applied, self._obs, self._inf, self._ws)
         r = self._obs[OBS_POS:OBS_POS + 9] - measured
-        ll = -0.5 * float(r @ r) / self._variance(k)
+        ll = -0.5 * float(r @ r) / (self.sensor_noise_m ** 2 + self.model_error_m ** 2)
         if code != RUNNING or not math.isfinite(ll) or not np.all(np.isfinite(s.y)):
             return -math.inf
         return ll
@@ -235,7 +221,7 @@ class SpecimenBank:
         log-likelihood (-inf if it ended the test or does not explain a measurement)."""
         ll = 0.0
         for k, (raw, measured) in enumerate(self._history):
-            inc = self._advance(s, raw, measured, k)
+            inc = self._advance(s, raw, measured)
             if not math.isfinite(inc):
                 return -math.inf
             if k >= self._counted_from:
@@ -247,10 +233,9 @@ class SpecimenBank:
         raw = np.array(action, dtype=np.float64)
         measured = np.array(obs[B_RANGE:B_RANGE + 9], dtype=float)
         self._history.append((raw, measured))
-        k = len(self._history) - 1
         for i, s in enumerate(self.states):
             if self.alive[i]:
-                inc = self._advance(s, raw, measured, k)
+                inc = self._advance(s, raw, measured)
                 self.log_w[i] += inc
                 self.ll[i] += inc
                 self.alive[i] = math.isfinite(self.log_w[i])
@@ -297,8 +282,8 @@ class SpecimenBank:
             if state is None:
                 continue
             ll = 0.0
-            for k, (raw, measured) in enumerate(self._history):
-                ll += self._advance(state, raw, measured, k)
+            for raw, measured in self._history:
+                ll += self._advance(state, raw, measured)
                 if not math.isfinite(ll):
                     break
             if math.isfinite(ll) and (not self.alive[slot] or ll > self.log_w[slot]):

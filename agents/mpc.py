@@ -83,8 +83,6 @@ class MPCController:
     offset_envelope: float = 1.0
     min_ess: float = 3.0
     model_error_m: float = 6e-4
-    model_error_final_m: float | None = None
-    anneal_periods: int = 30
     vary_geometry: bool = True
     move: str = "mh"
     move_steps: int = 3
@@ -115,8 +113,7 @@ class MPCController:
                       "latency_s": self.latency_s, "sensor_noise_m": 0.0}
         self.bank = SpecimenBank(prior, foundation, env_kwargs, int(self.bank_size), int(self.seed),
                                  float(self.sensor_noise_m), float(self.model_error_m), intervals,
-                                 bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps),
-                                 model_error_final_m=self.model_error_final_m, anneal_periods=int(self.anneal_periods))
+                                 bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps))
         self.bank.reset(load_N)
         self.planner = CEMPlanner.with_settings_of(self)
         self._periods = 0

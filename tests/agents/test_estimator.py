@@ -43,22 +43,6 @@ def test_the_bank_varies_mass_and_tilts_and_is_full_of_hypotheses_that_start():
     assert np.all(np.ptp(fixed.theta[:, 7:N_REPORTED], axis=0) == 0.0)
 
 
-def test_the_model_error_shrinks_over_the_anneal_and_a_replay_weighs_a_history_as_the_bank_did():
-    constant = _bank(4, sensor_noise_m=2e-4, model_error_m=6e-4)
-    assert constant._variance(0) == constant._variance(100) == pytest.approx(2e-4 ** 2 + 6e-4 ** 2)
-    bank = _bank(4, sensor_noise_m=2e-4, model_error_m=6e-4, model_error_final_m=2e-4, anneal_periods=20)
-    assert [bank._variance(k) for k in (0, 10, 20, 50)] == pytest.approx(
-        [2e-4 ** 2 + 6e-4 ** 2, 2e-4 ** 2 + 4e-4 ** 2, 2 * 2e-4 ** 2, 2 * 2e-4 ** 2])
-    bank.jitter = 0.0  # no resample-move: each hypothesis's log-likelihood is the sum of its periods'
-    bank.reset(40.0)
-    rng = np.random.default_rng(0)
-    nominal = np.array([2.0 / make_config(None).thrust_scale - 1.0, 0.0])
-    for _ in range(25):
-        bank.update(nominal, np.concatenate([rng.normal(0.0, 1e-3, 9), np.zeros(6)]))
-    fresh = bank._start(bank._bench_of(bank.theta[0]))[0]
-    assert bank._replay(fresh) == pytest.approx(bank.ll[0], rel=1e-9)
-
-
 @pytest.mark.slow
 def test_estimator_finds_a_known_tip_friction_on_tilted_planes():
     """The nominal specimen with a 6 deg tip on planes tilted within v1's ranges, noiseless data, ``mpc`` in the
