@@ -17,8 +17,8 @@ period 9 failed on 7 of the 200 tuning benches instead of 3, ``docs/actuator-stu
 separates what a constant command does not (Galic, Glaser & Goodman 2008): the end friction is the tip's Coulomb
 force against its slip across the aft face, so a lateral stage motion turns it sideways and its yaw moment shows
 the tip friction, while the contact friction resists the sliding in proportion to the normal forces and a thrust
-step shows it in the block's acceleration; with the nominal command the tip slips only by the face's own motion and is confounded with the contact friction. The
-offset's sign matters: +2 mm first lifted the block off or pushed it off a plane within 3-5 periods on 10 of the 60
+step shows it in the block's acceleration; with the nominal command the tip slips only by the face's own motion
+and is confounded with the contact friction. The offset's sign matters: +2 mm first lifted the block off or pushed it off a plane within 3-5 periods on 10 of the 60
 tuning benches; -2 mm first did not in the start on any (2 failures later, at periods 17-18). The plans keep a
 safety margin from lift-off (``normal_margin``, 0.1: a candidate whose smallest predicted normal reaction falls below
 a tenth of the normal load pays part of the failure penalty, :func:`envs.prediction.predict`): the hypotheses are not
