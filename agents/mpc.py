@@ -1,33 +1,33 @@
-"""``mpc``: model-predictive control from the bench's observations. The specimen and the block's state are
-estimated by a bank of hypotheses (:class:`agents.estimator.SpecimenBank`), and every ``replan_every`` periods
-the cross-entropy planner (:class:`agents.planner.CEMPlanner`) optimises the action sequence over rollouts of the
-env's compiled step from the ``hypotheses`` most likely hypotheses, each toward its own case-C reference path,
-weighted by their probabilities. Between replans the controller follows its plan.
-The planner keeps the thrust within ``1 +- thrust_envelope`` times the load level (0.4: 0.6-1.4 F; a safety
-envelope: the hypotheses are not the bench, and a plan that pushes hard on a wrong hypothesis lifts the block off)
-and the block to a pace of the whole travel in ``pace_s`` (0.3 s; a slow block drifts from the hypotheses' paths
-for longer). For the first ``start_periods`` periods (8: 40 ms) it sends a designed excitation instead of a plan
-while the estimator learns (the early plans, made while the hypotheses still disagree, are what lifted the block off
-or pushed it off a plane): the thrust at ``1 + start_thrust`` times the load level and the tip offset at
-``start_offset_m`` for one block of ``block`` periods, then at ``1 - start_thrust`` and ``-start_offset_m`` for the
-next (+10 % and -2 mm first, then -10 % and +2 mm). The start is a plan like any other, so the first real plan
-comes ``replan_every`` periods after its last period: with the defaults the start's last command runs one period
-more, at period 9, and the first plan is made at period 10 (this is how the settings were tuned; planning already at
-period 9 failed on 7 of the 200 tuning benches instead of 3, ``docs/actuator-study.md``). Why the excitation
-separates what a constant command does not (Galic, Glaser & Goodman 2008): the end friction is the tip's Coulomb
-force against its slip across the aft face, so a lateral stage motion turns it sideways and its yaw moment shows
-the tip friction, while the contact friction resists the sliding in proportion to the normal forces and a thrust
-step shows it in the block's acceleration; with the nominal command the tip slips only by the face's own motion
-and is confounded with the contact friction. The offset's sign matters: +2 mm first lifted the block off or pushed it off a plane within 3-5 periods on 10 of the 60
-tuning benches; -2 mm first did not in the start on any (2 failures later, at periods 17-18). The plans keep a
-safety margin from lift-off (``normal_margin``, 0.1: a candidate whose smallest predicted normal reaction falls below
-a tenth of the normal load pays part of the failure penalty, :func:`envs.prediction.predict`): the hypotheses are not
-the bench, and the failures that remained were lift-offs and departures from a plane a few periods after plans the
-hypotheses held safe. ``start_periods``, ``start_thrust``, ``start_offset_m``, ``model_error_m``, ``move_steps``,
-``thrust_envelope``, ``pace_s``, ``bank_size``, ``hypotheses`` and ``normal_margin`` were chosen on the tuning benches
-only (stream ``agents.heldout.TUNING_SEED``, 30, 60 then 200 benches, one setting at a time, by the score and the
-bench-by-bench difference in error; ``docs/actuator-study.md`` lists the variants tried, ``ramp_periods`` and
-``offset_envelope`` among them, left at their defaults), never on the held-out ones; the planner's horizon,
+"""``mpc``: model-predictive control from the bench's observations. The specimen and the block's state are estimated
+by a bank of hypotheses (:class:`agents.estimator.SpecimenBank`), and every ``replan_every`` periods the
+cross-entropy planner (:class:`agents.planner.CEMPlanner`) optimises the action sequence over rollouts of the env's
+compiled step from the ``hypotheses`` most likely hypotheses, each toward its own case-C reference path, weighted by
+their probabilities. Between replans the controller follows its plan. The planner keeps the thrust within ``1 +-
+thrust_envelope`` times the load level (0.4: 0.6-1.4 F; a safety envelope: the hypotheses are not the bench, and a
+plan that pushes hard on a wrong hypothesis lifts the block off) and the block to a pace of the whole travel in
+``pace_s`` (0.3 s; a slow block drifts from the hypotheses' paths for longer). For the first ``start_periods``
+periods (8: 40 ms) it sends a designed excitation instead of a plan while the estimator learns (the early plans,
+made while the hypotheses still disagree, are what lifted the block off or pushed it off a plane): the thrust at ``1
++ start_thrust`` times the load level and the tip offset at ``start_offset_m`` for one block of ``block`` periods,
+then at ``1 - start_thrust`` and ``-start_offset_m`` for the next (+10 % and -2 mm first, then -10 % and +2 mm). The
+start is a plan like any other, so the first real plan comes ``replan_every`` periods after its last period: with
+the defaults the start's last command runs one period more, at period 9, and the first plan is made at period 10
+(this is how the settings were tuned; planning already at period 9 failed on 7 of the 200 tuning benches instead of
+3, ``docs/actuator-study.md``). Why the excitation separates what a constant command does not (Galic, Glaser &
+Goodman 2008): the end friction is the tip's Coulomb force against its slip across the aft face, so a lateral stage
+motion turns it sideways and its yaw moment shows the tip friction, while the contact friction resists the sliding
+in proportion to the normal forces and a thrust step shows it in the block's acceleration; with the nominal command
+the tip slips only by the face's own motion and is confounded with the contact friction. The offset's sign matters:
++2 mm first lifted the block off or pushed it off a plane within 3-5 periods on 10 of the 60 tuning benches; -2 mm
+first did not in the start on any (2 failures later, at periods 17-18). The plans keep a safety margin from lift-off
+(``normal_margin``, 0.1: a candidate whose smallest predicted normal reaction falls below a tenth of the normal load
+pays part of the failure penalty, :func:`envs.prediction.predict`): the hypotheses are not the bench, and the
+failures that remained were lift-offs and departures from a plane a few periods after plans the hypotheses held
+safe. ``start_periods``, ``start_thrust``, ``start_offset_m``, ``model_error_m``, ``move_steps``,
+``thrust_envelope``, ``pace_s``, ``bank_size``, ``hypotheses`` and ``normal_margin`` were chosen on the tuning
+benches only (stream ``agents.heldout.TUNING_SEED``, 30, 60 then 200 benches, one setting at a time, by the score
+and the bench-by-bench difference in error; ``docs/actuator-study.md`` lists the variants tried, ``ramp_periods``
+and ``offset_envelope`` among them, left at their defaults), never on the held-out ones; the planner's horizon,
 candidates and iterations are ``limit``'s kind of setting and were not searched (with the bench's true state this
 planner is within 5 % of ``limit`` on the tuning benches).
 
