@@ -23,8 +23,9 @@ lint: $(STAMP)
 	$(VENV)/bin/ruff check .
 	$(PY) -m pytest -q -p no:cacheprovider tests/test_layering.py tests/test_function_length.py
 
+# The tests run on every core (pytest-xdist; the two Ray files share one worker, so that one Ray runs at a time).
 test: install
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --dist loadgroup
 
 demo: install
 	$(PY) -m triplanar.cli demo --out out/demo

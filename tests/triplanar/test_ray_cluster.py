@@ -19,7 +19,7 @@ ray = pytest.importorskip("ray")
 from triplanar.executor import run_tasks
 from triplanar.ray_executor import RayExecutor
 
-pytestmark = pytest.mark.slow
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]  # one Ray at a time under pytest-xdist
 DATA = ROOT / "data" / "lab_traces.csv"
 
 

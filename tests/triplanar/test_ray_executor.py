@@ -14,7 +14,8 @@ ray = pytest.importorskip("ray")
 from triplanar.executor import TaskCheckpoint, run_tasks
 from triplanar.ray_executor import RayExecutor
 
-pytestmark = pytest.mark.slow  # a Ray takes seconds to start, and most tests run commands on it
+# A Ray takes seconds to start, and most tests run commands on it; one Ray at a time under pytest-xdist.
+pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]
 
 
 @pytest.fixture(scope="module")
