@@ -1,25 +1,27 @@
 """The model-based controllers on the default bench: held-out unknown specimens (bench observations), ``limit``
 (perfect knowledge), ``mpc`` and the scripted controllers for reference, plus the CPU time of a control decision.
 
-``PYTHONPATH=. python benchmarks/bench_mpc.py --benches 50 --out runs/bench_mpc [--workers 2]``;
-``--limit-sweep``: ``limit`` at six nominal loads with shorter/longer horizons and more samples instead;
-``--identify FIT.json [--tip-deg D]``: ``mpc`` with a fit as prior against the drawing's prior instead.
-``--stream 20020`` (the tuning stream, ``agents.heldout.TUNING_SEED``) and the controller ``mpc_true`` (``mpc``'s
-planner and settings with its bank replaced by the bench's true state: what ``mpc`` would do if it estimated
-perfectly) separate estimation error from planning error, and ``mpc_given_GROUPS`` (``mpc`` told some unknowns
-exactly, e.g. ``mpc_given_tip``, ``mpc_given_tip_friction_centre``: :class:`GivenMPC`) what each unknown costs; for ``mpc`` the table also gives the RMS error of the
-estimator's final estimate against the bench's truth. ``--set stress``: the stress set (outside v1's ranges) instead
-of the held-out benches; ``--against OUT``: also the bench-by-bench differences from an earlier run on the same
-benches (a variant against the current settings, with an interval); ``--against-study CSV``: the same against the
-study's rows of the same controller and of ``limit`` (its per-episode CSV), with the ratio to the limit;
-``--mpc FIELD=VALUE`` / ``--limit FIELD=VALUE``: a setting of ``mpc`` (and ``mpc_true``, ``mpc_given_*``) / ``limit`` (variants).
+``PYTHONPATH=. python benchmarks/bench_mpc.py --benches 50 --out runs/bench_mpc [--workers 2]``; ``--limit-sweep``:
+``limit`` at six nominal loads with shorter/longer horizons and more samples instead; ``--identify FIT.json
+[--tip-deg D]``: ``mpc`` with a fit as prior against the drawing's prior instead. ``--stream 20020`` (the tuning
+stream, ``agents.heldout.TUNING_SEED``) and the controller ``mpc_true`` (``mpc``'s planner and settings with its
+bank replaced by the bench's true state: what ``mpc`` would do if it estimated perfectly) separate estimation error
+from planning error, and ``mpc_given_GROUPS`` (``mpc`` told some unknowns exactly, e.g. ``mpc_given_tip``,
+``mpc_given_tip_friction_centre``: :class:`GivenMPC`) what each unknown costs; for ``mpc`` the table also gives the
+RMS error of the estimator's final estimate against the bench's truth. ``--set stress``: the stress set (outside
+v1's ranges) instead of the held-out benches; ``--against OUT``: also the bench-by-bench differences from an earlier
+run on the same benches (a variant against the current settings, with an interval); ``--against-study CSV``: the
+same against the study's rows of the same controller and of ``limit`` (its per-episode CSV), with the ratio to the
+limit; ``--mpc FIELD=VALUE`` / ``--limit FIELD=VALUE``: a setting of ``mpc`` (and ``mpc_true``, ``mpc_given_*``) /
+``limit`` (variants).
 
 Episodes go through the project's executor (``run_tasks``, local processes) with a per-episode checkpoint under
 ``OUT/tasks`` (running it again resumes). Writes ``OUT/summary.json`` (atomically) and prints a table with the
 study's statistics (:func:`experiments.stats.row_stats`): success rate with its interval, mean mimicry error over
-successes and the score (a failure counts 10 mm, ``agents.heldout``) with their bootstrap 95 % intervals, the ratio of each score to ``limit``'s on the same benches, CPU time per episode
-and, for ``mpc``, per decision (``time.process_time`` around ``act``: estimator update plus planning, or the plan
-followed between replans). Results go to ``docs/actuator-study.md`` by hand, with the command.
+successes and the score (a failure counts 10 mm, ``agents.heldout``) with their bootstrap 95 % intervals, the ratio
+of each score to ``limit``'s on the same benches, CPU time per episode and, for ``mpc``, per decision
+(``time.process_time`` around ``act``: estimator update plus planning, or the plan followed between replans).
+Results go to ``docs/actuator-study.md`` by hand, with the command.
 """
 
 from __future__ import annotations
