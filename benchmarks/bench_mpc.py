@@ -54,19 +54,28 @@ SCRIPTED = {"frictionless_tip": {}, "moment_matching": {}, "pi_feedback": {"kp":
 ENV = {"frictionless_tip": {"tip_friction_deg": 0.0}}
 
 
-class TrueStateMPC:
-    """``mpc`` whose bank is the bench's true state (one hypothesis, tracked exactly with the commands sent): its
-    planner and settings with perfect estimation (a diagnosis, not a controller a laboratory could build)."""
+class ToldMPC:
+    """``mpc`` told some of the bench's truth (a diagnosis, not a controller a laboratory could build): it reads the
+    env through :meth:`bind`, as ``limit`` does, and a subclass's ``reset`` hands the truth to ``mpc``'s bank."""
 
     needs_env = True
 
-    def __init__(self, **params) -> None:
+    def __init__(self, name: str, **params) -> None:
         from agents.mpc import MPCController
-        self.controller = MPCController(name="mpc_true", **params)
-        self.name, self.act = "mpc_true", self.controller.act
+        self.controller = MPCController(name=name, **params)
+        self.name, self.act = name, self.controller.act
 
     def bind(self, env) -> None:
         self._env = env.unwrapped
+
+    @property
+    def info(self) -> dict:
+        return self.controller.info
+
+
+class TrueStateMPC(ToldMPC):
+    """``mpc`` whose bank is the bench's true state (one hypothesis, tracked exactly with the commands sent): its
+    planner and settings with perfect estimation."""
 
     def reset(self, load_N: float, config) -> None:
         from agents.estimator import hypothesis_of
@@ -75,10 +84,6 @@ class TrueStateMPC:
         bank = self.controller.bank
         bank.states, bank.theta = [snapshot(self._env)], hypothesis_of(self._env.episode_bench)[None, :]
         bank.log_w, bank.ll, bank.alive, bank.jitter = np.zeros(1), np.zeros(1), np.ones(1, dtype=bool), 0.0
-
-    @property
-    def info(self) -> dict:
-        return self.controller.info
 
 
 GIVEN = {"tip": ("tip_friction_deg",), "friction": ("friction1_deg", "friction2_deg", "friction3_deg"),
@@ -94,34 +99,23 @@ def given_groups(name: str) -> list[str]:
     return groups
 
 
-class GivenMPC:
+class GivenMPC(ToldMPC):
     """``mpc`` told some of the bench's unknowns exactly (``mpc_given_tip``, ``mpc_given_friction_centre``, ...: the
     groups of :data:`GIVEN` joined by ``_``): every hypothesis holds them at the truth, the rest is estimated as
-    ``mpc`` does. What knowing each unknown is worth (a diagnosis, not a controller a laboratory could build)."""
-
-    needs_env = True
+    ``mpc`` does. What knowing each unknown is worth."""
 
     def __init__(self, name: str, **params) -> None:
-        from agents.mpc import MPCController
+        super().__init__(name, **params)
         self.groups = given_groups(name)
-        self.controller = MPCController(name=name, **params)
-        self.name, self.act = name, self.controller.act
-
-    def bind(self, env) -> None:
-        self._env = env.unwrapped
 
     def reset(self, load_N: float, config) -> None:
         from agents.estimator import PARAMETERS, hypothesis_of
         self.controller.reset(load_N, config)
         truth = hypothesis_of(self._env.episode_bench)
-        bank = self.controller.bank
+        bank = self.controller.bank  # refilled within the told intervals (``mpc``'s reset filled it without them)
         bank.intervals = {**(bank.intervals or {}),
                           **{f: (float(truth[PARAMETERS.index(f)]),) * 2 for g in self.groups for f in GIVEN[g]}}
         bank.reset(load_N)
-
-    @property
-    def info(self) -> dict:
-        return self.controller.info
 
 
 def estimate_errors(estimate: dict, bench) -> dict:
@@ -149,7 +143,7 @@ def episode(task: tuple[str, dict, int, int, int | str]) -> dict:
         from agents.heldout import with_tip
         bench = with_tip(bench, 0.0)
     if name == "mpc_true":
-        controller = TrueStateMPC(**params)
+        controller = TrueStateMPC(name, **params)
     elif name.startswith("mpc_given_"):
         controller = GivenMPC(name, **params)
     else:
