@@ -30,7 +30,8 @@ from .planner import CEMPlanner
 @dataclass
 class LimitController:
     """Perfect-knowledge receding-horizon control (module docstring); the planner's settings are its fields
-    (``normal_margin``: :func:`envs.prediction.predict`'s lift-off margin, 0.1 of the normal load as ``mpc``'s)."""
+    (``normal_margin``: :func:`envs.prediction.predict`'s lift-off margin, 0.1 of the normal load as ``mpc``'s;
+    ``plane_margin_m``: its margin from leaving a plane, none: the limit knows where the planes meet)."""
 
     name: str = "limit"
     config: ShearConfig = field(default_factory=ShearConfig)
@@ -44,6 +45,7 @@ class LimitController:
     seed: int = 0
     pace_s: float = 0.3
     normal_margin: float = 0.1
+    plane_margin_m: float = 0.0
     needs_env: bool = True
     _env: Any = None
     _planner: CEMPlanner | None = None

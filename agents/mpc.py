@@ -79,6 +79,7 @@ class MPCController:
     pace_s: float = 0.3
     thrust_envelope: float = 0.4
     normal_margin: float = 0.1
+    plane_margin_m: float = 0.0
     ramp_periods: int = 0
     offset_envelope: float = 1.0
     min_ess: float = 3.0

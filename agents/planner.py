@@ -22,7 +22,8 @@ import numpy as np
 
 from envs.prediction import BenchState, predict
 
-_SETTINGS = ("horizon", "block", "samples", "iterations", "elites", "sigma0", "seed", "pace_s", "normal_margin")
+_SETTINGS = ("horizon", "block", "samples", "iterations", "elites", "sigma0", "seed", "pace_s", "normal_margin",
+             "plane_margin_m")
 
 
 @dataclass
@@ -41,6 +42,7 @@ class CEMPlanner:
     seed: int = 0
     pace_s: float = 0.5
     normal_margin: float = 0.0
+    plane_margin_m: float = 0.0
     low: tuple[float, float] = (-1.0, -1.0)
     high: tuple[float, float] = (1.0, 1.0)
     _mean: np.ndarray | None = None
@@ -98,7 +100,8 @@ class CEMPlanner:
             plans = self._expand(cand)
             for state, weight in zip(states, w):
                 if weight > 0:
-                    costs += weight * predict(state, plans, self.pace_s, self.normal_margin)[0]
+                    costs += weight * predict(state, plans, self.pace_s, self.normal_margin,
+                                               self.plane_margin_m)[0]
             self.evaluations += self.samples * len(states)
             order = np.argsort(costs, kind="stable")
             if costs[order[0]] < best_cost:

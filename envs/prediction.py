@@ -22,9 +22,17 @@ the time limit or an arrest lies beyond it).
 its horizon, both ask for 0.1 of the normal load. Each period the smallest normal reaction is compared with
 ``normal_margin`` times the normal load, and the deepest intrusion into that margin over the horizon, as a fraction of
 the margin (0-1), adds that fraction of the failure penalty. A graded penalty rather than a hard one, so that a plan
-that starts inside the margin still has a direction out of it. (Leaving a plane has no such margin: at rest a contact
-point already sits within 10 um in height of a neighbouring plane, so the kernel's left-plane event value does not
-measure a distance to that failure.)
+that starts inside the margin still has a direction out of it.
+
+**Plane margin** (optional, zero by default): the same for leaving a plane (``plane_margin``, m). The kernel's
+left-plane event is a height: a contact point's height above a neighbouring plane. Both planes contain the origin, so
+that height is linear in the point's horizontal position, and divided by the norm of its gradient
+(:func:`triplanar.kernel.crossing_slope`) it is the horizontal distance to the line where the planes meet. Each period
+the depth into the margin (0-1, the closest point and line) is taken, and its mean over the horizon, times the failure
+penalty, is added. A mean rather than the deepest value: CP3 starts where the three planes meet, inside any margin, so
+the deepest value would be the same for every candidate early on; the mean rewards moving out. (In height the margin
+could not be set: at rest a contact point sits within 10 um of a neighbouring plane, and 10 um of height is 0.04 mm of
+distance from the FP2/FP3 line but 0.6 mm from a line between planes whose dips differ by 1 deg.)
 """
 
 from __future__ import annotations
@@ -107,21 +115,39 @@ def margin_intrusion(y, p, st, normal_margin, ws) -> float:
 
 
 @njit(cache=True, error_model="numpy")
+def plane_intrusion(y, p, plane_margin, cp, ws) -> float:
+    """How deep a contact point is into the plane margin (module docstring), as a fraction 0-1 of it (``cp``:
+    scratch for the contact points)."""
+    K.contact_points_ws(y, p, cp, ws)
+    worst, pair = 0.0, 0
+    for i in range(3):
+        for j in range(3):
+            if i != j:
+                slope = K.crossing_slope(p, i, j)
+                if slope > 0.0:
+                    distance = K.plane_gap(cp, p, i, j, pair) / slope
+                    worst = max(worst, (plane_margin - distance) / plane_margin)
+                pair += 1
+    return min(worst, 1.0)
+
+
+@njit(cache=True, error_model="numpy")
 def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans, pace_s, costs, dists,
-                  codes, normal_margin=0.0) -> None:
+                  codes, normal_margin=0.0, plane_margin=0.0) -> None:
     """Run every candidate ``plans[i]`` (horizon x 2 raw actions) from the given state; write its cost (module
     docstring) into ``costs[i]``, the distance after each period (mm) into ``dists[i]`` and the outcome of each
     period into ``codes[i]`` (-1 after the end; ``TIME_LIMIT`` for a truncation)."""
     n, horizon = plans.shape[0], plans.shape[1]
     ws = new_workspace()
     applied, obs, inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
-    guarded = normal_margin > 0.0
+    guarded, plane_guarded = normal_margin > 0.0, plane_margin > 0.0
+    cp = np.empty((3, 3))
     travel = cfg[CF_TRAVEL]
     for i in range(n):
         y, p, modes, armed, st = y0.copy(), p0.copy(), modes0.copy(), armed0.copy(), st0.copy()
         bs, queue = bs0.copy(), queue0.copy()
         failed = False
-        dist, s, intrusion = 0.0, 0.0, 0.0
+        dist, s, intrusion, plane_sum = 0.0, 0.0, 0.0, 0.0
         for k in range(horizon):
             codes[i, k] = -1
             dists[i, k] = np.nan
@@ -139,7 +165,10 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
                 break
             if guarded:
                 intrusion = max(intrusion, margin_intrusion(y, p, st, normal_margin, ws))
+            if plane_guarded:
+                plane_sum += plane_intrusion(y, p, plane_margin, cp, ws)
         cost = st[ST_ERR_NUM] + dist * max(travel - s, 0.0)
+        cost += cfg[CF_FAIL] * travel * plane_sum / horizon
         if not failed and s < travel:
             cost += cfg[CF_FAIL] * max(travel * st[ST_T] / pace_s - s, 0.0)
         cost += cfg[CF_FAIL] * travel * intrusion
@@ -151,7 +180,7 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
 
 
 def predict(state: BenchState, plans: np.ndarray, pace_s: float = 1.0,
-            normal_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            normal_margin: float = 0.0, plane_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Costs, distances and outcome codes of the candidates ``plans`` (n x horizon x 2) from ``state``; ``pace_s``
     (module docstring) is half the env's 2 s time limit by default; ``normal_margin`` (a fraction of the normal
     load) is the safety margin (module docstring; zero: none)."""
@@ -160,7 +189,7 @@ def predict(state: BenchState, plans: np.ndarray, pace_s: float = 1.0,
     costs, dists, codes = np.empty(n), np.empty((n, horizon)), np.empty((n, horizon), dtype=np.int64)
     s = state
     rollout_costs(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, plans, float(pace_s), costs,
-                  dists, codes, float(normal_margin))
+                  dists, codes, float(normal_margin), float(plane_margin))
     return costs, dists, codes
 
 
@@ -170,5 +199,6 @@ def warm_up(env) -> None:
     state = snapshot(env)
     predict(state, np.zeros((2, 3, 2)))
     predict(state, np.zeros((2, 3, 2)), 1.0, 0.1)
+    predict(state, np.zeros((2, 3, 2)), 1.0, 0.1, 0.001)
     step_state(state.y, state.p, state.modes, state.armed, state.st, state.ref, state.cfg, state.bc, state.bs,
                state.queue, np.zeros(2), np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO), new_workspace())

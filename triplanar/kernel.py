@@ -917,6 +917,25 @@ def _contact_points(y: np.ndarray, p: np.ndarray, out: np.ndarray, R: np.ndarray
             out[i, k] = y[S_R + k] + tmp[k]
 
 
+@njit(cache=True, forceinline=True, error_model="numpy")
+def plane_gap(cp: np.ndarray, p: np.ndarray, i: int, j: int, pair: int) -> float:
+    """How far (m, in height) contact point ``cp[i]`` is from crossing onto plane ``j`` (``pair``: the pair's index
+    0-5 in the order of the left-plane events): its height above plane ``j`` at its horizontal position, less the
+    1 um a crossing must reach and the start's re-seating ``P_LEFT0`` (negative: crossed, event 5 + ``pair``)."""
+    nj0, nj1, nj2 = p[P_N + 3 * j], p[P_N + 3 * j + 1], p[P_N + 3 * j + 2]
+    hj = -(nj0 * cp[i, 0] + nj2 * cp[i, 2]) / nj1
+    return cp[i, 1] - hj + LEFT_PLANE_TOL + p[P_LEFT0 + pair]
+
+
+@njit(cache=True, error_model="numpy")
+def crossing_slope(p: np.ndarray, i: int, j: int) -> float:
+    """How fast (m of height per m of horizontal distance) plane ``j`` rises above plane ``i`` moving across the line
+    where they meet: both planes contain the origin, so the height between them is linear in the horizontal position
+    and its gradient's norm turns :func:`plane_gap` into a horizontal distance to that line."""
+    ni1, nj1 = p[P_N + 3 * i + 1], p[P_N + 3 * j + 1]
+    return math.hypot(p[P_N + 3 * i] / ni1 - p[P_N + 3 * j] / nj1, p[P_N + 3 * i + 2] / ni1 - p[P_N + 3 * j + 2] / nj1)
+
+
 @njit(cache=True, error_model="numpy")
 def event_values(y: np.ndarray, p: np.ndarray, modes: np.ndarray, aux: np.ndarray, x1_target: float, slow_speed: float,
                  out: np.ndarray) -> None:
@@ -958,9 +977,7 @@ def event_values_ws(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: fl
     for i in range(3):
         for j in range(3):
             if i != j:
-                nj0, nj1, nj2 = p[P_N + 3 * j], p[P_N + 3 * j + 1], p[P_N + 3 * j + 2]
-                hj = -(nj0 * cp[i, 0] + nj2 * cp[i, 2]) / nj1
-                out[k] = hj - cp[i, 1] - LEFT_PLANE_TOL - p[P_LEFT0 + k - 5]
+                out[k] = -plane_gap(cp, p, i, j, k - 5)
                 k += 1
     fastest = max(aux[A_SPEED], max(aux[A_SPEED + 1], aux[A_SPEED + 2]))
     out[EV_SLOW] = slow_speed - fastest
