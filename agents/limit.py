@@ -1,14 +1,17 @@
 """``limit``: what a bench design allows, with perfect knowledge. The controller reads the env's exact state, true
 specimen, bench dynamics and the true specimen's case-C reference (:func:`envs.prediction.snapshot`), and each
 period replans the action sequence by the cross-entropy method over rollouts of the env's own compiled step
-(:class:`agents.planner.CEMPlanner`), sending the first action. Its plans keep ``mpc``'s margin from lift-off (0.1 of
-the normal load) and ``mpc``'s pace (0.3 s): with the truth neither should be needed, but the cross-entropy search
-over a 120 ms horizon does not see what lies beyond it. With pace 0.5 s and no margin (the study run's ``limit``) it
-failed on 1 of the 200 held-out benches of the default bench (an arrest) and on 1-2 of 50 on 9 of the 14 designs; with
-the margin still on 5 designs, every failure an arrest (the block let slow until friction held it). Margin then pace
-lowered its score on the default bench from 0.54 to 0.47 to 0.42 mm (``docs/actuator-study.md``): the limit is the
-best plan this search finds, an upper bound on the optimum. No laboratory can build it (it sees the truth); it is the
-reference a design's real controllers are judged against (``docs/actuator-study.md``).
+(:class:`agents.planner.CEMPlanner`), sending the first action: horizon 48 periods (240 ms), 64 candidates x 4
+iterations, thrusts within ``1 +- thrust_envelope`` (0.4) times the load level. Its plans keep ``mpc``'s margin from
+lift-off (0.1 of the normal load) and ``mpc``'s pace (0.3 s): with the truth neither should be needed, but the
+search does not see past its horizon. Each of these was found by a controller doing better than the ``limit`` of
+its time: the margin and pace by ``mpc`` (they lowered ``limit``'s held-out score from 0.54 to 0.42 mm), the
+envelope by ``mpc``'s planner given the true state (``mpc_true``, 0.33 against ``limit``'s 0.37 mm on 60 tuning
+benches). With the envelope a larger search pays (0.44 to 0.24 mm on the 200 tuning benches); doubling the horizon
+or the candidates beyond it moves the figure by about 0.01 mm, within the benches' noise
+(``docs/actuator-study.md``, fifth round). So the limit is the best plan this search finds: an upper bound on the
+optimum, no longer falling with more search. No laboratory can build it (it sees the truth); it is the reference a
+design's real controllers are judged against.
 
 It needs the env: :func:`agents.heldout.run_episode` hands it over through :meth:`bind` (a controller with
 ``needs_env = True``).
@@ -31,21 +34,23 @@ from .planner import CEMPlanner
 class LimitController:
     """Perfect-knowledge receding-horizon control (module docstring); the planner's settings are its fields
     (``normal_margin``: :func:`envs.prediction.predict`'s lift-off margin, 0.1 of the normal load as ``mpc``'s;
-    ``plane_margin_m``: its margin from leaving a plane, none: the limit knows where the planes meet)."""
+    ``plane_margin_m``: its margin from leaving a plane, none: the limit knows where the planes meet;
+    ``thrust_envelope``: the thrusts searched, ``1 +-`` this times the load level, as ``mpc``'s)."""
 
     name: str = "limit"
     config: ShearConfig = field(default_factory=ShearConfig)
     load_N: float = 0.0
-    horizon: int = 24
+    horizon: int = 48
     block: int = 4
-    samples: int = 32
-    iterations: int = 3
+    samples: int = 64
+    iterations: int = 4
     elites: int = 6
     sigma0: float = 0.3
     seed: int = 0
     pace_s: float = 0.3
     normal_margin: float = 0.1
     plane_margin_m: float = 0.0
+    thrust_envelope: float = 0.4
     needs_env: bool = True
     _env: Any = None
     _planner: CEMPlanner | None = None
@@ -57,6 +62,8 @@ class LimitController:
     def reset(self, load_N: float, config: ShearConfig) -> None:
         self.config, self.load_N = config, float(load_N)
         self._planner = CEMPlanner.with_settings_of(self)
+        self._planner.low = (-float(self.thrust_envelope), -1.0)
+        self._planner.high = (float(self.thrust_envelope), 1.0)
         self.decisions = []
 
     def act(self, obs: np.ndarray) -> np.ndarray:

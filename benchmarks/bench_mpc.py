@@ -168,7 +168,7 @@ def episode(task: tuple[str, dict, int, int, int | str]) -> dict:
     return out
 
 
-LIMIT_SETTINGS = ((12, 16, 2), (24, 32, 3), (48, 64, 4))  # (horizon, samples, iterations); the default is the middle
+LIMIT_SETTINGS = ((24, 32, 3), (48, 64, 4), (96, 64, 4))  # (horizon, samples, iterations); the default is the middle
 
 
 def limit_episode(task: tuple[tuple[int, int, int], float]) -> dict:
