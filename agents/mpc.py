@@ -32,8 +32,9 @@ benches only (stream ``agents.heldout.TUNING_SEED``, 30, 60 then 200 benches, on
 and the bench-by-bench difference in error; ``docs/actuator-study.md`` lists the variants tried, ``ramp_periods``
 and ``offset_envelope`` among them, left at their defaults), never on the held-out ones; the planner's horizon,
 candidates and iterations stay smaller than ``limit``'s: ``limit``'s planner of the third round (horizon 24,
-32 x 3) lowered the error by 0.10 mm but doubled the failures; and with the bench's true state this
-planner (``mpc_true``) is 1.22 times that ``limit`` on 60 tuning benches and 0.33 mm with ``limit``'s planner).
+32 x 3) lowered the error by 0.10 mm but doubled the failures. With the bench's true state in place of the bank
+(``mpc_true``) this planner scores 0.45 mm on 60 tuning benches and the current ``limit``'s 0.26 mm, against that
+``limit``'s 0.23 mm: the rest of the gap is the estimate.
 
 The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
 specimen (``prior``: the env's nominal specimen by default, or a ``Specimen``, or the path of a ``fit.json`` or

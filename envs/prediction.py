@@ -183,7 +183,7 @@ def predict(state: BenchState, plans: np.ndarray, pace_s: float = 1.0,
             normal_margin: float = 0.0, plane_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Costs, distances and outcome codes of the candidates ``plans`` (n x horizon x 2) from ``state``; ``pace_s``
     (module docstring) is half the env's 2 s time limit by default; ``normal_margin`` (a fraction of the normal
-    load) is the safety margin (module docstring; zero: none)."""
+    load) is the safety margin and ``plane_margin`` (m) the plane margin (module docstring; zero: none)."""
     plans = np.ascontiguousarray(plans, dtype=np.float64)
     n, horizon = plans.shape[:2]
     costs, dists, codes = np.empty(n), np.empty((n, horizon)), np.empty((n, horizon), dtype=np.int64)
