@@ -115,17 +115,29 @@ def margin_intrusion(y, p, st, normal_margin, ws) -> float:
 
 
 @njit(cache=True, error_model="numpy")
-def plane_intrusion(y, p, plane_margin, cp, ws) -> float:
-    """How deep a contact point is into the plane margin (module docstring), as a fraction 0-1 of it (``cp``:
-    scratch for the contact points)."""
+def crossing_slopes(p) -> np.ndarray:
+    """:func:`triplanar.kernel.crossing_slope` of the six (contact point, other plane) pairs in the order of the
+    left-plane events: the planes are fixed within a rollout, so they are computed once per batch."""
+    slopes, pair = np.empty(6), 0
+    for i in range(3):
+        for j in range(3):
+            if i != j:
+                slopes[pair] = K.crossing_slope(p, i, j)
+                pair += 1
+    return slopes
+
+
+@njit(cache=True, error_model="numpy")
+def plane_intrusion(y, p, plane_margin, slopes, cp, ws) -> float:
+    """How deep a contact point is into the plane margin (module docstring), as a fraction 0-1 of it (``slopes``:
+    :func:`crossing_slopes` of ``p``; ``cp``: scratch for the contact points)."""
     K.contact_points_ws(y, p, cp, ws)
     worst, pair = 0.0, 0
     for i in range(3):
         for j in range(3):
             if i != j:
-                slope = K.crossing_slope(p, i, j)
-                if slope > 0.0:
-                    distance = K.plane_gap(cp, p, i, j, pair) / slope
+                if slopes[pair] > 0.0:
+                    distance = K.plane_gap(cp, p, i, j, pair) / slopes[pair]
                     worst = max(worst, (plane_margin - distance) / plane_margin)
                 pair += 1
     return min(worst, 1.0)
@@ -141,7 +153,7 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
     ws = new_workspace()
     applied, obs, inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
     guarded, plane_guarded = normal_margin > 0.0, plane_margin > 0.0
-    cp = np.empty((3, 3))
+    cp, slopes = np.empty((3, 3)), crossing_slopes(p0)
     travel = cfg[CF_TRAVEL]
     for i in range(n):
         y, p, modes, armed, st = y0.copy(), p0.copy(), modes0.copy(), armed0.copy(), st0.copy()
@@ -166,7 +178,7 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
             if guarded:
                 intrusion = max(intrusion, margin_intrusion(y, p, st, normal_margin, ws))
             if plane_guarded:
-                plane_sum += plane_intrusion(y, p, plane_margin, cp, ws)
+                plane_sum += plane_intrusion(y, p, plane_margin, slopes, cp, ws)
         cost = st[ST_ERR_NUM] + dist * max(travel - s, 0.0)
         cost += cfg[CF_FAIL] * travel * plane_sum / horizon
         if not failed and s < travel:
