@@ -25,7 +25,7 @@ lint: $(STAMP)
 
 # The tests run on every core (pytest-xdist; the two Ray files share one worker, so that one Ray runs at a time).
 test: install
-	$(PY) -m pytest -q -n auto --dist loadgroup
+	$(PY) -m pytest -q -n auto --dist loadgroup --durations=15
 
 demo: install
 	$(PY) -m triplanar.cli demo --out out/demo

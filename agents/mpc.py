@@ -92,6 +92,9 @@ class MPCController:
     vary_geometry: bool = True
     move: str = "mh"
     move_steps: int = 3
+    refine_every: int = 0
+    refine_evaluations: int = 30
+    refine_inflation: float = 1.5
     start_thrust: float = 0.1
     start_offset_m: float = -0.002
     seed: int = 0
@@ -119,7 +122,9 @@ class MPCController:
                       "latency_s": self.latency_s, "sensor_noise_m": 0.0}
         self.bank = SpecimenBank(prior, foundation, env_kwargs, int(self.bank_size), int(self.seed),
                                  float(self.sensor_noise_m), float(self.model_error_m), intervals,
-                                 bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps))
+                                 bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps),
+                                 refine_every=int(self.refine_every), refine_evaluations=int(self.refine_evaluations),
+                                 refine_inflation=float(self.refine_inflation))
         self.bank.reset(load_N)
         self.planner = CEMPlanner.with_settings_of(self)
         self._periods = 0

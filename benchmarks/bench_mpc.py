@@ -8,9 +8,11 @@ stream, ``agents.heldout.TUNING_SEED``) and the controller ``mpc_true`` (``mpc``
 bank replaced by the bench's true state: what ``mpc`` would do if it estimated perfectly) separate estimation error
 from planning error, and ``mpc_given_GROUPS`` (``mpc`` told some unknowns exactly, e.g. ``mpc_given_tip``,
 ``mpc_given_tip_friction_centre``: :class:`GivenMPC`) what each unknown costs; for ``mpc`` the table also gives the
-RMS error of the estimator's final estimate against the bench's truth. ``--set stress``: the stress set (outside
+RMS error of the estimator's final estimate against the bench's truth and how far the bank's case-C reference ends
+from the bench's (``--hindsight``: also that of a sharp bank given the whole episode's measurements). ``--set stress``: the stress set (outside
 v1's ranges) instead of the held-out benches; ``--against OUT``: also the bench-by-bench differences from an earlier
-run on the same benches (a variant against the current settings, with an interval); ``--against-study CSV``: the
+run on the same benches (a variant against the current settings, with an interval; a run of the same stream on
+more benches gives its first ``--benches``); ``--against-study CSV``: the
 same against the study's rows of the same controller and of ``limit`` (its per-episode CSV), with the ratio to the
 limit; ``--mpc FIELD=VALUE`` / ``--limit FIELD=VALUE``: a setting of ``mpc`` (and ``mpc_true``, ``mpc_given_*``) /
 ``limit`` (variants).
@@ -135,9 +137,33 @@ def benches_of(n: int, stream: int | str) -> list:
     return heldout_benches(n) if stream == HELDOUT_SEED else random_benches(n, stream)
 
 
-def episode(task: tuple[str, dict, int, int, int | str]) -> dict:
-    """One held-out episode of controller ``name``: its outcome, CPU time and, for ``mpc``, per-decision times."""
-    name, params, index, n, stream = task
+def reference_errors(bank, bench, index: int, hindsight: bool) -> dict:
+    """How far the bank's belief of the bench's case-C reference (:meth:`agents.estimator.SpecimenBank.reference`)
+    ends from the bench's own (mm, as the mimicry error measures paths); with ``hindsight`` also that of a bank
+    given every measurement of the episode with nothing added to the sensor noise and refined by least squares
+    every 10 periods (:meth:`~agents.estimator.SpecimenBank.refine`): what the episode's measurements tell."""
+    from dataclasses import replace
+
+    from agents.estimator import reference_distance_mm
+    from envs.prediction import snapshot
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+    env = TriPlanarShearV1Env()
+    env.reset(seed=index, options={"bench": bench})
+    truth = snapshot(env).ref
+    out = {"reference_error_mm": reference_distance_mm(bank.reference(), truth)}
+    if hindsight:
+        sharp = replace(bank, model_error_m=0.0, refine_every=10, seed=bank.seed + 1)
+        sharp.reset(bench.load_N)
+        for raw, measured in bank.history[:-2]:  # a hypothesis a little faster than the bench ends the test there
+            sharp.observe(raw, measured)
+        out["hindsight_reference_error_mm"] = reference_distance_mm(sharp.reference(), truth)
+    return out
+
+
+def episode(task: tuple[str, dict, int, int, int | str, bool]) -> dict:
+    """One held-out episode of controller ``name``: its outcome, CPU time and, for ``mpc``, per-decision times,
+    the final estimate's errors and its reference's (:func:`reference_errors`)."""
+    name, params, index, n, stream, hindsight = task
     bench = benches_of(n, stream)[index]
     if name == "frictionless_tip":
         from agents.heldout import with_tip
@@ -165,6 +191,7 @@ def episode(task: tuple[str, dict, int, int, int | str]) -> dict:
     if name == "mpc" or name.startswith("mpc_given_"):
         out["fallbacks"] = controller.info["fallbacks"]
         out["estimate_errors"] = estimate_errors(controller.info["estimate"], bench)
+        out.update(reference_errors(controller.bank, bench, index, hindsight))
     return out
 
 
@@ -263,11 +290,14 @@ def paired_differences(summary: dict, base: dict[str, tuple[list, list]], label:
 
 
 def run_base(summary: dict, against: Path) -> dict[str, tuple[list, list]]:
-    """An earlier run's scores and errors per controller (``--against``), checked to be on the same benches."""
+    """An earlier run's scores and errors per controller (``--against``) on the same benches: a run of the same
+    stream with at least as many (its first ``--benches``: every stream's benches are its first startable draws,
+    each episode's noise seeded by its index)."""
     base = json.loads((against / "summary.json").read_text())
-    if (base["benches"], base["stream"]) != (summary["benches"], summary["stream"]):
+    n = summary["benches"]
+    if base["stream"] != summary["stream"] or base["benches"] < n:
         raise SystemExit(f"--against {against}: other benches ({base['benches']} of stream {base['stream']})")
-    return {name: (row["scores"], row["errors"]) for name, row in base["controllers"].items()}
+    return {name: (row["scores"][:n], row["errors"][:n]) for name, row in base["controllers"].items()}
 
 
 def study_base(summary: dict, episodes_csv: Path) -> dict[str, tuple[list, list]]:
@@ -294,6 +324,9 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--out", default="runs/bench_mpc")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--controllers", default="limit,mpc," + ",".join(SCRIPTED))
+    parser.add_argument("--hindsight", action="store_true",
+                        help="for mpc, also how far a sharp bank given the whole episode's measurements places the "
+                             "case-C reference (several CPU s per episode)")
     parser.add_argument("--replan-every", type=int, default=None,
                         help="mpc replans every N control periods (default: the controller's, 2)")
     parser.add_argument("--mpc", action="append", default=[], metavar="FIELD=VALUE",
@@ -345,7 +378,7 @@ def main() -> None:
     own = {**SCRIPTED, "limit": controller_settings(args.limit, "--limit", LimitController)}
     for name in names:
         params = mpc if name.startswith("mpc") else own.get(name, {})
-        tasks = [(name, params, i, args.benches, stream) for i in range(args.benches)]
+        tasks = [(name, params, i, args.benches, stream, args.hindsight) for i in range(args.benches)]
         wall = time.perf_counter()
         with pool_scope(args.workers) as ex:
             results = run_tasks(episode, tasks, ex, progress=True, desc=name,
@@ -368,6 +401,11 @@ def main() -> None:
                        planning_cpu_ms_p95=1e3 * float(np.percentile(cpu[planned], 95)),
                        following_cpu_ms_mean=1e3 * float(np.mean(cpu[~planned])) if (~planned).any() else math.nan,
                        fallbacks=int(sum(r.get("fallbacks", 0) for r in results)))
+        for key in ("reference_error_mm", "hindsight_reference_error_mm"):
+            values = [r[key] for r in results if key in r]
+            if values:
+                row[key] = float(np.mean(values))
+                row[key + "_per_bench"] = values
         if any("estimate_errors" in r for r in results):
             row["estimate_rms"] = {k: float(np.sqrt(np.mean([e ** 2 for r in results for e in r["estimate_errors"][k]])))
                                    for k in results[0]["estimate_errors"]}
@@ -391,6 +429,10 @@ def main() -> None:
                   f"{r['fallbacks']}; wall {r['wall_s']:.0f} s")
         else:
             print(f"  {name}: wall {r['wall_s']:.0f} s")
+        if "reference_error_mm" in r:
+            print(f"  {name}: the bank's case-C reference ends {r['reference_error_mm']:.3f} mm (mean) from the "
+                  "bench's" + (f"; with hindsight {r['hindsight_reference_error_mm']:.3f} mm"
+                               if "hindsight_reference_error_mm" in r else ""))
         if "estimate_rms" in r:
             print(f"  {name}: RMS error of the final estimate: " + ", ".join(f"{k} {v:.2f}" for k, v in r["estimate_rms"].items()))
     if args.against:

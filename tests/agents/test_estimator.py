@@ -68,3 +68,64 @@ def test_estimator_finds_a_known_tip_friction_on_tilted_planes():
     assert controller.bank.rejuvenations > 0
     assert low <= 6.0 <= high, (low, high, controller.info["estimate"])
     assert high - low < 0.5 * 9.0, (low, high)
+
+
+def _measured_bank(periods: int, **kwargs) -> tuple[SpecimenBank, np.ndarray]:
+    """A bank fed ``periods`` noiseless periods of a drawn bench under a thrust and offset excitation, and that
+    bench's hypothesis vector."""
+    from agents.heldout import random_benches
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+    bench = random_benches(1, 7)[0]
+    bank = _bank(16, **kwargs)
+    bank.reset(bench.load_N)
+    env = TriPlanarShearV1Env(sensor_noise_m=0.0)
+    env.reset(seed=0, options={"bench": bench})
+    nominal = np.array([2.0 / env.unwrapped.config.thrust_scale - 1.0, 0.0])
+    for k in range(periods):
+        action = nominal + (0.05 if (k // 4) % 2 == 0 else -0.05) * np.array([1.0, -4.0])
+        obs = env.step(action.astype(np.float32))[0]
+        bank.update(action, obs)
+    return bank, hypothesis_of(bench)
+
+
+def test_residuals_are_the_likelihood_and_refinement_weighs_each_hypothesis_by_its_replay():
+    """Half the sum of squares of a hypothesis's residuals is its replayed log-likelihood; after the Laplace
+    refinement (:mod:`agents.refine`) every hypothesis's log-likelihood is its own replay's, its weights are finite and
+    normalised, and the fit it drew around explains the data better than the bank's likeliest hypothesis did."""
+    bank, truth = _measured_bank(12)
+    for theta in (truth, bank.theta[0]):
+        r = bank._residuals(theta)
+        state, _ = bank._start(bank._bench_of(theta))
+        assert -0.5 * float(r @ r) == pytest.approx(bank._replay(state), rel=1e-12)
+    best = float(np.max(bank.ll[bank.alive]))
+    assert bank.refine()
+    assert bank.refined == bank.refinements == 1
+    assert -bank.last_fit_cost > best
+    w = bank.weights()
+    assert np.all(np.isfinite(w)) and w.sum() == pytest.approx(1.0)
+    for theta, ll in zip(bank.theta[:4], bank.ll[:4]):
+        state, _ = bank._start(bank._bench_of(theta))
+        assert bank._replay(state) == pytest.approx(ll, rel=1e-12)
+
+
+def test_refinement_runs_every_refine_every_periods():
+    bank, _ = _measured_bank(10, refine_every=5, refine_evaluations=5)
+    assert bank.refinements == 2
+
+
+def test_reference_distance_is_the_mean_horizontal_distance_of_the_contact_points():
+    from agents.estimator import reference_distance_mm
+    rng = np.random.default_rng(3)
+    table = rng.normal(size=(11, 9)) * 1e-3
+    shifted = table.copy()
+    shifted[:, 0::3] += 3e-4  # along e1
+    shifted[:, 2::3] += 4e-4  # along e3: 0.5 mm horizontally
+    shifted[:, 1::3] += 1e-2  # vertical: not counted
+    assert reference_distance_mm(table, table) == 0.0
+    assert reference_distance_mm(table, shifted) == pytest.approx(0.5, rel=1e-9)
+
+
+def test_the_banks_reference_is_its_hypotheses_references_weighed():
+    bank, _ = _measured_bank(6)
+    w = bank.weights()
+    assert np.allclose(bank.reference(), sum(wi * s.ref for wi, s in zip(w, bank.states)), rtol=0, atol=1e-15)
