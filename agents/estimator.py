@@ -26,12 +26,12 @@ posterior, and its interval is one (``tests/agents/test_estimator_posterior.py``
 earlier move (the least likely half replaced by perturbed copies kept when they fit better, the proposal density
 not divided out: it concentrates the bank faster than the posterior; ``docs/actuator-study.md`` compares them).
 
-**Refinement** (``refine_every``, off by default). Every ``refine_every`` periods the bank can be replaced by an
-importance sample from a Laplace proposal around a least-squares fit of the unknowns to every measurement so far
-(:meth:`SpecimenBank.refine`, :mod:`agents.refine`), which reaches the noise level where the random walk is slow.
-It sharpens the bank as a bank four times larger does, at half its CPU, and like it changed neither the estimate of
-the contact friction and mass centre (the measurements hardly determine them one by one) nor, with the tuned model
-error, the controller's score (``docs/actuator-study.md``, sixth round).
+**Refinement** (``refine_every``; zero: none, the default here; ``mpc`` refines every 10 periods). Every
+``refine_every`` periods the bank is replaced by an importance sample from a Laplace proposal around a least-squares
+fit of the unknowns to every measurement so far (:meth:`SpecimenBank.refine`, :mod:`agents.refine`), which reaches
+the noise level where the random walk is slow. It sharpens the bank as a bank four times larger does, at half its
+CPU; the tip friction comes out closer, the contact friction and the mass centre hardly (the measurements do not
+determine them one by one; ``docs/actuator-study.md``, sixth round).
 
 **Divergence.** If every hypothesis is ruled out (each ended the test while the bench runs on, or its state is not
 finite), or the weighted covariance is not finite and positive definite, the weights go back to the prior
