@@ -189,6 +189,7 @@ class SpecimenBank:
         self.ll = np.zeros(len(self.states))  # the whole history's log-likelihood (the move's target)
         self.alive = np.ones(len(self.states), dtype=bool)
         self.fallbacks = self.rejuvenations = self.proposed = self.accepted = self.refinements = self.refined = 0
+        self.last_fit_cost = math.nan  # the last refinement's least-squares cost (its negative log-likelihood)
         self.diverged = False
         self._history: list[tuple[np.ndarray, np.ndarray]] = []
         self._counted_from = 0  # measurements before a fallback no longer count
@@ -303,14 +304,14 @@ class SpecimenBank:
             ll.append(self._replay(state))
             if len(states) == n:
                 break
-        if len(states) < n // 2:
-            return False
         ll = np.array(ll)
+        if len(states) < n // 2 or not np.isfinite(ll).any():
+            return False
         z = (np.array(theta)[:, free] - low) / span
         log_w = ll - fit.log_density(z, float(self.refine_inflation))
         self.theta, self.states, self.ll = np.array(theta), states, ll
         self.alive = np.isfinite(ll)
-        self.log_w = np.where(self.alive, log_w - np.max(log_w[self.alive], initial=0.0), -math.inf)
+        self.log_w = np.where(self.alive, log_w - np.max(log_w, where=self.alive, initial=-math.inf), -math.inf)
         self.refined += 1
         return True
 

@@ -57,11 +57,6 @@ class LaplaceFit:
         u = self.root.T @ (np.atleast_2d(z) - self.z).T / inflation
         return -0.5 * np.sum(u * u, axis=0)
 
-    @property
-    def covariance(self) -> np.ndarray:
-        inverse = solve_triangular(self.root, np.eye(len(self.z)), lower=True)
-        return inverse.T @ inverse
-
 
 def laplace_fit(residuals: Callable[[np.ndarray], np.ndarray], z0: np.ndarray, max_evaluations: int,
                 diff_step: float = 1e-3) -> LaplaceFit | None:
