@@ -86,6 +86,7 @@ class TrueStateMPC(ToldMPC):
         bank = self.controller.bank
         bank.states, bank.theta = [snapshot(self._env)], hypothesis_of(self._env.episode_bench)[None, :]
         bank.log_w, bank.ll, bank.alive, bank.jitter = np.zeros(1), np.zeros(1), np.ones(1, dtype=bool), 0.0
+        bank.refine_every = 0  # the truth needs no fit (a refinement would replace it by draws around one)
 
 
 GIVEN = {"tip": ("tip_friction_deg",), "friction": ("friction1_deg", "friction2_deg", "friction3_deg"),
