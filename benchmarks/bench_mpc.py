@@ -192,7 +192,8 @@ def episode(task: tuple[str, dict, int, int, int | str, bool]) -> dict:
     if name == "mpc" or name.startswith("mpc_given_"):
         out["fallbacks"] = controller.info["fallbacks"]
         out["estimate_errors"] = estimate_errors(controller.info["estimate"], bench)
-        out.update(reference_errors(controller.bank, bench, index, hindsight))
+        bank = getattr(controller, "controller", controller).bank  # a told mpc wraps the controller
+        out.update(reference_errors(bank, bench, index, hindsight))
     return out
 
 
