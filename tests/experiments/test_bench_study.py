@@ -10,6 +10,7 @@ import pytest
 
 from agents import bench_controllers
 from agents.limit import LimitController
+from agents.mpc import MPCController
 from experiments import bench_study as bs
 
 
@@ -51,9 +52,12 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(bs, "TUNING_BENCHES", 2)
     monkeypatch.setattr(bs, "PI_GRID", [(1.0, 0.0)])
     monkeypatch.setattr(bs, "ADAPTIVE_GRID", (1e4,))
-    # The study's plumbing, not the limit's quality: a small search (the default's is ~5 times this one's CPU).
+    # The study's plumbing, not the model-based controllers' quality: small searches and no least-squares refinement
+    # (the defaults cost about 5 times this CPU for limit, 3 times for mpc).
     monkeypatch.setattr(bench_controllers, "LimitController",
                         functools.partial(LimitController, horizon=16, samples=24, iterations=2))
+    monkeypatch.setattr(bench_controllers, "MPCController",
+                        functools.partial(MPCController, horizon=16, samples=24, iterations=2, refine_every=0))
     kwargs = dict(seeds=[0], ppo_timesteps=512, recurrent_timesteps=512, design_seeds=[0, 1],
                   design_ppo_timesteps=512, n_heldout=2, scripted_seeds=[0, 1], designs=bs.DESIGNS[:1],
                   executor="serial", log=lambda s: None, doc=tmp_path / "doc" / "report.md")

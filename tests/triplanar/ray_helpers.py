@@ -82,8 +82,27 @@ class PluginTip(EndFriction):
 '''
 
 
-def ray_daemons() -> set[int]:
-    """Process ids of Ray's node daemons (raylet, gcs_server) on this machine."""
+def ray_daemons(session: str | None = None) -> set[int]:
+    """Process ids of Ray's node daemons (raylet, gcs_server) on this machine; with ``session``, those of that Ray
+    instance only (its session name is on each of its daemons' command lines)."""
     import subprocess
     found = subprocess.run(["pgrep", "-x", "raylet|gcs_server"], capture_output=True, text=True).stdout
-    return {int(pid) for pid in found.split()}
+    pids = {int(pid) for pid in found.split()}
+    return pids if session is None else {pid for pid in pids if session in _command_line(pid)}
+
+
+def ray_session(address: str) -> str:
+    """The session name of the Ray instance whose GCS listens at ``address`` (read from its raylets)."""
+    import re
+    for pid in ray_daemons():
+        command = _command_line(pid)
+        if f"--gcs-address={address}" in command:
+            return re.search(r"--session-name=(\S+)", command).group(1)
+    raise LookupError(f"no raylet of the Ray at {address}")
+
+
+def _command_line(pid: int) -> str:
+    try:
+        return Path(f"/proc/{pid}/cmdline").read_text().replace("\0", " ")
+    except OSError:  # it has exited meanwhile
+        return ""

@@ -12,7 +12,7 @@ import time
 import pytest
 
 from ray_helpers import (OBJECT_STORE_BYTES, PLUGIN, ROOT, attempts, by_value, kill_when_started, ray_daemons,
-                         ray_env, recorded_square, report_without_timing)
+                         ray_env, ray_session, recorded_square, report_without_timing)
 
 ray = pytest.importorskip("ray")
 
@@ -101,15 +101,17 @@ def test_a_small_study_sweep_gives_the_serial_numbers_on_the_cluster(cluster) ->
 
 def test_ray_address_from_the_environment_joins_the_cluster(cluster, tmp_path) -> None:
     env = dict(ray_env(), RAY_ADDRESS=cluster.address)
-    daemons = ray_daemons()
+    session = ray_session(cluster.address)
+    daemons = ray_daemons(session)
+    assert len(daemons) == 3  # the head's gcs_server and raylet, the second node's raylet
     cmd = [sys.executable, "-m", "triplanar.cli", "lab-data", "--out", str(tmp_path / "d.csv"), "--loads", "30.3",
            "--repeats", "1", "--no-progress", "--executor", "ray"]
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert f"Connecting to existing Ray cluster at address: {cluster.address}" in done.stderr
-    # Joined and started no Ray of its own (Ray says so when it does; the diagnose test sees that line), and left the
-    # cluster running. Not "no new daemon on the machine": one CI run saw one raylet/gcs_server more afterwards than
-    # before, with the join in the command's stderr and no start; what started it was not found.
+    # Joined, started no Ray of its own (Ray says so when it does; the diagnose test sees that line) and no node in the
+    # cluster, and left the cluster running. The cluster's daemons only, by its session: other Rays' daemons come and
+    # go on the machine meanwhile (an earlier test's local Ray still exiting broke a machine-wide count in CI).
     assert "Started a local Ray instance" not in done.stderr
-    assert (tmp_path / "d.csv").exists() and daemons <= ray_daemons()
+    assert (tmp_path / "d.csv").exists() and ray_daemons(session) == daemons
     assert len([n for n in ray.nodes() if n["Alive"]]) == 2
