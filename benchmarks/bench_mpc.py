@@ -74,6 +74,10 @@ class ToldMPC:
     def info(self) -> dict:
         return self.controller.info
 
+    @property
+    def bank(self):
+        return self.controller.bank
+
 
 class TrueStateMPC(ToldMPC):
     """``mpc`` whose bank is the bench's true state (one hypothesis, tracked exactly with the commands sent): its
@@ -83,7 +87,7 @@ class TrueStateMPC(ToldMPC):
         from agents.estimator import hypothesis_of
         from envs.prediction import snapshot
         self.controller.reset(load_N, config)
-        bank = self.controller.bank
+        bank = self.bank
         bank.states, bank.theta = [snapshot(self._env)], hypothesis_of(self._env.episode_bench)[None, :]
         bank.log_w, bank.ll, bank.alive, bank.jitter = np.zeros(1), np.zeros(1), np.ones(1, dtype=bool), 0.0
         bank.refine_every = 0  # the truth needs no fit (a refinement would replace it by draws around one)
@@ -115,7 +119,7 @@ class GivenMPC(ToldMPC):
         from agents.estimator import PARAMETERS, hypothesis_of
         self.controller.reset(load_N, config)
         truth = hypothesis_of(self._env.episode_bench)
-        bank = self.controller.bank  # refilled within the told intervals (``mpc``'s reset filled it without them)
+        bank = self.bank  # refilled within the told intervals (``mpc``'s reset filled it without them)
         bank.intervals = {**(bank.intervals or {}),
                           **{f: (float(truth[PARAMETERS.index(f)]),) * 2 for g in self.groups for f in GIVEN[g]}}
         bank.reset(load_N)
@@ -192,8 +196,7 @@ def episode(task: tuple[str, dict, int, int, int | str, bool]) -> dict:
     if name == "mpc" or name.startswith("mpc_given_"):
         out["fallbacks"] = controller.info["fallbacks"]
         out["estimate_errors"] = estimate_errors(controller.info["estimate"], bench)
-        bank = getattr(controller, "controller", controller).bank  # a told mpc wraps the controller
-        out.update(reference_errors(bank, bench, index, hindsight))
+        out.update(reference_errors(controller.bank, bench, index, hindsight))
     return out
 
 
