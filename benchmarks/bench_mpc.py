@@ -228,7 +228,7 @@ def limit_sweep(out: Path, workers: int, loads: list[float]) -> None:
                      "per_load": [r["mimicry_error_mm"] for r in mine],
                      "cpu_s_per_episode": float(np.mean([r["cpu_s"] for r in mine]))})
         print(f"limit horizon {setting[0]}, {setting[1]} samples x {setting[2]} iterations: success "
-              f"{100 * rows[-1]['success_rate']:.0f} %, error {rows[-1]['mimicry_error_mm']:.3f} mm, "
+              f"{100 * rows[-1]['success_rate']:.1f} %, error {rows[-1]['mimicry_error_mm']:.3f} mm, "
               f"{rows[-1]['cpu_s_per_episode']:.1f} CPU s/episode")
     write_json({"loads_N": loads, "rows": rows}, out / "limit_sweep.json")
 
@@ -249,7 +249,7 @@ def identify_then_control(fit: str, tip_deg: float | None, n: int) -> None:
         outcomes = [run_episode(MPCController(prior=prior), b, env_kwargs={"nominal_specimen": fit}, seed=i, index=i)
                     for i, b in enumerate(benches)]
         row = summarise(outcomes)
-        print(f"mpc, {name}: {row['n_episodes']} benches, success {100 * row['success_rate']:.0f} %, error over "
+        print(f"mpc, {name}: {row['n_episodes']} benches, success {100 * row['success_rate']:.1f} %, error over "
               f"successes {row['mimicry_error_mm']:.2f} mm, score {row['score']:.2f} mm")
 
 
@@ -423,8 +423,8 @@ def main() -> None:
     print("| controller | episodes | success (95 % CI) | error over successes, mm (95 % CI) | score, mm (95 % CI) | "
           "/ limit | CPU s/episode |")
     for name, r in summary["controllers"].items():
-        print(f"| `{name}` | {r['n_episodes']} | {100 * r['success_rate']:.0f} % ({100 * r['success_low']:.0f}-"
-              f"{100 * r['success_high']:.0f}) | {r['mimicry_error_mm']:.2f} ({r['error_low_mm']:.2f}-"
+        print(f"| `{name}` | {r['n_episodes']} | {100 * r['success_rate']:.1f} % ({100 * r['success_low']:.1f}-"
+              f"{100 * r['success_high']:.1f}) | {r['mimicry_error_mm']:.2f} ({r['error_low_mm']:.2f}-"
               f"{r['error_high_mm']:.2f}) | {r['score']:.2f} ({r['score_low']:.2f}-{r['score_high']:.2f}) | "
               f"{r.get('ratio_to_limit', math.nan):.2f} | {r['cpu_s_per_episode']:.2f} |")
         if "decision_cpu_ms_mean" in r:
