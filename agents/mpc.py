@@ -31,19 +31,19 @@ it 3 deg lower: end friction turned sideways by a lateral tip motion lowers a no
 the tip friction. So the plans also answer to a pessimistic twin of the likeliest hypothesis, its tip friction at the
 top of the bank's 95 % interval, at ``guard_weight`` (0.1) of the total (:meth:`MPCController._guarded`); as the bank
 sharpens the twin joins the likeliest hypothesis. The start's second block mirrors the first's tip offset
-(``start_offset_ratio`` -1): holding it instead (ratio 1) lets the one tuning bench the start lifts off travel, but cost
-0.26 mm of error on the first 103 tuning benches (seventh round). ``start_periods``, ``start_thrust``,
-``start_offset_m``, ``start_offset_ratio``, ``model_error_m``, ``move_steps``, ``refine_every``, ``thrust_envelope``,
-``pace_s``, ``bank_size``, ``hypotheses``, ``normal_margin``, ``guard_weight`` and the planner's size were chosen on the
-tuning benches only (stream ``agents.heldout.TUNING_SEED``, 30, 60 then 200 benches, by the score, the failures and the
-bench-by-bench difference in error; ``docs/actuator-study.md`` lists the variants tried, ``ramp_periods`` and
-``offset_envelope`` among them, left at their defaults), never on the held-out ones. The sixth round's choice goes
-together: the bank refined by least squares every 10 periods with the model error at the sensor's own noise (0.2 mm) is
-sharp enough to carry a larger planner (horizon 24 periods, 32 candidates x 3 iterations, ``limit``'s of the third
-round) in the narrower envelope without the failures each of them added on the earlier, blunter bank. With the bench's
-true state in place of the bank (``mpc_true``) the earlier planner scored 0.45 mm on 60 tuning benches and the current
-``limit``'s 0.26 mm, against that ``limit``'s 0.23 mm: the rest of the gap is the estimate, and one episode's
-measurements place the case-C path to about 0.2 mm (sixth round).
+(``start_offset_ratio`` -1): holding it instead (ratio 1) let the one tuning bench the start lifts off travel in a check
+without the refinement, but cost 0.26 mm of error on the first 103 tuning benches (seventh round). ``start_periods``,
+``start_thrust``, ``start_offset_m``, ``start_offset_ratio``, ``model_error_m``, ``move_steps``, ``refine_every``,
+``thrust_envelope``, ``pace_s``, ``bank_size``, ``hypotheses``, ``normal_margin``, ``guard_weight`` and the planner's
+size were chosen on the tuning benches only (stream ``agents.heldout.TUNING_SEED``, 30, 60 then 200 benches, by the
+score, the failures and the bench-by-bench difference in error; ``docs/actuator-study.md`` lists the variants tried,
+``ramp_periods`` and ``offset_envelope`` among them, left at their defaults), never on the held-out ones. The sixth
+round's choice goes together: the bank refined by least squares every 10 periods with the model error at the sensor's
+own noise (0.2 mm) is sharp enough to carry a larger planner (horizon 24 periods, 32 candidates x 3 iterations,
+``limit``'s of the third round) in the narrower envelope without the failures each of them added on the earlier, blunter
+bank. With the bench's true state in place of the bank (``mpc_true``) the earlier planner scored 0.45 mm on 60 tuning
+benches and the current ``limit``'s 0.26 mm, against that ``limit``'s 0.23 mm: the rest of the gap is the estimate, and
+one episode's measurements place the case-C path to about 0.2 mm (sixth round).
 
 The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
 specimen (``prior``: the env's nominal specimen by default, or a ``Specimen``, or the path of a ``fit.json`` or
