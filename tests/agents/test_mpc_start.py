@@ -10,19 +10,21 @@ from envs.core import make_config
 from triplanar import kernel as K
 
 
-@pytest.mark.parametrize("ratio", [-1.0, 0.0, 1.0])
-def test_the_start_alternates_thrust_and_tip_offset_every_block(ratio):
-    """The second block's tip offset is ``start_offset_ratio`` times the first's: mirrored, nominal or held."""
+@pytest.mark.parametrize("ratio, centre", [(-1.0, 0.0), (0.0, 0.0), (1.0, 0.0), (-1.0, 0.002)])
+def test_the_start_alternates_thrust_and_tip_offset_every_block(ratio, centre):
+    """The second block's tip offset is ``start_offset_ratio`` times the first's (mirrored, nominal or held), both
+    about ``start_centre_m``."""
     config = make_config(None)
     controller = MPCController(bank_size=4, samples=4, elites=2, iterations=1, horizon=4, block=4, start_periods=8,
-                               start_thrust=0.1, start_offset_m=-0.002, start_offset_ratio=ratio)
+                               start_thrust=0.1, start_offset_m=-0.002, start_offset_ratio=ratio,
+                               start_centre_m=centre)
     controller.reset(40.0, config)
     obs = np.zeros(15, dtype=np.float32)
     actions = np.array([controller.act(obs) for _ in range(8)], dtype=float)
     thrust = 0.5 * (actions[:, 0] + 1.0) * config.thrust_scale  # in load levels
     offset_m = actions[:, 1] * config.offset_range_m - config.tip_offset_m
     assert thrust == pytest.approx([1.1] * 4 + [0.9] * 4, abs=1e-6)
-    assert offset_m == pytest.approx([-0.002] * 4 + [-0.002 * ratio] * 4, abs=1e-8)
+    assert offset_m == pytest.approx([centre - 0.002] * 4 + [centre - 0.002 * ratio] * 4, abs=1e-8)
     assert not controller.info["planned"]  # still the start: no plan yet
 
 
