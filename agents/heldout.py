@@ -21,7 +21,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, replace
-from typing import Any, Iterable, Sequence
+from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
@@ -184,9 +184,11 @@ class Outcome:
 
 
 def run_episode(controller: Any, bench: Bench, *, env_kwargs: dict[str, Any] | None = None, seed: int = 0,
-                bench_set: str = "heldout", index: int = 0, policy: Any = None) -> Outcome:
+                bench_set: str = "heldout", index: int = 0, policy: Any = None,
+                on_step: Callable[[dict], None] | None = None) -> Outcome:
     """One episode of ``controller`` (a bench controller with ``reset``/``act``, or ``policy(obs) -> action``
-    with ``controller`` its name) on ``bench``; ``seed`` seeds the sensor noise."""
+    with ``controller`` its name) on ``bench``; ``seed`` seeds the sensor noise; ``on_step`` is called with every
+    step's ``info``."""
     env = TriPlanarShearV1Env(**(env_kwargs or {}))
     obs, info = env.reset(seed=seed, options={"bench": bench})
     name = controller if isinstance(controller, str) else controller.name
@@ -200,6 +202,8 @@ def run_episode(controller: Any, bench: Bench, *, env_kwargs: dict[str, Any] | N
         obs, reward, terminated, truncated, info = env.step(np.asarray(policy(obs), dtype=np.float32))
         total += reward
         steps += 1
+        if on_step is not None:
+            on_step(info)
         if terminated or truncated:
             break
     success = bool(info["is_success"])

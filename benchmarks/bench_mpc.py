@@ -6,7 +6,8 @@
 [--tip-deg D]``: ``mpc`` with a fit as prior against the drawing's prior instead. ``--stream 20020`` (the tuning
 stream, ``agents.heldout.TUNING_SEED``) and the controller ``mpc_true`` (``mpc``'s planner and settings with its
 bank replaced by the bench's true state: what ``mpc`` would do if it estimated perfectly) separate estimation error
-from planning error, and ``mpc_given_GROUPS`` (``mpc`` told some unknowns exactly, e.g. ``mpc_given_tip``,
+from planning error, ``mpc_true_reference`` (``mpc`` aiming at the bench's own case-C reference, its estimate
+otherwise its own: :class:`TrueReferenceMPC`) what knowing where to go is worth, and ``mpc_given_GROUPS`` (``mpc`` told some unknowns exactly, e.g. ``mpc_given_tip``,
 ``mpc_given_tip_friction_centre``: :class:`GivenMPC`) what each unknown costs; for ``mpc`` the table also gives the
 RMS error of the estimator's final estimate against the bench's truth and how far the bank's case-C reference ends
 from the bench's (``--hindsight``: also that of a sharp bank given the whole episode's measurements). ``--set stress``: the stress set (outside
@@ -22,7 +23,8 @@ Episodes go through the project's executor (``run_tasks``, local processes) with
 study's statistics (:func:`experiments.stats.row_stats`): success rate with its interval, mean mimicry error over
 successes and the score (a failure counts 10 mm, ``agents.heldout``) with their bootstrap 95 % intervals, the ratio
 of each score to ``limit``'s on the same benches, CPU time per episode and, for ``mpc``, per decision
-(``time.process_time`` around ``act``: estimator update plus planning, or the plan followed between replans).
+(``time.process_time`` around ``act``: estimator update plus planning, or the plan followed between replans), and
+where along the travel each controller's error is made (:func:`travel_profile`).
 Results go to ``docs/actuator-study.md`` by hand, with the command.
 """
 
@@ -91,6 +93,24 @@ class TrueStateMPC(ToldMPC):
         bank.states, bank.theta = [snapshot(self._env)], hypothesis_of(self._env.episode_bench)[None, :]
         bank.log_w, bank.ll, bank.alive, bank.jitter = np.zeros(1), np.zeros(1), np.ones(1, dtype=bool), 0.0
         bank.refine_every = 0  # the truth needs no fit (a refinement would replace it by draws around one)
+
+
+class TrueReferenceMPC(ToldMPC):
+    """``mpc`` whose plans aim at the bench's own case-C reference (every planning hypothesis carries it in place of
+    its own), its bank and predictions unchanged: what knowing only where to go is worth, against ``mpc_true``
+    (knowing everything)."""
+
+    def reset(self, load_N: float, config) -> None:
+        from envs.prediction import snapshot
+        self.controller.reset(load_N, config)
+        truth, best = snapshot(self._env).ref, self.bank.best
+
+        def aimed(count: int, min_ess: float = 1.0):
+            states, weights = best(count, min_ess)
+            for state in states:
+                state.ref = truth.copy()
+            return states, weights
+        self.bank.best = aimed
 
 
 GIVEN = {"tip": ("tip_friction_deg",), "friction": ("friction1_deg", "friction2_deg", "friction3_deg"),
@@ -175,6 +195,8 @@ def episode(task: tuple[str, dict, int, int, int | str, bool]) -> dict:
         bench = with_tip(bench, 0.0)
     if name == "mpc_true":
         controller = TrueStateMPC(name, **params)
+    elif name == "mpc_true_reference":
+        controller = TrueReferenceMPC(name, **params)
     elif name.startswith("mpc_given_"):
         controller = GivenMPC(name, **params)
     else:
@@ -188,16 +210,39 @@ def episode(task: tuple[str, dict, int, int, int | str, bool]) -> dict:
             decisions.append((controller.info["cpu_s"], controller.info["planned"]))
             return action
         controller.act = timed
+    path: list[tuple[float, float]] = []
     start = time.process_time()
     outcome = run_episode(controller, bench, seed=index, index=index,
-                          bench_set="stress" if stream == "stress" else "heldout")
+                          bench_set="stress" if stream == "stress" else "heldout",
+                          on_step=lambda info: path.append((info["travel_m"], info["distance_mm"])))
     out = asdict(outcome)
-    out.update(cpu_s=time.process_time() - start, decisions_cpu_s=decisions)
+    out.update(cpu_s=time.process_time() - start, decisions_cpu_s=decisions, path=path)
     if name == "mpc" or name.startswith("mpc_given_"):
         out["fallbacks"] = controller.info["fallbacks"]
         out["estimate_errors"] = estimate_errors(controller.info["estimate"], bench)
         out.update(reference_errors(controller.bank, bench, index, hindsight))
     return out
+
+
+PROFILE_FRACTIONS = np.linspace(0.1, 1.0, 10)
+
+
+def travel_profile(results: list[dict]) -> tuple[np.ndarray, float, int] | None:
+    """Where along the travel the error is made: over the successful episodes, the mean distance to the case-C path
+    (mm) at :data:`PROFILE_FRACTIONS` of each episode's travel, and the mean share of the mimicry error (travel-
+    averaged distance, trapezoid rule as the env's) made in the first fifth of the travel (mm); None without paths
+    (runs written before they were recorded)."""
+    paths = [np.asarray(r["path"]) for r in results if r["success"] and len(r.get("path", ())) > 1]
+    if not paths:
+        return None
+    at, early = [], []
+    for p in paths:
+        travel = np.concatenate([[0.0], p[:, 0]])
+        distance = np.concatenate([[0.0], p[:, 1]])
+        at.append(np.interp(PROFILE_FRACTIONS * travel[-1], travel, distance))
+        fine = np.linspace(0.0, 0.2 * travel[-1], 201)
+        early.append(np.trapezoid(np.interp(fine, travel, distance), fine) / travel[-1])
+    return np.mean(at, axis=0), float(np.mean(early)), len(paths)
 
 
 LIMIT_SETTINGS = ((24, 32, 3), (48, 64, 4), (96, 64, 4))  # (horizon, samples, iterations); the default is the middle
@@ -360,6 +405,34 @@ def parse_args() -> argparse.Namespace:
     return parser.parse_args()
 
 
+def print_table(summary: dict) -> None:
+    """The run's table (markdown) and, per controller, its CPU, estimate and travel-profile lines."""
+    print("| controller | episodes | success (95 % CI) | error over successes, mm (95 % CI) | score, mm (95 % CI) | "
+          "/ limit | CPU s/episode |")
+    for name, r in summary["controllers"].items():
+        print(f"| `{name}` | {r['n_episodes']} | {100 * r['success_rate']:.1f} % ({100 * r['success_low']:.1f}-"
+              f"{100 * r['success_high']:.1f}) | {r['mimicry_error_mm']:.2f} ({r['error_low_mm']:.2f}-"
+              f"{r['error_high_mm']:.2f}) | {r['score']:.2f} ({r['score_low']:.2f}-{r['score_high']:.2f}) | "
+              f"{r.get('ratio_to_limit', math.nan):.2f} | {r['cpu_s_per_episode']:.2f} |")
+        if "decision_cpu_ms_mean" in r:
+            print(f"  {name}: decision CPU {r['decision_cpu_ms_mean']:.2f} ms mean, {r['decision_cpu_ms_p95']:.2f} ms "
+                  f"p95 (replanning {r['planning_cpu_ms_mean']:.2f} ms mean, {r['planning_cpu_ms_p95']:.2f} ms p95; "
+                  f"following the plan {r['following_cpu_ms_mean']:.2f} ms mean); estimator fallbacks "
+                  f"{r['fallbacks']}; wall {r['wall_s']:.0f} s")
+        else:
+            print(f"  {name}: wall {r['wall_s']:.0f} s")
+        if "reference_error_mm" in r:
+            print(f"  {name}: the bank's case-C reference ends {r['reference_error_mm']:.3f} mm (mean) from the "
+                  "bench's" + (f"; with hindsight {r['hindsight_reference_error_mm']:.3f} mm"
+                               if "hindsight_reference_error_mm" in r else ""))
+        if "profile_mm" in r:
+            print(f"  {name}: distance to the case-C path at 10 %, 20 %, ..., 100 % of the travel (mean over "
+                  f"{r['profile_episodes']} successes): " + " ".join(f"{v:.2f}" for v in r["profile_mm"])
+                  + f" mm; made in the first fifth of the travel {r['error_first_fifth_mm']:.3f} mm of the error")
+        if "estimate_rms" in r:
+            print(f"  {name}: RMS error of the final estimate: " + ", ".join(f"{k} {v:.2f}" for k, v in r["estimate_rms"].items()))
+
+
 def main() -> None:
     args = parse_args()
     out = Path(args.out)
@@ -411,6 +484,9 @@ def main() -> None:
             if values:
                 row[key] = float(np.mean(values))
                 row[key + "_per_bench"] = values
+        profile = travel_profile(results)
+        if profile is not None:
+            row.update(profile_mm=profile[0].tolist(), error_first_fifth_mm=profile[1], profile_episodes=profile[2])
         if any("estimate_errors" in r for r in results):
             row["estimate_rms"] = {k: float(np.sqrt(np.mean([e ** 2 for r in results for e in r["estimate_errors"][k]])))
                                    for k in results[0]["estimate_errors"]}
@@ -420,26 +496,7 @@ def main() -> None:
         for row in summary["controllers"].values():
             row["ratio_to_limit"] = row["score"] / limit
     write_json(summary, out / "summary.json")
-    print("| controller | episodes | success (95 % CI) | error over successes, mm (95 % CI) | score, mm (95 % CI) | "
-          "/ limit | CPU s/episode |")
-    for name, r in summary["controllers"].items():
-        print(f"| `{name}` | {r['n_episodes']} | {100 * r['success_rate']:.1f} % ({100 * r['success_low']:.1f}-"
-              f"{100 * r['success_high']:.1f}) | {r['mimicry_error_mm']:.2f} ({r['error_low_mm']:.2f}-"
-              f"{r['error_high_mm']:.2f}) | {r['score']:.2f} ({r['score_low']:.2f}-{r['score_high']:.2f}) | "
-              f"{r.get('ratio_to_limit', math.nan):.2f} | {r['cpu_s_per_episode']:.2f} |")
-        if "decision_cpu_ms_mean" in r:
-            print(f"  {name}: decision CPU {r['decision_cpu_ms_mean']:.2f} ms mean, {r['decision_cpu_ms_p95']:.2f} ms "
-                  f"p95 (replanning {r['planning_cpu_ms_mean']:.2f} ms mean, {r['planning_cpu_ms_p95']:.2f} ms p95; "
-                  f"following the plan {r['following_cpu_ms_mean']:.2f} ms mean); estimator fallbacks "
-                  f"{r['fallbacks']}; wall {r['wall_s']:.0f} s")
-        else:
-            print(f"  {name}: wall {r['wall_s']:.0f} s")
-        if "reference_error_mm" in r:
-            print(f"  {name}: the bank's case-C reference ends {r['reference_error_mm']:.3f} mm (mean) from the "
-                  "bench's" + (f"; with hindsight {r['hindsight_reference_error_mm']:.3f} mm"
-                               if "hindsight_reference_error_mm" in r else ""))
-        if "estimate_rms" in r:
-            print(f"  {name}: RMS error of the final estimate: " + ", ".join(f"{k} {v:.2f}" for k, v in r["estimate_rms"].items()))
+    print_table(summary)
     if args.against:
         paired_differences(summary, run_base(summary, Path(args.against)), str(args.against))
     if args.against_study:

@@ -100,3 +100,17 @@ def test_a_failed_episode_has_no_mimicry_error() -> None:
     failed = evaluate(NoThrust(name="no thrust"), 30.3)
     assert not failed.success and math.isnan(failed.mimicry_error_mm)
     assert math.isfinite(failed.mimicry_error_reached_mm)
+
+
+def test_run_episode_hands_every_steps_info_to_on_step() -> None:
+    """The per-step infos a run reports (``benchmarks/bench_mpc.py``'s travel profile) are the episode's own: one per
+    step, the travel never falling, and the last one carrying the outcome's mimicry error."""
+    from agents.bench_controllers import make_controller
+    from agents.heldout import nominal_benches, run_episode
+    infos: list[dict] = []
+    outcome = run_episode(make_controller("frictionless_tip"), nominal_benches((40.0,))[0], seed=0,
+                          on_step=infos.append)
+    assert len(infos) == outcome.steps > 1
+    travel = [i["travel_m"] for i in infos]
+    assert np.all(np.diff(travel) >= 0.0) and travel[-1] == pytest.approx(outcome.travel_m)
+    assert infos[-1]["mimicry_error_mm"] == pytest.approx(outcome.mimicry_error_mm)
