@@ -1,7 +1,7 @@
 """The current ``mpc`` on every design of the bench study's sweep, beside the study's rows of that design.
 
 ``PYTHONPATH=. python benchmarks/design_mpc.py --out runs/design_mpc [--n 50] [--workers 2]
-[--study docs/actuator-study/designs.csv]``
+[--study docs/actuator-study/designs.csv] [--designs A,B]``
 
 For each design and each of ``mpc`` and ``limit``: ``triplanar evaluate --controller C --design D --n N`` (the
 design's first ``N`` held-out benches with its tip, the benches of the study's model-based rows; ``mpc`` told the
@@ -47,8 +47,15 @@ def main() -> None:
     parser.add_argument("--n", type=int, default=50)
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--study", default="docs/actuator-study/designs.csv")
+    parser.add_argument("--designs", default=None, metavar="A,B",
+                        help="only these designs (default: every design of the sweep)")
     args = parser.parse_args()
     names = [d.name for d in DESIGNS]
+    if args.designs is not None:
+        unknown = sorted(set(args.designs.split(",")) - set(names))
+        if unknown:
+            raise SystemExit(f"--designs: {unknown} are not designs of the sweep; choose from {names}")
+        names = [n for n in names if n in args.designs.split(",")]
     tasks = [(controller, name, args.n, args.out) for name in names for controller in ("mpc", "limit")]
     with pool_scope(args.workers) as ex:
         run_tasks(run_design, tasks, ex, progress=True, desc="designs")
