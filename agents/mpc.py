@@ -79,6 +79,11 @@ from .estimator import GEOMETRY, PARAMETERS, SpecimenBank
 from .planner import CEMPlanner
 
 
+def nominal_command(config: ShearConfig) -> np.ndarray:
+    """The action of the nominal command: thrust at the load level, the tip at the config's offset."""
+    return np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
+
+
 @dataclass
 class MPCController:
     """Estimator + receding-horizon planner (module docstring); the fields are its settings and the bench's
@@ -150,22 +155,21 @@ class MPCController:
         self._widen()
         self._plan: np.ndarray | None = None
         self._age = 0
-        self._last = np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
+        self._last = nominal_command(config)
         self._first = True
-        self._start = self._last.copy()
         self.info = {"estimator_fallback": False, "fallbacks": 0, "held": False, "cpu_s": 0.0}
 
-    def _excitation(self) -> np.ndarray:
-        """The start's command this period: the nominal one, with the thrust at ``1 +- start_thrust`` times the load
-        level, alternating every ``block`` periods, and the tip offset at ``start_centre_m`` plus ``start_offset_m``
-        in the first block of each pair and plus ``start_offset_ratio`` times that in the second (-1: mirrored;
-        zero: constant)."""
-        first = ((self._periods - 1) // int(self.block)) % 2 == 0
-        thrust = 2.0 * self.start_thrust / self.config.thrust_scale
-        offset = self.start_offset_m / self.config.offset_range_m
+    def start_command(self, period: int, config: ShearConfig) -> np.ndarray:
+        """The start's command at ``period`` (from 1): the nominal one, with the thrust at ``1 +- start_thrust`` times
+        the load level, alternating every ``block`` periods, and the tip offset at ``start_centre_m`` plus
+        ``start_offset_m`` in the first block of each pair and plus ``start_offset_ratio`` times that in the second
+        (-1: mirrored; zero: constant). It depends on nothing measured (``benchmarks/start_drift.py`` replays it)."""
+        first = ((period - 1) // int(self.block)) % 2 == 0
+        thrust = 2.0 * self.start_thrust / config.thrust_scale
+        offset = self.start_offset_m / config.offset_range_m
         step = np.array([thrust, offset]) if first else np.array([-thrust, self.start_offset_ratio * offset])
-        step[1] += self.start_centre_m / self.config.offset_range_m
-        return np.clip(self._start + step, -1.0, 1.0)
+        step[1] += self.start_centre_m / config.offset_range_m
+        return np.clip(nominal_command(config) + step, -1.0, 1.0)
 
     def _widen(self) -> None:
         """The planner's envelope this period: the thrust within ``1 +- thrust_envelope`` times the load level, the
@@ -198,7 +202,8 @@ class MPCController:
         planned = self._periods > self.start_periods and (
             self._plan is None or self._age >= min(self.replan_every, len(self._plan)))
         if self._periods <= self.start_periods:  # the start: the nominal action while the data say little
-            self._plan, self._age = np.repeat(self._excitation()[None, :], int(self.horizon), axis=0), 0
+            self._plan, self._age = np.repeat(self.start_command(self._periods, self.config)[None, :],
+                                              int(self.horizon), axis=0), 0
         elif planned:
             self._widen()
             states, weights = self._guarded(*self.bank.best(int(self.hypotheses), float(self.min_ess)))

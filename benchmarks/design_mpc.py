@@ -52,10 +52,11 @@ def main() -> None:
     args = parser.parse_args()
     names = [d.name for d in DESIGNS]
     if args.designs is not None:
-        unknown = sorted(set(args.designs.split(",")) - set(names))
+        wanted = args.designs.split(",")
+        unknown = sorted(set(wanted) - set(names))
         if unknown:
             raise SystemExit(f"--designs: {unknown} are not designs of the sweep; choose from {names}")
-        names = [n for n in names if n in args.designs.split(",")]
+        names = [n for n in names if n in wanted]
     tasks = [(controller, name, args.n, args.out) for name in names for controller in ("mpc", "limit")]
     with pool_scope(args.workers) as ex:
         run_tasks(run_design, tasks, ex, progress=True, desc="designs")
