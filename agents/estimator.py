@@ -157,7 +157,6 @@ class SpecimenBank:
     refine_every: int = 0
     refine_evaluations: int = 30
     refine_inflation: float = 1.5
-    bias_window: int = 0
 
     def reset(self, load_N: float) -> None:
         if self.move not in MOVES:
@@ -189,7 +188,6 @@ class SpecimenBank:
         self.log_w = np.zeros(len(self.states))  # log weight: the likelihood since the last resampling
         self.ll = np.zeros(len(self.states))  # the whole history's log-likelihood (the move's target)
         self.alive = np.ones(len(self.states), dtype=bool)
-        self.recent = np.zeros((len(self.states), max(int(self.bias_window), 1), 9))  # residuals, a ring
         self.fallbacks = self.rejuvenations = self.proposed = self.accepted = self.refinements = self.refined = 0
         self.last_fit_cost = math.nan  # the last refinement's least-squares cost (its negative log-likelihood)
         self.diverged = False
@@ -239,10 +237,9 @@ class SpecimenBank:
             return -math.inf
         return ll
 
-    def _replay(self, s: BenchState, recent: np.ndarray | None = None) -> float:
+    def _replay(self, s: BenchState) -> float:
         """Run a new hypothesis from its start with every command sent so far: its whole history's
-        log-likelihood (-inf if it ended the test or does not explain a measurement); its residuals of the last
-        periods go into ``recent`` (:meth:`bias`'s ring) where given."""
+        log-likelihood (-inf if it ended the test or does not explain a measurement)."""
         ll = 0.0
         for k, (raw, measured) in enumerate(self._history):
             inc = self._advance(s, raw, measured)
@@ -250,8 +247,6 @@ class SpecimenBank:
                 return -math.inf
             if k >= self._counted_from:
                 ll += inc
-            if recent is not None:
-                recent[k % len(recent)] = self._residual
         return ll
 
     def _residuals(self, theta: np.ndarray) -> np.ndarray:
@@ -299,15 +294,14 @@ class SpecimenBank:
         if -fit.cost <= self.ll[best]:
             return False
         n = len(self.states)
-        theta, states, ll, recent = [], [], [], []
+        theta, states, ll = [], [], []
         for z in fit.draw_inside(self._rng, 3 * n, float(self.refine_inflation)):
             state, full = self._start(self._bench_of(hypothesis(z)))
             if state is None:
                 continue
             theta.append(full)
             states.append(state)
-            recent.append(np.zeros_like(self.recent[0]))
-            ll.append(self._replay(state, recent[-1]))
+            ll.append(self._replay(state))
             if len(states) == n:
                 break
         ll = np.array(ll)
@@ -315,7 +309,7 @@ class SpecimenBank:
             return False
         z = (np.array(theta)[:, free] - low) / span
         log_w = ll - fit.log_density(z, float(self.refine_inflation))
-        self.theta, self.states, self.ll, self.recent = np.array(theta), states, ll, np.array(recent)
+        self.theta, self.states, self.ll = np.array(theta), states, ll
         self.alive = np.isfinite(ll)
         self.log_w = np.where(self.alive, log_w - np.max(log_w, where=self.alive, initial=-math.inf), -math.inf)
         self.refined += 1
@@ -341,7 +335,6 @@ class SpecimenBank:
         for i, s in enumerate(self.states):
             if self.alive[i]:
                 inc = self._advance(s, raw, measured)
-                self.recent[i, (len(self._history) - 1) % self.recent.shape[1]] = self._residual
                 self.log_w[i] += inc
                 self.ll[i] += inc
                 self.alive[i] = math.isfinite(self.log_w[i])
@@ -389,15 +382,14 @@ class SpecimenBank:
             state, full = self._start(self._bench_of(theta))
             if state is None:
                 continue
-            ll, recent = 0.0, np.zeros_like(self.recent[0])
-            for k, (raw, measured) in enumerate(self._history):
+            ll = 0.0
+            for raw, measured in self._history:
                 ll += self._advance(state, raw, measured)
-                recent[k % len(recent)] = self._residual
                 if not math.isfinite(ll):
                     break
             if math.isfinite(ll) and (not self.alive[slot] or ll > self.log_w[slot]):
                 self.theta[slot], self.states[slot], self.log_w[slot], self.alive[slot] = full, state, ll, True
-                self.ll[slot], self.recent[slot] = ll, recent
+                self.ll[slot] = ll
         self.rejuvenations += 1
 
     def _proposal(self) -> np.ndarray:
@@ -436,7 +428,7 @@ class SpecimenBank:
         factor = self._proposal()
         w = self.weights()
         parents = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + self._rng.random()) / n), n - 1)
-        theta, ll, recent = self.theta[parents].copy(), self.ll[parents].copy(), self.recent[parents].copy()
+        theta, ll = self.theta[parents].copy(), self.ll[parents].copy()
         states = [self.states[i].copy() for i in parents]
         for _ in range(self.move_steps):
             for i in range(n):
@@ -448,12 +440,11 @@ class SpecimenBank:
                 state, full = self._start(self._bench_of(new))
                 if state is None:
                     continue  # friction holds it at rest: not in the prior (the bench's block started)
-                ring = np.zeros_like(recent[i])
-                new_ll = self._replay(state, ring)
+                new_ll = self._replay(state)
                 if math.isfinite(new_ll) and math.log(self._rng.random()) < new_ll - ll[i]:
-                    theta[i], states[i], ll[i], recent[i] = full, state, new_ll, ring
+                    theta[i], states[i], ll[i] = full, state, new_ll
                     self.accepted += 1
-        self.theta, self.states, self.ll, self.recent = theta, states, ll, recent
+        self.theta, self.states, self.ll = theta, states, ll
         self.log_w, self.alive = np.zeros(n), np.ones(n, dtype=bool)
         self.rejuvenations += 1
 
@@ -496,24 +487,7 @@ class SpecimenBank:
         picks = np.searchsorted(np.cumsum(w), (np.arange(count) + 0.5) / count)
         picks = np.minimum(picks, len(w) - 1)
         chosen, counts = np.unique(picks, return_counts=True)
-        states = [self.states[i].copy() for i in chosen]
-        if self.bias_window > 0:
-            for i, s in zip(chosen, states):
-                s.ref = s.ref + self.bias(i)
-        return states, counts / counts.sum()
-
-    def bias(self, i: int) -> np.ndarray:
-        """Hypothesis ``i``'s mean residual (its prediction minus the measurement) of the contact points' horizontal
-        displacements over the last ``bias_window`` periods (zero in the vertical). Added to its case-C reference,
-        the planner steers its block to the reference plus that offset, i.e. the bench's block to the reference (an
-        output-disturbance model, offset-free MPC: Pannocchia & Rawlings 2003)."""
-        count = min(len(self._history) - self._counted_from, self.recent.shape[1])
-        if count <= 0:
-            return np.zeros(9)
-        last = (len(self._history) - 1 - np.arange(count)) % self.recent.shape[1]
-        shift = self.recent[i, last].mean(axis=0)
-        shift[1::3] = 0.0
-        return shift
+        return [self.states[i].copy() for i in chosen], counts / counts.sum()
 
     def _tempered(self, min_ess: float) -> np.ndarray:
         w = self.weights()

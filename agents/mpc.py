@@ -121,7 +121,6 @@ class MPCController:
     start_offset_m: float = -0.002
     start_offset_ratio: float = -1.0
     start_centre_m: float = 0.0
-    bias_window: int = 0
     seed: int = 0
     stage_bandwidth_hz: float = 20.0
     thrust_bandwidth_hz: float = 30.0
@@ -149,7 +148,7 @@ class MPCController:
                                  float(self.sensor_noise_m), float(self.model_error_m), intervals,
                                  bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps),
                                  refine_every=int(self.refine_every), refine_evaluations=int(self.refine_evaluations),
-                                 refine_inflation=float(self.refine_inflation), bias_window=int(self.bias_window))
+                                 refine_inflation=float(self.refine_inflation))
         self.bank.reset(load_N)
         self.planner = CEMPlanner.with_settings_of(self)
         self._periods = 0
