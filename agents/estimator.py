@@ -100,6 +100,15 @@ def hypothesis_of(bench: Bench) -> np.ndarray:
                            [plane.dip_deg for plane in planes], [plane.dip_direction_deg for plane in planes]])
 
 
+def bench_of(prior: Specimen, theta: np.ndarray, load_N: float) -> Bench:
+    """The bench of a whole hypothesis vector (:func:`hypothesis_of`'s inverse): ``prior`` with ``theta``'s
+    unknowns, on planes of its dips and dip directions, at ``load_N``."""
+    n = len(PARAMETERS)
+    planes = tuple(Plane(float(d), float(a)) for d, a in zip(theta[n + 1:n + 4], theta[n + 4:n + 7]))
+    return unknown_bench(prior, tuple(float(v) for v in theta[1:4]), float(theta[0]), float(theta[n]) / prior.mass_kg,
+                         np.array(theta[4:7], dtype=float), planes, float(load_N), prior.name)
+
+
 def with_parameters(specimen: Specimen, theta: np.ndarray) -> Specimen:
     return replace(specimen, tip_friction_deg=float(theta[0]), friction_deg=tuple(float(v) for v in theta[1:4]),
                    mass_centre_m=np.array(theta[4:7], dtype=float))
@@ -213,11 +222,7 @@ class SpecimenBank:
         """The bench of a hypothesis vector (:func:`hypothesis_of`'s inverse)."""
         if not self.vary_geometry:
             return Bench(with_parameters(self.prior, theta), self.foundation, self.load_N)
-        n = len(PARAMETERS)
-        planes = tuple(Plane(float(d), float(a)) for d, a in zip(theta[n + 1:n + 4], theta[n + 4:n + 7]))
-        return unknown_bench(self.prior, tuple(float(v) for v in theta[1:4]), float(theta[0]),
-                             float(theta[n]) / self.prior.mass_kg, np.array(theta[4:7], dtype=float), planes,
-                             self.load_N, self.prior.name)
+        return bench_of(self.prior, theta, self.load_N)
 
     def _start(self, bench: Bench) -> tuple[BenchState | None, np.ndarray]:
         """The hypothesis's start (None if friction holds it at rest: the bench's block did start)."""
