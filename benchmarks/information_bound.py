@@ -42,7 +42,7 @@ from bench_mpc import controller_settings
 from agents.estimator import PARAMETERS, bench_of, geometry_ranges, hypothesis_of, prior_ranges
 from agents.heldout import TUNING_SEED, random_benches, run_episode
 from agents.mpc import MPCController
-from envs.core import OBS_POS
+from envs.core import OBS_POS, make_config
 from envs.prediction import snapshot
 from envs.triplanar_shear_v1 import Bench, TriPlanarShearV1Env
 from experiments.stats import bootstrap_ci
@@ -83,11 +83,11 @@ def signals(bench: Bench, commands: np.ndarray) -> tuple[np.ndarray, np.ndarray,
     return np.array(out), reference, env.config.travel_m
 
 
-def at_travel(reference: np.ndarray, s: float, travel: float) -> np.ndarray:
-    """The reference table at travel ``s``, interpolated linearly between its rows as the env does."""
-    x = min(max(s, 0.0), travel) / travel * (len(reference) - 1)
-    k = min(int(x), len(reference) - 2)
-    return (1.0 - (x - k)) * reference[k] + (x - k) * reference[k + 1]
+def at_travel(reference: np.ndarray, s: np.ndarray, travel: float) -> np.ndarray:
+    """The reference table (rows at equal steps of travel up to ``travel``) at each travel of ``s``, linear between
+    rows and held at the ends, as the env reads it."""
+    grid = np.linspace(0.0, travel, len(reference))
+    return np.stack([np.interp(s, grid, column) for column in reference.T], axis=1)
 
 
 def expected_distance_mm(cov: np.ndarray, z: np.ndarray) -> float:
@@ -111,7 +111,7 @@ def travel_average(distance: np.ndarray, travel: np.ndarray) -> float:
 def bound(bench: Bench, commands: np.ndarray, sensor_noise_m: float = 2e-4) -> dict | None:
     """The reference and deviation bounds (module docstring) of ``bench`` under ``commands``; None if a perturbed
     bench ends before the bench does (the differences are then not defined)."""
-    prior, foundation = TriPlanarShearV1Env().config.base_specimen()
+    prior, foundation = make_config(None).base_specimen()
     low, high = prior_ranges(prior)
     glow, ghigh, circular = geometry_ranges(prior, foundation)
     low, high = np.concatenate([low, glow]), np.concatenate([high, ghigh])
@@ -131,8 +131,7 @@ def bound(bench: Bench, commands: np.ndarray, sensor_noise_m: float = 2e-4) -> d
             return None
         h = ends[0] - ends[1]
         d_signal.append((up - down) / h)
-        d_reference.append([(at_travel(ref_up, s[k], travel) - at_travel(ref_down, s[k], travel)) / h
-                            for k in range(n)])
+        d_reference.append((at_travel(ref_up, s, travel) - at_travel(ref_down, s, travel)) / h)
     d_signal, d_reference = np.array(d_signal), np.array(d_reference)  # (unknowns, periods, 9)
     information = np.diag(12.0 / span[free] ** 2)  # the prior: a uniform range's variance
     z = np.random.default_rng(0).standard_normal((SAMPLES, 2))
