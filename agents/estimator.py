@@ -31,7 +31,9 @@ not divided out: it concentrates the bank faster than the posterior; ``docs/actu
 fit of the unknowns to every measurement so far (:meth:`SpecimenBank.refine`, :mod:`agents.refine`), which reaches
 the noise level where the random walk is slow. It sharpens the bank as a bank four times larger does, at half its
 CPU; the tip friction comes out closer, the contact friction and the mass centre hardly (the measurements do not
-determine them one by one; ``docs/actuator-study.md``, sixth round).
+determine them one by one; ``docs/actuator-study.md``, sixth round). Nor can any estimator of the same data, to first
+order: a linearised information bound (``benchmarks/information_bound.py``, ninth round) leaves 0.18 mm of the block's
+deviation from its case-C path unknown on the tuning benches, about what ``mpc`` loses to ``limit``.
 
 **Divergence.** If every hypothesis is ruled out (each ended the test while the bench runs on, or its state is not
 finite), or the weighted covariance is not finite and positive definite, the weights go back to the prior
