@@ -165,7 +165,7 @@ def mean_ci(values: list[float]) -> tuple[float, float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--benches", type=int, default=20)
+    parser.add_argument("--benches", type=int, default=20, help="the first N tuning benches (N >= 1)")
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--limit-run", type=Path, help="a bench_mpc.py run of limit on the tuning stream")
@@ -176,6 +176,8 @@ def main() -> None:
         results = run_tasks(bench_task, [(i, settings) for i in range(args.benches)], ex, progress=True, desc="bound",
                             checkpoint=TaskCheckpoint(args.out / "tasks"))
     rows = [r for r in results if r["success"] and "deviation_bound_mm" in r]
+    if not rows:
+        raise SystemExit(f"none of the {args.benches} benches pooled (mpc failed or a perturbed bench ended early)")
     limit = {}
     if args.limit_run:
         for f in glob.glob(str(args.limit_run / "tasks" / "*.pkl")):
