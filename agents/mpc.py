@@ -72,16 +72,12 @@ from typing import Any
 import numpy as np
 
 from envs.core import ShearConfig
+from envs.triplanar_shear_v1 import nominal_command
 from triplanar import kernel as K
 from triplanar.prior import fitted_intervals, load_prior
 
 from .estimator import GEOMETRY, PARAMETERS, SpecimenBank
 from .planner import CEMPlanner
-
-
-def nominal_command(config: ShearConfig) -> np.ndarray:
-    """The action of the nominal command: thrust at the load level, the tip at the config's offset."""
-    return np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
 
 
 @dataclass

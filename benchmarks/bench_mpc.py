@@ -339,14 +339,14 @@ def paired_differences(summary: dict, base: dict[str, tuple[list, list]], label:
                 print(f"  {name} score / limit's of {label}: {r:.2f} ({rlo:.2f}-{rhi:.2f})")
 
 
-def run_base(summary: dict, against: Path) -> dict[str, tuple[list, list]]:
-    """An earlier run's scores and errors per controller (``--against``) on the same benches: a run of the same
-    stream with at least as many (its first ``--benches``: every stream's benches are its first startable draws,
-    each episode's noise seeded by its index)."""
+def run_base(summary: dict, against: Path, option: str = "--against") -> dict[str, tuple[list, list]]:
+    """An earlier run's scores and errors per controller (``--against``, or the ``option`` named in the error) on the
+    same benches: a run of the same stream with at least as many (its first ``--benches``: every stream's benches are
+    its first startable draws, each episode's noise seeded by its index)."""
     base = json.loads((against / "summary.json").read_text())
     n = summary["benches"]
     if base["stream"] != summary["stream"] or base["benches"] < n:
-        raise SystemExit(f"--against {against}: other benches ({base['benches']} of stream {base['stream']})")
+        raise SystemExit(f"{option} {against}: other benches ({base['benches']} of stream {base['stream']})")
     return {name: (row["scores"][:n], row["errors"][:n]) for name, row in base["controllers"].items()}
 
 

@@ -30,14 +30,12 @@ per-episode checkpoint under ``OUT/tasks`` (running it again resumes). Results g
 from __future__ import annotations
 
 import argparse
-import glob
 import math
-import pickle
 from pathlib import Path
 
 import numpy as np
 
-from bench_mpc import controller_settings
+from bench_mpc import controller_settings, run_base
 
 from agents.estimator import PARAMETERS, bench_of, geometry_ranges, hypothesis_of, prior_ranges
 from agents.heldout import TUNING_SEED, random_benches, run_episode
@@ -168,7 +166,8 @@ def main() -> None:
     parser.add_argument("--benches", type=int, default=20, help="the first N tuning benches (N >= 1)")
     parser.add_argument("--out", type=Path, required=True)
     parser.add_argument("--workers", type=int, default=1)
-    parser.add_argument("--limit-run", type=Path, help="a bench_mpc.py run of limit on the tuning stream")
+    parser.add_argument("--limit-run", type=Path, help="a bench_mpc.py run of limit on the tuning stream, at least as "
+                        "many benches")
     parser.add_argument("--mpc", action="append", default=[], metavar="FIELD=VALUE", help="an MPCController setting")
     args = parser.parse_args()
     settings = tuple(sorted(controller_settings(args.mpc, "--mpc", MPCController).items()))
@@ -178,15 +177,14 @@ def main() -> None:
     rows = [r for r in results if r["success"] and "deviation_bound_mm" in r]
     if not rows:
         raise SystemExit(f"none of the {args.benches} benches pooled (mpc failed or a perturbed bench ended early)")
-    limit = {}
-    if args.limit_run:
-        for f in glob.glob(str(args.limit_run / "tasks" / "*.pkl")):
-            with open(f, "rb") as handle:
-                r = pickle.load(handle)
-            if r["controller"] == "limit":
-                limit[r["index"]] = r["mimicry_error_mm"] if r["success"] else math.nan
     summary = {"benches": args.benches, "stream": TUNING_SEED, "mpc": dict(settings), "pooled": len(rows),
                "left_out": [r["index"] for r in results if r not in rows]}
+    limit = {}
+    if args.limit_run:  # its errors per bench, the same benches checked as bench_mpc.py's --against does
+        base = run_base(summary, args.limit_run, "--limit-run")
+        if "limit" not in base:
+            raise SystemExit(f"--limit-run {args.limit_run}: no limit row in its summary.json")
+        limit = {i: math.nan if e is None else float(e) for i, e in enumerate(base["limit"][1])}
     columns = {"reference bound": "reference_bound_mm", "deviation bound": "deviation_bound_mm",
                "mpc error": "mpc_error_mm"}
     print(f"{len(rows)} of {args.benches} tuning benches (mpc successful, differences defined); mean (95 % CI), mm:")

@@ -287,10 +287,16 @@ def draw_start(rng: np.random.Generator, config: ShearConfig, randomize: bool, s
     raise StartError(f"no startable specimen in {START_ATTEMPTS} draws")
 
 
+def nominal_command(config: ShearConfig) -> np.ndarray:
+    """The action of the nominal command: thrust at the load level, the tip at the config's offset (what the bench
+    was commanded before the episode, and what ``mpc`` holds before its first decision)."""
+    return np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
+
+
 def reset_bench_state(config: ShearConfig, start: EpisodeStart, bs: np.ndarray, queue: np.ndarray) -> None:
-    """The bench's state at an episode's start: the latency queue full of the starting command, the force loop's
-    output the thrust at the first period's end."""
-    first = np.array([2.0 / config.thrust_scale - 1.0, config.tip_offset_m / config.offset_range_m])
+    """The bench's state at an episode's start: the latency queue full of the starting command (the nominal one),
+    the force loop's output the thrust at the first period's end."""
+    first = nominal_command(config)
     queue[:] = first
     bs[BS_HEAD] = 0.0
     bs[BS_THRUST] = start.inf[IN_THRUST]
