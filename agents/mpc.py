@@ -102,8 +102,6 @@ class MPCController:
     thrust_envelope: float = 0.3
     normal_margin: float = 0.1
     plane_margin_m: float = 0.0
-    information_weight: float = 0.0
-    information_periods: int = 0
     guard_weight: float = 0.1
     ramp_periods: int = 0
     offset_envelope: float = 1.0
@@ -149,7 +147,6 @@ class MPCController:
                                  refine_inflation=float(self.refine_inflation))
         self.bank.reset(load_N)
         self.planner = CEMPlanner.with_settings_of(self)
-        self.planner.information_noise_m = math.hypot(self.sensor_noise_m, self.model_error_m)
         self._periods = 0
         self._widen()
         self._plan: np.ndarray | None = None

@@ -9,17 +9,7 @@ the warm start and the previous elite are always among the candidates, so a repl
 model scores worse than the one it had.
 
 With several weighted states (the estimator's hypotheses of :mod:`agents.mpc`) a candidate's cost is the weighted
-mean of its costs from each: the plan is good on average over what the specimen may be. Such a cost sees no value in
-learning which hypothesis is the bench's. With ``information_weight`` > 0 a candidate is also credited for what its
-predicted rangefinder readings would teach about the case-C reference (dual control in its simplest form, e.g.
-Mesbah 2018, "Stochastic model predictive control with active uncertainty learning"): the hypotheses are an ensemble,
-and the linear (ensemble-Kalman) update with their predicted nine displacements over the candidate's first
-``information_periods`` periods (all: zero), under the noise ``information_noise_m``, lowers the weighted spread of
-their references over the rest of the travel (the horizontal displacements, as the mimicry error measures them). The
-fall in that spread's root mean square (mm), times the travel still to go and ``information_weight``, comes off the
-candidate's cost: at weight 1 a millimetre less reference uncertainty is worth a millimetre of distance over the rest
-of the travel. Hypotheses that differ only where the reference does not (the tip friction: case C has no end friction)
-earn nothing for being told apart.
+mean of its costs from each: the plan is good on average over what the specimen may be.
 """
 
 from __future__ import annotations
@@ -30,11 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from envs.core import CF_TRAVEL
 from envs.prediction import BenchState, predict
 
 _SETTINGS = ("horizon", "block", "samples", "iterations", "elites", "sigma0", "seed", "pace_s", "normal_margin",
-             "plane_margin_m", "information_weight", "information_periods")
+             "plane_margin_m")
 
 
 @dataclass
@@ -54,9 +43,6 @@ class CEMPlanner:
     pace_s: float = 0.5
     normal_margin: float = 0.0
     plane_margin_m: float = 0.0
-    information_weight: float = 0.0
-    information_periods: int = 0
-    information_noise_m: float = 2e-4
     low: tuple[float, float] = (-1.0, -1.0)
     high: tuple[float, float] = (1.0, 1.0)
     _mean: np.ndarray | None = None
@@ -112,14 +98,10 @@ class CEMPlanner:
                 cand[1] = best_knots
             costs = np.zeros(self.samples)
             plans = self._expand(cand)
-            informed = self.information_weight > 0.0 and len(states) > 1
-            positions = np.zeros((len(states), self.samples, self.horizon, 9)) if informed else [None] * len(states)
-            for state, weight, seen in zip(states, w, positions):
+            for state, weight in zip(states, w):
                 if weight > 0:
                     costs += weight * predict(state, plans, self.pace_s, self.normal_margin,
-                                              self.plane_margin_m, seen)[0]
-            if informed:
-                costs -= self.information_weight * self.information(states, positions, w)
+                                               self.plane_margin_m)[0]
             self.evaluations += self.samples * len(states)
             order = np.argsort(costs, kind="stable")
             if costs[order[0]] < best_cost:
@@ -128,29 +110,6 @@ class CEMPlanner:
             mean, sigma = elite.mean(axis=0), np.maximum(elite.std(axis=0), 0.02)
         self.last_cost = best_cost
         return self._expand(best_knots[None])[0]
-
-    def information(self, states: Sequence[BenchState], positions: np.ndarray, weights: np.ndarray) -> np.ndarray:
-        """Each candidate's information credit (mm m, the cost's unit; module docstring) from the hypotheses
-        ``states`` with ``weights`` and their predicted displacements ``positions`` (hypotheses x candidates x
-        horizon x 9; NaN after a prediction ended, which holds its last reading)."""
-        w = weights / weights.sum()
-        travel = float(states[0].cfg[CF_TRAVEL])
-        seen = positions[:, :, :self.information_periods or self.horizon]
-        for k in range(1, seen.shape[2]):  # a prediction that ended holds its last reading
-            seen[:, :, k] = np.where(np.isnan(seen[:, :, k]), seen[:, :, k - 1], seen[:, :, k])
-        seen = np.nan_to_num(seen).reshape(len(states), len(seen[0]), -1)
-        done = float(np.clip(np.nanmean(positions[:, 0, 0, 0]), 0.0, travel))
-        refs = np.array([s.ref for s in states])
-        rows = refs[:, int(done / travel * (refs.shape[1] - 1)):].reshape(len(states), -1, 3, 3)[..., [0, 2]]
-        spread = np.sqrt(w)[:, None] * (rows - np.einsum("i,i...->...", w, rows)).reshape(len(states), -1)
-        a = np.sqrt(w)[None, :, None] * (seen - np.einsum("i,in...->n...", w, seen)[None]).transpose(1, 0, 2)
-        gram = a @ a.transpose(0, 2, 1)  # candidates x hypotheses x hypotheses
-        gain = np.eye(len(states)) - self.information_noise_m ** 2 * np.linalg.inv(
-            gram + self.information_noise_m ** 2 * np.eye(len(states)))
-        before = float(np.sum(spread ** 2))
-        after = np.maximum(before - np.einsum("nij,ij->n", gain, spread @ spread.T), 0.0)
-        points = spread.shape[1] / 2
-        return 1e3 * (np.sqrt(before / points) - np.sqrt(after / points)) * (travel - done)
 
     def advance(self, plan: np.ndarray) -> None:
         """Keep ``plan`` shifted by one period (its last action held) as the next decision's warm start."""

@@ -55,7 +55,6 @@ from .core import (
     IN_TRUNC,
     N_INFO,
     OBS_DIM,
-    OBS_POS,
     ST_ERR_NUM,
     ST_LOAD,
     ST_T,
@@ -146,11 +145,10 @@ def plane_intrusion(y, p, plane_margin, slopes, cp, ws) -> float:
 
 @njit(cache=True, error_model="numpy")
 def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans, pace_s, costs, dists,
-                  codes, positions, normal_margin=0.0, plane_margin=0.0) -> None:
+                  codes, normal_margin=0.0, plane_margin=0.0) -> None:
     """Run every candidate ``plans[i]`` (horizon x 2 raw actions) from the given state; write its cost (module
-    docstring) into ``costs[i]``, the distance after each period (mm) into ``dists[i]``, the outcome of each
-    period into ``codes[i]`` (-1 after the end; ``TIME_LIMIT`` for a truncation) and, if ``positions`` has a row per
-    candidate, the noiseless rangefinder displacements after each period into ``positions[i]`` (NaN after the end)."""
+    docstring) into ``costs[i]``, the distance after each period (mm) into ``dists[i]`` and the outcome of each
+    period into ``codes[i]`` (-1 after the end; ``TIME_LIMIT`` for a truncation)."""
     n, horizon = plans.shape[0], plans.shape[1]
     ws = new_workspace()
     applied, obs, inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
@@ -162,19 +160,14 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
         bs, queue = bs0.copy(), queue0.copy()
         failed = False
         dist, s, intrusion, plane_sum = 0.0, 0.0, 0.0, 0.0
-        record = positions.shape[0] == n
         for k in range(horizon):
             codes[i, k] = -1
             dists[i, k] = np.nan
-            if record:
-                positions[i, k, :] = np.nan
         for k in range(horizon):
             code = step_state(y, p, modes, armed, st, ref, cfg, bc, bs, queue, plans[i, k], applied, obs, inf, ws)
             dist, s = inf[IN_DIST], inf[IN_TRAVEL]
             dists[i, k] = dist
             codes[i, k] = code
-            if record:
-                positions[i, k, :] = obs[OBS_POS:OBS_POS + positions.shape[2]]
             if inf[IN_TRUNC] != 0.0:
                 codes[i, k] = TIME_LIMIT
                 failed = True
@@ -199,22 +192,16 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
 
 
 def predict(state: BenchState, plans: np.ndarray, pace_s: float = 1.0,
-            normal_margin: float = 0.0, plane_margin: float = 0.0,
-            positions: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+            normal_margin: float = 0.0, plane_margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Costs, distances and outcome codes of the candidates ``plans`` (n x horizon x 2) from ``state``; ``pace_s``
     (module docstring) is half the env's 2 s time limit by default; ``normal_margin`` (a fraction of the normal
-    load) is the safety margin and ``plane_margin`` (m) the plane margin (module docstring; zero: none). Given
-    ``positions`` (n x horizon x 9, written in place), each candidate's predicted rangefinder displacements (the
-    noiseless observation of CP1-CP3, m) after each period go there: what a planner that values information
-    compares across hypotheses."""
+    load) is the safety margin and ``plane_margin`` (m) the plane margin (module docstring; zero: none)."""
     plans = np.ascontiguousarray(plans, dtype=np.float64)
     n, horizon = plans.shape[:2]
     costs, dists, codes = np.empty(n), np.empty((n, horizon)), np.empty((n, horizon), dtype=np.int64)
-    if positions is None:
-        positions = np.empty((0, 0, 9))
     s = state
     rollout_costs(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, plans, float(pace_s), costs,
-                  dists, codes, positions, float(normal_margin), float(plane_margin))
+                  dists, codes, float(normal_margin), float(plane_margin))
     return costs, dists, codes
 
 
@@ -225,6 +212,5 @@ def warm_up(env) -> None:
     predict(state, np.zeros((2, 3, 2)))
     predict(state, np.zeros((2, 3, 2)), 1.0, 0.1)
     predict(state, np.zeros((2, 3, 2)), 1.0, 0.1, 0.001)
-    predict(state, np.zeros((2, 3, 2)), 1.0, 0.1, 0.0, np.zeros((2, 3, 9)))
     step_state(state.y, state.p, state.modes, state.armed, state.st, state.ref, state.cfg, state.bc, state.bs,
                state.queue, np.zeros(2), np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO), new_workspace())
