@@ -1,54 +1,40 @@
-"""``mpc``: model-predictive control from the bench's observations. The specimen and the block's state are estimated by
-a bank of hypotheses (:class:`agents.estimator.SpecimenBank`), and every ``replan_every`` periods the cross-entropy
-planner (:class:`agents.planner.CEMPlanner`) optimises the action sequence over rollouts of the env's compiled step from
-the ``hypotheses`` most likely hypotheses, each toward its own case-C reference path, weighted by their probabilities.
-Between replans the controller follows its plan. The planner keeps the thrust within ``1 +- thrust_envelope`` times the
-load level (0.3: 0.7-1.3 F; a safety envelope: the hypotheses are not the bench, and a plan that pushes hard on a wrong
-hypothesis lifts the block off) and the block to a pace of the whole travel in ``pace_s`` (0.3 s; a slow block drifts
-from the hypotheses' paths for longer). For the first ``start_periods`` periods (8: 40 ms) it sends a designed
-excitation instead of a plan while the estimator learns (the early plans, made while the hypotheses still disagree, are
-what lifted the block off or pushed it off a plane): the thrust at ``1 + start_thrust`` times the load level and the tip
-offset at ``start_offset_m`` for one block of ``block`` periods, then at ``1 - start_thrust`` and ``start_offset_ratio``
-times ``start_offset_m`` for the next (+10 % and -2 mm first, then -10 % and +2 mm). The start is a plan like any other,
-so the first real plan comes ``replan_every`` periods after the start's last period began: since the eighth round
-(``replan_every`` 1) that is period 9. With replanning every second period (the first seven rounds) the start's last
-command ran one period more and the first plan came at period 10; with that round's smaller planner and blunter bank,
-planning already at period 9 had failed on 7 of the 200 tuning benches instead of 3 (``docs/actuator-study.md``). Why the
-excitation separates what a constant command does not (Galic, Glaser & Goodman 2008): the end friction is the tip's
-Coulomb force against its slip across the aft face, so a lateral stage motion turns it sideways and its yaw moment shows
-the tip friction, while the contact friction resists the sliding in proportion to the normal forces and a thrust step
-shows it in the block's acceleration; with the nominal command the tip slips only by the face's own motion and is
-confounded with the contact friction. The offset's sign matters: +2 mm first lifted the block off or pushed it off a
-plane within 3-5 periods on 10 of the 60 tuning benches; -2 mm first did not in the start on any (2 failures later, at
-periods 17-18). The plans keep a safety margin from lift-off (``normal_margin``, 0.1: a candidate whose smallest
-predicted normal reaction falls below a tenth of the normal load pays part of the failure penalty,
-:func:`envs.prediction.predict`): the hypotheses are not the bench, and the failures that remained were lift-offs and
-departures from a plane a few periods after plans the hypotheses held safe. A margin from leaving a plane
-(``plane_margin_m``, a horizontal distance, :func:`envs.prediction.predict`) is available and off: it removed the
-departures from a plane that a sharper estimate brings, but cost error where the case-C path runs along a plane's edge,
-and the score's gain was within the noise (``docs/actuator-study.md``, fifth round). The lift-offs that remained came on
-benches whose tip friction was near the top of the prior (11.2-11.4 deg on the tuning benches) while the early bank put
-it 3 deg lower: end friction turned sideways by a lateral tip motion lowers a normal reaction by a share that grows with
-the tip friction. So the plans also answer to a pessimistic twin of the likeliest hypothesis, its tip friction at the
-top of the bank's 95 % interval, at ``guard_weight`` (0.1) of the total (:meth:`MPCController._guarded`); as the bank
-sharpens the twin joins the likeliest hypothesis. The start's second block mirrors the first's tip offset
-(``start_offset_ratio`` -1): holding it instead (ratio 1) let the one tuning bench the start lifts off travel in a check
-without the refinement, but cost 0.26 mm of error on the first 103 tuning benches (seventh round). ``start_periods``,
-``start_thrust``, ``start_offset_m``, ``start_offset_ratio``, ``model_error_m``, ``move_steps``, ``refine_every``,
-``thrust_envelope``, ``pace_s``, ``bank_size``, ``hypotheses``, ``normal_margin``, ``guard_weight`` and the planner's
-size were chosen on the tuning benches only (stream ``agents.heldout.TUNING_SEED``, 30, 60 then 200 benches, by the
-score, the failures and the bench-by-bench difference in error; ``docs/actuator-study.md`` lists the variants tried,
-``ramp_periods`` and ``offset_envelope`` among them, left at their defaults), never on the held-out ones. The sixth
-round's choice goes together: the bank refined by least squares every 10 periods with the model error at the sensor's
-own noise (0.2 mm) is sharp enough to carry a larger planner (horizon 24 periods, 32 candidates x 3 iterations,
-``limit``'s of the third round) in the narrower envelope without the failures each of them added on the earlier, blunter
-bank. With the bench's true state in place of the bank (``mpc_true``) the earlier planner scored 0.45 mm on 60 tuning
-benches and the current ``limit``'s 0.26 mm, against that ``limit``'s 0.23 mm: the rest of the gap is the estimate, and
-one episode's measurements place the case-C path to about 0.2 mm (sixth round). The eighth round gave ``mpc`` that
-``limit``'s planner too (horizon 48 periods, 64 candidates x 4 iterations: the rest of the travel in one plan, so no
-cost-to-go stands in for it): on 100 tuning benches 0.09 mm less error and no failure, at 11 CPU s per episode
-against 7; with it, replanning every period instead of every second lowered the error by another 0.03 mm without a
-failure (it had added failures with the smaller planner), at 18 CPU s per episode.
+"""``mpc``: model-predictive control from the bench's observations.
+
+Every period a bank of specimen hypotheses (:class:`agents.estimator.SpecimenBank`) takes the bench's measurements,
+and every ``replan_every`` periods the cross-entropy planner (:class:`agents.planner.CEMPlanner`) optimises the action
+sequence over rollouts of the env's own compiled step (:mod:`envs.prediction`: no second physics) from the
+``hypotheses`` most likely hypotheses, each toward its own case-C reference path, weighted by their probabilities.
+Between replans the controller follows its plan.
+
+Why it is built as it is. Every setting was chosen on the tuning benches (stream ``agents.heldout.TUNING_SEED``), never
+on the held-out ones; the rounds of that choice, the variants tried and their numbers are in
+``docs/actuator-study.md`` ("Controllers that use the model").
+
+* **The start** (``start_periods``, 8 periods = 40 ms) is a designed excitation instead of a plan while the estimator
+  learns: plans made while the hypotheses still disagree lifted the block off or pushed it off a plane. The thrust is
+  at ``1 + start_thrust`` times the load level and the tip offset at ``start_offset_m`` for one block of ``block``
+  periods, then at ``1 - start_thrust`` and ``start_offset_ratio`` times the offset for the next (+10 % and -2 mm, then
+  -10 % and +2 mm). Why it separates what a constant command does not (Galic, Glaser & Goodman 2008): the end
+  friction is the tip's Coulomb force against its slip across the aft face, so a lateral stage motion turns it
+  sideways and its yaw moment shows the tip friction, while the contact friction resists sliding in proportion to
+  the normal forces and a thrust step shows it in the block's acceleration; under the nominal command the tip slips
+  only by the face's own motion and the two are confounded. The offset goes to the negative side first: +2 mm first
+  lifted the block off or pushed it off a plane within 3-5 periods on 10 of 60 tuning benches.
+* **Safety.** The thrust stays within ``1 +- thrust_envelope`` times the load level (0.7-1.3: a plan that pushes hard
+  on a wrong hypothesis lifts the block off); a candidate whose smallest predicted normal reaction falls below
+  ``normal_margin`` (0.1) of the normal load pays part of the failure penalty (:func:`envs.prediction.predict`); and
+  the plans also answer, at ``guard_weight`` (0.1) of the total, to a pessimistic twin of the likeliest hypothesis
+  (:meth:`MPCController._guarded`), since the lift-offs that remained came where the early bank put a high tip
+  friction too low. A margin from leaving a plane (``plane_margin_m``) is available and off: it cost error where the
+  case-C path runs along a plane's edge.
+* **Pace.** The block must keep up with the whole travel in ``pace_s`` (0.3 s): a slow block drifts from the
+  hypotheses' paths for longer, and a short horizon lets it creep toward an arrest.
+* **The planner** is ``limit``'s (horizon 48 periods, longer than the rest of the travel once the first plan is made,
+  so no cost-to-go stands in for it; 64 candidates x 4 iterations), replanning every period.
+
+What it does not reach: the perfect-knowledge ``limit``. One episode's measurements place the contact friction angles
+and the mass centre only in combinations, and the error ``mpc`` adds to ``limit``'s equals what its measurements leave
+of the block's deviation from its case-C path unknown (``benchmarks/information_bound.py``).
 
 The controller knows the bench's hardware (bandwidths, latency, noise: its fields, v1's defaults) and a prior
 specimen (``prior``: the env's nominal specimen by default, or a ``Specimen``, or the path of a ``fit.json`` or
@@ -197,7 +183,7 @@ class MPCController:
         self._periods += 1
         planned = self._periods > self.start_periods and (
             self._plan is None or self._age >= min(self.replan_every, len(self._plan)))
-        if self._periods <= self.start_periods:  # the start: the nominal action while the data say little
+        if self._periods <= self.start_periods:  # the start: a designed excitation while the data say little
             self._plan, self._age = np.repeat(self.start_command(self._periods, self.config)[None, :],
                                               int(self.horizon), axis=0), 0
         elif planned:
