@@ -124,8 +124,11 @@ def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, name, bench_set):
 @pytest.mark.slow
 def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
     """The repository's shipped LSTM policy (agents/zoo/ppo_recurrent): one training seed on the card's 200
-    held-out benches gives that seed's error on the card exactly (an episode's noise seed is its bench index, so
-    the evaluation is deterministic); one seed of five keeps the test to about a fifth of the full card's time."""
+    held-out benches gives that seed's error and score on the card to float32 precision (an episode's noise seed is
+    its bench index, so the evaluation is deterministic on one machine; torch's float32 kernels differ by the CPU's
+    instruction set: on an AVX-512/AMX machine, 2026-11-27, the error came out 0.8030794879 mm against the card's
+    0.8030794800, 1e-8 relative, while a changed policy, bench or success count moves it by far more than 1e-6);
+    one seed of five keeps the test to about a fifth of the full card's time."""
     card = zoo.read_card("ppo_recurrent")
     want = card["figures"]["heldout"]
     seed = card["seeds"][-1]
@@ -133,8 +136,8 @@ def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
                      str(want["n_benches"]), "--seeds", str(seed), "--out", str(tmp_path)]) == 0
     got = json.loads((tmp_path / "heldout.json").read_text())
     assert got["n_episodes"] == want["n_benches"]
-    assert got["mimicry_error_mm"] == pytest.approx(want["seed_errors_mm"][-1], rel=1e-9)
-    assert got["score"] == pytest.approx(want["seed_scores_mm"][-1], rel=1e-9)
+    assert got["mimicry_error_mm"] == pytest.approx(want["seed_errors_mm"][-1], rel=1e-6)
+    assert got["score"] == pytest.approx(want["seed_scores_mm"][-1], rel=1e-6)
 
 
 @pytest.mark.slow
