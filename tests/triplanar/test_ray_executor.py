@@ -31,13 +31,16 @@ def local_ray():
 
 
 def flaky_square(job: tuple[int, str]) -> int:
-    """x * x, logging each call; task 3 fails (after the others finished) until ``allow`` exists."""
+    """x * x, logging each call; task 3 fails until ``allow`` exists, after the other four tasks' checkpoints are
+    written (it waits for them rather than for a fixed time, which a loaded machine overran: up to 120 s)."""
     import time
     x, folder = job
     with open(Path(folder) / "calls.txt", "a") as f:
         f.write(f"{x}\n")
     if x == 3 and not (Path(folder) / "allow").exists():
-        time.sleep(1.5)
+        deadline = time.monotonic() + 120.0
+        while len(list((Path(folder) / "partial").glob("*.pkl"))) < 4 and time.monotonic() < deadline:
+            time.sleep(0.05)
         raise RuntimeError("interrupted")
     return x * x
 
