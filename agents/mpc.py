@@ -95,7 +95,7 @@ class MPCController:
     ramp_periods: int = 0
     offset_envelope: float = 1.0
     min_ess: float = 3.0
-    model_error_m: float = 1e-4
+    model_error_m: float = 2e-4
     vary_geometry: bool = True
     move: str = "mh"
     move_steps: int = 3
