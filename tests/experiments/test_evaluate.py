@@ -125,9 +125,10 @@ def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, name, bench_set):
 def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
     """The repository's shipped LSTM policy (agents/zoo/ppo_recurrent): one training seed on the card's 200
     held-out benches gives that seed's error and score on the card to float32 precision (an episode's noise seed is
-    its bench index, so the evaluation is deterministic on one machine; torch's float32 kernels differ by the CPU's
-    instruction set: on an AVX-512/AMX machine, 2026-11-27, the error came out 0.8030794879 mm against the card's
-    0.8030794800, 1e-8 relative, while a changed policy, bench or success count moves it by far more than 1e-6);
+    its bench index, so the evaluation is deterministic on one machine; on another CPU it is not to the last bit:
+    on one with AVX-512 and AMX, 2026-11-27, the error came out 0.8030794879 mm against the card's 0.8030794800,
+    1e-8 relative, likely torch's float32 kernels chosen by the instruction set, while a changed policy, bench or
+    success count moves it by far more than 1e-6);
     one seed of five keeps the test to about a fifth of the full card's time."""
     card = zoo.read_card("ppo_recurrent")
     want = card["figures"]["heldout"]
