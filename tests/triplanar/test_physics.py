@@ -378,9 +378,14 @@ def test_fixed_steps_stop_where_a_slip_stops() -> None:
 def test_a_turning_slip_does_not_stall_fixed_steps() -> None:
     """A state from a PPO rollout (tests/data/turning_slip_state.npz): CP3 slips at 1.2 mm/s and decelerates, but
     its slip turns instead of stopping. Predicting its stop again and again used to shrink the steps towards zero
-    (the env stalled); a site whose predicted stop was not one is not predicted again in the same call."""
+    (the env stalled); a site whose predicted stop was not one is not predicted again in the same call. The state
+    was recorded before the kernel had cohesion (``P_COHESION``, its last parameter): that model had none, so the
+    parameters are padded with zero. Unpadded, the compiled code read whatever lay past the array as the cohesion,
+    and the test failed now and then (integration failed instead of the time limit)."""
     d = np.load(Path(__file__).resolve().parents[1] / "data" / "turning_slip_state.npz")
-    y, p = d["y"].copy(), d["p"].copy()
+    y = d["y"].copy()
+    assert len(d["p"]) == K.P_COHESION == K.N_PARAM - 1  # the layout this padding is for
+    p = np.concatenate([d["p"], [0.0]])
     rec = stepping.Recording(True, np.empty(1000), np.empty((1000, K.N_STATE)), np.empty((1000, K.N_STATE)),
                              np.empty((1000, K.N_AUX)), np.empty((0, 3)))
     opts = stepping.StepOptions(stepping.METHOD_RK4, 0.0, 0.0, float(d["t_end"]), float(d["x1_target"]),
