@@ -27,8 +27,8 @@ on the held-out ones; the rounds of that choice, the variants tried and their nu
   ``normal_margin`` (0.1) of the normal load pays part of the failure penalty (:func:`envs.prediction.predict`); and
   the plans also answer, at ``guard_weight`` (0.1) of the total, to a pessimistic twin of the likeliest hypothesis
   (:meth:`MPCController._guarded`), since the lift-offs that remained came where the early bank put a high tip
-  friction too low; as the bank sharpens, the twin joins the likeliest hypothesis. A margin from leaving a plane (``plane_margin_m``) is available and off: it cost error where the
-  case-C path runs along a plane's edge.
+  friction too low; as the bank sharpens, the twin joins the likeliest hypothesis. A margin from leaving a plane
+  (``plane_margin_m``) is available and off: it cost error where the case-C path runs along a plane's edge.
 * **Pace.** The block must keep up with the whole travel in ``pace_s`` (0.3 s): a slow block drifts from the
   hypotheses' paths for longer, and a short horizon lets it creep toward an arrest.
 * **The planner** is ``limit``'s (horizon 48 periods, longer than the rest of the travel once the first plan is made,

@@ -128,8 +128,8 @@ def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
     its bench index, so the evaluation is deterministic on one machine; on another CPU it is not to the last bit:
     on one with AVX-512 and AMX, 2026-11-27, the error came out 0.8030794879 mm against the card's 0.8030794800,
     1e-8 relative, likely torch's float32 kernels chosen by the instruction set, while a changed policy, bench or
-    success count moves it by far more than 1e-6);
-    one seed of five keeps the test to about a fifth of the full card's time."""
+    success count moves it by far more than 1e-6); one seed of five keeps the test to about a fifth of the full
+    card's time."""
     card = zoo.read_card("ppo_recurrent")
     want = card["figures"]["heldout"]
     seed = card["seeds"][-1]
