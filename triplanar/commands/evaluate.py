@@ -2,8 +2,8 @@
 nominal benches of ``TriPlanarShear-v1`` (thin wrapper over :mod:`experiments.evaluate`).
 
 The options are declared here and :mod:`experiments` is imported only in :func:`run`, so building the CLI needs
-neither the agents nor torch. Shipped agents are read from the repository's ``agents/zoo`` by name only (their
-files are pickles: trusted input, ``agents/zoo/__init__.py``).
+neither the agents nor torch. Shipped agents are read from the repository's ``agents/zoo`` by a name pinned in
+``agents.zoo.SHIPPED``, without unpickling (``agents/zoo/__init__.py``), and run on their model card's bench only.
 """
 
 from __future__ import annotations
