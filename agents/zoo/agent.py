@@ -116,12 +116,13 @@ def policy_spaces(card: dict[str, Any]) -> tuple[Any, Any]:
 def build_policy(card: dict[str, Any], state_dict: dict[str, Any]) -> Any:
     """The SB3 policy object of ``card`` (its class and ``policy_kwargs``, the env's spaces) holding
     ``state_dict``'s tensors (strict: every tensor of the architecture, nothing else)."""
+    policy_kwargs = _policy_kwargs(card)   # checked before anything is built
     observation_space, action_space = policy_spaces(card)
     if card["algo"] == "recurrent":
         from sb3_contrib.common.recurrent.policies import RecurrentActorCriticPolicy as policy_class
     else:
         from stable_baselines3.common.policies import ActorCriticPolicy as policy_class
-    policy = policy_class(observation_space, action_space, lambda _: 0.0, **_policy_kwargs(card))
+    policy = policy_class(observation_space, action_space, lambda _: 0.0, **policy_kwargs)
     try:
         policy.load_state_dict(state_dict, strict=True)
     except (RuntimeError, KeyError) as err:
@@ -209,11 +210,19 @@ class ShippedAgent:
 
     def _step(self, batch: np.ndarray, state: Any, starts: np.ndarray, deterministic: bool) -> tuple[np.ndarray, Any]:
         n = batch.shape[0]
-        if self.recurrent:
+        if self.recurrent:   # row by row, so that an env's actions in a batch are bitwise its actions alone
             normalized = self.normalizer.normalize_obs(batch)
-            actions, new_state = self.policy.predict(normalized, state=state, episode_start=starts.astype(np.float32),
+            actions, hidden, cell = [], [], []
+            for i in range(n):
+                row_state = None if state is None else (state[0][:, i:i + 1], state[1][:, i:i + 1])
+                action, (h, c) = self.policy.predict(normalized[i:i + 1], state=row_state,
+                                                     episode_start=starts[i:i + 1].astype(np.float32),
                                                      deterministic=deterministic)
-            return np.asarray(actions, dtype=np.float32), new_state
+                actions.append(action[0])
+                hidden.append(h)
+                cell.append(c)
+            return np.asarray(actions, dtype=np.float32), (np.concatenate(hidden, axis=1),
+                                                           np.concatenate(cell, axis=1))
         if state is None:
             state = np.repeat(batch[:, None, :], self.frames, axis=1)
         state = np.asarray(state, dtype=np.float32)

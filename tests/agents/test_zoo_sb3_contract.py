@@ -42,7 +42,7 @@ def test_an_episode_in_sb3s_recurrent_loop_equals_the_agents_own_memory(agent):
         episode_start = np.array([terminated or truncated])
         if terminated or truncated:
             break
-    assert len(actions) > 50 and "is_success" in info
+    assert len(actions) > 10 and info["is_success"] in (True, False)
     agent.reset()
     assert all(np.array_equal(agent(o), a) for o, a in zip(observations, actions))
 
@@ -93,6 +93,7 @@ def test_make_env_is_the_cards_env_and_another_bench_is_refused_by_name():
         steel.check_env(gym.make("TriPlanarShear-v0"))
 
 
+@pytest.mark.slow
 def test_evaluate_refuses_a_shipped_agent_on_another_design_naming_the_argument(tmp_path, capsys):
     from triplanar import cli
     out = tmp_path / "out"

@@ -111,10 +111,9 @@ def test_the_shipped_agents_load_with_every_unpickler_disabled(monkeypatch):
                          (cloudpickle, "loads"), (torch, "load")):
         monkeypatch.setattr(module, attr, refuse)
     assert zoo.shipped_names() == ["ppo_recurrent", "ppo_robust", "ppo_steel_slow_noisy"]
-    for name in zoo.shipped_names():
-        for seed in read_card(name)["seeds"]:
-            agent = load_shipped(name, seed)
-            action, _ = agent.predict(np.zeros(agent.obs_size, np.float32))
-            assert action.shape == (2,) and np.all(np.abs(action) <= 1)
+    for name in zoo.shipped_names():   # one seed each (every seed: the conversion's check, experiments.shipping)
+        agent = load_shipped(name, read_card(name)["seeds"][-1])
+        action, _ = agent.predict(np.zeros(agent.obs_size, np.float32))
+        assert action.shape == (2,) and np.all(np.abs(action) <= 1)
     files = [p.name for p in zoo.ZOO_DIR.rglob("*") if p.is_file()]
     assert not [f for f in files if f.endswith((".pkl", ".zip", ".pt", ".pth"))]
