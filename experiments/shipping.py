@@ -248,14 +248,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(None if argv is None else list(argv))
     if args.n <= 0:
         parser.error("--n must be positive")
-    if args.convert:
-        pins = convert(args.convert, Path(args.zoo) if args.zoo else None)
-        print(f"converted; pin in agents.zoo.SHIPPED: {args.convert!r}: {json.dumps(pins, indent=4)}")
-        return 0
-    if not (args.name and args.runs and args.command):
+    if not args.convert and not (args.name and args.runs and args.command):
         parser.error("--name, --runs and --command are needed to ship runs (or --convert NAME)")
-    path = ship(args.name, args.runs, algo=args.algo, command=args.command, env_kwargs=json.loads(args.env_kwargs),
-                n=args.n, zoo_dir=Path(args.zoo) if args.zoo else None, overwrite=args.overwrite)
+    try:
+        if args.convert:
+            pins = convert(args.convert, Path(args.zoo) if args.zoo else None)
+            print(f"converted; pin in agents.zoo.SHIPPED: {args.convert!r}: {json.dumps(pins, indent=4)}")
+            return 0
+        path = ship(args.name, args.runs, algo=args.algo, command=args.command,
+                    env_kwargs=json.loads(args.env_kwargs), n=args.n, zoo_dir=Path(args.zoo) if args.zoo else None,
+                    overwrite=args.overwrite)
+    except (ValueError, OSError) as err:    # a named refusal (a bad card, run, file), not a traceback
+        print(f"python -m experiments.shipping: error: {err}", file=sys.stderr)
+        return 2
     print(f"shipped {path}")
     return 0
 

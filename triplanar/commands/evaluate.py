@@ -22,7 +22,7 @@ HELP = ("evaluate a scripted, model-based or shipped controller on TriPlanarShea
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--controller", required=True, help="a scripted controller (steel_tip, teflon_tip, "
                         "frictionless_tip, tracking_tip, moment_matching, pi_feedback, adaptive) or a shipped agent "
-                        "(a directory of agents/zoo); an unknown name lists them all")
+                        "(pinned in agents/zoo); an unknown name lists them all")
     parser.add_argument("--design", default="default", help="actuator design of the bench study's sweep (default: "
                         "the default bench; a shipped agent runs on its model card's bench, known tip included); an "
                         "unknown name lists them")
