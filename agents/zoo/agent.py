@@ -134,6 +134,8 @@ def build_policy(card: dict[str, Any], state_dict: dict[str, Any]) -> Any:
 class ShippedAgent:
     """One training seed of a shipped agent (see the module docstring for the memory and ``state``)."""
 
+    needs_env = True    # agents.heldout.run_episode binds the env it made: checked against the card (bind)
+
     def __init__(self, card: dict[str, Any], seed: int, policy: Any, normalizer: ObsNormalizer):
         self.card, self.seed, self.policy, self.normalizer = card, seed, policy, normalizer
         self.name = card["name"]
@@ -192,6 +194,10 @@ class ShippedAgent:
         """Refuse, naming the argument, an env whose bench differs from the model card's (another stage
         bandwidth, latency, noise, tip, observation mode...); what an episode draws (the specimen) may differ."""
         check_bench(self.card, bench_arguments_of_env(env))
+
+    def bind(self, env: Any) -> None:
+        """The bench controllers' hook (:func:`agents.heldout.run_episode` calls it with its env): :meth:`check_env`."""
+        self.check_env(env)
 
     # -- memory -----------------------------------------------------------------------------------------------
     def _own_memory(self, batch: np.ndarray) -> tuple[Any, np.ndarray]:

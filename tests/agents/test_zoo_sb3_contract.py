@@ -91,6 +91,9 @@ def test_make_env_is_the_cards_env_and_another_bench_is_refused_by_name():
         steel.check_env(gym.make("TriPlanarShear-v1", **{**card["env_kwargs"], "latency_s": 0.0}))
     with pytest.raises(ShippedAgentError, match="env_id"):
         steel.check_env(gym.make("TriPlanarShear-v0"))
+    from agents.heldout import heldout_benches, run_episode
+    with pytest.raises(ShippedAgentError, match="stage_bandwidth_hz"):   # the bench controllers' episode too
+        run_episode(steel, heldout_benches(1)[0])
 
 
 @pytest.mark.slow
