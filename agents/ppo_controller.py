@@ -1,4 +1,5 @@
-"""A trained PPO policy as a controller (``act(obs) -> action``), with the VecNormalize statistics it was trained on."""
+"""A trained PPO policy as a controller (``act(obs) -> action``), with the VecNormalize statistics it was trained on;
+and the two calls that load SB3's own files, which are pickles (the shipped agents of :mod:`agents.zoo` are not)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,24 @@ from typing import Any
 import numpy as np
 
 from envs.triplanar_shear import ShearConfig
+
+
+def load_untrusted_sb3_zip(path: str | Path, algo: str = "ppo") -> Any:
+    """UNPICKLES: an SB3 model zip (``PPO.load``, or sb3-contrib's ``RecurrentPPO.load`` for ``algo="recurrent"``).
+    The zip holds cloudpickled objects, and unpickling runs the code in them: call this only on a file you made or
+    trust, by its path. The shipped agents (:mod:`agents.zoo`) never go through it."""
+    if algo == "recurrent":
+        from sb3_contrib import RecurrentPPO as algo_class
+    else:
+        from stable_baselines3 import PPO as algo_class  # torch only when a policy is used
+    return algo_class.load(str(path), device="cpu")
+
+
+def load_untrusted_vecnormalize(path: str | Path) -> Any:
+    """UNPICKLES: a ``vecnormalize.pkl`` (a VecNormalize saved without its env). Unpickling runs the code in the
+    file: call this only on a file you made or trust, by its path."""
+    with open(path, "rb") as f:
+        return pickle.load(f)
 
 
 class PPOController:
@@ -22,15 +41,10 @@ class PPOController:
     @classmethod
     def load(cls, model_path: str | Path, vecnormalize_path: str | Path | None = None, name: str = "PPO"
              ) -> PPOController:
-        """Load a trained policy. Both files are unpickled (cloudpickle, pickle), which runs the code in them:
-        load only files you made or that come from a trusted source."""
-        from stable_baselines3 import PPO  # torch only when a policy is used
-        model = PPO.load(str(model_path), device="cpu")
-        normalizer = None
-        if vecnormalize_path is not None:
-            with open(vecnormalize_path, "rb") as f:
-                normalizer = pickle.load(f)  # a VecNormalize without its venv: statistics and clipping
-        return cls(model, normalizer, name)
+        """Load a trained policy. UNPICKLES both files (:func:`load_untrusted_sb3_zip`,
+        :func:`load_untrusted_vecnormalize`), which runs the code in them: load only files you made or trust."""
+        normalizer = load_untrusted_vecnormalize(vecnormalize_path) if vecnormalize_path is not None else None
+        return cls(load_untrusted_sb3_zip(model_path), normalizer, name)
 
     def setup(self, config: ShearConfig) -> None:
         pass

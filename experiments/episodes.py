@@ -73,12 +73,14 @@ def controller_of(batch: EpisodeBatch) -> tuple[Any, dict[str, Any], bool]:
         ppo = PPOController.load(run / "final_model.zip", run / "vecnormalize.pkl", name=batch.label)
         return _Named(batch.label, ppo.act), {**env_kwargs, "observation_mode": "state"}, True
     if kind == "shipped":
-        from agents.zoo import check_layout, load_shipped, read_card
+        from agents.zoo import bench_arguments, check_bench, check_layout, load_shipped, read_card
         zoo = Path(batch.zoo_dir) if batch.zoo_dir else None
         card = read_card(rest, zoo)
         env_kwargs = {**card["env_kwargs"], **env_kwargs}
         env_kwargs.pop("randomize", None)   # the bench set gives the specimen
         check_layout(card, env_kwargs)
+        tip = {} if batch.tip_friction_deg is None else {"tip_friction_deg": batch.tip_friction_deg}
+        check_bench(card, bench_arguments({**env_kwargs, **tip}), "the batch's bench")
         policy = load_shipped(rest, batch.seed, zoo)
         policy.name = batch.label
         return policy, env_kwargs, True

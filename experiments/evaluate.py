@@ -75,9 +75,12 @@ def batches_for(controller: str, design: Design | None, bench_set: str, n: int, 
     seeds, default all of its card's)."""
     if controller in BUILTIN:
         return [scripted_batch(controller, design, bench_set, n, s) for s in (seeds or [0])]
-    from agents.zoo import check_layout, read_card
+    from agents.zoo import bench_arguments, check_bench, check_layout, read_card
     card = read_card(controller, zoo_dir)
     check_layout(card, {**card["env_kwargs"], **(design.env_kwargs() if design is not None else {})})  # before any work
+    if design is not None:   # an agent runs on its card's bench only
+        check_bench(card, bench_arguments({**card["env_kwargs"], **design.env_kwargs(),
+                                           "tip_friction_deg": design.tip_friction_deg}), f"design {design.name!r}")
     chosen = list(seeds) if seeds else list(card["seeds"])
     unknown = [s for s in chosen if s not in card["seeds"]]
     if unknown:

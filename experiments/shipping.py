@@ -1,10 +1,17 @@
-"""Ship trained robust PPO runs as an agent of ``agents/zoo`` (the format is :mod:`agents.zoo`'s): copy each seed's
-model and normalisation statistics, evaluate them on the held-out and stress benches, write the model card.
+"""Ship trained robust PPO runs as an agent of ``agents/zoo`` (the format is :mod:`agents.zoo`'s): convert each
+seed's SB3 model and normalisation statistics into the zoo's data files (safetensors weights, JSON statistics),
+check that the converted policy acts bitwise as the run's own on a few hundred steps, evaluate the runs on the
+held-out and stress benches, write the model card, and print the pins to add to ``agents.zoo.SHIPPED``.
 
 ``python -m experiments.shipping --name NAME --algo ppo --runs RUN/seed_0 RUN/seed_1 ... --command "how they were
-trained" [--env-kwargs JSON] [--n 200] [--zoo DIR]``. The card's figures come from the runs' own files; ``triplanar
-evaluate --controller NAME`` on the shipped copies reproduces them. The agent's directory is written under a
-temporary name and renamed, so a shipped agent is complete or absent.
+trained" [--env-kwargs JSON] [--n 200] [--zoo DIR]``. The runs' own files are SB3 pickles, unpickled here (the runs
+are the ones you name and trained). The card's figures come from the runs' files; ``triplanar evaluate --controller
+NAME`` on the shipped copies reproduces them. The agent's directory is written under a temporary name and renamed,
+so a shipped agent is complete or absent.
+
+``python -m experiments.shipping --convert NAME [--zoo DIR]`` converts an agent shipped in the earlier pickled
+format (``seed_S/model.zip``, ``seed_S/vecnormalize.pkl``, checked against its card's SHA-256) in place, with the
+same bitwise check, and deletes the pickled files.
 """
 
 from __future__ import annotations
@@ -13,12 +20,15 @@ import argparse
 import hashlib
 import json
 import shutil
+import sys
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Sequence
 
 from agents.heldout import FAILURE_SCORE_MM
-from agents.zoo import CARD, ZOO_DIR, card_markdown, model_files, observation_layout
+import numpy as np
+
+from agents.zoo import CARD, ZOO_DIR, card_markdown, load_shipped, model_files, observation_layout, parse_card
 from triplanar.workbench.executor import ExecutorLike, run_tasks
 
 from .episodes import EpisodeBatch, outcome_table, run_batch
@@ -26,6 +36,80 @@ from .stats import row_stats
 
 ENV_ID = "TriPlanarShear-v1"
 SHIPPED_SETS = ("heldout", "stress")
+CHECK_STEPS = 600      # steps of the bitwise check of a converted seed (two episodes or more)
+
+
+def write_seed(model: Any, normalizer: Any, agent_dir: Path, seed: int) -> None:
+    """One seed's data files from its SB3 model and VecNormalize (the weights as safetensors, the statistics as
+    JSON); nothing of the pickles is kept."""
+    from safetensors.torch import save as save_tensors
+
+    from agents.zoo.agent import ObsNormalizer
+    if not normalizer.norm_obs or normalizer.norm_obs_keys:
+        raise ValueError("only VecNormalize with norm_obs=True on a Box observation is shipped")
+    policy_rel, norm_rel = model_files(seed)
+    (agent_dir / policy_rel).parent.mkdir(parents=True, exist_ok=True)
+    tensors = {k: v.detach().cpu().contiguous() for k, v in model.policy.state_dict().items()}
+    (agent_dir / policy_rel).write_bytes(save_tensors(tensors))
+    rms = normalizer.obs_rms
+    (agent_dir / norm_rel).write_text(ObsNormalizer(rms.mean, rms.var, normalizer.epsilon, normalizer.clip_obs,
+                                                    rms.count).to_json())
+
+
+def check_converted(agent: Any, model: Any, normalizer: Any, steps: int = CHECK_STEPS) -> int:
+    """Roll the original (unpickled) policy out on the card's env and feed the same observations to the converted
+    agent: every action must be bitwise equal (refused otherwise, naming the step). Also checks the rebuilt policy's
+    spaces and arguments against the model's. Returns the number of steps compared."""
+    from agents.train_robust import RecurrentPolicy, RobustPolicy
+    card = agent.card
+    for attr in ("observation_space", "action_space"):
+        want, have = getattr(model.policy, attr), getattr(agent.policy, attr)
+        if not (want.shape == have.shape and np.array_equal(want.low, have.low)
+                and np.array_equal(want.high, have.high)):
+            raise ValueError(f"{card['name']} seed {agent.seed}: the card env's {attr} differs from the model's")
+    original = (RecurrentPolicy(model, normalizer) if card["algo"] == "recurrent"
+                else RobustPolicy(model, normalizer, frames=agent.frames))
+    env, compared, episode = agent.make_env(), 0, 0
+    try:
+        while compared < steps:
+            obs, _ = env.reset(seed=episode)
+            original.reset(0.0, None)
+            agent.reset()
+            done = False
+            while not done and compared < steps:
+                want, have = original.act(obs), agent.predict(obs)[0]
+                if want.tobytes() != np.asarray(have, dtype=np.float32).tobytes():
+                    raise ValueError(f"{card['name']} seed {agent.seed}: converted action differs at episode "
+                                     f"{episode} step {compared}: {have} against {want}")
+                obs, _, terminated, truncated, _ = env.step(want)
+                done, compared = terminated or truncated, compared + 1
+            episode += 1
+    finally:
+        env.close()
+    return compared
+
+
+def pins_of(agent_dir: Path) -> dict[str, str]:
+    """The SHA-256 of the card and every file it lists (what ``agents.zoo.SHIPPED`` pins)."""
+    card = parse_card((agent_dir / CARD).read_bytes(), str(agent_dir / CARD))
+    return {rel: hashlib.sha256((agent_dir / rel).read_bytes()).hexdigest() for rel in [CARD, *sorted(card["files"])]}
+
+
+def _finish_card(card: dict[str, Any], agent_dir: Path, sources: dict[int, tuple[Any, Any]],
+                 zoo_tmp: Path) -> dict[str, str]:
+    """Write the card and its README into ``agent_dir`` (the card listing the new files' hashes), load each seed
+    back through the zoo's loader and check it against its source model bitwise; returns the pins."""
+    card["files"] = {rel: hashlib.sha256((agent_dir / rel).read_bytes()).hexdigest()
+                     for seed in card["seeds"] for rel in model_files(seed)}
+    (agent_dir / CARD).write_text(json.dumps(card, indent=2, default=float) + "\n")
+    (agent_dir / "README.md").write_text(card_markdown(card))
+    pins = pins_of(agent_dir)
+    for seed, (model, normalizer) in sources.items():
+        agent = load_shipped(card["name"], seed, zoo_tmp, {card["name"]: pins})
+        steps = check_converted(agent, model, normalizer)
+        print(f"{card['name']} seed {seed}: converted policy bitwise equal to the original on {steps} steps",
+              file=sys.stderr)
+    return pins
 
 
 def run_hyperparameters(runs: Sequence[Path]) -> dict[str, Any]:
@@ -86,15 +170,16 @@ def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
         raise ValueError(f"{final} exists: ship under another name or pass overwrite")
     # A directory, not a file: write_atomic replaces one file, so the agent's folder is filled under a hidden name
     # and renamed here by hand.
-    tmp = zoo / f".{name}.tmp"
-    shutil.rmtree(tmp, ignore_errors=True)
+    from agents.ppo_controller import load_untrusted_sb3_zip, load_untrusted_vecnormalize
+    zoo_tmp = zoo / f".{name}.tmp"
+    tmp = zoo_tmp / name
+    shutil.rmtree(zoo_tmp, ignore_errors=True)
     try:
-        files = {}
-        for run, (seed, _) in zip(runs, seeds):
-            for source, rel in zip(("final_model.zip", "vecnormalize.pkl"), model_files(seed)):
-                (tmp / rel).parent.mkdir(parents=True, exist_ok=True)
-                shutil.copyfile(run / source, tmp / rel)
-                files[rel] = hashlib.sha256((tmp / rel).read_bytes()).hexdigest()
+        sources = {}
+        for run, (seed, _) in zip(runs, seeds):   # the runs the caller named: their pickles are unpickled here
+            sources[seed] = (load_untrusted_sb3_zip(run / "final_model.zip", algo),
+                             load_untrusted_vecnormalize(run / "vecnormalize.pkl"))
+            write_seed(*sources[seed], tmp, seed)
         hyperparameters = hyperparameters or run_hyperparameters(runs)
         frames = hyperparameters.get("env", {}).get("frame_stack")
         card = {"name": name, "env_id": ENV_ID, "env_kwargs": env_kwargs, "algo": algo,
@@ -103,23 +188,59 @@ def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
                 "seeds": [s for s, _ in seeds], "observation": observation_layout(env_kwargs, algo, frames),
                 "figures": figures(runs, algo, env_kwargs, n, executor),
                 "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), "command": command,
-                "files": files}
-        (tmp / CARD).write_text(json.dumps(card, indent=2, default=float) + "\n")
-        (tmp / "README.md").write_text(card_markdown(card))
+                "files": {}}
+        pins = _finish_card(card, tmp, sources, zoo_tmp)
         if final.exists():
             shutil.rmtree(final)
         tmp.rename(final)
     finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+        shutil.rmtree(zoo_tmp, ignore_errors=True)
+    print(f"add to agents.zoo.SHIPPED: {name!r}: {json.dumps(pins, indent=4)}", file=sys.stderr)
     return final
+
+
+OLD_FILES = ("model.zip", "vecnormalize.pkl")
+
+
+def convert(name: str, zoo_dir: Path | None = None) -> dict[str, str]:
+    """Convert the agent ``zoo_dir/name`` from the earlier pickled format (its files checked against its card's
+    SHA-256, then unpickled: the repository's own files) into the data format, check each seed bitwise, swap the
+    folder and delete the pickles; returns the pins."""
+    from agents.ppo_controller import load_untrusted_sb3_zip, load_untrusted_vecnormalize
+    zoo = Path(zoo_dir or ZOO_DIR)
+    old = zoo / name
+    if old.is_symlink() or not old.is_dir():
+        raise ValueError(f"{old}: not an agent folder")
+    card = parse_card((old / CARD).read_bytes(), str(old / CARD))
+    zoo_tmp = zoo / f".{name}.tmp"
+    tmp = zoo_tmp / name
+    shutil.rmtree(zoo_tmp, ignore_errors=True)
+    try:
+        sources = {}
+        for seed in card["seeds"]:
+            rels = [f"seed_{seed}/{f}" for f in OLD_FILES]
+            for rel in rels:
+                if hashlib.sha256((old / rel).read_bytes()).hexdigest() != card["files"].get(rel):
+                    raise ValueError(f"{old / rel}: not the file its model card names (SHA-256)")
+            sources[seed] = (load_untrusted_sb3_zip(old / rels[0], card["algo"]),
+                             load_untrusted_vecnormalize(old / rels[1]))
+            write_seed(*sources[seed], tmp, seed)
+        pins = _finish_card(card, tmp, sources, zoo_tmp)
+        backup = zoo_tmp / f"{name}.old"
+        old.rename(backup)
+        tmp.rename(old)
+    finally:
+        shutil.rmtree(zoo_tmp, ignore_errors=True)
+    return pins
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m experiments.shipping", description=__doc__.splitlines()[0])
-    parser.add_argument("--name", required=True)
+    parser.add_argument("--name")
+    parser.add_argument("--convert", metavar="NAME", help="convert a zoo agent of the earlier pickled format")
     parser.add_argument("--algo", choices=("ppo", "recurrent"), default="ppo")
-    parser.add_argument("--runs", nargs="+", required=True, help="finished run directories (OUT/seed_S)")
-    parser.add_argument("--command", required=True, help="the command that trained the runs (for the card)")
+    parser.add_argument("--runs", nargs="+", help="finished run directories (OUT/seed_S)")
+    parser.add_argument("--command", help="the command that trained the runs (for the card)")
     parser.add_argument("--env-kwargs", default="{}", help="JSON: the TriPlanarShear-v1 arguments of the training")
     parser.add_argument("--n", type=int, default=200, help="held-out and stress benches for the card's figures")
     parser.add_argument("--zoo", help="zoo directory (default: the repository's agents/zoo)")
@@ -127,8 +248,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(None if argv is None else list(argv))
     if args.n <= 0:
         parser.error("--n must be positive")
-    path = ship(args.name, args.runs, algo=args.algo, command=args.command, env_kwargs=json.loads(args.env_kwargs),
-                n=args.n, zoo_dir=Path(args.zoo) if args.zoo else None, overwrite=args.overwrite)
+    if not args.convert and not (args.name and args.runs and args.command):
+        parser.error("--name, --runs and --command are needed to ship runs (or --convert NAME)")
+    try:
+        if args.convert:
+            pins = convert(args.convert, Path(args.zoo) if args.zoo else None)
+            print(f"converted; pin in agents.zoo.SHIPPED: {args.convert!r}: {json.dumps(pins, indent=4)}")
+            return 0
+        path = ship(args.name, args.runs, algo=args.algo, command=args.command,
+                    env_kwargs=json.loads(args.env_kwargs), n=args.n, zoo_dir=Path(args.zoo) if args.zoo else None,
+                    overwrite=args.overwrite)
+    except (ValueError, OSError) as err:    # a named refusal (a bad card, run, file), not a traceback
+        print(f"python -m experiments.shipping: error: {err}", file=sys.stderr)
+        return 2
     print(f"shipped {path}")
     return 0
 

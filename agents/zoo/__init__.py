@@ -2,139 +2,154 @@
 
 Format (one directory per agent, ``agents/zoo/NAME/``)::
 
-    card.json          the model card (below), read by the loader
-    README.md          the same card for people (written from card.json)
-    seed_S/model.zip           stable-baselines3 model of training seed S
-    seed_S/vecnormalize.pkl    its observation normalisation statistics (VecNormalize, without its env)
+    card.json                     the model card (below), read by the loader
+    README.md                     the same card for people (written from card.json)
+    seed_S/policy.safetensors     the SB3 policy's weights of training seed S (tensors only)
+    seed_S/normalizer.json        its observation normalisation (VecNormalize's statistics and settings)
 
 ``card.json`` holds: ``name``, ``env_id`` and ``env_kwargs`` (what it was trained on), ``algo`` (``ppo``: frame
 stack; ``recurrent``: RecurrentPPO) and ``hyperparameters``, ``timesteps`` (per seed), ``seeds``, ``observation``
 (the observation layout it expects: mode, fields with sizes, frames), ``figures`` (held-out and stress statistics
 with their intervals, :func:`experiments.stats.row_stats`, with the number of benches), ``date``, ``command`` (what
-trained it), and ``files`` (the SHA-256 of every model file).
+trained it), and ``files`` (the SHA-256 of every model file). Cards are read strictly (:func:`cards.parse_card`).
 
-**Trusted input.** The model files are pickles (SB3's zip holds cloudpickled objects; ``vecnormalize.pkl`` is a
-pickle), and unpickling runs code. The loader therefore reads only files of the repository's own ``agents/zoo``
-directory, by agent name and seed, at the paths above, and only after their SHA-256 matches the card: nothing is
-loaded from a path a user types. Ship only agents you trained.
+**What is loaded, and how.** Nothing of a shipped agent is unpickled: the weights are safetensors (a header and
+raw tensors, no code), the statistics and the card JSON, and :mod:`agents.zoo.agent` rebuilds the SB3 policy
+object from the card's hyperparameters and the env's spaces. The agents that exist, and the SHA-256 of each of
+their files (card included), are pinned here in the package's code (:data:`SHIPPED`), not beside the files: a
+folder added under ``agents/zoo`` is neither listed nor loaded, a changed file is refused, and so is a symlinked
+folder or file. ``python -m experiments.shipping`` writes an agent in this format and prints its pins.
+
+**A stranger's SB3 zip** (``model.zip``, ``vecnormalize.pkl``) holds pickles, and unpickling runs the code in them:
+:func:`agents.ppo_controller.load_untrusted_sb3_zip` and :func:`agents.ppo_controller.load_untrusted_vecnormalize`
+load one, only when called by name with its path; nothing here calls them.
 """
 
 from __future__ import annotations
 
 import hashlib
-import json
-import pickle
+import os
 from pathlib import Path
 from typing import Any
 
+from .cards import (ShippedAgentError, bench_arguments, card_markdown, check_bench, check_layout, observation_layout,
+                    parse_card)
+
+__all__ = ["ShippedAgentError", "bench_arguments", "card_markdown", "check_bench", "check_layout", "load_shipped",
+           "model_files", "observation_layout", "parse_card", "read_card", "shipped_names", "SHIPPED", "ZOO_DIR"]
+
 ZOO_DIR = Path(__file__).parent
 CARD = "card.json"
-MODEL = "model.zip"
-NORMALIZER = "vecnormalize.pkl"
-CARD_KEYS = ("name", "env_id", "env_kwargs", "algo", "hyperparameters", "timesteps", "seeds", "observation",
-             "figures", "date", "command", "files")
+Pins = dict[str, dict[str, str]]
+
+# The shipped agents and the SHA-256 of each of their files (written by `python -m experiments.shipping`).
+SHIPPED: Pins = {
+    "ppo_recurrent": {
+        "card.json": "4e93a128182dcb0183b47b08a058c5e8c5ed08c928f29498ef122e046263e9d2",
+        "seed_0/normalizer.json": "933fdf2be6a12c6eb5edcaa0a57e0ff27909c3bb0b848dcb287bef6b7a2c78a6",
+        "seed_0/policy.safetensors": "9ad6f95d78ca82d4e622af1781db7714b5790945a086296cacedd1f0a060e944",
+        "seed_1/normalizer.json": "2f99f76ea57697693cff68582dfb7539745b93316aba5b0f61a1b77cb5f546b4",
+        "seed_1/policy.safetensors": "3e225ac962e3dd4450afe32a4959e191a5388f73b7fc8f98566a9ffd9fc8407c",
+        "seed_2/normalizer.json": "caf5813439f35aa50bcbd6c6c8ce181a5af3e2156e9121e9c9346c3137df9d6d",
+        "seed_2/policy.safetensors": "f542a31a28120853df93670e6527d262527a385879182232887d057abfe87435",
+        "seed_3/normalizer.json": "c03167c0ca2ab9ad4cbb094a99ba1c7e8d91108fba82dea83ed5a393a075048c",
+        "seed_3/policy.safetensors": "27268bae3b8d7b1c6be44b029936c1087f5c9862a24abfcd7fbfef254339887b",
+        "seed_4/normalizer.json": "74f56d15861bb834b657d059cc3067e541e8bd1e388a708ef35aa617b6f5cc6b",
+        "seed_4/policy.safetensors": "79fbac79b6716ef7a20a93f9abe9037c121838a013240c7be61789be24b02dec",
+    },
+    "ppo_robust": {
+        "card.json": "5f3ee3b2bed81977b311519439475898798c2d26a4cf9fdafb16dc574da1a09b",
+        "seed_0/normalizer.json": "5b009d4aed7ed5eccb2a5a04315969aba945435f504c25631d47e86894ec7634",
+        "seed_0/policy.safetensors": "a35d3c9a33013df349c82745b124de9c4a0ec738990f943d5c323242db70c14b",
+        "seed_1/normalizer.json": "91a668aa0415f0e490e9a04e3749917a249f0e3ac0a7ed7fb4cb1d8637e858a2",
+        "seed_1/policy.safetensors": "052a9facb736326d2fcb3acca8eb527d29a6ca70702e15081c2bb362a1020c69",
+        "seed_2/normalizer.json": "6cf87e50dbf6f1482d223a242c59fd952f3a606bbc825c3113b76e2d1c06c350",
+        "seed_2/policy.safetensors": "a8ed7cc8ae00a7ee5719ea4bfce54e3c4d3b2187684225d62ffe0c4359f6181c",
+        "seed_3/normalizer.json": "e9471180e15b6a3835c4f2968653220ab6b5cb7e296955fa3bdafd7a751168e3",
+        "seed_3/policy.safetensors": "ddf2adf425159de14fe8135dae3fd45b770e623476c7fe48c8d48daad7317f05",
+        "seed_4/normalizer.json": "42a2489cac725ca2f6ed69892f5ea1cad7738eb343fe6b12e9c44ad602d3cabc",
+        "seed_4/policy.safetensors": "efb050e15e749a1c5a2140c5adc22a042cf4d4eb2f31f1cd0291e22b817da335",
+    },
+    "ppo_steel_slow_noisy": {
+        "card.json": "7034f4b6e16fa9f82cb305ab8a95a0e410d6ecbe26cd963260e39dd8d63d8a2f",
+        "seed_0/normalizer.json": "5254afc92091e1b95bec65434fe7fc223f9a6c9651dc6896957c5a58fd76ac15",
+        "seed_0/policy.safetensors": "7e222bb045b83fcc5a2706ccb70d4a115a2bb7ee52616430637b690365617958",
+        "seed_1/normalizer.json": "50440c3f5124a6173ea0e7dc06d48de7aa96efbc98c40f42efe3da638db0d603",
+        "seed_1/policy.safetensors": "e4f5b588bf81c2c3061952b1640ef789c61326ebfc6a9bfc2c3db700373a851c",
+        "seed_2/normalizer.json": "a8e2f1346ea69a828594617b7b3f16705a44dba40da05d4fd2bc903389afb88c",
+        "seed_2/policy.safetensors": "fe5e27b0c68d6a3f0631563573787531b27879e00d8697097e80091f4306ae7b",
+    },
+}
 
 
-class ShippedAgentError(ValueError):
-    """A shipped agent is missing, malformed, or does not fit the bench it is asked to run on."""
+def shipped_names(zoo_dir: Path | None = None, pins: Pins | None = None) -> list[str]:
+    """The shipped agents: the names pinned in :data:`SHIPPED` (``pins``), not the folders found on disk
+    (``zoo_dir`` is accepted for the callers that name their zoo)."""
+    return sorted(SHIPPED if pins is None else pins)
 
 
-def shipped_names(zoo_dir: Path | None = None) -> list[str]:
-    """The agents shipped in ``zoo_dir`` (default: the repository's ``agents/zoo``)."""
-    zoo = Path(zoo_dir or ZOO_DIR)
-    return sorted(p.name for p in zoo.iterdir() if (p / CARD).is_file()) if zoo.is_dir() else []
+def _agent_pins(name: str, pins: Pins | None) -> dict[str, str]:
+    pinned = SHIPPED if pins is None else pins
+    if name not in pinned:
+        raise ShippedAgentError(f"no shipped agent {name!r}; shipped: {sorted(pinned) or 'none'} (the list is "
+                                "pinned in agents/zoo/__init__.py, a folder added under agents/zoo is not loaded)")
+    return pinned[name]
 
 
-def _sha256(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
+def read_pinned(name: str, rel: str, zoo_dir: Path | None = None, pins: Pins | None = None) -> bytes:
+    """The bytes of file ``rel`` of shipped agent ``name``, refused unless its SHA-256 is the pinned one and no
+    part of its path below the zoo is a symlink (the bytes checked are the bytes returned)."""
+    expected = _agent_pins(name, pins).get(rel)
+    root = Path(zoo_dir or ZOO_DIR)
+    path = root / name / rel
+    if expected is None:
+        raise ShippedAgentError(f"{path}: not a file pinned for shipped agent {name!r}")
+    parts = Path(name, rel).parts
+    for i in range(1, len(parts) + 1):
+        if (root.joinpath(*parts[:i])).is_symlink():
+            raise ShippedAgentError(f"{root.joinpath(*parts[:i])}: a symlink; shipped agents are real files")
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    except OSError as err:
+        raise ShippedAgentError(f"{path}: cannot read ({err.strerror})") from None
+    with os.fdopen(fd, "rb") as f:
+        data = f.read()
+    if hashlib.sha256(data).hexdigest() != expected:
+        raise ShippedAgentError(f"{path}: not the file pinned for shipped agent {name!r} (SHA-256 differs)")
+    return data
 
 
-def read_card(name: str, zoo_dir: Path | None = None) -> dict[str, Any]:
-    """The model card of the shipped agent ``name`` (refused if it lacks a field)."""
-    names = shipped_names(zoo_dir)
-    if name not in names:
-        raise ShippedAgentError(f"no shipped agent {name!r}; shipped: {names or 'none'}")
-    path = Path(zoo_dir or ZOO_DIR) / name / CARD
-    card = json.loads(path.read_text())
-    missing = [k for k in CARD_KEYS if k not in card]
-    if missing:
-        raise ShippedAgentError(f"{path}: model card lacks {missing}")
+def read_card(name: str, zoo_dir: Path | None = None, pins: Pins | None = None) -> dict[str, Any]:
+    """The model card of the shipped agent ``name``: pinned, then read strictly (refused naming the field)."""
+    card = parse_card(read_pinned(name, CARD, zoo_dir, pins), str(Path(zoo_dir or ZOO_DIR) / name / CARD))
+    if card["name"] != name:
+        raise ShippedAgentError(f"{name}/{CARD}: field 'name' is {card['name']!r}, not {name!r}")
     return card
 
 
 def model_files(seed: int) -> tuple[str, str]:
     """The two files of one seed, relative to the agent's directory."""
-    return f"seed_{seed}/{MODEL}", f"seed_{seed}/{NORMALIZER}"
+    from .agent import NORMALIZER, POLICY
+    return f"seed_{seed}/{POLICY}", f"seed_{seed}/{NORMALIZER}"
 
 
-def observation_layout(env_kwargs: dict[str, Any], algo: str, frames: int | None = None) -> dict[str, Any]:
-    """The observation an agent trained with ``algo`` on ``TriPlanarShear-v1(**env_kwargs)`` sees: the mode, the
-    fields of one observation (name, size) and the number of stacked frames (``frames``, default the frame-stacked
-    runs' 4; a recurrent policy sees 1)."""
-    from envs.core import OBSERVATION
-    from envs.triplanar_shear_v1 import BENCH_OBSERVATION
+def load_shipped(name: str, seed: int, zoo_dir: Path | None = None, pins: Pins | None = None) -> Any:
+    """The shipped agent ``name``'s policy of training seed ``seed`` (:class:`agents.zoo.agent.ShippedAgent`:
+    SB3's ``predict``, ``reset()``, ``agent(obs)``, ``make_env()``), its files checked against the pinned SHA-256
+    and read without unpickling (module docstring)."""
+    from safetensors.torch import load as load_tensors
 
-    from ..train_robust import FRAMES
-    mode = env_kwargs.get("observation_mode", "bench")
-    layout = BENCH_OBSERVATION if mode == "bench" else OBSERVATION
-    return {"observation_mode": mode, "fields": [[f.name, f.size] for f in layout.fields.values()],
-            "frames": 1 if algo == "recurrent" else int(frames or FRAMES)}
-
-
-def check_layout(card: dict[str, Any], env_kwargs: dict[str, Any]) -> None:
-    """Refuse (naming the field) a bench whose observation differs from the one in the agent's card."""
-    expected, actual = card["observation"], observation_layout(env_kwargs, card["algo"],
-                                                                           card["observation"].get("frames"))
-    for key in ("observation_mode", "frames"):
-        if expected.get(key) != actual[key]:
-            raise ShippedAgentError(f"shipped agent {card['name']!r} expects {key}={expected.get(key)!r}, this bench "
-                                    f"has {actual[key]!r}")
-    want, have = [tuple(f) for f in expected["fields"]], [tuple(f) for f in actual["fields"]]
-    for i in range(max(len(want), len(have))):
-        w = want[i] if i < len(want) else None
-        h = have[i] if i < len(have) else None
-        if w != h:
-            field = (w or h)[0]
-            raise ShippedAgentError(f"shipped agent {card['name']!r}: observation field {field!r} differs (model card: "
-                                    f"{w}, this bench: {h}; name, size at position {i})")
-
-
-def load_shipped(name: str, seed: int, zoo_dir: Path | None = None) -> Any:
-    """The shipped agent ``name``'s policy of training seed ``seed`` as a bench controller (``reset``/``act``),
-    after checking its files' SHA-256 against the card (trusted input: see the module docstring)."""
-    from ..train_robust import RecurrentPolicy, RobustPolicy
-    card = read_card(name, zoo_dir)
+    from .agent import ObsNormalizer, ShippedAgent, build_policy
+    card = read_card(name, zoo_dir, pins)
     if seed not in card["seeds"]:
         raise ShippedAgentError(f"shipped agent {name!r} has no seed {seed}; its seeds: {card['seeds']}")
-    root = Path(zoo_dir or ZOO_DIR) / name
-    model_rel, norm_rel = model_files(seed)
-    for rel in (model_rel, norm_rel):
-        if rel not in card["files"] or not (root / rel).is_file() or _sha256(root / rel) != card["files"][rel]:
-            raise ShippedAgentError(f"{root / rel}: missing or not the file its model card names (SHA-256)")
-    with open(root / norm_rel, "rb") as f:
-        normalizer = pickle.load(f)
-    if card["algo"] == "recurrent":
-        from sb3_contrib import RecurrentPPO
-        return RecurrentPolicy(RecurrentPPO.load(str(root / model_rel), device="cpu"), normalizer, name)
-    from stable_baselines3 import PPO
-    return RobustPolicy(PPO.load(str(root / model_rel), device="cpu"), normalizer, name,
-                        int(card["observation"]["frames"]))
-
-
-def card_markdown(card: dict[str, Any]) -> str:
-    """The model card for people (README.md of the agent's directory)."""
-    lines = [f"# {card['name']}", "", f"Trained {card['date']} by", "", "```", card["command"], "```", "",
-             f"* env: `{card['env_id']}` with `{json.dumps(card['env_kwargs'])}`",
-             f"* algorithm: {card['algo']}; hyperparameters `{json.dumps(card['hyperparameters'])}`",
-             f"* {card['timesteps']:,} steps per seed; seeds {card['seeds']}",
-             f"* observation: {card['observation']['observation_mode']} mode, {card['observation']['frames']} "
-             "frame(s)", "", "| bench set | benches | episodes | success (95 % CI) | mimicry error over successes, "
-             "mm (95 % CI) | CVaR 10 %, mm | score, mm (95 % CI) |", "|---|---|---|---|---|---|---|"]
-    for bench_set, r in card["figures"].items():
-        lines.append(f"| {bench_set} | {r['n_benches']} | {r['n_episodes']} | {100 * r['success_rate']:.1f} % "
-                     f"({100 * r['success_low']:.1f}-{100 * r['success_high']:.1f}) | {r['mimicry_error_mm']:.2f} "
-                     f"({r['error_low_mm']:.2f}-{r['error_high_mm']:.2f}) | {r['cvar10_mm']:.2f} | {r['score']:.2f} "
-                     f"({r['score_low']:.2f}-{r['score_high']:.2f}) |")
-    lines += ["", "The model files are pickles: load them only through `agents.zoo.load_shipped` (trusted input, "
-              "checked against the SHA-256 in card.json).", ""]
-    return "\n".join(lines)
+    policy_rel, norm_rel = model_files(seed)
+    weights = read_pinned(name, policy_rel, zoo_dir, pins)
+    try:
+        state_dict = load_tensors(weights)
+    except Exception as err:  # the safetensors reader's own error types
+        raise ShippedAgentError(f"{name}/{policy_rel}: not a safetensors file ({err})") from None
+    policy = build_policy(card, state_dict)
+    size = policy.observation_space.shape[0]
+    normalizer = ObsNormalizer.from_json(read_pinned(name, norm_rel, zoo_dir, pins), size, f"{name}/{norm_rel}")
+    return ShippedAgent(card, seed, policy, normalizer)

@@ -87,9 +87,16 @@ def tiny_zoo(tmp_path_factory):
     return path.parent
 
 
+def _pin(monkeypatch, tiny_zoo):
+    """Make the tiny zoo the package's, its agent pinned (as agents.zoo.SHIPPED pins the shipped ones)."""
+    from experiments.shipping import pins_of
+    monkeypatch.setattr(zoo, "ZOO_DIR", tiny_zoo)
+    monkeypatch.setattr(zoo, "SHIPPED", {**zoo.SHIPPED, "tiny_ppo": pins_of(tiny_zoo / "tiny_ppo")})
+
+
 @pytest.mark.slow
 def test_evaluate_on_a_shipped_agent_reproduces_its_card(tiny_zoo, tmp_path, monkeypatch):
-    monkeypatch.setattr(zoo, "ZOO_DIR", tiny_zoo)
+    _pin(monkeypatch, tiny_zoo)
     card = zoo.read_card("tiny_ppo")
     assert card["seeds"] == [3] and card["timesteps"] >= 1024 and set(card["figures"]) == {"heldout", "stress"}
     assert "tiny_ppo" in (tiny_zoo / "tiny_ppo" / "README.md").read_text()
@@ -144,6 +151,7 @@ def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
 @pytest.mark.slow
 def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_files(tiny_zoo, monkeypatch, tmp_path,
                                                                                      capsys):
+    _pin(monkeypatch, tiny_zoo)
     card = zoo.read_card("tiny_ppo", tiny_zoo)
     assert zoo.check_layout(card, {"observation_mode": "bench"}) is None
     with pytest.raises(zoo.ShippedAgentError, match="observation_mode"):
@@ -153,25 +161,25 @@ def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_fil
     with pytest.raises(zoo.ShippedAgentError, match="'STAGE'"):
         zoo.check_layout(altered, {})
     card_path = tiny_zoo / "tiny_ppo" / "card.json"
-    monkeypatch.setattr(zoo, "ZOO_DIR", tiny_zoo)
+    original = card_path.read_bytes()
     card_path.write_text(json.dumps(altered))
     try:
         assert cli.main(["evaluate", "--controller", "tiny_ppo", "--n", "2", "--out", str(tmp_path)]) == 2
+        assert "SHA-256 differs" in capsys.readouterr().err       # an edited card is not the pinned one
+        _pin(monkeypatch, tiny_zoo)                                # pinned as edited: its layout is checked
+        assert cli.main(["evaluate", "--controller", "tiny_ppo", "--n", "2", "--out", str(tmp_path)]) == 2
     finally:
-        card_path.write_text(json.dumps(card))
+        card_path.write_bytes(original)
+        _pin(monkeypatch, tiny_zoo)
     assert "observation field 'STAGE' differs" in capsys.readouterr().err
     assert not (tmp_path / "heldout.csv").exists()
     with pytest.raises(zoo.ShippedAgentError, match="no seed 0"):
         zoo.load_shipped("tiny_ppo", 0, tiny_zoo)
     policy = zoo.load_shipped("tiny_ppo", 3, tiny_zoo)
     assert np.asarray(policy.act(np.zeros(15, np.float32))).shape == (2,)
-    bad = dict(card, files={k: "0" * 64 for k in card["files"]})
-    (tiny_zoo / "tiny_ppo" / "card.json").write_text(json.dumps(bad))
-    try:
-        with pytest.raises(zoo.ShippedAgentError, match="SHA-256"):
-            zoo.load_shipped("tiny_ppo", 3, tiny_zoo)
-    finally:
-        (tiny_zoo / "tiny_ppo" / "card.json").write_text(json.dumps(card))
+    bad = {"tiny_ppo": {k: "0" * 64 for k in zoo.SHIPPED["tiny_ppo"]}}
+    with pytest.raises(zoo.ShippedAgentError, match="SHA-256"):
+        zoo.load_shipped("tiny_ppo", 3, tiny_zoo, bad)
 
 
 def test_help_texts_format(capsys):

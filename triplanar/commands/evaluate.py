@@ -2,8 +2,8 @@
 nominal benches of ``TriPlanarShear-v1`` (thin wrapper over :mod:`experiments.evaluate`).
 
 The options are declared here and :mod:`experiments` is imported only in :func:`run`, so building the CLI needs
-neither the agents nor torch. Shipped agents are read from the repository's ``agents/zoo`` by name only (their
-files are pickles: trusted input, ``agents/zoo/__init__.py``).
+neither the agents nor torch. Shipped agents are read from the repository's ``agents/zoo`` by a name pinned in
+``agents.zoo.SHIPPED``, without unpickling (``agents/zoo/__init__.py``), and run on their model card's bench only.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ HELP = ("evaluate a scripted, model-based or shipped controller on TriPlanarShea
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--controller", required=True, help="a scripted controller (steel_tip, teflon_tip, "
                         "frictionless_tip, tracking_tip, moment_matching, pi_feedback, adaptive) or a shipped agent "
-                        "(a directory of agents/zoo); an unknown name lists them all")
+                        "(pinned in agents/zoo); an unknown name lists them all")
     parser.add_argument("--design", default="default", help="actuator design of the bench study's sweep (default: "
                         "the default bench; a shipped agent runs on its model card's bench, known tip included); an "
                         "unknown name lists them")
