@@ -8,6 +8,7 @@ The options are declared and parsed here; :mod:`agents.training` takes a plain :
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import Any
 
 from ..cli_args import add_executor_arguments, executor_from_args
@@ -59,11 +60,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                       "runs/robust for v1, runs/recurrent with --algo recurrent)")
     parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
     parser.add_argument("--timesteps", type=positive_int, help="total environment steps (default: the YAML's)")
-    parser.add_argument("--no-resume", action="store_true",
+    resume = parser.add_mutually_exclusive_group()
+    resume.add_argument("--resume", action="store_true",
+                        help="continue the run at the default output folder from its checkpoints (with --out, the "
+                             "folder named there is continued anyway); a checkpoint's SB3 zip is unpickled: only "
+                             "runs you made")
+    resume.add_argument("--no-resume", action="store_true",
                         help="start afresh even if checkpoints exist (the previous run's checkpoints are removed)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--verbose", type=int, default=0)
     add_executor_arguments(parser)  # the seeds are the tasks (each seed's run directory must be shared on a cluster)
+
+
+def refuse_leftovers(out: str, seeds: tuple[int, ...]) -> None:
+    """The default output folder is nobody's choice: checkpoints found there (an earlier run's, or planted) are not
+    loaded unless the user names the run."""
+    from agents.checkpoint_files import leftovers
+    for seed in seeds:
+        found = leftovers(Path(out) / f"seed_{seed}")
+        if found:
+            raise ValueError(f"{Path(out) / f'seed_{seed}'} holds checkpoints of an earlier run ({found[0].name}, ...): "
+                             "give --resume to continue it (its SB3 zip is unpickled: only a run you made), "
+                             "--no-resume to replace it, or another --out")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,10 +90,16 @@ def run(args: argparse.Namespace) -> int:
     if args.algo is not None and args.env == "TriPlanarShear-v0":
         raise ValueError("--algo is for --env TriPlanarShear-v1 (v0 trains PPO with agents/ppo.yaml)")
     seeds = tuple(args.seed or [0])
+    if len(set(seeds)) != len(seeds):
+        raise ValueError(f"--seed: each seed once, got {', '.join(map(str, seeds))}")
+    out = args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env]
+    named = args.out is not None or args.resume
+    if not named and not args.no_resume:
+        refuse_leftovers(out, seeds)
+    from agents.checkpoint_files import new_token
     request = TrainRequest(env_id=args.env, config=args.config, algo=args.algo, env_kwargs=dict(args.env_arg),
                            overrides=dict(args.overrides), seeds=seeds, timesteps=args.timesteps,
-                           out_dir=args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env],
-                           resume=not args.no_resume,
+                           out_dir=out, resume=not args.no_resume, token=new_token(), named=named,
                            verbose=args.verbose, progress=not args.no_progress)
     with executor_from_args(args) as executor:
         results = train(request, executor)
