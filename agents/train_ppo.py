@@ -35,13 +35,14 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-import yaml
 
 from envs.triplanar_shear import ShearConfig, make_config
+from triplanar import yaml_input
 from triplanar.atomic import write_atomic
+from triplanar.executor import ExecutorLike, run_tasks
 
 from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer, token_of
-from triplanar.executor import ExecutorLike, run_tasks
+from .config_checks import check_hyperparams, check_n_envs, check_normalize
 
 DEFAULT_CONFIG = Path(__file__).with_name("ppo.yaml")
 _CHECKPOINT = re.compile(r"ppo_(\d+)_steps\.zip$")
@@ -65,11 +66,7 @@ NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma",
 
 def load_config(path: str | Path = DEFAULT_CONFIG, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """The hyperparameter YAML at ``path`` (with ``overrides``), checked: a ValueError names the file and key."""
-    with open(path) as f:
-        try:
-            config = yaml.safe_load(f)
-        except yaml.YAMLError as err:
-            raise ValueError(f"{path}: invalid YAML: {err}") from None
+    config = yaml_input.load_file(path)
     if config is None:
         config = {}
     if not isinstance(config, dict):
@@ -79,6 +76,8 @@ def load_config(path: str | Path = DEFAULT_CONFIG, overrides: dict[str, Any] | N
         *parents, leaf = key.split(".")
         for parent in parents:
             node = node.setdefault(parent, {})
+            if not isinstance(node, dict):
+                raise ValueError(f"{path}: override {key}: {parent} is not a mapping")
         node[leaf] = value
     check_config(config, str(path))
     return config
@@ -109,7 +108,9 @@ def check_config(config: dict[str, Any], source: str = "config") -> None:
         if key in (config.get("train") or {}):
             _positive_int(config["train"][key], f"{source}: train.{key}")
     if "n_envs" in config:
-        _positive_int(config["n_envs"], f"{source}: n_envs")
+        check_n_envs(config["n_envs"], f"{source}: n_envs")
+    check_hyperparams(config.get("ppo"), f"{source}: ppo", extra=("policy",))
+    check_normalize(config.get("normalize"), f"{source}: normalize")
     for section in ("env", "ppo"):
         if not isinstance(config.get(section, {}) or {}, dict):
             raise ValueError(f"{source}: {section}: expected a mapping, got {config[section]!r}")

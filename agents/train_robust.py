@@ -40,9 +40,10 @@ from typing import Any, Sequence
 import numpy as np
 
 from triplanar.atomic import write_atomic
+from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 
 from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer
-from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
+from .config_checks import check_hyperparams, check_n_envs, check_normalize
 
 FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
 CURVE_BENCHES = 10
@@ -66,14 +67,8 @@ def _positive_int(value: Any, where: str) -> int:
 def load_robust_config(path: str | Path = ROBUST_CONFIG, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """The training YAML at ``path`` with ``overrides`` (``{"hyperparams.n_steps": 64}`` style), checked: a
     ValueError names the file and the key."""
-    import yaml
-    try:
-        with open(path) as f:
-            config = yaml.safe_load(f)
-    except OSError as err:
-        raise ValueError(f"{path}: cannot read the training configuration ({err.strerror})") from None
-    except yaml.YAMLError as err:
-        raise ValueError(f"{path}: invalid YAML: {err}") from None
+    from triplanar.yaml_input import load_file
+    config = load_file(path)
     if not isinstance(config, dict):
         raise ValueError(f"{path}: expected a mapping of keys ({', '.join(CONFIG_KEYS)}), got {type(config).__name__}")
     for key, value in (overrides or {}).items():
@@ -96,7 +91,7 @@ def check_robust_config(config: dict[str, Any], source: str = "config") -> None:
     for key in config:
         if key not in CONFIG_KEYS:
             raise ValueError(f"{source}: unknown key {key!r}; known keys: {', '.join(CONFIG_KEYS)}")
-    if config.get("algo", "ppo") not in ALGOS:
+    if not isinstance(config.get("algo", "ppo"), str) or config.get("algo", "ppo") not in ALGOS:
         raise ValueError(f"{source}: algo: expected one of {', '.join(ALGOS)}, got {config['algo']!r}")
     for section in ("env", "normalize", "hyperparams", "train"):
         if not isinstance(config.get(section) or {}, dict):
@@ -106,7 +101,13 @@ def check_robust_config(config: dict[str, Any], source: str = "config") -> None:
             raise ValueError(f"{source}: unknown key train.{key}; known keys: {', '.join(TRAIN_KEYS)}")
         _positive_int(value, f"{source}: train.{key}")
     if "n_envs" in config:
-        _positive_int(config["n_envs"], f"{source}: n_envs")
+        check_n_envs(config["n_envs"], f"{source}: n_envs")
+    check_hyperparams(config.get("hyperparams"), f"{source}: hyperparams")
+    check_normalize(config.get("normalize"), f"{source}: normalize")
+    policies = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy"}
+    if "policy" in config and config["policy"] != policies[config.get("algo", "ppo")]:
+        raise ValueError(f"{source}: policy: expected {policies[config.get('algo', 'ppo')]!r} for algo "
+                         f"{config.get('algo', 'ppo')!r}, got {config['policy']!r:.80}")
     try:  # the env's own checks, on a batch of one (no specimen is drawn)
         make_vec_env({**config, "n_envs": 1}, seed=0, check_only=True)
     except (TypeError, ValueError) as err:

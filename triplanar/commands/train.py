@@ -37,11 +37,13 @@ def key_value(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep or not key.strip():
         raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    import yaml  # the rl extra; checked by require() before any value is used
+    from ..yaml_input import YAMLInputError, load_text  # PyYAML: the rl extra, checked by require() before use
     try:
-        return key.strip(), yaml.safe_load(value)
-    except yaml.YAMLError as err:
-        raise argparse.ArgumentTypeError(f"{key}: cannot read the value {value!r} ({err})") from None
+        return key.strip(), load_text(value, key.strip())
+    except YAMLInputError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    except ModuleNotFoundError:
+        raise argparse.ArgumentTypeError("reading KEY=VALUE needs PyYAML (pip install '.[rl]')") from None
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
