@@ -53,6 +53,19 @@ class TrainRequest:
             raise ValueError("give at least one seed")
 
 
+def refuse_leftovers(out_dir: str, seeds: tuple[int, ...]) -> None:
+    """An output folder the user did not name (the default one) is nobody's choice: checkpoints found there (an
+    earlier run's, or planted) are refused, not loaded."""
+    from .checkpoint_files import leftovers
+    for seed in seeds:
+        run_dir = Path(out_dir) / f"seed_{seed}"
+        found = leftovers(run_dir)
+        if found:
+            raise ValueError(f"{run_dir} holds checkpoints of an earlier run ({found[0].name}, ...): give --resume "
+                             "to continue it (its SB3 zip is unpickled: only a run you made), --no-resume to replace "
+                             "it, or another --out")
+
+
 @dataclass(frozen=True)
 class TrainedRun:
     seed: int
@@ -64,6 +77,8 @@ class TrainedRun:
 def train(request: TrainRequest, executor: ExecutorLike = "serial") -> list[TrainedRun]:
     """Train (or resume) one run per seed of ``request`` through ``executor``; results in seed order."""
     request.check()
+    if request.resume and not request.named:
+        refuse_leftovers(request.out_dir, request.seeds)
     if request.env_id == "TriPlanarShear-v0":
         from .train_ppo import DEFAULT_CONFIG, load_config, train_seeds
         overrides = {**request.overrides, **{f"env.{k}": v for k, v in request.env_kwargs.items()}}

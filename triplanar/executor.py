@@ -86,7 +86,10 @@ def _watch_parent(owner: int) -> None:
 
 
 def die_with_parent(owner: int) -> None:
-    """Worker initializer: exit when process ``owner`` (the pool's maker) dies, however it dies."""
+    """Worker initializer: exit when process ``owner`` (the pool's maker) dies, however it dies. Ctrl-C (SIGINT,
+    sent to the whole foreground group) is the maker's to handle: it terminates its workers, which would otherwise
+    each print a ``KeyboardInterrupt`` traceback."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux") and os.getppid() == owner:
         try:
             ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG = 1

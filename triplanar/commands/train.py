@@ -8,7 +8,6 @@ The options are declared and parsed here; :mod:`agents.training` takes a plain :
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
 from ..cli_args import add_executor_arguments, executor_from_args
@@ -74,18 +73,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_executor_arguments(parser)  # the seeds are the tasks (each seed's run directory must be shared on a cluster)
 
 
-def refuse_leftovers(out: str, seeds: tuple[int, ...]) -> None:
-    """The default output folder is nobody's choice: checkpoints found there (an earlier run's, or planted) are not
-    loaded unless the user names the run."""
-    from agents.checkpoint_files import leftovers
-    for seed in seeds:
-        found = leftovers(Path(out) / f"seed_{seed}")
-        if found:
-            raise ValueError(f"{Path(out) / f'seed_{seed}'} holds checkpoints of an earlier run ({found[0].name}, ...): "
-                             "give --resume to continue it (its SB3 zip is unpickled: only a run you made), "
-                             "--no-resume to replace it, or another --out")
-
-
 def run(args: argparse.Namespace) -> int:
     require()
     from agents.training import TrainRequest, train  # the RL stack, only when training
@@ -95,9 +82,7 @@ def run(args: argparse.Namespace) -> int:
     if len(set(seeds)) != len(seeds):
         raise ValueError(f"--seed: each seed once, got {', '.join(map(str, seeds))}")
     out = args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env]
-    named = args.out is not None or args.resume
-    if not named and not args.no_resume:
-        refuse_leftovers(out, seeds)
+    named = args.out is not None or args.resume   # else the default folder's checkpoints are refused, not loaded
     from agents.checkpoint_files import new_token
     request = TrainRequest(env_id=args.env, config=args.config, algo=args.algo, env_kwargs=dict(args.env_arg),
                            overrides=dict(args.overrides), seeds=seeds, timesteps=args.timesteps,
