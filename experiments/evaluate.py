@@ -143,19 +143,25 @@ def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = 
 
 
 def write(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
-    """The CSV, episodes CSV, JSON and PNG of an evaluation (each atomic)."""
+    """The CSV, episodes CSV, JSON and PNG of an evaluation, replacing an earlier set in ``out_dir`` as a whole
+    (:func:`triplanar.output_set.replace_set`: a kill leaves the earlier four files or the new four)."""
+    from triplanar.output_set import replace_set
+
     from . import bench_plots
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     e, stem = evaluation, evaluation.bench_set
-    paths = [out / f"{stem}.csv", out / f"{stem}_episodes.csv", out / f"{stem}.json", out / f"{stem}.png"]
-    tables.write_csv(paths[0], ["controller", "design", "bench_set", *tables.STATS_FIELDS],
-                     [[e.controller, e.design, e.bench_set, *tables.stats_cells(e.stats)]])
-    tables.write_csv(paths[1], tables.EPISODE_FIELDS,
-                     [tables.episode_cells(o, seed) for seed, outcomes in zip(e.seeds, e.outcomes) for o in outcomes])
-    tables.write_json(paths[2], {"controller": e.controller, "design": e.design, "bench_set": e.bench_set,
-                                 "seeds": e.seeds, "wall_s": e.wall_s, **e.stats})
-    label = e.controller if e.design == DEFAULT_DESIGN else f"{e.controller} ({e.design})"
-    bench_plots.rows_plot(paths[3], [(label, e.bench_set, e.stats, e.outcomes)],
-                          f"TriPlanarShear-v1, {e.design} bench, {e.bench_set} benches")
-    return paths
+    names = [f"{stem}.csv", f"{stem}_episodes.csv", f"{stem}.json", f"{stem}.png"]
+
+    def write_set(folder: Path) -> None:
+        paths = [folder / name for name in names]
+        tables.write_csv(paths[0], ["controller", "design", "bench_set", *tables.STATS_FIELDS],
+                         [[e.controller, e.design, e.bench_set, *tables.stats_cells(e.stats)]])
+        tables.write_csv(paths[1], tables.EPISODE_FIELDS,
+                         [tables.episode_cells(o, seed) for seed, outcomes in zip(e.seeds, e.outcomes)
+                          for o in outcomes])
+        tables.write_json(paths[2], {"controller": e.controller, "design": e.design, "bench_set": e.bench_set,
+                                     "seeds": e.seeds, "wall_s": e.wall_s, **e.stats})
+        label = e.controller if e.design == DEFAULT_DESIGN else f"{e.controller} ({e.design})"
+        bench_plots.rows_plot(paths[3], [(label, e.bench_set, e.stats, e.outcomes)],
+                              f"TriPlanarShear-v1, {e.design} bench, {e.bench_set} benches")
+
+    return replace_set(out_dir, names, write_set)

@@ -11,6 +11,7 @@ import argparse
 from typing import Any
 
 from ..cli_args import add_executor_arguments, executor_from_args
+from ..output_set import output_lock
 from . import require
 
 NAME = "train"
@@ -88,7 +89,7 @@ def run(args: argparse.Namespace) -> int:
                            overrides=dict(args.overrides), seeds=seeds, timesteps=args.timesteps,
                            out_dir=out, resume=not args.no_resume, token=new_token(), named=named,
                            verbose=args.verbose, progress=not args.no_progress)
-    with executor_from_args(args) as executor:
+    with output_lock(out), executor_from_args(args) as executor:   # one run at a time into a folder
         results = train(request, executor)
     for result in results:
         print(f"seed {result.seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.run_dir}")
