@@ -97,3 +97,16 @@ def test_a_checkpoint_is_one_set_and_a_foreign_one_is_refused(tmp_path, capsys) 
     (ckpt / "state.json").write_text(json.dumps(state))
     assert cli.main([*argv[:4], "512", *argv[5:]]) == 0
     assert json.loads((out / "seed_0" / "done.json").read_text())["timesteps"] >= 512
+
+
+@pytest.mark.parametrize("extra, message", [([], "holds an earlier run"), (["--skip-train"], "name the folder")])
+def test_study_loads_no_run_from_the_default_ppo_dir(extra, message, tmp_path, monkeypatch, capsys) -> None:
+    marker = tmp_path / "marker"
+    monkeypatch.chdir(tmp_path)
+    plant_every_default_path(tmp_path, marker)
+    for name in ("final_model.zip", "vecnormalize.pkl"):
+        plant(tmp_path / "runs" / "ppo" / "seed_0" / name, marker)
+    (tmp_path / "runs" / "ppo" / "seed_0" / "done.json").write_text(json.dumps({"timesteps": 10**9, "wall_s": 1.0}))
+    assert cli.main(["study", "--out", str(tmp_path / "study"), "--seeds", "0", "--executor", "serial", *extra]) == 2
+    assert message in capsys.readouterr().err
+    assert not marker.exists()
