@@ -11,6 +11,7 @@ read by SB3 (which unpickles parts of it): it is loaded only from a run the user
 from __future__ import annotations
 
 import secrets
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -57,7 +58,7 @@ def read_normalizer(path: str | Path) -> dict[str, Any]:
     try:
         with np.load(path, allow_pickle=False) as npz:
             data = {k: npz[k] for k in keys}
-    except (OSError, ValueError, KeyError, EOFError) as err:
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as err:
         raise CheckpointError(f"{path}: not a normalisation-statistics file ({type(err).__name__}: {err})") from None
     if data["obs_mean"].shape != data["obs_var"].shape or not all(
             np.all(np.isfinite(data[k])) for k in ("obs_mean", "obs_var", "ret_mean", "ret_var", *_SETTINGS)):

@@ -16,6 +16,7 @@ import io
 import json
 import math
 import sys
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -136,5 +137,6 @@ def load(path: str | Path) -> Any:
         return decode(structure, arrays)
     except FileNotFoundError:
         raise
-    except (PlainDataError, OSError, ValueError, KeyError, TypeError, EOFError, RecursionError) as err:
+    except (PlainDataError, OSError, ValueError, KeyError, TypeError, EOFError, RecursionError,
+            zipfile.BadZipFile) as err:
         raise PlainDataError(f"{path}: not a readable results file ({err})") from None

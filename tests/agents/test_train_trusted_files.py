@@ -71,6 +71,11 @@ def test_a_pickle_in_place_of_the_statistics_is_refused_not_run(tmp_path) -> Non
     with pytest.raises(CheckpointError, match="vecnormalize_2048.npz: not a normalisation-statistics file"):
         read_normalizer(tmp_path / "vecnormalize_2048.npz")
     assert not marker.exists()
+    truncated = tmp_path / "vecnormalize_4096.npz"   # a torn write: a named error (it used to be a traceback)
+    np.savez(truncated, obs_mean=np.zeros(15), obs_var=np.ones(15))
+    truncated.write_bytes(truncated.read_bytes()[:200])
+    with pytest.raises(CheckpointError, match="vecnormalize_4096.npz: not a normalisation-statistics file"):
+        read_normalizer(truncated)
 
 
 @pytest.mark.slow

@@ -80,3 +80,6 @@ def test_planted_pickles_in_a_task_checkpoint_never_run(tmp_path) -> None:
     assert not marker.exists()
     assert run_tasks(abs, tasks, "serial", checkpoint=checkpoint) == [1, 2, 3]   # now read back, as data
     assert not marker.exists()
+    torn = partial / f"{checkpoint.key(abs, 2)}.npz"
+    torn.write_bytes(torn.read_bytes()[:100])   # a torn write: the task runs again
+    assert run_tasks(abs, tasks, "serial", checkpoint=checkpoint) == [1, 2, 3]

@@ -80,8 +80,8 @@ def run(args: argparse.Namespace) -> int:
     if args.algo is not None and args.env == "TriPlanarShear-v0":
         raise ValueError("--algo is for --env TriPlanarShear-v1 (v0 trains PPO with agents/ppo.yaml)")
     seeds = tuple(args.seed or [0])
-    if len(set(seeds)) != len(seeds):
-        raise ValueError(f"--seed: each seed once, got {', '.join(map(str, seeds))}")
+    if len(set(seeds)) != len(seeds) or not all(0 <= s < 2**32 for s in seeds):
+        raise ValueError(f"--seed: each seed once, in [0, {2**32 - 1}], got {', '.join(map(str, seeds))}")
     out = args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env]
     named = args.out is not None or args.resume   # else the default folder's checkpoints are refused, not loaded
     from agents.checkpoint_files import new_token
