@@ -111,6 +111,7 @@ def replace_set(out: str | os.PathLike[str], names: Sequence[str], write: Callab
     """Write the files ``names`` (``write(folder)`` writes them into ``folder``) so that ``out`` holds all of the new
     ones, or all of the previous ones if the run is killed; ``out``'s other files are kept. Returns their paths."""
     out = Path(out).resolve()
+    out.parent.mkdir(parents=True, exist_ok=True)
     remove_stale_sets(out)
     new = _partial_name(out)
     try:
