@@ -2,8 +2,8 @@
 
 Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run directory ``OUT/seed_S`` holds:
 
-* ``checkpoints/ppo_<N>_steps.zip`` + ``ppo_vecnormalize_<N>_steps.pkl``: resumable checkpoints, each written
-  to a temporary name and renamed when complete. Running the same command again continues from the newest one
+* ``checkpoints/ppo_<N>_steps.zip`` + ``ppo_vecnormalize_<N>_steps.npz``: resumable checkpoints, each written
+  to a temporary name and renamed when complete (the statistics as plain arrays, :mod:`agents.checkpoint_files`). Running the same command again continues from the newest one
   that loads (a damaged one is skipped with a warning; ``--no-resume`` starts afresh and removes the previous
   run's checkpoints). Rows of ``learning_curve.csv`` written after the checkpoint resumed from are dropped, as
   they are written again;
@@ -18,8 +18,9 @@ Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run dir
 A resumed run continues the schedule and the logs; it is not bitwise identical to an uninterrupted run (the
 generators' states are not checkpointed).
 
-Resuming loads the checkpoints with pickle/cloudpickle, which runs the code in them: resume only runs you made
-(or that come from a trusted source). Nothing is loaded from anywhere but ``OUT/seed_S``.
+Resuming loads the checkpoint's SB3 zip, which SB3 reads with cloudpickle (it can run code): a run resumes only
+from ``OUT/seed_S`` of a run the user named (``named``: ``--out`` or ``--resume``), or else only from checkpoints
+carrying this invocation's ``token`` (a worker retried within the same command).
 """
 
 from __future__ import annotations
@@ -34,11 +35,14 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-import yaml
 
 from envs.triplanar_shear import ShearConfig, make_config
+from triplanar import yaml_input
 from triplanar.atomic import write_atomic
 from triplanar.executor import ExecutorLike, run_tasks
+
+from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer, token_of
+from .config_checks import check_hyperparams, check_n_envs, check_normalize
 
 DEFAULT_CONFIG = Path(__file__).with_name("ppo.yaml")
 _CHECKPOINT = re.compile(r"ppo_(\d+)_steps\.zip$")
@@ -62,11 +66,7 @@ NORMALIZE_KEYS = ("norm_obs", "norm_reward", "clip_obs", "clip_reward", "gamma",
 
 def load_config(path: str | Path = DEFAULT_CONFIG, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """The hyperparameter YAML at ``path`` (with ``overrides``), checked: a ValueError names the file and key."""
-    with open(path) as f:
-        try:
-            config = yaml.safe_load(f)
-        except yaml.YAMLError as err:
-            raise ValueError(f"{path}: invalid YAML: {err}") from None
+    config = yaml_input.load_file(path)
     if config is None:
         config = {}
     if not isinstance(config, dict):
@@ -76,6 +76,8 @@ def load_config(path: str | Path = DEFAULT_CONFIG, overrides: dict[str, Any] | N
         *parents, leaf = key.split(".")
         for parent in parents:
             node = node.setdefault(parent, {})
+            if not isinstance(node, dict):
+                raise ValueError(f"{path}: override {key}: {parent} is not a mapping")
         node[leaf] = value
     check_config(config, str(path))
     return config
@@ -106,7 +108,9 @@ def check_config(config: dict[str, Any], source: str = "config") -> None:
         if key in (config.get("train") or {}):
             _positive_int(config["train"][key], f"{source}: train.{key}")
     if "n_envs" in config:
-        _positive_int(config["n_envs"], f"{source}: n_envs")
+        check_n_envs(config["n_envs"], f"{source}: n_envs")
+    check_hyperparams(config.get("ppo"), f"{source}: ppo", extra=("policy",))
+    check_normalize(config.get("normalize"), f"{source}: normalize")
     for section in ("env", "ppo"):
         if not isinstance(config.get(section, {}) or {}, dict):
             raise ValueError(f"{source}: {section}: expected a mapping, got {config[section]!r}")
@@ -144,13 +148,14 @@ def make_vec_envs(config: dict[str, Any], seed: int):
     return train, evaluation
 
 
-def checkpoints(run_dir: Path) -> list[tuple[int, Path, Path]]:
-    """Every complete checkpoint (model and statistics both present), newest first."""
+def checkpoints(run_dir: Path, token: str | None = None) -> list[tuple[int, Path, Path]]:
+    """Every complete checkpoint (model and statistics both present; with ``token``, only those it stamped),
+    newest first."""
     found = []
     for path in (run_dir / "checkpoints").glob("ppo_*_steps.zip"):
         match = _CHECKPOINT.search(path.name)
-        stats = path.with_name(f"ppo_vecnormalize_{match.group(1)}_steps.pkl") if match else None
-        if match and stats.exists():
+        stats = path.with_name(f"ppo_vecnormalize_{match.group(1)}_steps.npz") if match else None
+        if match and stats.exists() and (token is None or token_of(stats) == token):
             found.append((int(match.group(1)), path, stats))
     return sorted(found, reverse=True)
 
@@ -160,8 +165,9 @@ def latest_checkpoint(run_dir: Path) -> tuple[int, Path, Path] | None:
     return found[0] if found else None
 
 
-def _checkpoint_callback(save_freq: int, save_path: Path):
-    """SB3's CheckpointCallback (model + VecNormalize every ``save_freq`` calls), writing each file atomically."""
+def _checkpoint_callback(save_freq: int, save_path: Path, token: str = ""):
+    """SB3's CheckpointCallback (model + VecNormalize statistics every ``save_freq`` calls), writing each file
+    atomically (the statistics as ``.npz``, stamped with the step count and ``token``)."""
     from stable_baselines3.common.callbacks import CheckpointCallback
 
     class AtomicCheckpoint(CheckpointCallback):
@@ -169,8 +175,8 @@ def _checkpoint_callback(save_freq: int, save_path: Path):
             if self.n_calls % self.save_freq == 0:
                 Path(self.save_path).mkdir(parents=True, exist_ok=True)
                 write_atomic(self._checkpoint_path(extension="zip"), lambda p: self.model.save(str(p)))
-                write_atomic(self._checkpoint_path("vecnormalize_", extension="pkl"),
-                             lambda p: self.model.get_vec_normalize_env().save(str(p)))
+                save_normalizer(self._checkpoint_path("vecnormalize_", extension="npz"),
+                                self.model.get_vec_normalize_env(), self.num_timesteps, token)
             return True
 
     return AtomicCheckpoint(save_freq=save_freq, save_path=str(save_path), name_prefix="ppo", save_vecnormalize=True)
@@ -232,12 +238,12 @@ def _truncate_curve(curve_path: Path, timesteps: int) -> None:
 
 def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str | Path = "runs/ppo", seed: int = 0,
               total_timesteps: int | None = None, resume: bool = True, callbacks: Sequence[Any] = (),
-              verbose: int = 0, progress: bool = False) -> TrainResult:
-    """Train (or resume) one PPO run; see the module docstring for what it writes."""
+              verbose: int = 0, progress: bool = False, token: str = "", named: bool = True) -> TrainResult:
+    """Train (or resume) one PPO run; see the module docstring for what it writes. ``named``: the caller named
+    ``out_dir`` (any checkpoint there may be resumed); otherwise only checkpoints stamped with ``token``."""
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import CallbackList, EvalCallback
-    from stable_baselines3.common.vec_env import VecNormalize
 
     if isinstance(config, dict):
         check_config(config)
@@ -259,11 +265,13 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
     done_path.unlink(missing_ok=True)
     train_env, eval_env = make_vec_envs(config, seed)
     checkpoint, model = None, None
-    for candidate in (checkpoints(run_dir) if resume else []):
+    for candidate in (checkpoints(run_dir, None if named else token) if resume else []):
         done, checkpoint_model, checkpoint_stats = candidate  # the outputs stay final_model.zip, vecnormalize.pkl
         try:
-            resumed_env = VecNormalize.load(str(checkpoint_stats), train_env.venv)
+            resumed_env = load_normalizer(checkpoint_stats, train_env.venv, timesteps=done)
             model = PPO.load(str(checkpoint_model), env=resumed_env, device="cpu", tensorboard_log=str(run_dir / "tb"))
+            if model.num_timesteps != done:
+                raise CheckpointError(f"the model is at step {model.num_timesteps}, its name says {done}")
         except Exception as err:  # a truncated or damaged file: fall back to the previous one
             print(f"warning: checkpoint {checkpoint_model.name} does not load ({type(err).__name__}: {err}); "
                   "trying the previous one", file=sys.stderr)
@@ -291,7 +299,7 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
                               deterministic=True, verbose=0,
                               callback_after_eval=_mimicry_callback(config, curve_path, wall_offset, started))
     saver = _checkpoint_callback(max(1, int(train_cfg.get("checkpoint_freq", 50_000)) // n_envs),
-                                 run_dir / "checkpoints")
+                                 run_dir / "checkpoints", token)
     remaining = max(0, total - done)
     if progress:
         from .progress import progress_callback
@@ -318,17 +326,21 @@ class SeedRun:
     resume: bool = True
     verbose: int = 0
     progress: bool = False
+    token: str = ""
+    named: bool = True
 
 
 def train_seed_run(run: SeedRun) -> TrainResult:
     return train_ppo(run.config, run.out_dir, run.seed, run.total_timesteps, resume=run.resume, verbose=run.verbose,
-                     progress=run.progress)
+                     progress=run.progress, token=run.token, named=run.named)
 
 
 def train_seeds(config: str | Path | dict[str, Any], out_dir: str | Path, seeds: Sequence[int],
                 total_timesteps: int | None = None, resume: bool = True, verbose: int = 0,
-                executor: ExecutorLike = "serial", progress: bool = False) -> list[TrainResult]:
+                executor: ExecutorLike = "serial", progress: bool = False, token: str = "",
+                named: bool = True) -> list[TrainResult]:
     """:func:`train_ppo` for each seed (one task per seed, through ``executor``), results in seed order. A seed
     whose worker dies (Ray retries it) resumes from its own checkpoints in ``OUT/seed_S``."""
-    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose, progress) for seed in seeds]
+    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose, progress, token, named)
+             for seed in seeds]
     return run_tasks(train_seed_run, tasks, executor, progress, desc="PPO seeds")

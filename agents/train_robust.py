@@ -16,10 +16,13 @@ torch threads). ``triplanar train --env TriPlanarShear-v1 --config agents/robust
 name, then rename), ``learning_curve.csv`` (at every evaluation: timesteps, wall seconds, and on ``CURVE_BENCHES``
 tuning benches, never the held-out ones, the success rate, mimicry error over successful episodes and the score of
 :mod:`agents.heldout`) and ``done.json``. While it trains, a run saves a checkpoint every ``checkpoint_freq`` steps
-(``OUT/seed_S/checkpoint/``: the model, the normalisation statistics and the learning curve so far); an interrupted
-run continues from its last checkpoint (its remaining steps are then drawn from a generator seeded anew, so a resumed
-run is not bitwise the run an uninterrupted one would have been). The model files are pickles: load only runs you
-trained.
+(``OUT/seed_S/checkpoint/``: ``model_<N>.zip``, the normalisation statistics ``vecnormalize_<N>.npz``, then
+``state.json``, which names them, holds the learning curve so far and is written last, so that a kill between files
+leaves the previous set in force); an interrupted run continues from its last checkpoint (its remaining steps are then
+drawn from a generator seeded anew, so a resumed run is not bitwise the run an uninterrupted one would have been). The
+SB3 zips are read by SB3 with cloudpickle, which can run code: a checkpoint is resumed only in a run the caller named
+(``RobustTask.named``) or when it carries the task's ``token`` (written by this invocation), and ``final_model.zip``
+and ``vecnormalize.pkl`` are for loading only runs you trained.
 """
 
 from __future__ import annotations
@@ -38,6 +41,9 @@ import numpy as np
 
 from triplanar.atomic import write_atomic
 from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
+
+from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer
+from .config_checks import check_hyperparams, check_n_envs, check_normalize
 
 FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
 CURVE_BENCHES = 10
@@ -61,14 +67,8 @@ def _positive_int(value: Any, where: str) -> int:
 def load_robust_config(path: str | Path = ROBUST_CONFIG, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """The training YAML at ``path`` with ``overrides`` (``{"hyperparams.n_steps": 64}`` style), checked: a
     ValueError names the file and the key."""
-    import yaml
-    try:
-        with open(path) as f:
-            config = yaml.safe_load(f)
-    except OSError as err:
-        raise ValueError(f"{path}: cannot read the training configuration ({err.strerror})") from None
-    except yaml.YAMLError as err:
-        raise ValueError(f"{path}: invalid YAML: {err}") from None
+    from triplanar.yaml_input import load_file
+    config = load_file(path)
     if not isinstance(config, dict):
         raise ValueError(f"{path}: expected a mapping of keys ({', '.join(CONFIG_KEYS)}), got {type(config).__name__}")
     for key, value in (overrides or {}).items():
@@ -91,7 +91,7 @@ def check_robust_config(config: dict[str, Any], source: str = "config") -> None:
     for key in config:
         if key not in CONFIG_KEYS:
             raise ValueError(f"{source}: unknown key {key!r}; known keys: {', '.join(CONFIG_KEYS)}")
-    if config.get("algo", "ppo") not in ALGOS:
+    if not isinstance(config.get("algo", "ppo"), str) or config.get("algo", "ppo") not in ALGOS:
         raise ValueError(f"{source}: algo: expected one of {', '.join(ALGOS)}, got {config['algo']!r}")
     for section in ("env", "normalize", "hyperparams", "train"):
         if not isinstance(config.get(section) or {}, dict):
@@ -101,7 +101,13 @@ def check_robust_config(config: dict[str, Any], source: str = "config") -> None:
             raise ValueError(f"{source}: unknown key train.{key}; known keys: {', '.join(TRAIN_KEYS)}")
         _positive_int(value, f"{source}: train.{key}")
     if "n_envs" in config:
-        _positive_int(config["n_envs"], f"{source}: n_envs")
+        check_n_envs(config["n_envs"], f"{source}: n_envs")
+    check_hyperparams(config.get("hyperparams"), f"{source}: hyperparams")
+    check_normalize(config.get("normalize"), f"{source}: normalize")
+    policies = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy"}
+    if "policy" in config and config["policy"] != policies[config.get("algo", "ppo")]:
+        raise ValueError(f"{source}: policy: expected {policies[config.get('algo', 'ppo')]!r} for algo "
+                         f"{config.get('algo', 'ppo')!r}, got {config['policy']!r:.80}")
     try:  # the env's own checks, on a batch of one (no specimen is drawn)
         make_vec_env({**config, "n_envs": 1}, seed=0, check_only=True)
     except (TypeError, ValueError) as err:
@@ -234,6 +240,8 @@ class RobustTask:
     overrides: tuple = ()
     progress: bool = False
     resume: bool = True                    # False: the seed's previous run (finished or not) is removed first
+    token: str = ""                        # stamped on the checkpoints this task writes
+    named: bool = True                     # the caller named out_dir: any checkpoint there resumes; else only token's
 
     def resolved(self) -> dict[str, Any]:
         """The run's configuration: the YAML with this task's values in it (checked)."""
@@ -263,8 +271,8 @@ def _refuse_another_configuration(run_dir: Path, config: dict[str, Any]) -> None
     """A run directory continues only the run it holds: what it trained (``config.json``) must match ``config`` but
     for the step budget and the evaluation and checkpoint intervals."""
     path = run_dir / "config.json"
-    if not path.exists():
-        return
+    if not path.exists() or not ((run_dir / "checkpoint" / "state.json").exists() or (run_dir / "done.json").exists()):
+        return  # nothing to continue: a failed start's config.json does not bind the next run
     before = json.loads(path.read_text())
     now = json.loads(json.dumps(config))   # as JSON keeps it (tuples become lists)
     for key in CONFIG_KEYS:
@@ -317,12 +325,38 @@ class _SeedRun:
         stats = summarise(evaluate_policy_on(policy, self.curve_benches, self.env_kwargs, "tuning"))
         self.rows.append({"timesteps": self.model.num_timesteps, "wall_s": self.wall(), **stats})
 
-    def checkpoint(self) -> None:
+    def checkpoint(self, token: str = "") -> None:
+        """The model and its statistics under names carrying the step count, then ``state.json`` naming them
+        (the set's commit), then the previous set removed."""
         self.ckpt.mkdir(exist_ok=True)
-        write_atomic(self.ckpt / "model.zip", lambda p: self.model.save(str(p)))
-        write_atomic(self.ckpt / "vecnormalize.pkl", lambda p: self.venv.save(str(p)))
-        state = {"timesteps": self.model.num_timesteps, "wall_s": self.wall(), "curve": self.rows}
+        steps = int(self.model.num_timesteps)
+        model, stats = f"model_{steps}.zip", f"vecnormalize_{steps}.npz"
+        write_atomic(self.ckpt / model, lambda p: self.model.save(str(p)))
+        save_normalizer(self.ckpt / stats, self.venv, steps, token)
+        state = {"timesteps": steps, "wall_s": self.wall(), "curve": self.rows, "model": model,
+                 "vecnormalize": stats, "token": token}
         write_atomic(self.ckpt / "state.json", lambda p: p.write_text(json.dumps(state)))
+        for old in self.ckpt.iterdir():
+            if old.name not in (model, stats, "state.json") and not old.name.startswith("."):
+                old.unlink(missing_ok=True)
+
+
+def _read_checkpoint_state(task: RobustTask, ckpt: Path) -> dict[str, Any]:
+    """The checkpoint's ``state.json``, checked: a set this code wrote, and one the task may resume."""
+    path = ckpt / "state.json"
+    try:
+        state = json.loads(path.read_text())
+        model, stats, steps = state["model"], state["vecnormalize"], int(state["timesteps"])
+    except (ValueError, KeyError, TypeError):
+        raise CheckpointError(f"{path}: not a checkpoint this version can resume (give --no-resume to start "
+                              "afresh)") from None
+    if not task.named and state.get("token") != task.token:
+        raise CheckpointError(f"{ckpt}: a checkpoint this command did not write (give --resume or --out to continue "
+                              "it, --no-resume to replace it)")
+    for name in (model, stats):
+        if not isinstance(name, str) or "/" in name or name.startswith(".") or not (ckpt / name).is_file():
+            raise CheckpointError(f"{path}: names {name!r}, which is not in {ckpt}")
+    return {**state, "timesteps": steps}
 
 
 def _start_or_resume(task: RobustTask, config: dict[str, Any], run_dir: Path) -> _SeedRun:
@@ -340,11 +374,14 @@ def _start_or_resume(task: RobustTask, config: dict[str, Any], run_dir: Path) ->
     rows: list[dict[str, float]] = []
     wall_before = 0.0
     if (ckpt / "state.json").exists():
-        state = json.loads((ckpt / "state.json").read_text())
+        state = _read_checkpoint_state(task, ckpt)
         rows, wall_before = state["curve"], state["wall_s"]
-        venv_raw.seed(task.seed + 7919 * int(state["timesteps"]))   # a fresh stream for the remaining steps
-        venv = VecNormalize.load(str(ckpt / "vecnormalize.pkl"), venv_raw)
-        model = _algo_class(algo).load(str(ckpt / "model.zip"), env=venv, device="cpu")
+        venv_raw.seed(task.seed + 7919 * state["timesteps"])   # a fresh stream for the remaining steps
+        venv = load_normalizer(ckpt / state["vecnormalize"], venv_raw, timesteps=state["timesteps"])
+        model = _algo_class(algo).load(str(ckpt / state["model"]), env=venv, device="cpu")
+        if model.num_timesteps != state["timesteps"]:
+            raise CheckpointError(f"{ckpt / state['model']}: a model at step {model.num_timesteps}, state.json says "
+                                  f"{state['timesteps']}")
     else:
         norm = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "gamma": 0.99, **(config.get("normalize") or {})}
         venv = VecNormalize(venv_raw, **norm)
@@ -354,7 +391,7 @@ def _start_or_resume(task: RobustTask, config: dict[str, Any], run_dir: Path) ->
                     started=time.perf_counter())
 
 
-def _curve_callback(run: _SeedRun, timesteps: int, eval_freq: int, checkpoint_freq: int) -> Any:
+def _curve_callback(run: _SeedRun, timesteps: int, eval_freq: int, checkpoint_freq: int, token: str = "") -> Any:
     """The SB3 callback that evaluates the run every ``eval_freq`` steps (the learning curve) and checkpoints it every
     ``checkpoint_freq`` steps, neither at the end (the run's end does both its own way)."""
     from stable_baselines3.common.callbacks import BaseCallback
@@ -374,7 +411,7 @@ def _curve_callback(run: _SeedRun, timesteps: int, eval_freq: int, checkpoint_fr
         def _on_rollout_end(self) -> None:
             if self.num_timesteps >= self.next_ckpt and self.num_timesteps < timesteps:
                 self.next_ckpt += checkpoint_freq
-                run.checkpoint()
+                run.checkpoint(token)
 
     return Curve()
 
@@ -423,7 +460,7 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
     run = _start_or_resume(task, config, run_dir)
     remaining = timesteps - run.model.num_timesteps
     if remaining > 0:
-        callbacks = [_curve_callback(run, timesteps, train["eval_freq"], train["checkpoint_freq"])]
+        callbacks = [_curve_callback(run, timesteps, train["eval_freq"], train["checkpoint_freq"], task.token)]
         if task.progress:
             from .progress import progress_callback
             callbacks.append(progress_callback(timesteps, f"{ALGOS[run.algo]} seed {task.seed}"))
@@ -436,7 +473,7 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
 def seed_tasks(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps: int = 0, *,
                env_kwargs: dict[str, Any] | None = None, eval_freq: int = 0, algo: str = "",
                checkpoint_freq: int = 0, config: str | Path = "", overrides: dict[str, Any] | None = None,
-               progress: bool = False, resume: bool = True) -> list[RobustTask]:
+               progress: bool = False, resume: bool = True, token: str = "", named: bool = True) -> list[RobustTask]:
     """The tasks of :func:`train_seeds` (one per seed), for callers that run several kinds in one executor call;
     0 or empty values take the YAML's (``config``, default by ``algo``). The configuration is checked here, before
     any task runs."""
@@ -447,7 +484,7 @@ def seed_tasks(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps:
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     tasks = [RobustTask(str(out_dir), int(s), int(timesteps), tuple(sorted((env_kwargs or {}).items())), eval_freq,
                         algo, checkpoint_freq, str(config), tuple(sorted((overrides or {}).items())), progress,
-                        resume)
+                        resume, token, named)
              for s in seeds]
     if tasks:  # checked now, and each task names its algorithm (callers sort the runs by it)
         resolved_algo = tasks[0].resolved().get("algo", "ppo")
@@ -459,11 +496,12 @@ def train_seeds(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps
                 env_kwargs: dict[str, Any] | None = None, executor: ExecutorLike = None,
                 eval_freq: int = 0, algo: str = "", config: str | Path = "",
                 overrides: dict[str, Any] | None = None, progress: bool = True,
-                resume: bool = True) -> list[dict[str, Any]]:
+                resume: bool = True, token: str = "", named: bool = True) -> list[dict[str, Any]]:
     """One robust PPO run per seed (``algo``: ``"ppo"`` frame stack, ``"recurrent"`` LSTM; or ``config``, a YAML),
     through the project's executor (resumable per seed, and inside a seed from its last checkpoint)."""
     tasks = seed_tasks(out_dir, seeds, timesteps, env_kwargs=env_kwargs, eval_freq=eval_freq, algo=algo,
-                       config=config, overrides=overrides, progress=progress, resume=resume)
+                       config=config, overrides=overrides, progress=progress, resume=resume, token=token,
+                       named=named)
     name = ALGOS[tasks[0].resolved().get("algo", "ppo")] if tasks else "robust"
     return run_tasks(train_robust, tasks, executor=executor, progress=True, desc=f"{name} seeds",
                      checkpoint=TaskCheckpoint(Path(out_dir) / "tasks") if resume else None)

@@ -22,7 +22,9 @@ ALGOS = ("ppo", "recurrent")
 class TrainRequest:
     """What to train: the env id, the YAML (default: ``agents/ppo.yaml`` for v0, by ``algo`` for v1), env
     arguments and ``key.path=value`` overrides on top of it, seeds, steps (None: the YAML's), where to write,
-    whether to resume and show progress."""
+    whether to resume and show progress. ``named``: the user named ``out_dir`` (``--out`` or ``--resume``), so a
+    checkpoint found there may be resumed (SB3 unpickles its zip); otherwise only checkpoints stamped with ``token``
+    (this invocation's, after a worker was retried) are."""
 
     env_id: str = "TriPlanarShear-v0"
     config: str | None = None
@@ -35,6 +37,8 @@ class TrainRequest:
     resume: bool = True
     verbose: int = 0
     progress: bool = True
+    token: str = ""
+    named: bool = True
 
     def check(self) -> None:
         if self.env_id not in ENV_IDS:
@@ -49,6 +53,19 @@ class TrainRequest:
             raise ValueError("give at least one seed")
 
 
+def refuse_leftovers(out_dir: str, seeds: tuple[int, ...]) -> None:
+    """An output folder the user did not name (the default one) is nobody's choice: checkpoints found there (an
+    earlier run's, or planted) are refused, not loaded."""
+    from .checkpoint_files import leftovers
+    for seed in seeds:
+        run_dir = Path(out_dir) / f"seed_{seed}"
+        found = leftovers(run_dir)
+        if found:
+            raise ValueError(f"{run_dir} holds checkpoints of an earlier run ({found[0].name}, ...): give --resume "
+                             "to continue it (its SB3 zip is unpickled: only a run you made), --no-resume to replace "
+                             "it, or another --out")
+
+
 @dataclass(frozen=True)
 class TrainedRun:
     seed: int
@@ -60,16 +77,20 @@ class TrainedRun:
 def train(request: TrainRequest, executor: ExecutorLike = "serial") -> list[TrainedRun]:
     """Train (or resume) one run per seed of ``request`` through ``executor``; results in seed order."""
     request.check()
+    if request.resume and not request.named:
+        refuse_leftovers(request.out_dir, request.seeds)
     if request.env_id == "TriPlanarShear-v0":
         from .train_ppo import DEFAULT_CONFIG, load_config, train_seeds
         overrides = {**request.overrides, **{f"env.{k}": v for k, v in request.env_kwargs.items()}}
         config = load_config(request.config or DEFAULT_CONFIG, overrides)
         results = train_seeds(config, request.out_dir, request.seeds, request.timesteps, request.resume,
-                              request.verbose, executor, progress=request.progress)
+                              request.verbose, executor, progress=request.progress, token=request.token,
+                              named=request.named)
         return [TrainedRun(seed, r.timesteps, r.wall_s, r.run_dir) for seed, r in zip(request.seeds, results)]
     from .train_robust import train_seeds as train_robust_seeds
     summaries = train_robust_seeds(request.out_dir, request.seeds, request.timesteps or 0,
                                    env_kwargs=request.env_kwargs, executor=executor, algo=request.algo or "",
                                    config=request.config or "", overrides=request.overrides,
-                                   progress=request.progress, resume=request.resume)
+                                   progress=request.progress, resume=request.resume, token=request.token,
+                                   named=request.named)
     return [TrainedRun(s["seed"], s["timesteps"], s["wall_s"], Path(s["run_dir"])) for s in summaries]

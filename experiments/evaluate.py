@@ -38,6 +38,23 @@ MODEL_BASED = {"mpc": ("mpc", None, False), "limit": ("limit", None, False)}
 BUILTIN = {**SCRIPTED, **MODEL_BASED}
 
 
+MAX_BENCHES = 100_000   # --n: about a day of CPU for a scripted controller; more is a typo
+MAX_SEED = 2**32 - 1
+
+
+def check_seeds(seeds: Sequence[int] | None) -> None:
+    """Seeds are counted as independent replicates: each once, each a valid generator seed."""
+    if seeds is None:
+        return
+    for s in seeds:
+        if isinstance(s, bool) or not isinstance(s, int) or not 0 <= s <= MAX_SEED:
+            raise ValueError(f"--seeds: expected integers in [0, {MAX_SEED}], got {s!r}")
+    repeated = sorted({s for s in seeds if list(seeds).count(s) > 1})
+    if repeated:
+        raise ValueError(f"--seeds: seed(s) {', '.join(map(str, repeated))} given more than once (the same "
+                         "episodes would be counted again, narrowing the intervals)")
+
+
 def controller_names(zoo_dir: Path | None = None) -> list[str]:
     """Every controller ``evaluate`` knows: the scripted and model-based ones, then the shipped agents."""
     from agents.zoo import shipped_names
@@ -114,8 +131,9 @@ def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = 
         raise ValueError(f"unknown controller {controller!r}; choose from {names}")
     if bench_set not in BENCH_SETS:
         raise ValueError(f"unknown bench set {bench_set!r}; choose from {list(BENCH_SETS)}")
-    if n <= 0:
-        raise ValueError(f"n must be a positive number of benches, got {n}")
+    if isinstance(n, bool) or not isinstance(n, int) or not 0 < n <= MAX_BENCHES:
+        raise ValueError(f"--n: expected a number of benches in [1, {MAX_BENCHES}], got {n!r}")
+    check_seeds(seeds)
     if design not in design_names():
         raise ValueError(f"unknown design {design!r}; choose from {design_names()}")
     chosen = None if design == DEFAULT_DESIGN else design_by_name(design)
@@ -128,19 +146,25 @@ def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = 
 
 
 def write(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
-    """The CSV, episodes CSV, JSON and PNG of an evaluation (each atomic)."""
+    """The CSV, episodes CSV, JSON and PNG of an evaluation, replacing an earlier set in ``out_dir`` as a whole
+    (:func:`triplanar.output_set.replace_set`: a kill leaves the earlier four files or the new four)."""
+    from triplanar.output_set import replace_set
+
     from . import bench_plots
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     e, stem = evaluation, evaluation.bench_set
-    paths = [out / f"{stem}.csv", out / f"{stem}_episodes.csv", out / f"{stem}.json", out / f"{stem}.png"]
-    tables.write_csv(paths[0], ["controller", "design", "bench_set", *tables.STATS_FIELDS],
-                     [[e.controller, e.design, e.bench_set, *tables.stats_cells(e.stats)]])
-    tables.write_csv(paths[1], tables.EPISODE_FIELDS,
-                     [tables.episode_cells(o, seed) for seed, outcomes in zip(e.seeds, e.outcomes) for o in outcomes])
-    tables.write_json(paths[2], {"controller": e.controller, "design": e.design, "bench_set": e.bench_set,
-                                 "seeds": e.seeds, "wall_s": e.wall_s, **e.stats})
-    label = e.controller if e.design == DEFAULT_DESIGN else f"{e.controller} ({e.design})"
-    bench_plots.rows_plot(paths[3], [(label, e.bench_set, e.stats, e.outcomes)],
-                          f"TriPlanarShear-v1, {e.design} bench, {e.bench_set} benches")
-    return paths
+    names = [f"{stem}.csv", f"{stem}_episodes.csv", f"{stem}.json", f"{stem}.png"]
+
+    def write_set(folder: Path) -> None:
+        paths = [folder / name for name in names]
+        tables.write_csv(paths[0], ["controller", "design", "bench_set", *tables.STATS_FIELDS],
+                         [[e.controller, e.design, e.bench_set, *tables.stats_cells(e.stats)]])
+        tables.write_csv(paths[1], tables.EPISODE_FIELDS,
+                         [tables.episode_cells(o, seed) for seed, outcomes in zip(e.seeds, e.outcomes)
+                          for o in outcomes])
+        tables.write_json(paths[2], {"controller": e.controller, "design": e.design, "bench_set": e.bench_set,
+                                     "seeds": e.seeds, "wall_s": e.wall_s, **e.stats})
+        label = e.controller if e.design == DEFAULT_DESIGN else f"{e.controller} ({e.design})"
+        bench_plots.rows_plot(paths[3], [(label, e.bench_set, e.stats, e.outcomes)],
+                              f"TriPlanarShear-v1, {e.design} bench, {e.bench_set} benches")
+
+    return replace_set(out_dir, names, write_set)

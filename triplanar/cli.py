@@ -49,6 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     except (ValueError, OSError, MissingDependency) as err:  # bad input or installation: say what, no traceback
         print(f"triplanar {args.command}: error: {err}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # Ctrl-C: the pools and Ray were stopped on the way out (their scopes); no traceback
+        print(f"triplanar {args.command}: interrupted", file=sys.stderr)
+        return 130
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)

@@ -38,6 +38,7 @@ from pathlib import Path
 from typing import Any, Callable, Iterable, Iterator, Protocol, Sequence, TypeVar
 
 from .atomic import write_atomic
+from . import plain_data
 
 T = TypeVar("T")
 R = TypeVar("R")
@@ -85,7 +86,10 @@ def _watch_parent(owner: int) -> None:
 
 
 def die_with_parent(owner: int) -> None:
-    """Worker initializer: exit when process ``owner`` (the pool's maker) dies, however it dies."""
+    """Worker initializer: exit when process ``owner`` (the pool's maker) dies, however it dies. Ctrl-C (SIGINT,
+    sent to the whole foreground group) is the maker's to handle: it terminates its workers, which would otherwise
+    each print a ``KeyboardInterrupt`` traceback."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     if sys.platform.startswith("linux") and os.getppid() == owner:
         try:
             ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG = 1
@@ -195,9 +199,10 @@ class OneThreadTask:
 
 class TaskCheckpoint:
     """Finished tasks' results on disk, so that an interrupted sweep resumes where it stopped: each result is
-    written (atomically) as ``<directory>/<key>.pkl`` when its task finishes, the key being a hash of the
-    function and the task. A file that does not load (a damaged write) is ignored and its task run again.
-    The files are pickles: the directory must be one this program wrote (the command's own output folder)."""
+    written (atomically) as ``<directory>/<key>.npz`` when its task finishes, the key being a hash of the
+    function and the task. The files are plain data (:mod:`triplanar.plain_data`: JSON and arrays, never pickle),
+    so a file planted there can at worst stand for a result, never run code; a result that plain data cannot hold
+    is not kept, and a file that does not load (a damaged write) is ignored and its task run again."""
 
     def __init__(self, directory: str | os.PathLike[str]):
         self.directory = Path(directory)
@@ -205,7 +210,7 @@ class TaskCheckpoint:
     def key(self, fn: Callable, task: Any) -> str | None:
         try:
             data = pickle.dumps((getattr(fn, "__module__", ""), getattr(fn, "__qualname__", repr(fn)), task),
-                                protocol=5)
+                                protocol=5)   # only hashed, never loaded
         except Exception:  # an unpicklable task is simply not checkpointed
             return None
         return hashlib.sha256(data).hexdigest()[:32]
@@ -213,25 +218,24 @@ class TaskCheckpoint:
     def load(self, key: str | None) -> tuple[bool, Any]:
         if key is None:
             return False, None
-        path = self.directory / f"{key}.pkl"
+        path = self.directory / f"{key}.npz"
         try:
-            with open(path, "rb") as f:
-                return True, pickle.load(f)
+            return True, plain_data.load(path)
         except FileNotFoundError:
             return False, None
-        except Exception:  # damaged: run the task again
+        except plain_data.PlainDataError:  # damaged: run the task again
             path.unlink(missing_ok=True)
             return False, None
 
     def save(self, key: str | None, result: Any) -> None:
         if key is None:
             return
+        try:
+            data = plain_data.dumps(result)
+        except plain_data.PlainDataError:  # not plain data: the task runs again after an interruption
+            return
         self.directory.mkdir(parents=True, exist_ok=True)
-
-        def dump(tmp: Path) -> None:
-            with open(tmp, "wb") as f:
-                pickle.dump(result, f, protocol=5)
-        write_atomic(self.directory / f"{key}.pkl", dump)
+        write_atomic(self.directory / f"{key}.npz", lambda tmp: tmp.write_bytes(data))
 
     def forget(self, fn: Callable, tasks: Sequence[Any]) -> int:
         """Remove the stored results of ``tasks`` (run by ``fn``), so that they run again (their code changed);
@@ -239,7 +243,7 @@ class TaskCheckpoint:
         removed = 0
         for task in tasks:
             key = self.key(fn, task)
-            path = self.directory / f"{key}.pkl"
+            path = self.directory / f"{key}.npz"
             if key is not None and path.exists():
                 path.unlink()
                 removed += 1

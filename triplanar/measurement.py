@@ -486,6 +486,9 @@ def read_measurements(path: str | os.PathLike[str], rest_positions: np.ndarray |
     for row, fields in _records(spath, reader, columns.n_fields):
         test_id = _test_id(spath, row, fields[columns.test_id])
         force = _parse_number(spath, row, "shear_force_N", fields[columns.force], allow_empty=False)
+        if force < 0:  # as the model refuses a negative load (``simulate --force``)
+            raise MeasurementError(spath, row, "shear_force_N", f"value {force!r} is negative; a shear force is "
+                                   "non-negative (N)")
         t = (_parse_number(spath, row, "t_s", fields[columns.t], allow_empty=False)
              if columns.t is not None else None)
         sample = _sample(spath, row, fields, columns)

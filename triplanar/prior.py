@@ -93,8 +93,9 @@ def specimen_from_fit(path: str | Path, specimen: Specimen, foundation: Foundati
                              f"{', '.join(sorted(SPECIMEN_EFFECTS))})")
         for key in SPECIMEN_EFFECTS[name]:
             value = params.get(key) if isinstance(params, dict) else None
-            if value is None or not isinstance(value, (int, float)) or not math.isfinite(value):
-                raise PriorError(f"{source}: steps[-1].effects.{name}.{key}: missing or not a finite number")
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0.0 <= value < 45.0:
+                raise PriorError(f"{source}: steps[-1].effects.{name}.{key}: expected a friction angle in [0, 45) "
+                                 f"deg, got {value!r}")
         if name == "end_friction":
             tip = float(params["phi_deg"])
         else:
@@ -128,15 +129,29 @@ def fitted_intervals(path: str | Path) -> dict[str, tuple[float, float]]:
     path = Path(path)
     if path.suffix != ".json":
         return {}
-    data = json.loads(path.read_text(encoding="utf-8"))
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, json.JSONDecodeError) as exc:
+        raise PriorError(f"{path}: cannot read a fit.json ({exc})") from exc
     _effects(data, str(path))
     ci = data["steps"][-1].get("param_ci95") or {}
+    if not isinstance(ci, dict):
+        raise PriorError(f"{path}: steps[-1].param_ci95: expected an object of intervals, got {ci!r:.60}")
     names = {("end_friction", "phi_deg"): "tip_friction_deg"}
     names.update({("contact_friction", f"phi{i}_deg"): f"friction{i}_deg" for i in (1, 2, 3)})
     out: dict[str, tuple[float, float]] = {}
     for (effect, key), name in names.items():
-        pair = (ci.get(effect) or {}).get(key)
-        if isinstance(pair, list) and len(pair) == 2 and all(isinstance(v, (int, float)) for v in pair):
-            out[name] = (float(pair[0]), float(pair[1]))
+        per_effect = ci.get(effect) or {}
+        if not isinstance(per_effect, dict):
+            raise PriorError(f"{path}: steps[-1].param_ci95.{effect}: expected an object, got {per_effect!r:.60}")
+        pair = per_effect.get(key)
+        if pair is None:
+            continue  # not fitted, or at a bound
+        if not (isinstance(pair, list) and len(pair) == 2 and all(
+                not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v) for v in pair)
+                and pair[0] <= pair[1]):
+            raise PriorError(f"{path}: steps[-1].param_ci95.{effect}.{key}: expected [low, high] finite numbers "
+                             f"(deg), got {pair!r:.60}")
+        out[name] = (float(pair[0]), float(pair[1]))
     return out
 

@@ -34,6 +34,28 @@ def loopback_only() -> None:
     os.environ.setdefault("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "0")
 
 
+CONNECT_TIMEOUT_S = 10.0
+
+
+def check_answers(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> None:
+    """Refuse (ValueError) a cluster address ``HOST:PORT`` (or ``ray://HOST:PORT``) where nothing accepts a TCP
+    connection within ``timeout_s`` seconds; ``auto`` and ``local`` are Ray's to resolve."""
+    import socket
+    text = address.removeprefix("ray://")
+    if text in ("auto", "local"):
+        return
+    host, sep, port = text.rpartition(":")
+    if not sep or not port.isdigit() or not 0 < int(port) < 65536 or not host:
+        raise ValueError(f"--ray-address {address!r}: expected HOST:PORT (e.g. 10.0.0.5:6379) or auto")
+    try:
+        with socket.create_connection((host.strip("[]"), int(port)), timeout=timeout_s):
+            pass
+    except OSError as err:
+        reason = "no answer" if isinstance(err, TimeoutError) else (err.strerror or type(err).__name__)
+        raise ValueError(f"--ray-address {address}: nothing answers there within {timeout_s:g} s ({reason}); is "
+                         "the cluster running (ray start --head)?") from None
+
+
 def require_ray():
     loopback_only()  # read when Ray is imported and when it starts processes
     try:
@@ -77,10 +99,12 @@ class RayExecutor:
 
     # -- lifetime --------------------------------------------------------------------------------------
     def start(self) -> RayExecutor:
+        address = self.address or os.environ.get("RAY_ADDRESS") or None
+        if address:
+            check_answers(address)   # before Ray, whose own connection attempts wait for minutes
         ray = require_ray()
         loopback_only()
         if not ray.is_initialized():
-            address = self.address or os.environ.get("RAY_ADDRESS") or None
             if address:
                 ray.init(address=address, log_to_driver=False)
             else:

@@ -46,7 +46,7 @@ def test_train_killed_and_rerun_finishes_without_touching_its_checkpoints(tmp_pa
     run = tmp_path / "runs" / "seed_0"
     first = cli(*args)
     deadline = time.time() + 900
-    while not (run / "checkpoints" / "ppo_vecnormalize_2048_steps.pkl").exists():
+    while not (run / "checkpoints" / "ppo_vecnormalize_2048_steps.npz").exists():
         assert first.poll() is None, first.communicate()
         assert time.time() < deadline
         time.sleep(0.2)
@@ -152,7 +152,7 @@ def test_no_resume_removes_the_previous_runs_checkpoints(tmp_path) -> None:
     again = train_ppo(config, tmp_path, seed=0, total_timesteps=1024, resume=False)
     assert again.timesteps == 1024
     assert sorted(p.name for p in (run / "checkpoints").iterdir()) == ["ppo_1024_steps.zip",
-                                                                      "ppo_vecnormalize_1024_steps.pkl"]
+                                                                      "ppo_vecnormalize_1024_steps.npz"]
 
 
 def test_study_refuses_a_budget_below_one_evaluation_before_training(tmp_path) -> None:

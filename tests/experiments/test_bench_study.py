@@ -93,9 +93,9 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     assert stamps == {kind: (tmp_path / kind / "seed_0" / "final_model.zip").stat().st_mtime_ns
                       for kind in ("ppo_robust", "ppo_recurrent")}
     table = (tmp_path / "heldout.csv").read_text()
-    stored = {p.name: p.stat().st_mtime_ns for p in (tmp_path / "tasks").glob("*.pkl")}
+    stored = {p.name: p.stat().st_mtime_ns for p in (tmp_path / "tasks").glob("*.npz")}
     bs.run_bench_study(tmp_path, **kwargs, rerun=["steel_tip", "mpc"])   # their code changed: run them again
-    redone = [p.name for p in (tmp_path / "tasks").glob("*.pkl") if p.stat().st_mtime_ns != stored.get(p.name)]
+    redone = [p.name for p in (tmp_path / "tasks").glob("*.npz") if p.stat().st_mtime_ns != stored.get(p.name)]
     # steel_tip: 3 bench sets x 2 noise seeds + the design's 2; mpc: 3 bench sets + the design's 1
     assert len(redone) == 12
     assert (tmp_path / "heldout.csv").read_text() == table   # the same code gives the same rows

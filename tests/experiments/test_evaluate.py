@@ -50,7 +50,7 @@ def test_evaluate_refuses_unknown_names_listing_the_valid_ones(tmp_path, capsys)
     with pytest.raises(SystemExit):
         cli.main(["evaluate", "--controller", "adaptive", "--n", "0", "--out", str(tmp_path)])
     assert "--n" in capsys.readouterr().err
-    with pytest.raises(ValueError, match="n must be a positive"):
+    with pytest.raises(ValueError, match="--n: expected a number of benches"):
         ev.evaluate("adaptive", n=-3)
 
 

@@ -39,7 +39,7 @@ def flaky_square(job: tuple[int, str]) -> int:
         f.write(f"{x}\n")
     if x == 3 and not (Path(folder) / "allow").exists():
         deadline = time.monotonic() + 120.0
-        while len(list((Path(folder) / "partial").glob("*.pkl"))) < 4 and time.monotonic() < deadline:
+        while len(list((Path(folder) / "partial").glob("*.npz"))) < 4 and time.monotonic() < deadline:
             time.sleep(0.05)
         raise RuntimeError("interrupted")
     return x * x
@@ -65,7 +65,7 @@ def test_an_interrupted_sweep_resumes_without_redoing_finished_tasks(local_ray, 
     jobs = [(x, str(tmp_path)) for x in range(5)]
     with pytest.raises(RuntimeError, match="interrupted"):
         run_tasks(flaky_square, jobs, local_ray, checkpoint=checkpoint)
-    assert len(list((tmp_path / "partial").glob("*.pkl"))) == 4
+    assert len(list((tmp_path / "partial").glob("*.npz"))) == 4
     (tmp_path / "allow").touch()
     assert run_tasks(flaky_square, jobs, local_ray, checkpoint=checkpoint) == [0, 1, 4, 9, 16]
     calls = [int(x) for x in (tmp_path / "calls.txt").read_text().split()]

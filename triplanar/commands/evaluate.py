@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 
 from ..cli_args import add_executor_arguments, executor_from_args
+from ..output_set import output_lock
 from . import require
 from .train import positive_int
 
@@ -41,10 +42,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     require()
     from experiments.evaluate import evaluate, write  # (the RL stack, only when run)
-    with executor_from_args(args) as executor:
-        result = evaluate(args.controller, design=args.design, bench_set=args.benches, n=args.n, seeds=args.seeds,
-                          executor=executor)
-    paths = write(result, args.out)
+    with output_lock(args.out):    # checked and held before any episode: one run at a time into --out
+        with executor_from_args(args) as executor:
+            result = evaluate(args.controller, design=args.design, bench_set=args.benches, n=args.n,
+                              seeds=args.seeds, executor=executor)
+        paths = write(result, args.out)
     s = result.stats
     print(f"{args.controller} on {s['n_benches']} {args.benches} benches x {len(result.seeds)} seed(s): success "
           f"{100 * s['success_rate']:.1f} % ({100 * s['success_low']:.1f}-{100 * s['success_high']:.1f}), error over "

@@ -19,9 +19,10 @@ HELP = "actuator design study: train PPO, evaluate every controller at the 12 lo
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--out", required=True, help="directory for tables and plots")
-    parser.add_argument("--ppo-dir", default="runs/ppo", help="PPO runs (trained here unless --skip-train). Its "
-                        "final_model.zip and vecnormalize.pkl are loaded with (cloud)pickle, which runs code: use "
-                        "only runs you trained or that come from a trusted source")
+    parser.add_argument("--ppo-dir", default=None, help="PPO runs (trained here unless --skip-train; default "
+                        "runs/ppo, which must then hold no earlier run). Its final_model.zip and vecnormalize.pkl are "
+                        "loaded with (cloud)pickle, which runs code: use only runs you trained or that come from a "
+                        "trusted source")
     parser.add_argument("--seeds", type=int, nargs="+", default=None,
                         help="PPO seeds (default 0 1 2; with --bench 0 1 2 3 4)")
     parser.add_argument("--timesteps", type=positive_int, help="PPO timesteps per seed (default: the YAML's)")
@@ -60,6 +61,21 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_executor_arguments(parser)  # the tasks: one per PPO seed, then one per controller (its episodes at every load)
 
 
+DEFAULT_PPO_DIR = "runs/ppo"
+
+
+def refuse_unnamed_runs(ppo_dir: str, seeds: list[int], skip_train: bool) -> None:
+    """The default ``--ppo-dir`` is nobody's choice: the runs the study would load from it (pickles) must be named."""
+    if skip_train:
+        raise ValueError("--skip-train loads the finished runs in --ppo-dir (pickles, which run code): name the "
+                         "folder, e.g. --ppo-dir runs/ppo")
+    for seed in seeds:
+        run_dir = Path(ppo_dir) / f"seed_{seed}"
+        if run_dir.is_dir() and any(run_dir.iterdir()):
+            raise ValueError(f"{run_dir} holds an earlier run, which the study would load (pickles, which run "
+                             f"code): give --ppo-dir {ppo_dir} to use it, or another --ppo-dir")
+
+
 def run(args: argparse.Namespace) -> int:
     require()
     with executor_from_args(args) as executor:
@@ -79,7 +95,10 @@ def run(args: argparse.Namespace) -> int:
                             executor=executor)
             return 0
         from experiments.study import run_study  # the RL stack, only when run
-        run_study(args.out, ppo_dir=args.ppo_dir, seeds=args.seeds or [0, 1, 2], timesteps=args.timesteps,
+        ppo_dir = args.ppo_dir or DEFAULT_PPO_DIR
+        if args.ppo_dir is None:
+            refuse_unnamed_runs(ppo_dir, args.seeds or [0, 1, 2], args.skip_train)
+        run_study(args.out, ppo_dir=ppo_dir, seeds=args.seeds or [0, 1, 2], timesteps=args.timesteps,
                   train=not args.skip_train, doc=args.doc or None, overwrite_doc=args.overwrite_doc,
                   executor=executor, **({"config": args.config} if args.config else {}))
         return 0

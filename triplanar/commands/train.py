@@ -11,6 +11,7 @@ import argparse
 from typing import Any
 
 from ..cli_args import add_executor_arguments, executor_from_args
+from ..output_set import output_lock
 from . import require
 
 NAME = "train"
@@ -36,11 +37,13 @@ def key_value(text: str) -> tuple[str, Any]:
     key, sep, value = text.partition("=")
     if not sep or not key.strip():
         raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    import yaml  # the rl extra; checked by require() before any value is used
+    from ..yaml_input import YAMLInputError, load_text  # PyYAML: the rl extra, checked by require() before use
     try:
-        return key.strip(), yaml.safe_load(value)
-    except yaml.YAMLError as err:
-        raise argparse.ArgumentTypeError(f"{key}: cannot read the value {value!r} ({err})") from None
+        return key.strip(), load_text(value, key.strip())
+    except YAMLInputError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+    except ModuleNotFoundError:
+        raise argparse.ArgumentTypeError("reading KEY=VALUE needs PyYAML (pip install '.[rl]')") from None
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -59,7 +62,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                       "runs/robust for v1, runs/recurrent with --algo recurrent)")
     parser.add_argument("--seed", type=int, action="append", help="seed (repeatable; default 0)")
     parser.add_argument("--timesteps", type=positive_int, help="total environment steps (default: the YAML's)")
-    parser.add_argument("--no-resume", action="store_true",
+    resume = parser.add_mutually_exclusive_group()
+    resume.add_argument("--resume", action="store_true",
+                        help="continue the run at the default output folder from its checkpoints (with --out, the "
+                             "folder named there is continued anyway); a checkpoint's SB3 zip is unpickled: only "
+                             "runs you made")
+    resume.add_argument("--no-resume", action="store_true",
                         help="start afresh even if checkpoints exist (the previous run's checkpoints are removed)")
     parser.add_argument("--no-progress", action="store_true", help="no progress bar")
     parser.add_argument("--verbose", type=int, default=0)
@@ -72,12 +80,16 @@ def run(args: argparse.Namespace) -> int:
     if args.algo is not None and args.env == "TriPlanarShear-v0":
         raise ValueError("--algo is for --env TriPlanarShear-v1 (v0 trains PPO with agents/ppo.yaml)")
     seeds = tuple(args.seed or [0])
+    if len(set(seeds)) != len(seeds) or not all(0 <= s < 2**32 for s in seeds):
+        raise ValueError(f"--seed: each seed once, in [0, {2**32 - 1}], got {', '.join(map(str, seeds))}")
+    out = args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env]
+    named = args.out is not None or args.resume   # else the default folder's checkpoints are refused, not loaded
+    from agents.checkpoint_files import new_token
     request = TrainRequest(env_id=args.env, config=args.config, algo=args.algo, env_kwargs=dict(args.env_arg),
                            overrides=dict(args.overrides), seeds=seeds, timesteps=args.timesteps,
-                           out_dir=args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env],
-                           resume=not args.no_resume,
+                           out_dir=out, resume=not args.no_resume, token=new_token(), named=named,
                            verbose=args.verbose, progress=not args.no_progress)
-    with executor_from_args(args) as executor:
+    with output_lock(out), executor_from_args(args) as executor:   # one run at a time into a folder
         results = train(request, executor)
     for result in results:
         print(f"seed {result.seed}: {result.timesteps} steps in {result.wall_s:.0f} s -> {result.run_dir}")

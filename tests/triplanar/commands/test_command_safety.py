@@ -194,13 +194,13 @@ def test_diagnose_killed_and_rerun_resumes_to_the_same_report(data, tmp_path) ->
     proc = subprocess.Popen(diagnose_cmd(data, out), cwd=ROOT, env=env, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     deadline = time.time() + 1200
-    while not (partial.exists() and list(partial.glob("*.pkl"))):
+    while not (partial.exists() and list(partial.glob("*.npz"))):
         assert proc.poll() is None and time.time() < deadline
         time.sleep(0.05)
     workers = children(proc.pid)
     proc.send_signal(signal.SIGKILL)
     proc.wait(30)
-    finished = {p.name: p.stat().st_mtime_ns for p in partial.glob("*.pkl")}
+    finished = {p.name: p.stat().st_mtime_ns for p in partial.glob("*.npz")}
     assert finished and not (out / "diagnose.json").exists()
     time.sleep(2 * 0.5 + 1)
     assert not [w for w in workers if alive(w)]
@@ -220,7 +220,7 @@ def test_run_tasks_checkpoint_skips_finished_tasks_and_ignores_damaged_files(tmp
 
     checkpoint = TaskCheckpoint(tmp_path / "cp")
     assert run_tasks(square, [1, 2, 3], "serial", checkpoint=checkpoint) == [1, 4, 9] and calls == [1, 2, 3]
-    damaged = tmp_path / "cp" / f"{checkpoint.key(square, 2)}.pkl"
+    damaged = tmp_path / "cp" / f"{checkpoint.key(square, 2)}.npz"
     damaged.write_bytes(b"\x80\x05trunc")
     calls.clear()
     assert run_tasks(square, [1, 2, 3, 4], "serial", checkpoint=checkpoint) == [1, 4, 9, 16]
