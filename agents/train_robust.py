@@ -44,6 +44,7 @@ from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 
 from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer
 from .config_checks import check_hyperparams, check_n_envs, check_normalize
+from .ppo_controller import load_untrusted_sb3_zip, load_untrusted_vecnormalize
 
 FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
 CURVE_BENCHES = 10
@@ -156,12 +157,10 @@ class RobustPolicy:
 
     @classmethod
     def load(cls, run_dir: str | Path, name: str = "ppo_robust") -> RobustPolicy:
-        from stable_baselines3 import PPO
-        run_dir = Path(run_dir)
-        with open(run_dir / "vecnormalize.pkl", "rb") as f:
-            normalizer = pickle.load(f)
+        run_dir = Path(run_dir)  # UNPICKLES: a run the caller named (agents.ppo_controller's untrusted loaders)
+        normalizer = load_untrusted_vecnormalize(run_dir / "vecnormalize.pkl")
         frames = frame_stack_of(run_config(run_dir)) if (run_dir / "config.json").exists() else FRAMES
-        return cls(PPO.load(str(run_dir / "final_model.zip"), device="cpu"), normalizer, name, frames)
+        return cls(load_untrusted_sb3_zip(run_dir / "final_model.zip"), normalizer, name, frames)
 
     def reset(self, load_N: float, config: Any) -> None:
         self.frames.clear()
@@ -187,10 +186,9 @@ class RecurrentPolicy:
 
     @classmethod
     def load(cls, run_dir: str | Path, name: str = "ppo_recurrent") -> RecurrentPolicy:
-        run_dir = Path(run_dir)
-        with open(run_dir / "vecnormalize.pkl", "rb") as f:
-            normalizer = pickle.load(f)
-        return cls(_algo_class("recurrent").load(str(run_dir / "final_model.zip"), device="cpu"), normalizer, name)
+        run_dir = Path(run_dir)  # UNPICKLES: a run the caller named (agents.ppo_controller's untrusted loaders)
+        normalizer = load_untrusted_vecnormalize(run_dir / "vecnormalize.pkl")
+        return cls(load_untrusted_sb3_zip(run_dir / "final_model.zip", "recurrent"), normalizer, name)
 
     def reset(self, load_N: float, config: Any) -> None:
         self.state = None
