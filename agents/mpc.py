@@ -102,6 +102,7 @@ class MPCController:
     refine_every: int = 10
     refine_evaluations: int = 30
     refine_inflation: float = 1.5
+    move_periods: int = 0
     start_thrust: float = 0.1
     start_offset_m: float = -0.002
     start_offset_ratio: float = -1.0
@@ -133,7 +134,8 @@ class MPCController:
                                  float(self.sensor_noise_m), float(self.model_error_m), intervals,
                                  bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps),
                                  refine_every=int(self.refine_every), refine_evaluations=int(self.refine_evaluations),
-                                 refine_inflation=float(self.refine_inflation))
+                                 refine_inflation=float(self.refine_inflation),
+                                 move_periods=int(self.move_periods))
         self.bank.reset(load_N)
         self.planner = CEMPlanner.with_settings_of(self)
         self._periods = 0
