@@ -167,21 +167,30 @@ def _flat(record: dict, prefix: str = "") -> dict[str, Any]:
     return out
 
 
-def check_settings(out: Path, settings: LabelSettings) -> None:
+def check_settings(out: Path, settings: LabelSettings, accept_code_change: bool = False) -> None:
     """Write ``out/settings.json`` on a first run; on a resume, refuse (:class:`SettingsMismatch`) settings that
-    differ from the stored ones, naming each field with both values."""
+    differ from the stored ones, naming each field with both values. ``accept_code_change``: a difference in the
+    code version alone is accepted (the caller checked that the expert's actions did not change, e.g. with
+    ``benchmarks/fingerprint.py --compare`` and a shard redone) and recorded under ``accepted_code_changes``."""
     path = out / "settings.json"
     record = json.loads(json.dumps(settings_record(settings)))  # as it reads back (tuples become lists)
     if not path.exists():
         out.mkdir(parents=True, exist_ok=True)
         write_json(record, path)
         return
-    stored, now = _flat(json.loads(path.read_text())), _flat(record)
-    differ = [f"{k} (stored {stored.get(k, 'absent')!r}, now {now.get(k, 'absent')!r})"
-              for k in sorted(set(stored) | set(now)) if stored.get(k, "absent") != now.get(k, "absent")]
-    if differ:
+    stored_record = json.loads(path.read_text())
+    accepted = stored_record.pop("accepted_code_changes", [])
+    stored, now = _flat(stored_record), _flat(record)
+    keys = [k for k in sorted(set(stored) | set(now)) if stored.get(k, "absent") != now.get(k, "absent")]
+    if keys and accept_code_change and all(k.startswith("code_version.") for k in keys):
+        accepted.append({"fields": keys, "was": stored_record["code_version"], "at": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())})
+        write_json({**record, "accepted_code_changes": accepted}, path)
+        return
+    if keys:
+        differ = [f"{k} (stored {stored.get(k, 'absent')!r}, now {now.get(k, 'absent')!r})" for k in keys]
         raise SettingsMismatch(f"{out} holds labels made with other settings: {'; '.join(differ)}. Use a new --out "
-                               "folder (or the stored settings) so that one folder holds one expert's labels")
+                               "folder (or the stored settings) so that one folder holds one expert's labels; a "
+                               "code change that leaves the expert's actions as they were: --accept-code-change")
 
 
 def shard_path(out: Path, stream: int, draw: int) -> Path:
@@ -317,11 +326,11 @@ def obs_names() -> list[str]:
 
 
 def generate(out: str | Path, settings: LabelSettings, first: int, n: int, executor: Any = "serial",
-             progress: bool = False) -> list[dict[str, Any]]:
+             progress: bool = False, accept_code_change: bool = False) -> list[dict[str, Any]]:
     """The shards of draws ``first`` .. ``first + n - 1`` in ``out`` (module docstring): the settings checked or
     stored, complete shards skipped, the rest run through ``executor``; returns the summaries of the episodes run."""
     out = Path(out)
-    check_settings(out, settings)
+    check_settings(out, settings, accept_code_change)
     shards = out / "shards"
     shards.mkdir(parents=True, exist_ok=True)
     todo = []
@@ -382,6 +391,8 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--expert", action="append", default=[], metavar="FIELD=VALUE",
                         help="an MPCController setting of the expert (repeatable; default: mpc as shipped)")
     parser.add_argument("--workers", type=int, default=1, help="processes (default 1; a local pool for more)")
+    parser.add_argument("--accept-code-change", action="store_true", help="resume although the code version of "
+                        "the expert or the env differs (only that: checked to leave the expert's actions unchanged)")
     parser.add_argument("--status", action="store_true", help="print what --out holds and stop")
     add_executor_arguments(parser)
     return parser.parse_args(argv)
@@ -398,7 +409,8 @@ def main(argv: list[str] | None = None) -> int:
                                  expert=expert_pairs(args.expert))
         start = time.time()
         with executor_from_args(args, args.workers) as executor:
-            done = generate(args.out, settings, args.first, args.n, executor, progress=True)
+            done = generate(args.out, settings, args.first, args.n, executor, progress=True,
+                            accept_code_change=args.accept_code_change)
     except ValueError as error:  # bad settings, or a resume with other settings: named, nothing run
         print(f"error: {error}", file=sys.stderr)
         return 2

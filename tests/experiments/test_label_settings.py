@@ -3,6 +3,8 @@ that differs and running nothing; labels never come from the held-out or stress 
 
 from __future__ import annotations
 
+import json
+
 import pytest
 
 from agents.bench_controllers import make_controller
@@ -32,6 +34,14 @@ def test_a_resume_with_other_settings_is_refused_naming_them(tmp_path, fast_expe
     monkeypatch.setattr(dl, "code_version", lambda: {**code, "agents/mpc.py": "0" * 16})
     with pytest.raises(dl.SettingsMismatch, match=r"code_version\.agents/mpc\.py \(stored '[0-9a-f]{16}', now '0{16}'"):
         dl.generate(tmp_path, dl.LabelSettings(env_kwargs=SHORT), 0, 3)
+
+    with pytest.raises(dl.SettingsMismatch, match="expert.bank_size"):  # accepted: a code change, nothing else
+        dl.generate(tmp_path, other, 0, 3, accept_code_change=True)
+    dl.generate(tmp_path, dl.LabelSettings(env_kwargs=SHORT), 0, 1, accept_code_change=True)
+    record = json.loads((tmp_path / "settings.json").read_text())
+    assert record["code_version"]["agents/mpc.py"] == "0" * 16
+    assert record["accepted_code_changes"][0]["fields"] == ["code_version.agents/mpc.py"]
+    dl.generate(tmp_path, dl.LabelSettings(env_kwargs=SHORT), 0, 1)  # the accepted version is now the stored one
 
     # the command says so and stops with an error status
     assert dl.main(["--out", str(tmp_path), "--n", "3", "--first", "0", "--expert", "bank_size=16"]) == 2
