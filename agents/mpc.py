@@ -34,6 +34,12 @@ on the held-out ones; the rounds of that choice, the variants tried and their nu
 * **The planner** is ``limit``'s (horizon 48 periods, longer than the rest of the travel once the first plan is made,
   so no cost-to-go stands in for it; 64 candidates x 4 iterations), replanning every period.
 
+* **Cost.** ``move_periods`` (0: off, the default) stops the bank's resample-moves and refinements, which replay
+  the whole history, after that many periods, so that no later decision costs more than one then. On the tuning
+  benches the episodes end within 32-47 periods and a decision's cost does not grow along them, so it changes
+  little there; it is not on by default because the only episodes it changes much (long ones) were not measured
+  (``benchmarks/bench_mpc_decisions.py``, ``docs/performance.md``).
+
 What it does not reach: the perfect-knowledge ``limit``. One episode's measurements place the contact friction angles
 and the mass centre only in combinations; on the tuning benches the error ``mpc`` adds to ``limit``'s equals, on
 average, what its measurements leave of the block's deviation from its case-C path unknown
