@@ -50,6 +50,7 @@ import ast
 import hashlib
 import json
 import math
+import os
 import sys
 import time
 from dataclasses import dataclass, fields
@@ -333,12 +334,12 @@ def generate(out: str | Path, settings: LabelSettings, first: int, n: int, execu
     check_settings(out, settings, accept_code_change)
     shards = out / "shards"
     shards.mkdir(parents=True, exist_ok=True)
-    todo = []
-    for draw in range(first, first + n):
-        path = shard_path(out, settings.stream, draw)
-        remove_stale_temporaries(path)
-        if not complete(path):
-            todo.append(draw)
+    for entry in os.listdir(shards):  # what a hard kill left: ``.<stem>.<pid>.<token>.partial.npz``
+        if entry.startswith(".") and entry.endswith(".partial.npz"):
+            remove_stale_temporaries(shards / (entry[1:].rsplit(".", 4)[0] + ".npz"))
+    present = set(os.listdir(shards))  # (listed once: a run may span 100,000 draws)
+    todo = [draw for draw in range(first, first + n) if shard_path(out, settings.stream, draw).name not in present
+            or not complete(shard_path(out, settings.stream, draw))]
     return run_tasks(label_episode, [(settings, str(out), draw) for draw in todo], executor, progress=progress,
                      desc=f"labels round {settings.round}")
 
