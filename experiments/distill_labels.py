@@ -361,6 +361,36 @@ def status(out: str | Path) -> dict[str, Any]:
             "cpu_s_per_episode_p90": float(np.percentile(cpu, 90)) if cpu else math.nan}
 
 
+def frame_stacked(obs: np.ndarray, frames: int) -> np.ndarray:
+    """(T, frames * 15): at each decision the last ``frames`` observations, oldest first, the episode's first
+    observation repeated before it (what :class:`agents.train_robust.RobustPolicy` feeds its network)."""
+    padded = np.concatenate([np.repeat(obs[:1], frames - 1, axis=0), obs])
+    return np.concatenate([padded[k:k + len(obs)] for k in range(frames)], axis=1)
+
+
+def load_labels(folders: list[str | Path], frames: int = 4) -> dict[str, np.ndarray]:
+    """Every started episode's decisions in ``folders`` (DAgger's aggregate of rounds) as one training set: ``x``
+    (frame-stacked observations, :func:`frame_stacked`), ``y`` (``mpc``'s actions), ``truth`` (each decision's
+    bench's privileged row), ``episode`` (an index per shard, for splitting by episode) and ``step``."""
+    parts: dict[str, list] = {k: [] for k in ("x", "y", "truth", "episode", "step")}
+    episode = 0
+    for folder in folders:
+        for path in sorted((Path(folder) / "shards").glob("*.npz")):
+            with np.load(path, allow_pickle=False) as s:
+                if not bool(s["started"]):
+                    continue
+                steps = int(s["steps"])
+                parts["x"].append(frame_stacked(s["obs"], frames))
+                parts["y"].append(s["expert_action"])
+                parts["truth"].append(np.repeat(s["truth"][None, :], steps, axis=0))
+                parts["episode"].append(np.full(steps, episode))
+                parts["step"].append(np.arange(steps))
+                episode += 1
+    if not episode:
+        raise ValueError(f"no started episode in {[str(f) for f in folders]}")
+    return {k: np.concatenate(v) for k, v in parts.items()}
+
+
 def expert_pairs(pairs: list[str]) -> tuple:
     """``--expert FIELD=VALUE`` pairs (values as JSON: numbers, true/false, "strings") as sorted settings."""
     out = {}

@@ -64,3 +64,4 @@ def test_an_interrupted_run_resumes_to_the_uninterrupted_shards(tmp_path, fast_e
             np.testing.assert_array_equal(after[name][key], value, err_msg=f"{name}: {key}")
     assert sorted(p.name for p in folder.iterdir()) == sorted(whole)  # no temporary left behind
     assert dl.generate(cut, settings, 3, 6) == []  # nothing left to run
+
