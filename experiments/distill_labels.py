@@ -16,7 +16,8 @@ controller such as ``pi_feedback``), with ``mpc`` alongside it: every period ``m
 and told the action that ran (its estimator must follow the bench, not its own wish), and its action is the label.
 With ``--beta B`` the expert's own action runs instead in a fraction ``B`` of the periods (DAgger's mixture, drawn
 from a generator seeded by the round and the draw). Each round is a folder of its own; the student is trained on
-the union of the rounds' shards (DAgger's aggregation).
+the union of the rounds' shards (DAgger's aggregation): :func:`load_labels` reads them as one frame-stacked training
+set.
 
 **A shard** (``numpy.load(path)``; arrays over the episode's ``T`` decisions):
 
