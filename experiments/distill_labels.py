@@ -331,6 +331,8 @@ def generate(out: str | Path, settings: LabelSettings, first: int, n: int, execu
              progress: bool = False, accept_code_change: bool = False) -> list[dict[str, Any]]:
     """The shards of draws ``first`` .. ``first + n - 1`` in ``out`` (module docstring): the settings checked or
     stored, complete shards skipped, the rest run through ``executor``; returns the summaries of the episodes run."""
+    if first < 0 or n < 1:
+        raise ValueError(f"first must be >= 0 and n >= 1, got first {first!r}, n {n!r}")
     out = Path(out)
     check_settings(out, settings, accept_code_change)
     shards = out / "shards"
