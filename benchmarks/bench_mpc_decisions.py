@@ -82,7 +82,7 @@ def parse_args() -> argparse.Namespace:
     parser.add_argument("--out", default="runs/mpc_decisions")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--mpc", action="append", default=[], metavar="FIELD=VALUE",
-                        help="an MPCController setting, e.g. --mpc move_window=100 (repeatable)")
+                        help="an MPCController setting, e.g. --mpc move_periods=15 (repeatable)")
     parser.add_argument("--against", metavar="OUT", default=None,
                         help="an earlier run on the same benches: the bench-by-bench score difference")
     return parser.parse_args()
