@@ -85,7 +85,7 @@ class TrackingTip(_Scaled):
 @dataclass
 class MomentMatching(_Scaled):
     """Model-based: thrust and tip offset such that the actuator's force has the hydrostatic load's e1 component
-    and the same moment about the vertical through the mass centre (derivation: ``docs/actuator-study.md``).
+    and the same moment about the vertical through the mass centre (derivation: ``docs/notes/ideal-bench-study.md``).
 
     Hydrostatic load: ``F g1`` at the body-fixed ``P_CL``, yaw moment ``M_C = F (r_3 g1_1 - r_1 g1_3)`` with
     ``r = P_CL - C``. Actuator: ``T e1`` on the tip line ``x3 = P0_CL,3 + u`` plus the lateral end friction ``f3`` at

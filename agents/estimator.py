@@ -24,14 +24,14 @@ command sent so far, weighed by every measurement so far and accepted against it
 (the prior is uniform within its ranges among the specimens that start). The bank so stays a sample of the
 posterior, and its interval is one (``tests/agents/test_estimator_posterior.py``). ``move="greedy"`` keeps the
 earlier move (the least likely half replaced by perturbed copies kept when they fit better, the proposal density
-not divided out: it concentrates the bank faster than the posterior; ``docs/actuator-study.md`` compares them).
+not divided out: it concentrates the bank faster than the posterior; ``docs/notes/mpc-tuning-rounds.md`` compares them).
 
 **Refinement** (``refine_every``; zero: none, the default here; ``mpc`` refines every 10 periods). Every
 ``refine_every`` periods the bank is replaced by an importance sample from a Laplace proposal around a least-squares
 fit of the unknowns to every measurement so far (:meth:`SpecimenBank.refine`, :mod:`agents.refine`), which reaches
 the noise level where the random walk is slow. It sharpens the bank as a bank four times larger does, at half its
 CPU; the tip friction comes out closer, the contact friction and the mass centre hardly (the measurements do not
-determine them one by one; ``docs/actuator-study.md``, sixth round). Nor can any estimator of the same data, to first
+determine them one by one; ``docs/notes/mpc-tuning-rounds.md``, sixth round). Nor can any estimator of the same data, to first
 order: a linearised information bound (``benchmarks/information_bound.py``, ninth round) leaves 0.18 mm of the block's
 deviation from its case-C path unknown on the tuning benches, about what ``mpc`` loses to ``limit``.
 

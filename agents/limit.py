@@ -9,7 +9,7 @@ its time: the margin and pace by ``mpc`` (they lowered ``limit``'s held-out scor
 envelope by ``mpc``'s planner given the true state (``mpc_true``, 0.33 against ``limit``'s 0.37 mm on 60 tuning
 benches). With the envelope a larger search pays (0.44 to 0.24 mm on the 200 tuning benches); doubling the horizon
 or the candidates beyond it moves the figure by about 0.01 mm, within the benches' noise
-(``docs/actuator-study.md``, fifth round). So the limit is the best plan this search finds: an upper bound on the
+(``docs/notes/mpc-tuning-rounds.md``, fifth round). So the limit is the best plan this search finds: an upper bound on the
 optimum, no longer falling with more search. No laboratory can build it (it sees the truth); it is the reference a
 design's real controllers are judged against.
 

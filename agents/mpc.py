@@ -7,8 +7,8 @@ sequence over rollouts of the env's own compiled step (:mod:`envs.prediction`: n
 Between replans the controller follows its plan.
 
 Why it is built as it is. Every setting was chosen on the tuning benches (stream ``agents.heldout.TUNING_SEED``), never
-on the held-out ones; the rounds of that choice, the variants tried and their numbers are in
-``docs/actuator-study.md`` ("Controllers that use the model").
+on the held-out ones; where it stands is in ``docs/actuator-study.md`` ("Controllers that use the model"), the rounds
+of that choice, the variants tried and their numbers in ``docs/notes/mpc-tuning-rounds.md``.
 
 * **The start** (``start_periods``, 8 periods = 40 ms) is a designed excitation instead of a plan while the estimator
   learns: plans made while the hypotheses still disagree lifted the block off or pushed it off a plane. The thrust is

@@ -2,7 +2,7 @@
 the unknowns to every measurement so far, and the Gaussian around it.
 
 **Why.** The bank's random-walk moves explore 14 unknowns with 32 hypotheses; within an episode they find the tip
-friction but barely move the contact friction and the mass centre from the prior (``docs/actuator-study.md``), and
+friction but barely move the contact friction and the mass centre from the prior (``docs/notes/mpc-tuning-rounds.md``), and
 those two are what the planner's case-C reference depends on. Yet the measurements determine them: given the
 specimen the block's motion is deterministic, and a Levenberg-Marquardt fit of the simulated contact-point
 displacements to the measured ones (``scipy.optimize.least_squares``, residuals in units of the noise, so its cost is

@@ -5,7 +5,7 @@ periods more.
 ``PYTHONPATH=. python benchmarks/start_drift.py [--benches 60]``: for each excitation, on the first tuning benches
 (stream ``agents.heldout.TUNING_SEED``) the episodes that end within those 12 periods (lift-off, departure from a
 plane), the same on the first 12 of them with a 12 deg tip at 33 N (the seventh round's risky case), and the mean
-distance to the case-C path at periods 4, 8, 10 and 12 and over the 12 (``docs/actuator-study.md``, eighth round).
+distance to the case-C path at periods 4, 8, 10 and 12 and over the 12 (``docs/notes/mpc-tuning-rounds.md``, eighth round).
 """
 
 from __future__ import annotations
