@@ -36,9 +36,9 @@ of that choice, the variants tried and their numbers in ``docs/notes/mpc-tuning-
 
 * **Cost.** ``move_periods`` (0: off, the default) stops the bank's resample-moves and refinements, which replay
   the whole history, after that many periods, so that no later decision costs more than one then. On the tuning
-  benches the episodes end within 32-50 periods and a decision's cost does not grow along them; with 15 the CPU per
-  episode fell from 21.5 to 12.8 s on 5 tuning benches, but its effect on the score (+0.04 mm, -0.06 to +0.13 on 6)
-  is undecided, so it is off (``benchmarks/bench_mpc_decisions.py``, ``docs/performance.md``).
+  benches the episodes end within 29-59 periods and a decision's cost hardly grows along them; with 15 the CPU per
+  episode fell by 40 % on 12 tuning benches and the score moved by +0.006 mm (-0.051 to +0.067): too few benches to
+  rule out a cost of a few hundredths, so it is off (``benchmarks/bench_mpc_decisions.py``, ``docs/performance.md``).
 
 What it does not reach: the perfect-knowledge ``limit``. One episode's measurements place the contact friction angles
 and the mass centre only in combinations; on the tuning benches the error ``mpc`` adds to ``limit``'s equals, on
