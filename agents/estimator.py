@@ -35,6 +35,11 @@ determine them one by one; ``docs/notes/mpc-tuning-rounds.md``, sixth round). No
 order: a linearised information bound (``benchmarks/information_bound.py``, ninth round) leaves 0.18 mm of the block's
 deviation from its case-C path unknown on the tuning benches, about what ``mpc`` loses to ``limit``.
 
+**Bounded cost** (``move_periods``; zero: unbounded, the default). A move and a refinement replay every period so
+far, so their cost grows with the episode's length. With ``move_periods`` > 0 the bank resample-moves and refines
+only in its first ``move_periods`` periods; after them it only weighs its hypotheses by each new measurement (a plain
+particle filter), and no update costs more than one at ``move_periods``.
+
 **Divergence.** If every hypothesis is ruled out (each ended the test while the bench runs on, or its state is not
 finite), or the weighted covariance is not finite and positive definite, the weights go back to the prior
 (uniform) and :attr:`SpecimenBank.fallbacks` counts it; the controller reports it in its ``info``.
@@ -168,6 +173,7 @@ class SpecimenBank:
     refine_every: int = 0
     refine_evaluations: int = 30
     refine_inflation: float = 1.5
+    move_periods: int = 0
 
     def reset(self, load_N: float) -> None:
         if self.move not in MOVES:
@@ -346,7 +352,8 @@ class SpecimenBank:
                 self.ll[i] += inc
                 self.alive[i] = math.isfinite(self.log_w[i])
         self.diverged = False
-        if self.refine_every > 0 and len(self._history) % int(self.refine_every) == 0:
+        moving = self.move_periods <= 0 or len(self._history) <= self.move_periods  # (module docstring)
+        if moving and self.refine_every > 0 and len(self._history) % int(self.refine_every) == 0:
             self.refine()
         if not self.alive.any() or not self._healthy():
             self.fallbacks += 1
@@ -355,7 +362,7 @@ class SpecimenBank:
             self.log_w[:] = np.where(self.alive, 0.0, -math.inf)
             self.ll[:] = self.log_w
             self._counted_from = len(self._history)
-        elif self.jitter > 0 and self.ess() < self.rejuvenate_ess * len(self.states):
+        elif moving and self.jitter > 0 and self.ess() < self.rejuvenate_ess * len(self.states):
             if self.move == "mh":
                 self._resample_move()
             else:

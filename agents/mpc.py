@@ -34,6 +34,12 @@ of that choice, the variants tried and their numbers in ``docs/notes/mpc-tuning-
 * **The planner** is ``limit``'s (horizon 48 periods, longer than the rest of the travel once the first plan is made,
   so no cost-to-go stands in for it; 64 candidates x 4 iterations), replanning every period.
 
+* **Cost.** ``move_periods`` (0: off, the default) stops the bank's resample-moves and refinements, which replay
+  the whole history, after that many periods, so that no later decision costs more than one then. On the tuning
+  benches the episodes end within 29-59 periods and a decision's cost hardly grows along them; with 15 the CPU per
+  episode fell by 40 % on 12 tuning benches and the score moved by +0.006 mm (-0.051 to +0.067): too few benches to
+  rule out a cost of a few hundredths, so it is off (``benchmarks/bench_mpc_decisions.py``, ``docs/performance.md``).
+
 What it does not reach: the perfect-knowledge ``limit``. One episode's measurements place the contact friction angles
 and the mass centre only in combinations; on the tuning benches the error ``mpc`` adds to ``limit``'s equals, on
 average, what its measurements leave of the block's deviation from its case-C path unknown
@@ -102,6 +108,7 @@ class MPCController:
     refine_every: int = 10
     refine_evaluations: int = 30
     refine_inflation: float = 1.5
+    move_periods: int = 0
     start_thrust: float = 0.1
     start_offset_m: float = -0.002
     start_offset_ratio: float = -1.0
@@ -133,7 +140,8 @@ class MPCController:
                                  float(self.sensor_noise_m), float(self.model_error_m), intervals,
                                  bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps),
                                  refine_every=int(self.refine_every), refine_evaluations=int(self.refine_evaluations),
-                                 refine_inflation=float(self.refine_inflation))
+                                 refine_inflation=float(self.refine_inflation),
+                                 move_periods=int(self.move_periods))
         self.bank.reset(load_N)
         self.planner = CEMPlanner.with_settings_of(self)
         self._periods = 0
