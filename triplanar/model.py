@@ -241,6 +241,18 @@ class Model:
         return quaternion_from_matrix(self.specimen.body_axes)
 
     @cached_property
+    def seated_contact_points(self) -> np.ndarray:
+        """(3, 3) CP1..CP3 of the block at rest, seated on this model's planes (:meth:`initial_state`; a simulated
+        run's first row): the origin of every path compared with this model (:mod:`triplanar.paths`). On the
+        drawing's planes it is the drawing (:attr:`Specimen.contact_points_m`); on tilted planes the block sits
+        elsewhere. Read-only."""
+        y = self.initial_state()
+        cps = np.empty((3, 3))
+        K.contact_points(y, self.kernel_params_cached.copy(), cps)
+        cps.setflags(write=False)
+        return cps
+
+    @cached_property
     def kernel_params_cached(self) -> np.ndarray:
         """:meth:`kernel_params`, computed once; read-only (copy it before changing anything)."""
         params = self.kernel_params()

@@ -1,14 +1,26 @@
 """Numbers read off contact-point paths, shared by the paper reproduction and the workbench.
 
 A path is an ``(n, 3, 3)`` array: sample, contact point CP1..CP3, coordinate x1..x3 (metres, foundation
-frame). Everything here is measured from a **rest position** ``rest`` (3, 3), the same rule everywhere:
+frame). Everything here is measured from a **rest position** ``rest`` (3, 3), and a measured path and the
+model it is compared with share one: **the block at rest as seated on the foundation the model assumes**
+(:attr:`Model.seated_contact_points`, the simulated run's first row). On the drawing's planes this is the
+drawing (:attr:`Specimen.contact_points_m`); on tilted planes the re-seated block rests elsewhere (FP1
+dipping 0.4 deg sideways moves CP1 0.22 mm along e1 and 1.7 mm vertically).
 
-* a simulated path from its own first row (the model at rest; a re-seated block, e.g. tilted planes,
-  rests elsewhere than the drawing);
-* a measured path from the specimen's rest position (the drawing, :attr:`Specimen.contact_points_m`),
-  not from its own first sample: that sample carries the rangefinder noise, which would shift the whole
-  test (with 0.2 mm noise, case A's mean distance to the stand-in data grows by up to 0.1 mm). The reader
-  can check that each test starts within a tolerance of it (``read_measurements(rest_positions=...)``).
+Why this origin and not each test's own first sample, nor the drawing:
+
+* the drawing, for the data, and the seat, for the model, are two origins: with tilted planes the exact
+  model was then compared at the wrong travel (0.21 mm RMS and a spurious oscillation on noise-free data);
+* a test's first sample carries the rangefinder noise, which would shift the whole test (with 0.2 mm
+  noise, case A's mean distance to the stand-in data grows by up to 0.1 mm), and it would hide a real
+  difference between where the block sat and where the model seats it;
+* the seat is noise-free, is where the block truly started when the model is right (so the exact model
+  leaves only noise), and when the model's planes are wrong the difference of seats stays in the
+  discrepancy, as the evidence about the planes it is.
+
+The reader can check that each test starts within a tolerance of the drawing
+(``read_measurements(rest_positions=...)``). Instrument effects (``Effect.read``/``unread``) keep the
+drawing as the rangefinders' reference, the same in the stand-in laboratory and the workbench.
 
 Quantities:
 

@@ -2,7 +2,8 @@
 travel, and where measured tests are at a given travel (the quantities the paper discusses in sections 5.1-5.5).
 
 Travel, lateral dilation, rotation and horizontal distance are defined once, in :mod:`triplanar.paths`
-(a simulated path from its first row, a measured one from the specimen's rest position ``rest_positions``).
+(a simulated path from its first row, a measured one from ``rest_positions``, the specimen's rest position: on
+the paper's foundation the block seats exactly there, so both share one origin as :mod:`triplanar.paths` asks).
 """
 
 from __future__ import annotations

@@ -130,9 +130,11 @@ class Comparison:
         return "\n".join(lines)
 
     def pattern(self) -> str:
-        """Where the model fails, in plain language (which contact point, which loads, which direction)."""
+        """Where the model fails, in plain language (which contact point, which loads, which direction); an error
+        within the traces' own noise (or, noise-free, the integrator's tolerance) is said to be so, and no more."""
+        from .evidence import pattern_floor_mm
         return describe_pattern(self.discrepancies, {f: r.status for f, r in self.runs.items()},
-                                {f: r.threshold_N for f, r in self.runs.items()})
+                                {f: r.threshold_N for f, r in self.runs.items()}, pattern_floor_mm(self.tests))
 
 
 def _fmt(value: object) -> object:
@@ -142,8 +144,11 @@ def _fmt(value: object) -> object:
 
 
 def describe_pattern(found: Sequence[TestDiscrepancy], status: dict[float, str] | None = None,
-                     thresholds: dict[float, float | None] | None = None) -> str:
-    """Plain-language summary of a discrepancy pattern (the "see where it fails" sentence)."""
+                     thresholds: dict[float, float | None] | None = None, floor_mm: float | None = None) -> str:
+    """Plain-language summary of a discrepancy pattern (the "see where it fails" sentence). ``floor_mm``: what
+    noise leaves a perfect model (:func:`~triplanar.workbench.evidence.pattern_floor_mm`); an error within
+    ``WITHIN_NOISE_FACTOR`` x it is reported as noise, without location, trend or frequency (those would describe
+    the noise)."""
     if not found:
         return "no tests"
     sentences = []
@@ -151,8 +156,9 @@ def describe_pattern(found: Sequence[TestDiscrepancy], status: dict[float, str] 
     per_cp = np.mean([d.mean_mm for d in found], axis=0)
     total = float(per_cp.sum())
     overall = rms([d.error_mm for d in found])
-    if total <= 0:
-        return "the model matches every test exactly"
+    noise = _within_noise(found, overall, floor_mm) if total > 0 else "the model matches every test exactly"
+    if noise:
+        return noise
     share = per_cp / total
     top = int(np.argmax(share))
     if share[top] >= 0.45:
@@ -232,6 +238,19 @@ def describe_pattern(found: Sequence[TestDiscrepancy], status: dict[float, str] 
             else:
                 sentences.append(f"at {f:g} N the model run ends early ({s})")
     return "; ".join(sentences) + "."
+
+
+def _within_noise(found: Sequence[TestDiscrepancy], overall: float, floor_mm: float | None) -> str | None:
+    """The sentence for an error that noise explains (every run covered its tests), else ``None``."""
+    from .evidence import INTEGRATOR_FLOOR_MM, WITHIN_NOISE_FACTOR
+    if floor_mm is None or not all(d.outcome is Outcome.TRAVEL for d in found):
+        return None
+    if not overall <= WITHIN_NOISE_FACTOR * floor_mm:
+        return None
+    source = ("the integrator's tolerance (the traces show no noise)" if floor_mm <= INTEGRATOR_FLOOR_MM
+              else "what the traces' own noise leaves a perfect model")
+    return (f"within the noise: the RMS discrepancy, {overall:.2g} mm, is within {WITHIN_NOISE_FACTOR:g} x "
+            f"{source}, {floor_mm:.2g} mm; no pattern to describe.")
 
 
 def _spearman(x: np.ndarray, y: np.ndarray) -> float:

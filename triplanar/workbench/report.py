@@ -52,7 +52,7 @@ def plot_overhead(cmp: Comparison, path: str | Path, title: str | None = None,
                 else [(cmp.runs[f].result, mine)])
         for run, its in runs:
             if run is not None and len(run.t) > 1:
-                rest = run.model.specimen.contact_points_m
+                rest = run.contact_points[0]       # the seated block, the origin of both paths
                 reach = max(float(np.max(travel(t.positions, rest))) for t in its)
                 keep = run.travel <= reach + 1e-9
                 plot_traces(ax, run.contact_points[keep], color=MODEL, lw=1.6)

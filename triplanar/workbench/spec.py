@@ -146,7 +146,7 @@ class EvalResult:
 
 def simulate_for(model: Model, tests: Sequence[MeasuredTest]) -> SimulationResult:
     """Simulate ``model`` far enough to cover the longest measured travel of ``tests``."""
-    rest = model.specimen.contact_points_m
+    rest = model.seated_contact_points          # the origin the comparison measures travel from
     longest = max(float(np.max(travel(t.positions, rest))) for t in tests) if tests else 0.08
     return simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **SIM_OPTIONS)
 
@@ -192,7 +192,7 @@ def _simulate_cached(spec: ModelSpec, model: Model, tests: Sequence[MeasuredTest
     readers = {name for name, _ in spec.effects if REGISTRY[name].read is not Effect.read}
     if not readers:
         return simulate_for(model, tests)
-    rest = model.specimen.contact_points_m
+    rest = model.seated_contact_points
     longest = round(max(float(np.max(travel(t.positions, rest))) for t in tests) if tests else 0.08, 3)
     physics = tuple(e for e in spec.effects if e[0] not in readers)
     # specimen and foundation by identity (they hold arrays); the entry keeps them alive, so an id is not reused
