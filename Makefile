@@ -6,7 +6,7 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed
 
-.PHONY: install lint test demo bench clean
+.PHONY: install lint test test-slow demo bench clean
 
 $(STAMP): pyproject.toml constraints.txt
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -24,8 +24,14 @@ lint: $(STAMP)
 	$(PY) -m pytest -q -p no:cacheprovider tests/test_layering.py tests/test_function_length.py
 
 # The tests run on every core (pytest-xdist; the two Ray files share one worker, so that one Ray runs at a time).
+# `make test` runs every test but those marked `long`, and the fuzz tests with 100 inputs each; `make test-slow`
+# runs the `long` ones (study-scale training and evaluation, the Ray cluster) and the fuzz tests (hypothesis's own
+# `hypothesis` marker) with 1,000 inputs each. .ci/run runs both.
 test: install
-	$(PY) -m pytest -q -n auto --dist loadgroup --durations=15
+	$(PY) -m pytest -q -n auto --dist loadgroup --durations=15 -m "not long"
+
+test-slow: install
+	$(PY) -m pytest -q -n auto --dist loadgroup --durations=15 -m "long or hypothesis" --hypothesis-profile=thorough
 
 demo: install
 	$(PY) -m triplanar.cli demo --out out/demo

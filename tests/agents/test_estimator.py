@@ -44,11 +44,12 @@ def test_the_bank_varies_mass_and_tilts_and_is_full_of_hypotheses_that_start():
 @pytest.mark.slow
 @pytest.mark.parametrize("replan_every", [
     2,
-    pytest.param(1, marks=pytest.mark.xfail(strict=True, reason=(
+    # long (`make test-slow`): a whole mpc episode whose only use is to show a documented miss still misses
+    pytest.param(1, marks=[pytest.mark.long, pytest.mark.xfail(strict=True, reason=(
         "with mpc replanning every period (its setting since the eighth round) the commands differ and on this "
         "tilted bench the 95 % interval ends at 6.22-7.43 deg, missing the 6 deg tip by 0.2 deg: one bench's "
         "interval misses under some command sequence, as a 95 % interval may; that the bank is a sample of the "
-        "posterior is tests/agents/test_estimator_posterior.py's (its mean and spread against a brute-force grid)"))),
+        "posterior is tests/agents/test_estimator_posterior.py's (its mean and spread against a brute-force grid)"))]),
 ])
 def test_estimator_finds_a_known_tip_friction_on_tilted_planes(replan_every):
     """The nominal specimen with a 6 deg tip on planes tilted within v1's ranges, noiseless data, ``mpc`` in the

@@ -79,7 +79,7 @@ actions = st.one_of(
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))  # inputs: the profile (tests/conftest.py)
 @given(action=actions)
 def test_fuzz_actions_give_a_named_error_or_a_finite_step(env, action) -> None:
     env.reset(seed=0, options={"load_N": 35.0})

@@ -48,6 +48,7 @@ def test_design_demand_orders_hardware():
 
 
 @pytest.mark.slow
+@pytest.mark.long  # study-scale: four PPO trainings, eight controllers on three bench sets, the study run three times
 def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     monkeypatch.setattr(bs, "TUNING_BENCHES", 2)
     monkeypatch.setattr(bs, "PI_GRID", [(1.0, 0.0)])

@@ -77,9 +77,12 @@ def test_drop_if_stale_does_nothing_without_a_cache(tmp_path) -> None:
 
 
 @pytest.mark.slow
+@pytest.mark.long
 def test_after_the_warmup_nothing_compiles(tmp_path) -> None:
     """``make install`` runs the warm-up: then the first trace, env step, vector-env step and model-based control
-    decision (the prediction from a copied bench state) compile nothing."""
+    decision (the prediction from a copied bench state) compile nothing. Long (`make test-slow`): the warm-up compiles
+    every kernel into an empty cache (a minute or two of CPU), and only an empty cache shows a kernel the warm-up misses
+    (in a warm one, any earlier run may have compiled it)."""
     warm = _run("import sys; from triplanar.warmup import main; sys.exit(main())", NUMBA_CACHE_DIR=str(tmp_path))
     assert "is out of date" not in warm.stderr  # the warm-up makes TriPlanarShear-v0 on purpose: no notice
     code = ("import numpy as np, gymnasium as gym, envs; from triplanar import Effect, paper_model, simulate; "

@@ -114,7 +114,7 @@ def csv_texts(draw):
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))  # inputs: the profile (tests/conftest.py)
 @given(text=st.one_of(csv_texts(), st.text(max_size=300), st.binary(max_size=300)))
 def test_fuzz_csv_reader_gives_a_named_error_or_a_valid_result(tmp_path_factory, text) -> None:
     path = tmp_path_factory.mktemp("fuzz", numbered=True) / "f.csv"

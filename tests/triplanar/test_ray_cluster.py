@@ -19,7 +19,10 @@ ray = pytest.importorskip("ray")
 from triplanar.executor import run_tasks
 from triplanar.ray_executor import RayExecutor
 
-pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]  # one Ray at a time under pytest-xdist
+# One Ray at a time under pytest-xdist. Long (`make test-slow`): a two-node cluster is separate Ray daemons started
+# for the module, and diagnose runs three times in its own process (locally, on a Ray of its own, on the cluster);
+# `make test` keeps the Ray backend on a local Ray (test_ray_executor.py).
+pytestmark = [pytest.mark.slow, pytest.mark.long, pytest.mark.xdist_group("ray")]
 DATA = ROOT / "data" / "lab_traces.csv"
 
 

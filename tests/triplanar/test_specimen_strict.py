@@ -126,7 +126,7 @@ def mutated(draw):
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))  # inputs: the profile (tests/conftest.py)
 @given(data=mutated())
 def test_fuzz_parse_toml_gives_a_named_error_or_a_valid_specimen(data) -> None:
     try:
@@ -138,7 +138,7 @@ def test_fuzz_parse_toml_gives_a_named_error_or_a_valid_specimen(data) -> None:
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))  # inputs: the profile (tests/conftest.py)
 @given(text=st.one_of(st.text(max_size=200), st.binary(max_size=200),
                       st.builds(lambda a, b, c: REFERENCE_TEXT[:a] + c + REFERENCE_TEXT[b:],
                                 st.integers(0, len(REFERENCE_TEXT)), st.integers(0, len(REFERENCE_TEXT)),

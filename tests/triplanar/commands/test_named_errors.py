@@ -139,7 +139,7 @@ def specs(draw):
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))  # inputs: the profile (tests/conftest.py)
 @given(spec=st.one_of(specs(), st.text(max_size=40)))
 def test_fuzz_effect_specifications_give_a_named_error_or_an_effect(spec) -> None:
     try:
