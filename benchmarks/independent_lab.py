@@ -53,20 +53,26 @@ def _rotation(theta: np.ndarray) -> np.ndarray:
 
 
 def seat(cps: np.ndarray, normals: np.ndarray, pivot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The smallest rigid motion (rotation vector about ``pivot``, translation) putting each contact point on its
-    plane through the origin: ``(R, t)`` with ``x -> R (x - pivot) + pivot + t``. Minimum-norm Gauss-Newton on the
-    six motion parameters (three equations: the motion is not unique; the smallest is taken)."""
-    x = np.zeros(6)
+    """The smallest rigid motion putting each contact point on its plane through the origin: ``(R, t)`` with
+    ``x -> R (x - pivot) + pivot + t``. Smallest: the least sum of the contact points' squared displacements (three
+    equations, six motion parameters; each Gauss-Newton step is the minimum of that sum on the linearised
+    solution set)."""
+    R, t = np.eye(3), np.zeros(3)
     for _ in range(30):
-        R = _rotation(x[:3])
-        moved = (cps - pivot) @ R.T + pivot + x[3:]
+        moved = (cps - pivot) @ R.T + pivot + t
         res = np.einsum("ij,ij->i", normals, moved)
         if np.max(np.abs(res)) < 1e-15:
             break
-        J = np.array([np.concatenate([np.cross(moved[i] - pivot - x[3:], n), n]) for i, n in enumerate(normals)])
-        # the minimum-norm point of the linearised solution set res + J (x_new - x) = 0
-        x = J.T @ np.linalg.solve(J @ J.T, J @ x - res)
-    return _rotation(x[:3]), x[3:]
+        r = moved - pivot - t
+        # a small rotation dtheta and translation dt move point i by dtheta x r_i + dt
+        B = np.vstack([np.hstack([-np.array([[0, -ri[2], ri[1]], [ri[2], 0, -ri[0]], [-ri[1], ri[0], 0]]),
+                                  np.eye(3)]) for ri in r])
+        J = np.array([n @ B[3 * i:3 * i + 3] for i, n in enumerate(normals)])
+        W = B.T @ B
+        Wi_Jt = np.linalg.solve(W, J.T)
+        step = -Wi_Jt @ np.linalg.solve(J @ Wi_Jt, res)
+        R, t = _rotation(step[:3]) @ R, t + step[3:]
+    return R, t
 
 
 @dataclass(frozen=True)
