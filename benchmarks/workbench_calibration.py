@@ -152,7 +152,7 @@ def settings(label: str, seed: int) -> dict[str, Any]:
     kind, draw = LABELS[label]
     rng = np.random.default_rng(np.random.SeedSequence([seed, 7]))
     effects = draw(rng)
-    loads = sorted(float(f) for f in rng.choice(PAPER_LOADS, size=5, replace=False))
+    loads = sorted(float(f) for f in rng.choice(PAPER_LOADS, size=4, replace=False))
     repeats = [int(n) for n in rng.integers(2, 4, size=len(loads))]
     if len(set(repeats)) == 1:
         repeats[int(rng.integers(len(repeats)))] = 5 - repeats[0]       # unequal repeats, always
