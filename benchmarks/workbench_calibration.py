@@ -386,22 +386,31 @@ def _evidence(diag) -> dict[str, Any]:
     return ev
 
 
-def diagnose_dataset(job: tuple[str, int, str]) -> dict[str, Any]:
+def diagnose_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | None:
     """Diagnose one dataset as the ``diagnose`` command does (3 folds, every registered effect, the given effects
     refitted) and keep the report's verdict, the named values and the evidence (resumable: a kept result is
-    returned as is). Pure: run_tasks maps it."""
+    returned as is). With a part given (``run --generate``) a missing dataset is made first; without, a missing
+    or undiagnosed one gives None when ``out`` ends in ``?`` (``--table-only``). Pure: run_tasks maps it."""
     from triplanar import make_effect
     from triplanar.atomic import write_atomic
     from triplanar.measurement import read_measurements
     from triplanar.workbench import Diagnoser, ModelSpec
-    label, seed, out = job
+    label, seed, out, part = job
+    table_only = out.endswith("?")
+    out = out.rstrip("?")
     path = dataset_path(Path(out), label, seed)
     result_path = Path(out) / "results" / f"{label}-s{seed}.json"
+    if part is not None and not table_only:
+        generate_dataset((label, seed, out, part))
+    if not path.is_file():
+        return None
     truth = json.loads(path.with_name(path.name + ".truth.json").read_text(encoding="utf-8"))
     if result_path.is_file():
         kept = json.loads(result_path.read_text(encoding="utf-8"))
         if kept.get("data_sha256") == truth["data_sha256"]:
             return kept
+    if table_only:
+        return None
     tests = read_measurements(path)
     given = [make_effect(f"{e['name']}:" + ",".join(f"{k}={v}" for k, v in e["parameters"].items()))
              for e in truth["given_model_effects"]]
@@ -414,7 +423,8 @@ def diagnose_dataset(job: tuple[str, int, str]) -> dict[str, Any]:
               "missing_effects": [{k: m.get(k) for k in ("effect", "kind", "params", "param_ci95",
                                                           "param_model_ci95")} for m in report["missing_effects"]],
               "refits": report["refits"], "confidence": report["confidence"], "reason": report["reason"],
-              "evidence": _evidence(diag), "best_entry": _best_entry(diag), "n_tests": len(tests), "seconds": round(time.perf_counter() - began, 1)}
+              "evidence": _evidence(diag), "best_entry": _best_entry(diag), "n_tests": len(tests), "seconds": round(time.perf_counter() - began, 1),
+              "generation_seconds": truth.get("seconds")}
     result_path.parent.mkdir(parents=True, exist_ok=True)
     text = json.dumps(result, indent=1, default=float)
     write_atomic(result_path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
@@ -547,15 +557,16 @@ def run(args: argparse.Namespace) -> None:
     if "held-out" in args.parts and not args.i_am_reporting:
         raise SystemExit("run --part held-out: the held-out part is for reporting rules chosen on the tuning part; "
                          "add --i-am-reporting to run it")
-    jobs = [(label, seed, str(args.out)) for part in args.parts for label, seed in datasets(part)
-            if (not args.labels or label in args.labels) and dataset_path(args.out, label, seed).is_file()]
-    missing = sum(1 for part in args.parts for label, seed in datasets(part)
-                  if not dataset_path(args.out, label, seed).is_file())
+    out = str(args.out) + ("?" if args.table_only else "")
+    jobs = [(label, seed, out, part if args.generate else None) for part in args.parts
+            for label, seed in datasets(part) if not args.labels or label in args.labels]
     began = time.perf_counter()
-    print(f"{len(jobs)} datasets ({missing} not generated); load average {os.getloadavg()[0]:.2f}", flush=True)
-    rows = run_tasks(diagnose_dataset, jobs, args.executor, False)
+    print(f"{len(jobs)} datasets; load average {os.getloadavg()[0]:.2f}", flush=True)
+    rows = [r for r in run_tasks(diagnose_dataset, jobs, args.executor, False) if r is not None]
+    print(f"{len(rows)} diagnosed ({len(jobs) - len(rows)} not generated or not diagnosed yet)")
     print("\n".join(table(rows)))
-    print(f"({time.perf_counter() - began:.0f} s; {np.median([r['seconds'] for r in rows]):.0f} s per diagnosis, "
+    print(f"({time.perf_counter() - began:.0f} s; {np.median([r['seconds'] for r in rows] or [np.nan]):.0f} s per "
+          f"diagnosis, "
           f"median; load average {os.getloadavg()[0]:.2f})")
 
 
@@ -609,6 +620,8 @@ def main() -> None:
             p.add_argument("--limit", type=int, help="only the first N datasets")
         else:
             p.add_argument("--i-am-reporting", action="store_true", help="allow running the held-out part")
+            p.add_argument("--generate", action="store_true", help="make a missing dataset first (then diagnose it)")
+            p.add_argument("--table-only", action="store_true", help="only tabulate the results kept so far")
     p = sub.add_parser("check")
     p.add_argument("--quick", action="store_true", help="leave out the slow end-friction comparisons")
     args = parser.parse_args()
