@@ -570,6 +570,21 @@ def run(args: argparse.Namespace) -> None:
           f"median; load average {os.getloadavg()[0]:.2f})")
 
 
+def _check_instruments(spec) -> None:
+    """The instrument effects as written out here against the library's ``read`` on one made-up record."""
+    from triplanar import make_effect
+    rng = np.random.default_rng(0)
+    rest = np.asarray(spec.contact_points_m)
+    t_s, positions = np.arange(50) / 200.0, rest + rng.normal(0.0, 0.01, (50, 3, 3))
+    for name, params in (("rangefinder_gain", {"gain_x1": 1.1, "gain_x3": 0.9}),
+                         ("rangefinder_offset", {"offset_x3_m": 0.002}), ("rangefinder_drift", {"drift_x3_m_s": 0.004}),
+                         ("time_offset", {"dt_s": 0.03})):
+        mine = _read([(name, params)], t_s, positions, rest)
+        lib = make_effect(f"{name}:" + ",".join(f"{k}={v}" for k, v in params.items())).read(t_s, positions, rest)
+        worst = max(float(np.max(np.abs(mine[0] - lib[0]))), float(np.max(np.abs(mine[1] - lib[1]))))
+        print(f"{name:50s} written out here vs the library's read: largest difference {worst:.2e}", flush=True)
+
+
 def check(args: argparse.Namespace) -> None:
     """Each extension of the independent lab against the compiled kernel where both apply (40 N, to 6 cm of CP1's
     travel, noise-free, sharp Coulomb law unless stated): the largest distance between the two along CP1..CP3's
@@ -590,8 +605,12 @@ def check(args: argparse.Namespace) -> None:
               {"tip_friction_deg": 8.0, "smooth_m_s": 2e-4}, 2e-4),
              ("end friction 8 deg, law smoothed below 0.05 mm/s", ["end_friction:phi_deg=8"],
               {"tip_friction_deg": 8.0, "smooth_m_s": 5e-5}, 5e-5)]
+    rise_start = _rise_start_N([], 40.0, np.array([17.0, 14.0, 11.0]))
+    cases.insert(4, ("actuator rise 50 ms", ["actuator_rise:tau_s=0.05"],
+                     {"rise_tau_s": 0.05, "rise_start_N": rise_start}, 1e-3))
     if args.quick:
         cases = [c for c in cases if not c[0].startswith("end friction")]
+    _check_instruments(spec)
     for title, effects, kw, h in cases:
         plugin = kw.get("wrenches", ())
         model = paper_model("B", 40.0, effects=[make_effect(e) for e in effects] + list(plugin))
@@ -603,8 +622,8 @@ def check(args: argparse.Namespace) -> None:
         diff = hermite(t, P, V, tq) - kernel.contact_points_at(tq)
         d = np.linalg.norm(diff, axis=2)
         drift = np.linalg.norm(diff - diff[0], axis=2)      # the difference less where each starts (seating)
-        print(f"{title:50s} largest distance {d.max() * 1e3:.4f} mm, at rest {d[0].max() * 1e3:.4f} mm, "
-              f"change along the path {drift.max() * 1e3:.4f} mm (step {h * 1e3:g} ms)", flush=True)
+        print(f"{title:50s} largest distance {d.max() * 1e3:.2e} mm, at rest {d[0].max() * 1e3:.2e} mm, "
+              f"change along the path {drift.max() * 1e3:.2e} mm (step {h * 1e3:g} ms)", flush=True)
 
 
 def main() -> None:
