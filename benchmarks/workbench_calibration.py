@@ -467,8 +467,23 @@ def score(r: dict[str, Any]) -> dict[str, Any]:
     covers = [_covers(entries[n], truth[n]) for n in truth if n in entries]
     covers = [c for c in covers if c is not None]
     value = None if kind in ("none_missing", "outside_library") or not covers else all(covers)
-    return {"right": right, "value_ok": value, "high_wrong": (not right) and r["confidence"] == "high",
-            "rule": "" if right else which_rule(r)}
+    return {"right": right, "value_ok": value,
+            "high_wrong": r["confidence"] == "high" and (not right or value is False),
+            "rule": which_rule(r) if not right else (_interval_miss(entries, truth) if value is False else "")}
+
+
+def _interval_miss(entries: dict, truth: dict) -> str:
+    """Which truth values the named 95 % intervals (curvature; model-form hull beside it) miss."""
+    misses = []
+    for name, params in truth.items():
+        entry = entries.get(name, {})
+        for k, v in params.items():
+            ci = (entry.get("param_ci95") or {}).get(k)
+            if ci is not None and not ci[0] <= v <= ci[1]:
+                model = (entry.get("param_model_ci95") or {}).get(k)
+                misses.append(f"{name}.{k} truth {v:.4g} outside [{ci[0]:.4g}, {ci[1]:.4g}] (fitted "
+                              f"{entry['params'][k]:.4g}; model-form hull {model and [round(x, 4) for x in model]})")
+    return "interval: " + "; ".join(misses)
 
 
 def which_rule(r: dict[str, Any]) -> str:
@@ -504,6 +519,10 @@ def which_rule(r: dict[str, Any]) -> str:
     if r["kind"] == "pair" and verdict in ("library_effect", "refit_given_effect"):
         return (f"{head} named alone: its cv {ev['explained_ratio']:.2f} x scatter passed explained_factor 2.0, "
                 f"so no pair was tried")
+    if ev["quiet_ratio"] <= 1.5 and ev["systematic_given"] and ev["improvement"] < 0.3:
+        return (f"hidden-bias rule: the model as given is within quiet_factor 1.5 x scatter (ratio "
+                f"{ev['quiet_ratio']:.2f}) but leaves a shared bias, so {ev['best']} was named removing "
+                f"{ev['improvement']:.0%} (< min_improvement 30 %; look-alikes: {', '.join(ev['lookalikes']) or 'none'})")
     if r["kind"] in ("outside_library", "none_missing"):
         return (f"{head} named: cv {ev['explained_ratio']:.2f} x scatter <= explained_factor 2.0, scatter ratio "
                 f"{ev['scatter_ratio']:.2f}, no pattern (baseline {ev['quiet_ratio']:.2f} x scatter vs quiet_factor 1.5"
@@ -526,7 +545,7 @@ def _pattern(ev: dict[str, Any]) -> str:
 def table(rows: list[dict[str, Any]]) -> list[str]:
     """The table by kind (markdown), then one line per dataset."""
     lines = ["| kind | datasets | right verdict | truth in the named 95 % interval | high / low / none | high on a wrong "
-             "answer | seeds |", "|---|---|---|---|---|---|---|"]
+             "answer (verdict or interval) | seeds |", "|---|---|---|---|---|---|---|"]
     for kind in EXPECTED:
         mine = [r for r in rows if r["kind"] == kind]
         if not mine:
