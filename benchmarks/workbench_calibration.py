@@ -561,6 +561,17 @@ def table(rows: list[dict[str, Any]]) -> list[str]:
     lines.append(f"| all | {len(rows)} | {sum(x['right'] for x in s)}/{len(rows)} | "
                  f"{sum(x['value_ok'] is True for x in s)}/{sum(x['value_ok'] is not None for x in s)} | | "
                  f"{sum(x['high_wrong'] for x in s)} | |")
+    lines += ["", "The rules' numbers by kind (min-max over the datasets; the constant each is compared with): baseline / "
+              "scatter (quiet_factor 1.5), named entry's held-out error / scatter (explained_factor 2.0; also the "
+              "combination trigger), repeat scatter / expected (scatter_factor 2.0):", ""]
+    for kind in EXPECTED:
+        mine = [r["evidence"] for r in rows if r["kind"] == kind]
+        if mine:
+            cells = []
+            for key in ("quiet_ratio", "explained_ratio", "scatter_ratio"):
+                v = [e[key] for e in mine if e.get(key) is not None and math.isfinite(e[key])]
+                cells.append(f"{key} {min(v):.2f}-{max(v):.2f}" if v else f"{key} -")
+            lines.append(f"- {kind}: " + ", ".join(cells))
     lines.append("")
     for r, x in zip(rows, s):
         named = ", ".join(f"{m['effect']}" for m in r["missing_effects"]) or r["missing_effect"] or "-"
