@@ -31,21 +31,23 @@ from scipy.stats import t as student_t
 from ..effects import REGISTRY
 from ..measurement import MeasuredTest
 from .candidates import default_candidate
-from .executor import run_tasks
+from .executor import ExecutorLike, run_tasks
 from .fit import FitTask, run_fit
 from .fitbase import FitOutcome
 
+from .spec import ModelSpec
+
 if TYPE_CHECKING:
-    from .diagnose import Diagnoser
     from .sweep import CandidateResult, CandidateTask
 
 #: Least-squares evaluations of an alternative's joint fit (after its grid scan).
 ALTERNATIVE_NFEV = 10
 
 
-def alternative_names(diag: Diagnoser, best: CandidateResult) -> list[str]:
-    """Registered one-parameter effects (physics or instrument), neither in ``diag``'s model nor the named ``best``."""
-    taken = {*diag.user_base_.effect_names, *diag.refit_, best.effect}
+def alternative_names(user_base: ModelSpec, refit: Sequence[str], best: CandidateResult) -> list[str]:
+    """Registered one-parameter effects (physics or instrument), neither in the model (``user_base`` and the
+    forward-selection effects ``refit``) nor the named ``best``."""
+    taken = {*user_base.effect_names, *refit, best.effect}
     out = []
     for name, cls in REGISTRY.items():
         params = cls.parameters.values()
@@ -55,31 +57,33 @@ def alternative_names(diag: Diagnoser, best: CandidateResult) -> list[str]:
     return out
 
 
-def apply_alternatives(diag: Diagnoser, best: CandidateResult, task: CandidateTask,
-                       tests: Sequence[MeasuredTest]) -> None:
-    """Fit ``best`` with each alternative (module doc) and fill ``best.model_form`` and its model-form intervals (``param_model_ci95``)."""
+def model_form_of(best: CandidateResult, task: CandidateTask, tests: Sequence[MeasuredTest], user_base: ModelSpec,
+                  refit: Sequence[str], executor: ExecutorLike = None) -> dict[str, dict[str, Any]] | None:
+    """``best`` fitted with each alternative (module doc): per alternative, the named parameters' values, the
+    alternative's own, its standard error, the in-sample error and whether the data support it (``None`` for an
+    entry with per-test parameters or without intervals: nothing to widen)."""
     if best.per_test or not best.param_ci95:
-        return
-    names = alternative_names(diag, best)
+        return None
+    names = alternative_names(user_base, refit, best)
     warm = {best.effect: dict(best.all_values[best.effect]),
             **{c.effect: dict(best.all_values[c.effect]) for c in task.refit}}
-    fits = [FitTask(task.base, (default_candidate(n, diag.user_base_.specimen), task.candidate, *task.refit),
+    fits = [FitTask(task.base, (default_candidate(n, user_base.specimen), task.candidate, *task.refit),
                     tuple(tests), (), None, ALTERNATIVE_NFEV, f"alternative:{n}", warm) for n in names]
-    outcomes: list[FitOutcome] = run_tasks(run_fit, fits, diag.executor, False, desc="alternatives")
-    best.model_form = {}
+    outcomes: list[FitOutcome] = run_tasks(run_fit, fits, executor, False, desc="alternatives")
+    found = {}
     # each alternative's parameter is tested against its neutral value at a family-wise 5 % (Bonferroni over them)
     level = float(student_t.ppf(1 - 0.025 / max(1, len(names)), max(1, len(tests) - 1 - len(best.params))))
     for name, out in zip(names, outcomes):
         (param,) = default_candidate(name).free
         value = out.values[name][param]
-        start = default_candidate(name, diag.user_base_.specimen).start_values()[param]
+        start = default_candidate(name, user_base.specimen).start_values()[param]
         se = out.stderr.get(name, {}).get(param, math.nan)
         z = abs(value - start) / se if math.isfinite(se) and se > 0 else 0.0
         supported = f"{name}.{param}" not in out.at_bound and z > level
-        best.model_form[name] = {"params": {p: out.values[best.effect][p] for p in best.params},
-                                 "added": {param: value}, "added_stderr": {param: se}, "error_mm": out.train_error_mm,
-                                 "supported": supported}
-    best.set_intervals("model_form", model_interval(best))
+        found[name] = {"params": {p: out.values[best.effect][p] for p in best.params},
+                       "added": {param: value}, "added_stderr": {param: se}, "error_mm": out.train_error_mm,
+                       "supported": supported}
+    return found
 
 
 def model_interval(best: CandidateResult) -> dict[str, list[float] | None]:
@@ -93,16 +97,3 @@ def model_interval(best: CandidateResult) -> dict[str, list[float] | None]:
         values += [alt["params"][p] for alt in best.model_form.values() if alt["supported"]]
         out[p] = [min(values), max(values)]
     return out
-
-
-def moved_outside(best: CandidateResult) -> list[dict[str, Any]]:
-    """The supported alternatives that move a named parameter outside its curvature interval (with what they move)."""
-    moved = []
-    for name, alt in (best.model_form or {}).items():
-        if not alt["supported"]:
-            continue
-        for p, v in alt["params"].items():
-            ci = best.param_ci95.get(p)
-            if ci is not None and not ci[0] <= v <= ci[1]:
-                moved.append({"alternative": name, "param": p, "value": v, "ci95": ci})
-    return moved

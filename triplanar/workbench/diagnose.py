@@ -5,10 +5,12 @@ For every candidate effect (:mod:`triplanar.workbench.candidates`) and every eff
 cross-validation fold (trained on the other load levels, scored on the fold's levels) and once on all tests (the
 reported estimate): :mod:`triplanar.workbench.sweep`, mapped over the executor, so the sweep parallelises across
 processes (or a cluster) without change. Entries are ranked by cross-validated RMS discrepancy
-(``cv_error_mm``); the evidence (noise, expected scatter, the residual in time, a bias shared by all tests:
-:mod:`triplanar.workbench.evidence`) and the rules of :mod:`triplanar.workbench.verdict` decide what is named and
-how confidently; when no single entry explains the data, :mod:`triplanar.workbench.combine` tries entries in
-combination.
+(``cv_error_mm``). ``fit`` gathers the evidence into one value (:class:`~triplanar.workbench.verdict.Evidence`: the
+fits and their intervals, noise, expected scatter, the residual in time, a bias shared by all tests
+(:mod:`triplanar.workbench.evidence`), the model-form alternatives (:mod:`triplanar.workbench.alternatives`), the
+deciding experiments (:mod:`triplanar.workbench.experiment`) and, when the best single entry leaves a pattern, entries
+in combination (:mod:`triplanar.workbench.combine`)); :func:`triplanar.workbench.rules.decide` alone turns it into
+the :class:`~triplanar.workbench.verdict.Verdict`.
 """
 
 from __future__ import annotations
@@ -20,18 +22,27 @@ from typing import Any, Mapping, Sequence
 
 from ..effects import REGISTRY
 from ..measurement import MeasuredTest
-from . import verdict
+from . import rules
 from .candidates import Candidate, refit_candidate, resolve, without_effect
 from .discrepancy import TestDiscrepancy, repeat_scatter_mm
 from .evidence import expected_scatter_mm, growth_along_travel, instrument_noise_mm, noise_floor_mm, systematic_bias, \
     time_domain
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
-from .parsimony import parsimonious
 from .spec import ModelSpec, spec_with_values
-from .sweep import CandidateResult, CandidateTask, assemble, load_folds, profile_result, run_candidate
+from .sweep import CandidateResult, CandidateTask, assemble, load_folds, profile_result, residual_of, run_candidate, \
+    spec_of
+from .verdict import Evidence, VerdictKind, missing_kind, report_json, shown_after
 
 __all__ = ["CandidateResult", "CandidateTask", "Diagnoser", "load_folds", "run_candidate"]
+
+
+def _evidence_field(name: str, doc: str) -> property:
+    return property(lambda self: getattr(self.evidence_, name), doc=doc)
+
+
+def _verdict_field(name: str, doc: str) -> property:
+    return property(lambda self: getattr(self.decision_, name), doc=doc)
 
 
 class Diagnoser:
@@ -54,27 +65,24 @@ class Diagnoser:
         model_form: give the named entry profile-likelihood intervals (:mod:`.profile`) and the model-form allowance
             (:mod:`.alternatives`: refits with each further one-parameter physical effect).
 
-    Fitted attributes: ``report_`` (the JSON report), ``candidates_`` (list of :class:`CandidateResult`,
-    best first), ``missing_effect_``, ``confidence_``, ``reason_``, ``baseline_error_mm_``,
-    ``repeat_scatter_mm_``, ``baseline_`` (per-test discrepancies), ``seconds_``.
-    """
+        friction_scatter_deg: the specimen's repeat-to-repeat friction scatter ``expected_scatter_mm`` assumes (deg).
 
-    min_improvement = 0.3
-    high_improvement = 0.5
-    explained_factor = 2.0
-    quiet_factor = 1.5
-    margin = 1.25
-    #: the repeat scatter may exceed what noise and the specimen's variability explain by this factor
-    scatter_factor = 2.0
-    #: the specimen's repeat-to-repeat friction scatter assumed by ``expected_scatter_mm`` (deg)
-    friction_scatter_deg = 0.2
+    Fitted attributes (set by ``fit`` only): ``evidence_`` (:class:`~triplanar.workbench.verdict.Evidence`: what
+    was gathered), ``decision_`` (:class:`~triplanar.workbench.verdict.Verdict`: what
+    :func:`~triplanar.workbench.rules.decide` made of it), ``seconds_``; views of them: ``report_`` (the JSON
+    report), ``verdict_`` (its kind's name), ``missing_effect_``, ``missing_effects_``, ``confidence_``,
+    ``reason_``, ``candidates_`` (list of :class:`CandidateResult`, best first), ``refits_``, ``ranked_``,
+    ``best_``, ``lookalikes_``, ``baseline_`` (per-test discrepancies), ``baseline_error_mm_``,
+    ``repeat_scatter_mm_``, ...
+    """
 
     def __init__(self, candidates: Sequence[str | Candidate] | None = None, folds: int = 3,
                  executor: ExecutorLike = None, progress: bool = True, max_nfev: int = 30,
                  checkpoint: TaskCheckpoint | None = None, refit_given: bool = True,
                  start: Mapping[str, Mapping[str, float]] | None = None,
                  per_test: Mapping[str, Sequence[str]] | None = None, combine: bool = True,
-                 model_form: bool = True):
+                 model_form: bool = True, friction_scatter_deg: float = rules.FRICTION_SCATTER_DEG):
+        self.friction_scatter_deg = friction_scatter_deg
         self.combine = combine
         self.model_form = model_form
         self.per_test = {k: list(v) for k, v in (per_test or {}).items()}
@@ -91,7 +99,8 @@ class Diagnoser:
 
     def fit(self, tests: Sequence[MeasuredTest], base: ModelSpec | None = None,
             refit: Mapping[str, Mapping[str, float]] | None = None) -> Diagnoser:
-        """Diagnose ``tests`` against ``base`` (default: case B, reference specimen).
+        """Diagnose ``tests`` against ``base`` (default: case B, reference specimen): gather the evidence, and let
+        :func:`~triplanar.workbench.rules.decide` make the verdict of it (``evidence_``, ``decision_``).
 
         ``refit``: effects already added to the model, ``{name: {param: value}}``; they are part of the
         model being diagnosed, and their parameters are re-estimated jointly with each candidate's (what
@@ -102,10 +111,44 @@ class Diagnoser:
         if not tests:
             raise ValueError("diagnose needs at least one measured test")
         refit = {k: dict(v) for k, v in (refit or {}).items()}
-        refit_cands = tuple(resolve(list(refit), specimen=base.specimen))
-        cands = resolve(self.candidates, exclude=(*base.effect_names, *refit), specimen=base.specimen)
+        user_base = base
+        tasks = self._tasks(tests, user_base, refit)
+        for name, values in refit.items():
+            base = spec_with_values(base, name, values)
+        baseline = discrepancies(evaluate_spec(base, tests))
+        baseline_error = overall_error(baseline)
+        scatter = repeat_scatter_mm(tests, base.rest_positions)
+        folds = load_folds([t.shear_force_N for t in tests], self.folds)
+        tasks = [replace(t, folds=tuple(tuple(f) for f in folds)) for t in tasks]
+        # Slowest first (slow simulations, many parameters), so that the pool stays balanced.
+        tasks.sort(key=lambda t: (t.candidate.effect != "actuator_rise", -len(t.candidate.free)))
+        outcomes = run_tasks(run_candidate, tasks, self.executor, self.progress, desc="diagnose",
+                             checkpoint=self.checkpoint)
+        by_label = {f"{t.key}/{k}": v for t, out in zip(tasks, outcomes) for k, v in out.items()}
+        ranked = [assemble(t, by_label, len(folds), len(tests), baseline_error, scatter) for t in tasks]
+        ranked.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))
+        ev = self._gather(tests, user_base, base, refit, folds, baseline, scatter, ranked)
+        if ev.best is not None and self.model_form:
+            # the examined entry: profile-likelihood intervals beside the curvature ones, and the model-form allowance
+            task = next(t for t in tasks if t.key == f"{ev.best.kind}:{ev.best.effect}")
+            self._model_form(ev, task, tests)
+        from .experiment import experiments_for
+        ev = replace(ev, experiments=tuple(experiments_for(ev, tests)))
+        if self.combine and rules.tries_combination(ev):
+            from .combine import combine
+            ev = replace(ev, combination=combine(self, ev, tests))
+        self.evidence_ = ev
+        self.decision_ = rules.decide(ev)
+        self.seconds_ = time.perf_counter() - began
+        return self
+
+    def _tasks(self, tests: list[MeasuredTest], user_base: ModelSpec,
+               refit: dict[str, dict[str, float]]) -> list[CandidateTask]:
+        """One task per candidate and per given effect freed (its folds filled in by ``fit``)."""
+        refit_cands = tuple(resolve(list(refit), specimen=user_base.specimen))
+        cands = resolve(self.candidates, exclude=(*user_base.effect_names, *refit), specimen=user_base.specimen)
         # the user's given effects, each freed in turn (the others and any forward-selection refits kept)
-        given = [(name, dict(values)) for name, values in base.effects if REGISTRY[name].parameters
+        given = [(name, dict(values)) for name, values in user_base.effects if REGISTRY[name].parameters
                  and any(p.free for p in REGISTRY[name].parameters.values())] if self.refit_given else []
         cands = [self._with_start(c.with_per_test(self.per_test[c.effect]) if c.effect in self.per_test else c)
                  for c in cands]
@@ -114,61 +157,31 @@ class Diagnoser:
             raise ValueError(f"per-test parameters of {unknown[0]!r}: that effect is not a candidate")
         if not cands and not given:
             raise ValueError("no candidate effects to try (all are already in the model)")
-        self.user_base_ = base
-        self.refit_ = refit
-        for name, values in refit.items():
-            base = spec_with_values(base, name, values)
-        self.base_ = base
-        self.baseline_: list[TestDiscrepancy] = discrepancies(evaluate_spec(base, tests))
-        self.baseline_error_mm_ = overall_error(self.baseline_)
-        self.baseline_by_load_ = errors_by_load(self.baseline_)
-        self.repeat_scatter_mm_ = repeat_scatter_mm(tests, base.rest_positions)
-        folds = load_folds([t.shear_force_N for t in tests], self.folds)
-        self.folds_ = folds
-        # one load level: nothing can be held out, every error is in sample; the wording says so
-        self.where_ = "on held-out loads" if len(folds) > 1 else "in sample (one load level: nothing held out)"
-        self.error_word_ = "held-out error" if len(folds) > 1 else "in-sample error"
-        tasks = [CandidateTask(self.user_base_, c, tuple(tests), tuple(tuple(f) for f in folds), self.max_nfev,
-                               refit_cands, refit) for c in cands]
+        tasks = [CandidateTask(user_base, c, tuple(tests), (), self.max_nfev, refit_cands, refit) for c in cands]
         for name, values in given:
-            stripped = replace(self.user_base_, effects=without_effect(self.user_base_.effects, name))
-            tasks.append(CandidateTask(stripped, refit_candidate(name, values, base.specimen), tuple(tests),
-                                       tuple(tuple(f) for f in folds), self.max_nfev, refit_cands, refit,
-                                       kind="refit"))
-        # Slowest first (slow simulations, many parameters), so that the pool stays balanced.
-        tasks.sort(key=lambda t: (t.candidate.effect != "actuator_rise", -len(t.candidate.free)))
-        outcomes = run_tasks(run_candidate, tasks, self.executor, self.progress, desc="diagnose",
-                             checkpoint=self.checkpoint)
-        by_label = {f"{t.key}/{k}": v for t, out in zip(tasks, outcomes) for k, v in out.items()}
-        results = [assemble(t, by_label, len(folds), len(tests), self.baseline_error_mm_,
-                            self.repeat_scatter_mm_) for t in tasks]
-        results.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))
-        self.candidates_ = [r for r in results if r.kind == "candidate"]
-        self.refits_ = [r for r in results if r.kind == "refit"]
-        self.ranked_ = results
-        self.outcomes_ = by_label
-        self._evidence(tests, base)
-        if self.best_ is not None and self.model_form:
-            # the named entry: profile-likelihood intervals beside the curvature ones, and the model-form allowance
-            task = next(t for t in tasks if t.key == f"{self.best_.kind}:{self.best_.effect}")
-            profile_result(task, self.best_, tests, self.repeat_scatter_mm_)
-            from .alternatives import apply_alternatives
-            apply_alternatives(self, self.best_, task, tests)
-        self._decide()
-        from .experiment import experiments_for
-        self.experiments_ = experiments_for(self, tests)
-        self.combination_: dict[str, Any] | None = None
-        self.missing_effects_ = self._single_missing()
-        best = self.best_
-        if (self.combine and self.verdict_ == "outside_library" and best is not None and not best.per_test
-                and math.isfinite(self.repeat_scatter_mm_)
-                and best.cv_error_mm > self.explained_factor * self.repeat_scatter_mm_):
-            from .combine import apply_combination
-            apply_combination(self, tests)
-        self.seconds_ = time.perf_counter() - began
-        self.report_ = self._report()
-        return self
+            stripped = replace(user_base, effects=without_effect(user_base.effects, name))
+            tasks.append(CandidateTask(stripped, refit_candidate(name, values, user_base.specimen), tuple(tests), (),
+                                       self.max_nfev, refit_cands, refit, kind="refit"))
+        return tasks
 
+    def _model_form(self, ev: Evidence, task: CandidateTask, tests: list[MeasuredTest]) -> None:
+        """Record the examined entry's profile-likelihood intervals and model-form allowance on it."""
+        from .alternatives import model_form_of, model_interval
+        best = ev.best
+        assert best is not None
+        profile_result(task, best, tests, ev.repeat_scatter_mm)
+        found = model_form_of(best, task, tests, ev.user_base, list(ev.refit), self.executor)
+        if found is not None:
+            best.model_form = found
+            best.set_intervals("model_form", model_interval(best))
+
+    def next_round(self) -> Diagnoser:
+        """A diagnoser for a further round of forward selection (:mod:`~triplanar.workbench.combine`): the same
+        candidates, folds, executor and start values; no progress bar, no refits of given effects, no combination,
+        no model-form step."""
+        return Diagnoser(self.candidates, self.folds, self.executor, False, self.max_nfev, refit_given=False,
+                         start=self.start, combine=False, model_form=False,
+                         friction_scatter_deg=self.friction_scatter_deg)
 
     def _with_start(self, cand: Candidate) -> Candidate:
         """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""
@@ -190,80 +203,84 @@ class Diagnoser:
             edits.append(replace(p, value=float(v), start=float(v), min=min(p.min, v), max=max(p.max, v)))
         return cand.with_parameters(edits)
 
-    def _evidence(self, tests: list[MeasuredTest], base: ModelSpec) -> None:
-        """Noise, expected scatter and the evidence in time (:mod:`triplanar.workbench.evidence`)."""
+    def _gather(self, tests: list[MeasuredTest], user_base: ModelSpec, base: ModelSpec,
+                refit: dict[str, dict[str, float]], folds: list[list[float]], baseline: list[TestDiscrepancy],
+                scatter: float, ranked: list[CandidateResult]) -> Evidence:
+        """Noise, expected scatter, the evidence in time and the examined entry's residual
+        (:mod:`triplanar.workbench.evidence`)."""
         def evaluate(spec: ModelSpec, ts: Sequence[MeasuredTest]) -> list[TestDiscrepancy]:
             if spec is base and ts is tests:
-                return self.baseline_            # the model as given: evaluated already
+                return baseline            # the model as given: evaluated already
             return discrepancies(evaluate_spec(spec, ts))
-        self.noise_mm_ = instrument_noise_mm(tests)
-        self.noise_floor_mm_ = noise_floor_mm(tests, self.noise_mm_)
-        self.expected_scatter_mm_ = expected_scatter_mm(base, tests, self.noise_mm_, self.friction_scatter_deg,
-                                                        evaluate)
-        self.time_domain_ = time_domain(self.baseline_)
-        self.systematic_ = systematic_bias(self.baseline_)
-        # a bias below the scatter: an entry that removes any of it may explain it (judged by what it leaves); a model
-        # whose error is above the scatter keeps the usual bar
-        scatter = self.repeat_scatter_mm_
-        below = math.isfinite(scatter) and self.baseline_error_mm_ <= self.quiet_factor * scatter
-        least = 1e-9 if self.systematic_["systematic"] and below else self.min_improvement
-        explaining = [c for c in self.ranked_ if c.plausible and c.improvement >= least]
-        self.best_, self.lookalikes_ = parsimonious(explaining) if explaining else (None, [])
-        self.after_, self.best_label_ = None, None
-        if self.best_ is not None:
-            if self.best_.per_test_values:
-                from .pertest import evaluate_per_test
-                after = evaluate_per_test(self._spec_of(self.best_), self.best_.per_test_values, tests)
-            else:
-                after = discrepancies(evaluate_spec(self._spec_of(self.best_), tests))
-            self.after_ = after
-            self.best_label_ = f"{'refitted ' if self.best_.kind == 'refit' else '+ '}{self.best_.effect}"
-            self.time_domain_after_ = time_domain(after)
-            self.growth_after_ = growth_along_travel(after)
-            self.systematic_after_ = systematic_bias(after)
-        else:
-            self.time_domain_after_, self.growth_after_ = self.time_domain_, growth_along_travel(self.baseline_)
-            self.systematic_after_ = self.systematic_
+        noise = instrument_noise_mm(tests)
+        baseline_error = overall_error(baseline)
+        systematic = systematic_bias(baseline)
+        best, lookalikes = rules.examined_entry(ranked, baseline_error, scatter, systematic["systematic"])
+        after = residual_of(user_base, best, tests) if best is not None else None
+        shown = after if after is not None else baseline
+        return Evidence(user_base, base, refit, folds, baseline, baseline_error, errors_by_load(baseline), scatter,
+                        noise, noise_floor_mm(tests, noise),
+                        expected_scatter_mm(base, tests, noise, self.friction_scatter_deg, evaluate),
+                        self.friction_scatter_deg, ranked, time_domain(baseline), systematic, best, lookalikes, after,
+                        time_domain(shown), growth_along_travel(shown), systematic_bias(shown) if after is not None
+                        else systematic)
 
-    def _spec_of(self, result: CandidateResult) -> ModelSpec:
-        spec = self.user_base_
-        if result.kind == "refit":
-            spec = replace(spec, effects=without_effect(spec.effects, result.effect))
-        for name, values in result.all_values.items():
-            if name != result.effect:
-                spec = spec_with_values(spec, name, values)
-        return spec_with_values(spec, result.effect, result.all_values[result.effect])
+    # -- views of the evidence and the verdict (read-only) ---------------------------------------------------------
+    verdict_ = property(lambda self: self.decision_.kind.value, doc="The verdict's kind (``\"library_effect\"``, ...).")
+    missing_effect_ = _verdict_field("missing_effect", "The library effect named (``None`` for a refit or nothing).")
+    confidence_ = _verdict_field("confidence", "``high``, ``low`` or ``none``.")
+    reason_ = _verdict_field("reason", "The verdict's reason in one sentence.")
+    unexplained_mm_ = _verdict_field("unexplained_mm", "What the verdict leaves unexplained (mm).")
+    missing_effects_ = property(lambda self: [e.as_json() for e in self.decision_.effects],
+                                doc="The named entries as the report lists them.")
+    combination_ = _verdict_field("combination", "The combination tried, as judged (``None`` if none was).")
+    experiments_ = _evidence_field("experiments", "The deciding experiments between look-alikes.")
+    user_base_ = _evidence_field("user_base", "The model as given.")
+    base_ = _evidence_field("base", "The model diagnosed (with any forward-selection effects at their values).")
+    refit_ = _evidence_field("refit", "The forward-selection effects refitted with every candidate.")
+    baseline_ = _evidence_field("baseline", "Per-test discrepancies of the model as given.")
+    baseline_error_mm_ = _evidence_field("baseline_error_mm", "RMS discrepancy of the model as given (mm).")
+    baseline_by_load_ = _evidence_field("baseline_by_load", "Its RMS discrepancy per load (mm).")
+    repeat_scatter_mm_ = _evidence_field("repeat_scatter_mm", "The repeats' scatter (mm).")
+    expected_scatter_mm_ = _evidence_field("expected_scatter_mm", "What noise and the specimen explain (mm).")
+    folds_ = _evidence_field("folds", "The cross-validation folds (load levels).")
+    ranked_ = _evidence_field("ranked", "Every entry, best cross-validated error first.")
+    candidates_ = _evidence_field("candidates", "The candidates, best first.")
+    refits_ = _evidence_field("refits", "The given effects refitted, best first.")
+    best_ = _evidence_field("best", "The entry examined (``None`` when none explains).")
+    lookalikes_ = _evidence_field("lookalikes", "Entries the data cannot tell from it.")
 
+    @property
+    def report_(self) -> dict[str, Any]:
+        """The JSON report (``diagnose.json``): a view of ``decision_`` and ``evidence_``."""
+        return report_json(self.evidence_, self.decision_, self.seconds_)
 
-    # -- the verdict (triplanar.workbench.verdict) ------------------------------------------------------
-    def _decide(self) -> None:
-        verdict.decide(self)
+    @property
+    def after_(self) -> list[TestDiscrepancy] | None:
+        """Per-test discrepancies of the named model (the combination's when it is named)."""
+        return shown_after(self.evidence_, self.decision_)[0]
 
-    def _residual_kinds(self, unexplained_mm: float) -> list[str]:
-        return verdict.residual_kinds(self, unexplained_mm)
+    @property
+    def best_label_(self) -> str | None:
+        return shown_after(self.evidence_, self.decision_)[3]
 
     def missing_kind(self) -> str | None:
-        """``"physics"``, ``"instrument"`` or ``"physics and instrument"``: what the named entries act on."""
-        return verdict.missing_kind(self)
-
-    def _single_missing(self) -> list[dict[str, Any]]:
-        return verdict.single_missing(self)
-
-    def _report(self) -> dict[str, Any]:
-        return verdict.report(self)
+        """``"physics"``, ``"instrument"`` or ``"instrument and physics"``: what the named entries act on."""
+        return missing_kind(self.decision_)
 
     # -- using the result -----------------------------------------------------------------------------
     def best_spec(self) -> ModelSpec:
         """The model with the named missing effect (and any refitted ones) at their fitted values (the
         model itself if none is named)."""
-        if self.verdict_ == "library_effects":
-            return self.combined_spec_
-        if self.verdict_ == "refit_given_effect" and self.best_ is not None:
-            return self._spec_of(self.best_)
-        if self.missing_effect_ is None:
-            return self.base_
-        best = next(c for c in self.candidates_ if c.effect == self.missing_effect_)
-        return self._spec_of(best)
+        ev, verdict = self.evidence_, self.decision_
+        if verdict.kind is VerdictKind.LIBRARY_EFFECTS and ev.combination is not None and ev.combination.spec:
+            return ev.combination.spec
+        if verdict.kind is VerdictKind.REFIT_GIVEN_EFFECT and ev.best is not None:
+            return spec_of(ev.user_base, ev.best)
+        if verdict.missing_effect is None:
+            return ev.base
+        best = next(c for c in ev.candidates if c.effect == verdict.missing_effect)
+        return spec_of(ev.user_base, best)
 
     def score(self, tests: Sequence[MeasuredTest]) -> float:
         """Fraction of the model's RMS discrepancy on ``tests`` removed by adding the named effect (0 when

@@ -33,17 +33,11 @@ from ..interpolate import linear
 from ..measurement import MeasuredTest
 from ..outcome import Outcome
 from .discrepancy import INTEGRATOR_FLOOR_MM, MM, TestDiscrepancy, rms
+# the detectors' thresholds are constants of the verdict's rules, kept together with them
+from .rules import HINT_ALPHA, MOSTLY_IN_TIME, PEAK_FACTOR, SYSTEMATIC_ALPHA
 
 #: Frequencies below this are trends, not oscillations (a test lasts 0.3-1 s).
 F_MIN_HZ = 2.0
-#: A spectral peak this many times the median power counts as periodic. Tests last 25-70 samples; on noise-only
-#: data (8 tests, tests/triplanar/workbench/test_workbench_verdicts.py's "none" dataset) the largest ratio was 3.7, with a 10 Hz, 30 %
-#: thrust ripple 8.7-13.5 in 6 of 7 tests long enough to look.
-PEAK_FACTOR = 6.0
-#: The error is "mostly in time" when the travel lag's RMS exceeds this many times the mean path distance (case B on the
-#: shipped end-friction data: 4 x; on the rate-friction dataset of tests/triplanar/workbench/test_workbench_verdicts.py:
-#: 11.5 mm against 0.64 mm, 18 x).
-MOSTLY_IN_TIME = 10.0
 #: Step of the friction angles for the linear propagation of the specimen's variability.
 STEP_DEG = 1.0
 
@@ -228,13 +222,6 @@ def growth_along_travel(found: Sequence[TestDiscrepancy]) -> float:
     return float(np.median(ratios)) if ratios else math.nan
 
 
-#: Significance level of :func:`systematic_bias` over all its features together (Bonferroni); its false-positive
-#: rate on clean data is measured by ``benchmarks/threshold_check.py`` (``docs/workbench.md``).
-SYSTEMATIC_ALPHA = 0.01
-#: Below this (and above ``SYSTEMATIC_ALPHA``) a shared bias is only hinted at: not a verdict, but no ``high``
-#: confidence either (an unmodelled look-alike biases a parameter while leaving little else;
-#: ``benchmarks/interval_coverage.py``).
-HINT_ALPHA = 0.05
 
 
 def _features(d: TestDiscrepancy) -> dict[str, float]:

@@ -26,11 +26,12 @@ from ..measurement import MeasuredTest
 from ..simulate import simulate
 from .spec import SIM_OPTIONS, EvalTask, ModelSpec
 from .fitbase import safe_evaluate
+from .sweep import spec_of
+from .verdict import label
 from ..outcome import Outcome
 
 if TYPE_CHECKING:
-    from .diagnose import Diagnoser
-    from .sweep import CandidateResult
+    from .verdict import Evidence
 
 #: Samples per second of the simulated tests (the laboratory's rate).
 RATE_HZ = 200.0
@@ -110,26 +111,22 @@ def describe(exp: dict[str, Any]) -> str:
             f"them at 95 %")
 
 
-def experiments_for(diag: Diagnoser, tests: Sequence[MeasuredTest]) -> list[dict[str, Any]]:
-    """For the named entry and each look-alike (at most two): the loads where their fitted models differ most
-    relative to the scatter, and the repeats that would separate them (:mod:`triplanar.workbench.experiment`)."""
-    if diag.best_ is None or not diag.lookalikes_:
+def experiments_for(ev: Evidence, tests: Sequence[MeasuredTest]) -> list[dict[str, Any]]:
+    """For the examined entry and each look-alike (at most two): the loads where their fitted models differ most
+    relative to the scatter, and the repeats that would separate them (module doc). Evidence: the verdict's reason
+    quotes each one's ``sentence``."""
+    if ev.best is None or not ev.lookalikes:
         return []
-    sigma = diag.repeat_scatter_mm_ if math.isfinite(diag.repeat_scatter_mm_) else diag.expected_scatter_mm_
+    sigma = ev.repeat_scatter_mm if math.isfinite(ev.repeat_scatter_mm) else ev.expected_scatter_mm
     measured = sorted({float(t.shear_force_N) for t in tests})
     # below the lowest measured load finely (a model that holds where the other slides decides at once)
     grid = sorted(set(measured) | {round(f, 1) for f in np.linspace(measured[0], 1.3 * measured[-1], 8)}
                   | {round(k * measured[0], 1) for k in (0.8, 0.85, 0.9, 0.95)})
-    longest = max((float(d.travel_m[-1]) for d in diag.baseline_ if len(d.travel_m)), default=0.08)
-    def label(c: CandidateResult) -> str:
-        return f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"
-
+    longest = max((float(d.travel_m[-1]) for d in ev.baseline if len(d.travel_m)), default=0.08)
     out = []
-    for other in diag.lookalikes_[:2]:
-        exp = deciding_experiment((label(diag.best_), diag._spec_of(diag.best_)), (label(other), diag._spec_of(other)),
-                                  sigma, grid, max(longest, 0.01))
+    for other in ev.lookalikes[:2]:
+        exp = deciding_experiment((label(ev.best), spec_of(ev.user_base, ev.best)),
+                                  (label(other), spec_of(ev.user_base, other)), sigma, grid, max(longest, 0.01))
         exp["sentence"] = describe(exp)
         out.append(exp)
-    if out:
-        diag.reason_ += "; " + "; ".join(e["sentence"] for e in out)
     return out

@@ -309,7 +309,13 @@ def format_diagnosis(report: Mapping[str, Any]) -> str:
                          f"(confidence {m['confidence']})")
     lines += _lookalike_lines(report)
     kind = f" ({report['missing_kind']})" if report.get("missing_kind") else ""
-    lines += ["", f"verdict: {report.get('verdict', '?')}   missing effect: {verdict}{kind}   confidence: "
+    named = f"missing effect: {verdict}{kind}"
+    if report.get("verdict") == "refit_given_effect":
+        # nothing is missing: a value given was wrong; say which, and its new value
+        wrong = [format_param(f"{w['effect']}.{w['param']}", w["fitted"], w["ci95"], None)
+                 + ("" if w["given"] is None else f" (given {w['given']:.4g})") for w in report.get("wrong_given") or []]
+        named = "wrong given parameter: " + ("; ".join(wrong) or ", ".join(m["effect"] for m in many))
+    lines += ["", f"verdict: {report.get('verdict', '?')}   {named}   confidence: "
                   f"{report['confidence']}",
               f"why: {report['reason']}", f"time: {report['seconds']:.1f} s"]
     return "\n".join(lines)

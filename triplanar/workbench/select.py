@@ -23,6 +23,7 @@ from .diagnose import Diagnoser
 from .executor import ExecutorLike
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
 from .parameters import EffectParameters, FitParameter, listed, shared_values
+from .rules import QUIET_FACTOR
 from .spec import ModelSpec
 
 
@@ -135,7 +136,7 @@ class ForwardSelection:
             if len(added) - len(initial or {}) >= self.max_effects:
                 break
             scatter = diag.repeat_scatter_mm_
-            if math.isfinite(scatter) and error <= Diagnoser.quiet_factor * scatter:
+            if math.isfinite(scatter) and error <= QUIET_FACTOR * scatter:
                 self.stop_reason_ = (f"the model now matches the data to within the repeats' own scatter (error "
                                      f"{error:.2f} mm, scatter {scatter:.2f} mm): nothing is left to explain")
                 break

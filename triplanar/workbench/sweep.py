@@ -21,8 +21,8 @@ import numpy as np
 
 from ..effects import REGISTRY
 from ..measurement import MeasuredTest
-from .candidates import Candidate
-from .discrepancy import rms
+from .candidates import Candidate, without_effect
+from .discrepancy import TestDiscrepancy, rms
 from .fit import FitOutcome, FitTask, discrepancies, evaluate_spec, run_fit
 from .intervals import interval95
 from .parameters import EffectParameters, FitParameter, listed, shared_values, standard_errors
@@ -320,3 +320,25 @@ def profile_result(task: CandidateTask, result: CandidateResult, tests: Sequence
     bounds = [(REGISTRY[e].parameters[p].lower, REGISTRY[e].parameters[p].upper) for e, p in problem.names]
     found = fitted_profile_intervals(problem, vector, se, quantile(len(tests), len(own)), bounds, only=len(own))
     result.set_intervals("profile", dict(zip(own, found)))
+
+
+def spec_of(user_base: ModelSpec, result: CandidateResult) -> ModelSpec:
+    """The model ``user_base`` with ``result``'s entry at its fitted values (a refit replaces the given effect), and
+    the effects fitted jointly with it at theirs."""
+    spec = user_base
+    if result.kind == "refit":
+        spec = replace(spec, effects=without_effect(spec.effects, result.effect))
+    for name, values in result.all_values.items():
+        if name != result.effect:
+            spec = spec_with_values(spec, name, values)
+    return spec_with_values(spec, result.effect, result.all_values[result.effect])
+
+
+def residual_of(user_base: ModelSpec, result: CandidateResult, tests: Sequence[MeasuredTest]) -> list[TestDiscrepancy]:
+    """The per-test discrepancies of ``user_base`` with ``result``'s entry (each test's own values of per-test
+    parameters)."""
+    spec = spec_of(user_base, result)
+    if result.per_test_values:
+        from .pertest import evaluate_per_test
+        return evaluate_per_test(spec, result.per_test_values, tests)
+    return discrepancies(evaluate_spec(spec, tests))

@@ -1,294 +1,238 @@
-"""The verdict of a diagnosis: which entry is named, with what confidence and why, and the JSON report.
+"""What a diagnosis gathers and what it concludes, as values: :class:`Evidence` in, :class:`Verdict` out.
 
-Deciding (the thresholds are attributes of :class:`~triplanar.workbench.diagnose.Diagnoser`):
-
-* ``repeat_scatter_mm``: the discrepancy a perfect model would still show (repeats' spread about their mean
-  path, :func:`~triplanar.workbench.discrepancy.repeat_scatter_mm`).
-* Nothing to explain: baseline error below ``quiet_factor`` x scatter (and no bias common to all tests that an
-  entry removes) -> ``none_missing``, or ``outside_library`` when the residual shows a pattern.
-* An entry *explains* the data when its improvement (fraction of the baseline error removed, cross-validated) is
-  at least ``min_improvement`` and none of its parameters ends at the edge of its plausible range; of those, the
-  one-standard-error rule names the simplest that fits as well as the best (:mod:`~triplanar.workbench.parsimony`).
-* Confidence ``high`` when, in addition, its improvement is at least ``high_improvement``, its cross-validated error
-  is within ``explained_factor`` x scatter (what is left looks like repeat scatter), the runner-up's cross-validated
-  error is at least ``margin`` x the winner's and worse by more than the uncertainty of the difference, no
-  look-alike is known, no pattern or hint of a shared bias remains, and something was held out. Otherwise ``low``.
+:class:`~triplanar.workbench.diagnose.Diagnoser` gathers the :class:`Evidence` (the fits, their intervals, the
+scatter, the residual's patterns, the look-alikes, the combination tried, the deciding experiments);
+:func:`triplanar.workbench.rules.decide`, and nothing else, turns it into a :class:`Verdict`. The JSON report
+(:func:`report_json`) and the printout (:func:`triplanar.workbench.results.format_diagnosis`, of that report) are
+views of the two.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Mapping
-
-from ..effects import REGISTRY
-from .alternatives import moved_outside
-from .evidence import HINT_ALPHA
-from .parsimony import difference_se
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 if TYPE_CHECKING:
-    from .diagnose import Diagnoser
+    from .discrepancy import TestDiscrepancy
+    from .spec import ModelSpec
     from .sweep import CandidateResult
 
 
-def _fmt(values: Mapping[str, float]) -> str:
-    return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
+class VerdictKind(str, Enum):
+    """What the verdict says (the report's ``verdict`` field is its value)."""
+
+    NONE_MISSING = "none_missing"                  # the model matches the data to within noise and the specimen
+    LIBRARY_EFFECT = "library_effect"              # one library effect, added, explains the data
+    LIBRARY_EFFECTS = "library_effects"            # two or more, together, do
+    REFIT_GIVEN_EFFECT = "refit_given_effect"      # a parameter the user gave is wrong; its refitted value explains
+    OUTSIDE_LIBRARY = "outside_library"            # what remains is not noise, and no library entry explains it
 
 
-def residual_kinds(diag: Diagnoser, unexplained_mm: float) -> list[str]:
-    """What kind of residual remains (the evidence of an ``outside_library`` verdict)."""
-    kinds = []
-    td = diag.time_domain_after_
-    if td.get("dominant_frequency_hz") is not None:
-        kinds.append(f"periodic at {td['dominant_frequency_hz']:.1f} Hz (a spectral peak in "
-                     f"{td['periodic_fraction']:.0%} of the tests)")
-    if math.isfinite(diag.growth_after_) and diag.growth_after_ > 2.0:
-        kinds.append(f"growing with travel (the lateral error over the last third of the travel is "
-                     f"{diag.growth_after_:.1f} x that over the first)")
-    scatter, expected = diag.repeat_scatter_mm_, diag.expected_scatter_mm_
-    if math.isfinite(scatter) and math.isfinite(expected) and scatter > diag.scatter_factor * expected:
-        kinds.append(f"random from test to test (the repeats scatter {scatter:.2f} mm, {scatter / expected:.1f} x "
-                     f"the {expected:.2f} mm that instrument noise ({diag.noise_mm_:.2f} mm) and a "
-                     f"{diag.friction_scatter_deg:g} deg friction scatter explain)")
-    bias = diag.systematic_after_
-    if bias["systematic"]:
-        kinds.append(f"systematic, common to all tests (the {bias['feature']} averages {bias['mean']:+.3g} over "
-                     f"the {bias['levels']} load levels, {abs(bias['z']):.1f} standard errors of the repeats' "
-                     f"means from 0; p = {bias['p_value_all']:.2g})")
-    if td.get("mostly_in_time"):
-        kinds.append(f"mostly in time (travel lag {td['lag_rms_mm']:.2f} mm RMS against a mean path distance "
-                     f"of {td['mean_distance_mm']:.2f} mm)")
-    if not kinds and math.isfinite(unexplained_mm):
-        kinds.append(f"{unexplained_mm:.2f} mm unexplained, without a periodic or travel-growing pattern")
-    return kinds
+@dataclass(frozen=True)
+class Reason:
+    """One clause of the verdict's reason: its sentence, the rule that made it (a constant of
+    :mod:`~triplanar.workbench.rules` or the name of the test) and the number it rests on (with the limit it was
+    held against, where the rule has one)."""
 
-@dataclass
-class Judgement:
-    """What the named entry's confidence and verdict rest on (:func:`judge`)."""
+    text: str
+    rule: str
+    value: float | None = None
+    limit: float | None = None
 
-    scatter: float              # the scatter what it leaves is judged against
-    scatter_ok: bool            # the repeats scatter no more than noise and the specimen explain
+    def as_json(self) -> dict[str, Any]:
+        return {"text": self.text, "rule": self.rule, "value": self.value, "limit": self.limit}
+
+
+@dataclass(frozen=True)
+class NamedEffect:
+    """An entry the verdict names: a candidate added, or a given effect refitted (``given``: the values the user gave
+    that the refit replaced). ``report``: its line of the report's ``missing_effects`` (the fields there)."""
+
+    effect: str
+    kind: str                                   # "candidate" or "refit"
+    params: Mapping[str, float]
+    param_ci95: Mapping[str, Sequence[float] | None]
+    confidence: str
+    given: Mapping[str, float] = field(default_factory=dict)
+    report: Mapping[str, Any] = field(default_factory=dict)
+
+    def as_json(self) -> dict[str, Any]:
+        return dict(self.report)
+
+    def wrong_given(self) -> list[dict[str, Any]]:
+        """A refit's wrong given parameters: ``{effect, param, given, fitted, ci95}`` of each it moved."""
+        if self.kind != "refit":
+            return []
+        return [{"effect": self.effect, "param": p, "given": self.given.get(p), "fitted": v,
+                 "ci95": None if self.param_ci95.get(p) is None else list(self.param_ci95[p])}
+                for p, v in self.params.items()]
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The conclusion of a diagnosis (:func:`triplanar.workbench.rules.decide` makes it, nothing else).
+
+    ``effects``: the named entries, in order (empty when nothing is named); ``missing_effect``: the library effect the
+    report names (a candidate; ``None`` for a refit or when nothing is named); ``reasons``: the clauses of the reason,
+    each with its rule and number; ``combination``: the forward selection tried, as judged (``steps``,
+    ``cv_error_mm``, ``explains``, ``periodic``), or ``None``; ``unexplained_mm``: what the verdict leaves
+    unexplained (the named entries' cross-validated error, else the baseline)."""
+
+    kind: VerdictKind
+    effects: tuple[NamedEffect, ...]
+    missing_effect: str | None
+    confidence: str
+    reasons: tuple[Reason, ...]
+    unexplained_mm: float
+    combination: Mapping[str, Any] | None = None
+
+    @property
+    def reason(self) -> str:
+        """The reason in one sentence (the report's ``reason``)."""
+        return "; ".join(r.text for r in self.reasons)
+
+
+@dataclass(frozen=True)
+class Combination:
+    """Forward selection from the best single entry (:func:`triplanar.workbench.combine.combine`): per step its
+    entry, error, share of the improvement, runner-up and look-alikes, its parameters from the last joint fit; the
+    combination's cross-validated error, the residual after it (periodic, systematic), its model, and the uncertainty
+    of its advantage over the best single entry (``gain_mm2``, ``gain_se_mm2``: held-out squared error, mean over
+    the tests and its standard error)."""
+
+    steps: tuple[Mapping[str, Any], ...]
+    cv_error_mm: float
     periodic: bool
-    systematic: bool            # a bias common to all tests remains after it
-    explained: bool             # what it leaves is within the scatter
-    separated: bool             # the runner-up is worse by the margin and the uncertainty; no look-alike
-    hinted: bool                # a hint (p < HINT_ALPHA) of a shared bias remains
-    high: bool
-    runner: CandidateResult | None
-    moved: list[dict[str, Any]]  # alternatives that move a named parameter outside its interval (alternatives.py)
+    systematic: bool
+    spec: ModelSpec | None
+    after: list[TestDiscrepancy] | None
+    time_domain_after: Mapping[str, Any]
+    growth_after: float
+    gain_mm2: float = math.nan
+    gain_se_mm2: float = math.nan
 
 
-def decide(diag: Diagnoser) -> None:
-    """Set ``diag``'s verdict, missing effect, confidence, reason and unexplained error (the module's rules)."""
-    diag.missing_effect_, diag.confidence_, diag.verdict_ = None, "none", "outside_library"
-    if _nothing_to_explain(diag):
-        return
-    best = diag.best_
-    base = diag.baseline_error_mm_
-    if best is None:
-        diag.unexplained_mm_ = base
-        top = diag.ranked_[0] if diag.ranked_ else None
-        detail = (f"; the best, {top.effect}, removes {top.improvement:.0%} of the error"
-                  f"{'' if top.plausible else ' with an implausible ' + ', '.join(top.at_bound)}"
-                  if top else "")
-        diag.reason_ = (f"no candidate explains the discrepancy (none removes at least "
-                        f"{diag.min_improvement:.0%} of it with plausible parameters){detail}; what remains: "
-                        + "; ".join(residual_kinds(diag, base)))
-        return
-    diag.unexplained_mm_ = best.cv_error_mm
-    j = judge(diag, best)
-    diag.confidence_ = "high" if j.high else "low"
-    why = _why(diag, best, j)
-    if j.explained and j.scatter_ok and not j.periodic:
-        diag.verdict_ = "refit_given_effect" if best.kind == "refit" else "library_effect"
-        if best.kind == "candidate":
-            diag.missing_effect_ = best.effect
-    else:
-        # a library effect helps, but what it leaves is not noise: say so rather than name it as the answer
-        diag.verdict_ = "outside_library"
-        diag.missing_effect_ = best.effect if best.kind == "candidate" else None
-        why.append("but what remains is not noise: " + "; ".join(residual_kinds(diag, best.cv_error_mm)))
-    if not j.high:
-        why.append("low confidence: " + "; ".join(lacks(diag, best, j.systematic, j.explained, j.separated,
-                                                             j.scatter_ok and not j.periodic, j.hinted, j.moved)))
-    diag.reason_ = "; ".join(why)
+@dataclass(frozen=True)
+class Evidence:
+    """Everything a diagnosis gathered (:meth:`triplanar.workbench.diagnose.Diagnoser.fit`), before any verdict.
+
+    The model (``user_base``: as given; ``base``: with the forward-selection effects ``refit`` at their values), the
+    model as given against the data (``baseline``, its error overall and per load), the repeats' scatter and what
+    noise and the specimen explain of it, the entries fitted (``ranked``: candidates and refits, best cross-validated
+    error first), the entry examined (``best``, ``None`` when none explains) and its look-alikes, the residual in time
+    and its shared bias before and after it, the deciding experiments and the combination tried."""
+
+    user_base: ModelSpec
+    base: ModelSpec
+    refit: Mapping[str, Mapping[str, float]]
+    folds: Sequence[Sequence[float]]
+    baseline: list[TestDiscrepancy]
+    baseline_error_mm: float
+    baseline_by_load: Mapping[float, float]
+    repeat_scatter_mm: float
+    noise_mm: float
+    noise_floor_mm: float
+    expected_scatter_mm: float
+    friction_scatter_deg: float
+    ranked: Sequence[CandidateResult]
+    time_domain: Mapping[str, Any]
+    systematic: Mapping[str, Any]
+    best: CandidateResult | None
+    lookalikes: Sequence[CandidateResult]
+    after: list[TestDiscrepancy] | None
+    time_domain_after: Mapping[str, Any]
+    growth_after: float
+    systematic_after: Mapping[str, Any]
+    experiments: Sequence[Mapping[str, Any]] = ()
+    combination: Combination | None = None
+
+    @property
+    def candidates(self) -> list[CandidateResult]:
+        return [r for r in self.ranked if r.kind == "candidate"]
+
+    @property
+    def refits(self) -> list[CandidateResult]:
+        return [r for r in self.ranked if r.kind == "refit"]
+
+    @property
+    def held_out(self) -> bool:
+        """Something was held out (two load levels or more)."""
+        return len(self.folds) > 1
+
+    @property
+    def where(self) -> str:
+        return "on held-out loads" if self.held_out else "in sample (one load level: nothing held out)"
+
+    @property
+    def error_word(self) -> str:
+        return "held-out error" if self.held_out else "in-sample error"
 
 
-def _scatter_ok(diag: Diagnoser) -> bool:
-    scatter, expected = diag.repeat_scatter_mm_, diag.expected_scatter_mm_
-    return not (math.isfinite(scatter) and math.isfinite(expected) and scatter > diag.scatter_factor * expected)
-
-
-def _nothing_to_explain(diag: Diagnoser) -> bool:
-    """The model as given is within the repeats' scatter (and no entry explains a shared bias below it): set the
-    verdict (``none_missing``, or ``outside_library`` when the residual has a pattern) and return True."""
-    scatter, expected, base = diag.repeat_scatter_mm_, diag.expected_scatter_mm_, diag.baseline_error_mm_
-    # a candidate with per-test parameters that brings the error down to what noise and the specimen explain
-    # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter
-    per_test_explains = (diag.best_ is not None and bool(diag.best_.per_test) and math.isfinite(expected)
-                         and diag.best_.fit_error_mm <= diag.scatter_factor * expected)
-    hidden_bias = diag.systematic_["systematic"] and diag.best_ is not None   # below the scatter, but shared
-    if not (math.isfinite(scatter) and base <= diag.quiet_factor * scatter) or per_test_explains or hidden_bias:
-        return False
-    diag.unexplained_mm_ = base
-    periodic = diag.time_domain_after_.get("dominant_frequency_hz") is not None
-    if _scatter_ok(diag) and not periodic and not diag.systematic_after_["systematic"]:
-        diag.verdict_ = "none_missing"
-        diag.reason_ = (f"the model already matches the data to within the repeats' own scatter (error "
-                        f"{base:.2f} mm, scatter {scatter:.2f} mm), and that scatter is what instrument "
-                        f"noise and the specimen's variability explain ({expected:.2f} mm): nothing is missing")
-    else:
-        diag.reason_ = (f"the model matches the data as well as the repeats agree with each other (error "
-                        f"{base:.2f} mm, scatter {scatter:.2f} mm), but something outside the library acts: "
-                        + "; ".join(residual_kinds(diag, base)))
-    return True
-
-
-def judge(diag: Diagnoser, best: CandidateResult) -> Judgement:
-    """The evidence for the named entry ``best``: what it leaves against the scatter, the runner-up and look-alikes,
-    the residual's patterns; ``high`` when all of it holds."""
-    scatter, expected = diag.repeat_scatter_mm_, diag.expected_scatter_mm_
-    scatter_ok = _scatter_ok(diag)
-    periodic = diag.time_domain_after_.get("dominant_frequency_hz") is not None
-    systematic = diag.systematic_after_["systematic"]
-    others = [c for c in diag.ranked_ if c is not best]
-    runner = others[0] if others else None
-    if best.per_test and math.isfinite(expected):
-        # per-test parameters explain test-to-test differences: what they leave is judged against what noise
-        # and the specimen explain, not against the repeats' scatter (which they are meant to absorb)
-        scatter = min(scatter, expected) if math.isfinite(scatter) else expected
-        scatter_ok = best.fit_error_mm <= diag.scatter_factor * expected
-    explained = ((not math.isfinite(scatter)) or best.cv_error_mm <= diag.explained_factor * scatter) \
-        and not systematic
-    diff, diff_se = difference_se(best, runner) if runner is not None else (math.nan, math.nan)
-    # the runner-up must be worse by the margin and by more than the uncertainty of the difference, and no
-    # entry may be within that uncertainty of the one named (a look-alike)
-    separated = runner is None or not math.isfinite(runner.cv_error_mm) or (
-        runner.cv_error_mm >= diag.margin * best.cv_error_mm and not (math.isfinite(diff) and diff <= diff_se)
-        and not diag.lookalikes_)
-    hinted = not systematic and diag.systematic_after_["p_value_all"] < HINT_ALPHA
-    held_out = len(diag.folds_) > 1     # one load level: nothing was held out, nothing was judged out of sample
-    moved = moved_outside(best)
-    high = (best.improvement >= diag.high_improvement and explained and separated and scatter_ok and not periodic
-            and not hinted and held_out and not moved)
-    return Judgement(scatter, scatter_ok, periodic, systematic, explained, separated, hinted, high, runner, moved)
-
-
-def _why(diag: Diagnoser, best: CandidateResult, j: Judgement) -> list[str]:
-    """The reason's clauses for a named entry (before the verdict's own)."""
-    expected, base = diag.expected_scatter_mm_, diag.baseline_error_mm_
-    what = (f"refitting the given {best.effect} ({_fmt(best.given)} -> {_fmt(best.params)})"
-            if best.kind == "refit" else best.effect)
-    why = [f"{what} removes {best.improvement:.0%} of the error {diag.where_}"]
-    if math.isfinite(j.scatter):
-        if best.per_test and math.isfinite(expected):
-            why.append(f"leaving {best.cv_error_mm:.2f} mm against the {expected:.2f} mm that noise and the "
-                       f"specimen explain (its per-test {', '.join(best.per_test)} absorb the repeats' scatter of "
-                       f"{diag.repeat_scatter_mm_:.2f} mm)")
-        else:
-            why.append(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {j.scatter:.2f} mm")
-    top = diag.ranked_[0]
-    if best is not top:
-        why.append(f"{_label(best)} ({len(best.params)} free parameter(s)) is named over {top.effect} "
-                   f"({len(top.params)}), whose {diag.error_word_} {top.cv_error_mm:.3f} mm is lower by less than "
-                   f"the uncertainty of the difference (one-standard-error rule)")
-    if diag.lookalikes_:
-        why.append("the data cannot tell it from " + ", ".join(
-            f"{_label(c)} ({diag.error_word_} {c.cv_error_mm:.3f} mm)" for c in diag.lookalikes_)
-            + ": within the uncertainty of the difference")
-    if j.runner is not None:
-        why.append(f"runner-up {_label(j.runner)} leaves {j.runner.cv_error_mm:.2f} mm")
-    if diag.time_domain_.get("mostly_in_time"):
-        why.append(f"the model's error was mostly in time (travel lag {diag.time_domain_['lag_rms_mm']:.2f} mm "
-                   f"RMS, mean path distance {diag.time_domain_['mean_distance_mm']:.2f} mm)")
-    hidden_bias = diag.systematic_["systematic"]
-    if hidden_bias and not j.systematic and math.isfinite(j.scatter) and base <= diag.quiet_factor * j.scatter:
-        why.append(f"the model as given left a bias common to all tests below the scatter "
-                   f"({diag.systematic_['feature']}, p = {diag.systematic_['p_value_all']:.2g}) that it removes")
-    return why
-
-
-def _label(c: CandidateResult) -> str:
+def label(c: CandidateResult) -> str:
+    """An entry's name in the report (a refit marked ``(refit)``)."""
     return f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"
 
 
-def lacks(diag: Diagnoser, best: CandidateResult, systematic: bool, explained: bool, separated: bool, clean: bool,
-           hinted: bool, moved: list[dict[str, Any]] | None = None) -> list[str]:
-    """Why the confidence is not ``high``."""
-    lacks = []
-    if best.improvement < diag.high_improvement:
-        lacks.append(f"it removes less than {diag.high_improvement:.0%}")
-    if systematic:
-        lacks.append("a bias common to all tests remains")
-    elif not explained:
-        lacks.append("what remains is well above the repeat scatter (another effect may be missing)")
-    if not separated:
-        lacks.append("a look-alike explains the data as well" if diag.lookalikes_ else
-                     "the runner-up explains the data almost as well")
-    if not clean:
-        lacks.append("the residual shows a pattern no library effect explains")
-    if len(diag.folds_) < 2:
-        lacks.append("with one load level nothing was held out")
-    if hinted:
-        bias = diag.systematic_after_
-        lacks.append(f"a hint of a bias common to all tests remains ({bias['feature']}, p = "
-                     f"{bias['p_value_all']:.2g}): an unmodelled effect may have shifted the parameters")
-    for m in moved or []:
-        lacks.append(f"the value depends on the model's form: with {m['alternative']} fitted too, {m['param']} = "
-                     f"{m['value']:.4g}, outside [{m['ci95'][0]:.4g}, {m['ci95'][1]:.4g}]")
-    return lacks
+def shown_after(ev: Evidence, verdict: Verdict) -> tuple[list[TestDiscrepancy] | None, Mapping[str, Any], float,
+                                                         str | None]:
+    """The residual the report shows after the named model: ``(discrepancies, time domain, growth, label)`` (the
+    combination's when the verdict names it, else the best single entry's)."""
+    comb = ev.combination
+    if verdict.kind is VerdictKind.LIBRARY_EFFECTS and comb is not None:
+        return comb.after, comb.time_domain_after, comb.growth_after, "+ " + " + ".join(
+            e.effect for e in verdict.effects)
+    if ev.best is None:
+        return None, ev.time_domain_after, ev.growth_after, None
+    return ev.after, ev.time_domain_after, ev.growth_after, \
+        f"{'refitted ' if ev.best.kind == 'refit' else '+ '}{ev.best.effect}"
 
-def missing_kind(diag: Diagnoser) -> str | None:
-    """``"physics"``, ``"instrument"`` or ``"physics and instrument"``: what the named entries act on."""
-    names = [m["effect"] for m in diag.missing_effects_] or ([diag.missing_effect_] if diag.missing_effect_ else [])
+
+def missing_kind(verdict: Verdict) -> str | None:
+    """``"physics"``, ``"instrument"`` or ``"instrument and physics"``: what the named entries act on."""
+    from ..effects import REGISTRY
+    names = [e.effect for e in verdict.effects] or ([verdict.missing_effect] if verdict.missing_effect else [])
     kinds = sorted({REGISTRY[n].acts_on for n in names if n in REGISTRY})
     return " and ".join(kinds) if kinds else None
 
-def single_missing(diag: Diagnoser) -> list[dict[str, Any]]:
-    """``missing_effects`` of a one-entry verdict (the named candidate, or the refit)."""
-    best = diag.best_
-    if best is None or diag.verdict_ not in ("library_effect", "refit_given_effect"):
-        return []
-    return [{"effect": best.effect, "kind": best.kind, "params": dict(best.params),
-             "param_ci95": dict(best.param_ci95),
-             **({"param_profile_ci95": dict(best.param_profile_ci95)} if best.param_profile_ci95 else {}),
-             **({"param_model_ci95": dict(best.param_model_ci95)} if best.param_model_ci95 else {}),
-             "cv_error_mm": best.cv_error_mm,
-             "share_of_improvement": best.improvement, "confidence": diag.confidence_}]
 
-def report(diag: Diagnoser) -> dict[str, Any]:
+def report_json(ev: Evidence, verdict: Verdict, seconds: float) -> dict[str, Any]:
+    """The JSON report (``diagnose.json``; fields in ``docs/workbench.md``): a view of ``verdict`` and ``ev``."""
     def finite(v: float | None) -> float | None:
         return v if v is not None and math.isfinite(v) else None
 
-    return {"verdict": diag.verdict_,
-            "missing_effect": diag.missing_effect_,
-            "missing_effects": diag.missing_effects_,
-            "missing_kind": diag.missing_kind(),
-            "indistinguishable_from": [f"{c.effect}{' (refit)' if c.kind == 'refit' else ''}"
-                                       for c in getattr(diag, "lookalikes_", [])] if diag.best_ else [],
-            "systematic": {"model_as_given": diag.systematic_, "after_best": diag.systematic_after_},
-            "combination": diag.combination_,
-            "deciding_experiments": diag.experiments_,
-            "confidence": diag.confidence_,
-            "reason": diag.reason_,
-            "baseline_error_mm": diag.baseline_error_mm_,
-            "candidates": [c.as_json() for c in diag.candidates_],
-            "refit_results": [c.as_json() for c in diag.refits_],
+    _, td_after, _, _ = shown_after(ev, verdict)
+    return {"verdict": verdict.kind.value,
+            "missing_effect": verdict.missing_effect,
+            "missing_effects": [e.as_json() for e in verdict.effects],
+            "missing_kind": missing_kind(verdict),
+            "indistinguishable_from": [label(c) for c in ev.lookalikes] if ev.best else [],
+            "systematic": {"model_as_given": dict(ev.systematic), "after_best": dict(ev.systematic_after)},
+            "combination": None if verdict.combination is None else dict(verdict.combination),
+            "deciding_experiments": [dict(e) for e in ev.experiments],
+            "confidence": verdict.confidence,
+            "reason": verdict.reason,
+            "reasons": [r.as_json() for r in verdict.reasons],
+            "wrong_given": [w for e in verdict.effects for w in e.wrong_given()],
+            "baseline_error_mm": ev.baseline_error_mm,
+            "candidates": [c.as_json() for c in ev.candidates],
+            "refit_results": [c.as_json() for c in ev.refits],
             "refits": [{"effect": r.effect, "param": p, "given": r.given.get(p), "fitted": r.params[p],
                         "ci95": r.param_ci95.get(p), "status": r.param_status.get(p),
                         "cv_error_mm": r.cv_error_mm, "improvement": r.improvement}
-                       for r in diag.refits_ for p in r.params],
-            "noise": {"instrument_noise_mm": finite(diag.noise_mm_),
-                      "noise_floor_mm": finite(diag.noise_floor_mm_),
-                      "expected_scatter_mm": finite(diag.expected_scatter_mm_),
-                      "friction_scatter_deg": diag.friction_scatter_deg,
-                      "repeat_scatter_mm": finite(diag.repeat_scatter_mm_),
-                      "unexplained_error_mm": finite(diag.unexplained_mm_)},
-            "time_domain": {**diag.time_domain_, "after_best": diag.time_domain_after_},
-            "repeat_scatter_mm": finite(diag.repeat_scatter_mm_),
-            "baseline_error_by_load_mm": {f"{k:g}": v for k, v in diag.baseline_by_load_.items()},
-            "model": diag.base_.describe(),
-            "folds_N": [[float(f) for f in fold] for fold in diag.folds_],
-            "cross_validated": len(diag.folds_) > 1,
-            "n_tests": len(diag.baseline_),
-            "seconds": round(diag.seconds_, 2)}
+                       for r in ev.refits for p in r.params],
+            "noise": {"instrument_noise_mm": finite(ev.noise_mm),
+                      "noise_floor_mm": finite(ev.noise_floor_mm),
+                      "expected_scatter_mm": finite(ev.expected_scatter_mm),
+                      "friction_scatter_deg": ev.friction_scatter_deg,
+                      "repeat_scatter_mm": finite(ev.repeat_scatter_mm),
+                      "unexplained_error_mm": finite(verdict.unexplained_mm)},
+            "time_domain": {**ev.time_domain, "after_best": dict(td_after)},
+            "repeat_scatter_mm": finite(ev.repeat_scatter_mm),
+            "baseline_error_by_load_mm": {f"{k:g}": v for k, v in ev.baseline_by_load.items()},
+            "model": ev.base.describe(),
+            "folds_N": [[float(f) for f in fold] for fold in ev.folds],
+            "cross_validated": ev.held_out,
+            "n_tests": len(ev.baseline),
+            "seconds": round(seconds, 2)}

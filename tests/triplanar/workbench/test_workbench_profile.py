@@ -90,7 +90,8 @@ def test_an_end_the_objective_never_reaches_is_the_bound() -> None:
 
 
 def test_the_model_form_interval_is_the_hull_of_the_supported_alternatives() -> None:
-    from triplanar.workbench.alternatives import model_interval, moved_outside
+    from triplanar.workbench.alternatives import model_interval
+    from triplanar.workbench.rules import moved_outside
     from triplanar.workbench.parameters import FitParameter
     from triplanar.workbench.sweep import CandidateResult
     phi = FitParameter("end_friction", "phi_deg", 8.6, True, 0.0, 20.0, stderr=0.2, ci95=(8.2, 9.0), status="fitted")

@@ -1,0 +1,464 @@
+"""The verdict's rules and their constants, in one place: :func:`decide` turns a diagnosis's
+:class:`~triplanar.workbench.verdict.Evidence` into its :class:`~triplanar.workbench.verdict.Verdict` (the only
+place one is made); :func:`examined_entry`, :func:`tries_combination` and :func:`step_accepted` answer the
+questions the gathering asks on the way (which entry to examine, whether to try entries in combination, whether a
+further entry joins one).
+
+The rules:
+
+* ``repeat_scatter_mm``: the discrepancy a perfect model would still show (repeats' spread about their mean
+  path, :func:`~triplanar.workbench.discrepancy.repeat_scatter_mm`).
+* Nothing to explain: baseline error below ``QUIET_FACTOR`` x scatter (and no bias common to all tests that an
+  entry removes) -> ``none_missing``, or ``outside_library`` when the residual shows a pattern.
+* An entry *explains* the data when its improvement (fraction of the baseline error removed, cross-validated) is
+  at least ``MIN_IMPROVEMENT`` and none of its parameters ends at the edge of its plausible range; of those, the
+  one-standard-error rule names the simplest that fits as well as the best (:mod:`~triplanar.workbench.parsimony`).
+  It is the verdict (``library_effect``, or ``refit_given_effect`` for a given effect refitted) when what it leaves
+  is within ``EXPLAINED_FACTOR`` x scatter with no bias common to all tests, the repeats scatter no more than
+  ``SCATTER_FACTOR`` x what noise and the specimen explain, and nothing periodic remains; else ``outside_library``
+  ("what remains is not noise").
+* Confidence ``high`` when, in addition, its improvement is at least ``HIGH_IMPROVEMENT``, the runner-up's
+  cross-validated error is at least ``MARGIN`` x the winner's and worse by more than the uncertainty of the
+  difference, no look-alike is known, no hint of a shared bias (p < ``HINT_ALPHA``) remains, no supported
+  alternative form moves a named parameter outside its interval, and something was held out. Otherwise ``low``.
+* Combinations: whenever the entry examined leaves a pattern (the verdict would be ``outside_library``), entries
+  are added to it one at a time (:mod:`~triplanar.workbench.combine`); a further entry joins when it removes at
+  least ``MIN_FALL`` of the current cross-validated error and beats the current model by more than the uncertainty
+  of the difference (held-out squared errors over the tests), at most ``MAX_EFFECTS`` in all. Two or more are named
+  (``library_effects``) when together they leave at most ``EXPLAINED_FACTOR`` x scatter with nothing periodic, beat
+  the best single entry by more than the uncertainty of the difference, and the scatter is what noise and the
+  specimen explain. A step is ``high`` when its runner-up leaves at least ``MARGIN`` x its error and it has no
+  look-alike.
+
+Which data chose the constants: the project's own kernel traces, that is, datasets made by
+:mod:`triplanar.labdata` with the compiled kernel the workbench fits with (the shipped ``data/lab_traces.csv``,
+the seeded datasets of ``tests/triplanar/workbench/``, ``benchmarks/threshold_check.py``,
+``benchmarks/instrument_confusion.py`` and ``benchmarks/interval_coverage.py``), where the model is exact. None was
+chosen on data an independent implementation made; on such data (a laboratory's) what the best fit leaves is
+larger, and these constants may call it "not noise" too often. They are to be re-chosen on an independent
+calibration set; until then they are the values below.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
+
+from .parsimony import difference_se, parsimonious
+from .verdict import Evidence, NamedEffect, Reason, Verdict, VerdictKind, label
+
+if TYPE_CHECKING:
+    from .sweep import CandidateResult
+
+#: An entry explains when it removes at least this fraction of the model's error on held-out loads.
+MIN_IMPROVEMENT = 0.3
+#: ... and is named with ``high`` confidence only when it removes at least this fraction.
+HIGH_IMPROVEMENT = 0.5
+#: What an entry leaves is "within the scatter" up to this many times the repeats' scatter.
+EXPLAINED_FACTOR = 2.0
+#: The model as given needs nothing when its error is within this many times the repeats' scatter.
+QUIET_FACTOR = 1.5
+#: The runner-up must leave this many times the named entry's error for ``high`` confidence.
+MARGIN = 1.25
+#: The repeats' scatter may exceed what noise and the specimen's variability explain by this factor.
+SCATTER_FACTOR = 2.0
+#: The specimen's repeat-to-repeat friction scatter (deg) that ``expected_scatter_mm`` assumes (the shipped data's
+#: laboratory: 0.2 deg).
+FRICTION_SCATTER_DEG = 0.2
+#: The residual "grows with travel" when its lateral error over the last third is this many times the first third's.
+GROWTH_FACTOR = 2.0
+#: A residual spectrum's peak this many times its median power counts as periodic (:mod:`~triplanar.workbench.evidence`).
+#: Tests last 25-70 samples; on noise-only data (8 tests, tests/triplanar/workbench/test_workbench_verdicts.py's "none"
+#: dataset) the largest ratio was 3.7, with a 10 Hz, 30 % thrust ripple 8.7-13.5 in 6 of 7 tests long enough to look.
+PEAK_FACTOR = 6.0
+#: The error is "mostly in time" when the travel lag's RMS exceeds this many times the mean path distance (case B on the
+#: shipped end-friction data: 4 x; on the rate-friction dataset of tests/triplanar/workbench/test_workbench_verdicts.py:
+#: 11.5 mm against 0.64 mm, 18 x).
+MOSTLY_IN_TIME = 10.0
+#: Significance level of :func:`~triplanar.workbench.evidence.systematic_bias` over all its features together
+#: (Bonferroni): below it a bias is "systematic"; its false-positive rate on clean data is measured by
+#: ``benchmarks/threshold_check.py`` (``docs/workbench.md``).
+SYSTEMATIC_ALPHA = 0.01
+#: Below this (and above ``SYSTEMATIC_ALPHA``) a shared bias is only hinted at: not a verdict, but no ``high``
+#: confidence either (an unmodelled look-alike biases a parameter while leaving little else;
+#: ``benchmarks/interval_coverage.py``); the intervals' model-form allowance uses it too.
+HINT_ALPHA = 0.05
+#: A further entry of a combination must remove at least this fraction of the current cross-validated error.
+MIN_FALL = 0.1
+#: At most this many entries in a combination.
+MAX_EFFECTS = 3
+
+
+def _fmt(values: Mapping[str, float]) -> str:
+    return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
+
+
+def scatter_ok(ev: Evidence) -> bool:
+    """The repeats scatter no more than ``SCATTER_FACTOR`` x what noise and the specimen explain."""
+    scatter, expected = ev.repeat_scatter_mm, ev.expected_scatter_mm
+    return not (math.isfinite(scatter) and math.isfinite(expected) and scatter > SCATTER_FACTOR * expected)
+
+
+def examined_entry(ranked: Sequence[CandidateResult], baseline_error_mm: float, scatter_mm: float,
+                   systematic: bool) -> tuple[CandidateResult | None, list[CandidateResult]]:
+    """The entry a diagnosis examines (the parsimonious one of those that explain) and its look-alikes. A bias shared
+    by all tests below the scatter opens the bar: an entry that removes any of it may explain it (judged by what it
+    leaves); a model whose error is above the scatter keeps ``MIN_IMPROVEMENT``."""
+    below = math.isfinite(scatter_mm) and baseline_error_mm <= QUIET_FACTOR * scatter_mm
+    least = 1e-9 if systematic and below else MIN_IMPROVEMENT
+    explaining = [c for c in ranked if c.plausible and c.improvement >= least]
+    return parsimonious(explaining) if explaining else (None, [])
+
+
+def moved_outside(best: CandidateResult) -> list[dict[str, Any]]:
+    """The supported alternatives that move a named parameter outside its curvature interval (with what they move)."""
+    moved = []
+    for name, alt in (best.model_form or {}).items():
+        if not alt["supported"]:
+            continue
+        for p, v in alt["params"].items():
+            ci = best.param_ci95.get(p)
+            if ci is not None and not ci[0] <= v <= ci[1]:
+                moved.append({"alternative": name, "param": p, "value": v, "ci95": ci})
+    return moved
+
+
+def residual_kinds(ev: Evidence, unexplained_mm: float) -> list[Reason]:
+    """What kind of residual remains (the evidence of an ``outside_library`` verdict), one clause per kind."""
+    kinds = []
+    td = ev.time_domain_after
+    if td.get("dominant_frequency_hz") is not None:
+        kinds.append(Reason(f"periodic at {td['dominant_frequency_hz']:.1f} Hz (a spectral peak in "
+                            f"{td['periodic_fraction']:.0%} of the tests)", "PEAK_FACTOR",
+                            td["periodic_fraction"], 0.5))
+    if math.isfinite(ev.growth_after) and ev.growth_after > GROWTH_FACTOR:
+        kinds.append(Reason(f"growing with travel (the lateral error over the last third of the travel is "
+                            f"{ev.growth_after:.1f} x that over the first)", "GROWTH_FACTOR", ev.growth_after,
+                            GROWTH_FACTOR))
+    scatter, expected = ev.repeat_scatter_mm, ev.expected_scatter_mm
+    if not scatter_ok(ev):
+        kinds.append(Reason(f"random from test to test (the repeats scatter {scatter:.2f} mm, {scatter / expected:.1f} x "
+                            f"the {expected:.2f} mm that instrument noise ({ev.noise_mm:.2f} mm) and a "
+                            f"{ev.friction_scatter_deg:g} deg friction scatter explain)", "SCATTER_FACTOR",
+                            scatter / expected, SCATTER_FACTOR))
+    bias = ev.systematic_after
+    if bias["systematic"]:
+        kinds.append(Reason(f"systematic, common to all tests (the {bias['feature']} averages {bias['mean']:+.3g} "
+                            f"over the {bias['levels']} load levels, {abs(bias['z']):.1f} standard errors of the "
+                            f"repeats' means from 0; p = {bias['p_value_all']:.2g})", "SYSTEMATIC_ALPHA",
+                            bias["p_value_all"], SYSTEMATIC_ALPHA))
+    if td.get("mostly_in_time"):
+        kinds.append(Reason(f"mostly in time (travel lag {td['lag_rms_mm']:.2f} mm RMS against a mean path distance "
+                            f"of {td['mean_distance_mm']:.2f} mm)", "MOSTLY_IN_TIME", td["lag_rms_mm"]))
+    if not kinds and math.isfinite(unexplained_mm):
+        kinds.append(Reason(f"{unexplained_mm:.2f} mm unexplained, without a periodic or travel-growing pattern",
+                            "EXPLAINED_FACTOR", unexplained_mm))
+    return kinds
+
+
+def _joined(head: str, rule: str, value: float | None, parts: Sequence[Reason]) -> Reason:
+    """One clause ``head`` followed by ``parts`` (the report's sentence keeps today's wording)."""
+    return Reason(head + "; ".join(p.text for p in parts), rule, value)
+
+
+@dataclass
+class Judgement:
+    """What the examined entry's confidence and verdict rest on (:func:`judge`)."""
+
+    scatter: float              # the scatter what it leaves is judged against
+    scatter_ok: bool            # the repeats scatter no more than noise and the specimen explain
+    periodic: bool
+    systematic: bool            # a bias common to all tests remains after it
+    explained: bool             # what it leaves is within the scatter
+    separated: bool             # the runner-up is worse by the margin and the uncertainty; no look-alike
+    hinted: bool                # a hint (p < HINT_ALPHA) of a shared bias remains
+    high: bool
+    runner: CandidateResult | None
+    moved: list[dict[str, Any]]  # alternatives that move a named parameter outside its interval (alternatives.py)
+
+    @property
+    def names_it(self) -> bool:
+        """What it leaves is noise: it is the verdict."""
+        return self.explained and self.scatter_ok and not self.periodic
+
+
+def judge(ev: Evidence, best: CandidateResult) -> Judgement:
+    """The evidence for the examined entry ``best``: what it leaves against the scatter, the runner-up and
+    look-alikes, the residual's patterns; ``high`` when all of it holds."""
+    scatter, expected = ev.repeat_scatter_mm, ev.expected_scatter_mm
+    ok = scatter_ok(ev)
+    periodic = ev.time_domain_after.get("dominant_frequency_hz") is not None
+    systematic = ev.systematic_after["systematic"]
+    others = [c for c in ev.ranked if c is not best]
+    runner = others[0] if others else None
+    if best.per_test and math.isfinite(expected):
+        # per-test parameters explain test-to-test differences: what they leave is judged against what noise
+        # and the specimen explain, not against the repeats' scatter (which they are meant to absorb)
+        scatter = min(scatter, expected) if math.isfinite(scatter) else expected
+        ok = best.fit_error_mm <= SCATTER_FACTOR * expected
+    explained = ((not math.isfinite(scatter)) or best.cv_error_mm <= EXPLAINED_FACTOR * scatter) and not systematic
+    diff, diff_se = difference_se(best, runner) if runner is not None else (math.nan, math.nan)
+    # the runner-up must be worse by the margin and by more than the uncertainty of the difference, and no
+    # entry may be within that uncertainty of the one named (a look-alike)
+    separated = runner is None or not math.isfinite(runner.cv_error_mm) or (
+        runner.cv_error_mm >= MARGIN * best.cv_error_mm and not (math.isfinite(diff) and diff <= diff_se)
+        and not ev.lookalikes)
+    hinted = not systematic and ev.systematic_after["p_value_all"] < HINT_ALPHA
+    moved = moved_outside(best)
+    high = (best.improvement >= HIGH_IMPROVEMENT and explained and separated and ok and not periodic
+            and not hinted and ev.held_out and not moved)
+    return Judgement(scatter, ok, periodic, systematic, explained, separated, hinted, high, runner, moved)
+
+
+def _why(ev: Evidence, best: CandidateResult, j: Judgement) -> list[Reason]:
+    """The reason's clauses for the examined entry (before the verdict's own)."""
+    expected, base = ev.expected_scatter_mm, ev.baseline_error_mm
+    what = (f"refitting the given {best.effect} ({_fmt(best.given)} -> {_fmt(best.params)})"
+            if best.kind == "refit" else best.effect)
+    why = [Reason(f"{what} removes {best.improvement:.0%} of the error {ev.where}", "MIN_IMPROVEMENT",
+                  best.improvement, MIN_IMPROVEMENT)]
+    if math.isfinite(j.scatter):
+        if best.per_test and math.isfinite(expected):
+            why.append(Reason(f"leaving {best.cv_error_mm:.2f} mm against the {expected:.2f} mm that noise and the "
+                              f"specimen explain (its per-test {', '.join(best.per_test)} absorb the repeats' scatter "
+                              f"of {ev.repeat_scatter_mm:.2f} mm)", "EXPLAINED_FACTOR", best.cv_error_mm,
+                              EXPLAINED_FACTOR * j.scatter))
+        else:
+            why.append(Reason(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {j.scatter:.2f} mm",
+                              "EXPLAINED_FACTOR", best.cv_error_mm, EXPLAINED_FACTOR * j.scatter))
+    top = ev.ranked[0]
+    if best is not top:
+        why.append(Reason(f"{label(best)} ({len(best.params)} free parameter(s)) is named over {top.effect} "
+                          f"({len(top.params)}), whose {ev.error_word} {top.cv_error_mm:.3f} mm is lower by less than "
+                          f"the uncertainty of the difference (one-standard-error rule)", "parsimony.one_standard_error",
+                          top.cv_error_mm))
+    if ev.lookalikes:
+        why.append(Reason("the data cannot tell it from " + ", ".join(
+            f"{label(c)} ({ev.error_word} {c.cv_error_mm:.3f} mm)" for c in ev.lookalikes)
+            + ": within the uncertainty of the difference", "parsimony.one_standard_error",
+            ev.lookalikes[0].cv_error_mm))
+    if j.runner is not None:
+        why.append(Reason(f"runner-up {label(j.runner)} leaves {j.runner.cv_error_mm:.2f} mm", "MARGIN",
+                          j.runner.cv_error_mm, MARGIN * best.cv_error_mm))
+    td = ev.time_domain
+    if td.get("mostly_in_time"):
+        why.append(Reason(f"the model's error was mostly in time (travel lag {td['lag_rms_mm']:.2f} mm RMS, mean "
+                          f"path distance {td['mean_distance_mm']:.2f} mm)", "MOSTLY_IN_TIME",
+                          td["lag_rms_mm"]))
+    bias = ev.systematic
+    if bias["systematic"] and not j.systematic and math.isfinite(j.scatter) and base <= QUIET_FACTOR * j.scatter:
+        why.append(Reason(f"the model as given left a bias common to all tests below the scatter "
+                          f"({bias['feature']}, p = {bias['p_value_all']:.2g}) that it removes",
+                          "SYSTEMATIC_ALPHA", bias["p_value_all"]))
+    return why
+
+
+def lacks(ev: Evidence, best: CandidateResult, j: Judgement) -> list[Reason]:
+    """Why the confidence is not ``high``: one clause per rule that withheld it."""
+    out = []
+    if best.improvement < HIGH_IMPROVEMENT:
+        out.append(Reason(f"it removes less than {HIGH_IMPROVEMENT:.0%}", "HIGH_IMPROVEMENT", best.improvement,
+                          HIGH_IMPROVEMENT))
+    if j.systematic:
+        out.append(Reason("a bias common to all tests remains", "SYSTEMATIC_ALPHA",
+                          ev.systematic_after["p_value_all"], SYSTEMATIC_ALPHA))
+    elif not j.explained:
+        out.append(Reason("what remains is well above the repeat scatter (another effect may be missing)",
+                          "EXPLAINED_FACTOR", best.cv_error_mm, EXPLAINED_FACTOR * j.scatter))
+    if not j.separated:
+        out.append(Reason("a look-alike explains the data as well" if ev.lookalikes else
+                          "the runner-up explains the data almost as well", "MARGIN",
+                          j.runner.cv_error_mm if j.runner is not None else None, MARGIN * best.cv_error_mm))
+    if not (j.scatter_ok and not j.periodic):
+        out.append(Reason("the residual shows a pattern no library effect explains",
+                          "PEAK_FACTOR" if j.periodic else "SCATTER_FACTOR"))
+    if not ev.held_out:
+        out.append(Reason("with one load level nothing was held out", "held_out", len(ev.folds), 2))
+    if j.hinted:
+        bias = ev.systematic_after
+        out.append(Reason(f"a hint of a bias common to all tests remains ({bias['feature']}, p = "
+                          f"{bias['p_value_all']:.2g}): an unmodelled effect may have shifted the parameters",
+                          "HINT_ALPHA", bias["p_value_all"], HINT_ALPHA))
+    for m in j.moved:
+        out.append(Reason(f"the value depends on the model's form: with {m['alternative']} fitted too, {m['param']} = "
+                          f"{m['value']:.4g}, outside [{m['ci95'][0]:.4g}, {m['ci95'][1]:.4g}]",
+                          "alternatives.supported", m["value"]))
+    return out
+
+
+@dataclass
+class _Draft:
+    """The verdict while :func:`decide` builds it."""
+
+    kind: VerdictKind = VerdictKind.OUTSIDE_LIBRARY
+    effects: list[NamedEffect] = field(default_factory=list)
+    missing_effect: str | None = None
+    confidence: str = "none"
+    reasons: list[Reason] = field(default_factory=list)
+    unexplained_mm: float = math.nan
+    combination: dict[str, Any] | None = None
+    judged_entry: bool = False          # the verdict rests on the examined entry (it was judged, not bypassed)
+
+
+def _nothing_to_explain(ev: Evidence) -> _Draft | None:
+    """The model as given is within the repeats' scatter (and no entry explains a shared bias below it): its verdict
+    (``none_missing``, or ``outside_library`` when the residual has a pattern); else ``None``."""
+    scatter, expected, base = ev.repeat_scatter_mm, ev.expected_scatter_mm, ev.baseline_error_mm
+    # a candidate with per-test parameters that brings the error down to what noise and the specimen explain
+    # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter
+    per_test_explains = (ev.best is not None and bool(ev.best.per_test) and math.isfinite(expected)
+                         and ev.best.fit_error_mm <= SCATTER_FACTOR * expected)
+    hidden_bias = ev.systematic["systematic"] and ev.best is not None   # below the scatter, but shared
+    if not (math.isfinite(scatter) and base <= QUIET_FACTOR * scatter) or per_test_explains or hidden_bias:
+        return None
+    draft = _Draft(unexplained_mm=base)
+    periodic = ev.time_domain_after.get("dominant_frequency_hz") is not None
+    if scatter_ok(ev) and not periodic and not ev.systematic_after["systematic"]:
+        draft.kind = VerdictKind.NONE_MISSING
+        draft.reasons = [Reason(f"the model already matches the data to within the repeats' own scatter (error "
+                                f"{base:.2f} mm, scatter {scatter:.2f} mm), and that scatter is what instrument "
+                                f"noise and the specimen's variability explain ({expected:.2f} mm): nothing is "
+                                f"missing", "QUIET_FACTOR", base, QUIET_FACTOR * scatter)]
+    else:
+        draft.reasons = [_joined(f"the model matches the data as well as the repeats agree with each other (error "
+                                 f"{base:.2f} mm, scatter {scatter:.2f} mm), but something outside the library "
+                                 f"acts: ", "QUIET_FACTOR", base, residual_kinds(ev, base))]
+    return draft
+
+
+def _single_entry(ev: Evidence, best: CandidateResult, confidence: str) -> NamedEffect:
+    """The named single entry as the report lists it."""
+    report = {"effect": best.effect, "kind": best.kind, "params": dict(best.params),
+              "param_ci95": dict(best.param_ci95),
+              **({"param_profile_ci95": dict(best.param_profile_ci95)} if best.param_profile_ci95 else {}),
+              **({"param_model_ci95": dict(best.param_model_ci95)} if best.param_model_ci95 else {}),
+              "cv_error_mm": best.cv_error_mm, "share_of_improvement": best.improvement, "confidence": confidence}
+    return NamedEffect(best.effect, best.kind, dict(best.params), dict(best.param_ci95), confidence,
+                       dict(best.given), report)
+
+
+def _single(ev: Evidence) -> _Draft:
+    """The verdict on the evidence of single entries (no combination)."""
+    quiet = _nothing_to_explain(ev)
+    if quiet is not None:
+        return quiet
+    best, base = ev.best, ev.baseline_error_mm
+    if best is None:
+        top = ev.ranked[0] if ev.ranked else None
+        detail = (f"; the best, {top.effect}, removes {top.improvement:.0%} of the error"
+                  f"{'' if top.plausible else ' with an implausible ' + ', '.join(top.at_bound)}"
+                  if top else "")
+        reason = _joined(f"no candidate explains the discrepancy (none removes at least {MIN_IMPROVEMENT:.0%} of it "
+                         f"with plausible parameters){detail}; what remains: ", "MIN_IMPROVEMENT",
+                         top.improvement if top else None, residual_kinds(ev, base))
+        return _Draft(reasons=[reason], unexplained_mm=base)
+    j = judge(ev, best)
+    draft = _Draft(confidence="high" if j.high else "low", unexplained_mm=best.cv_error_mm, judged_entry=True)
+    draft.reasons = _why(ev, best, j)
+    if j.names_it:
+        draft.kind = VerdictKind.REFIT_GIVEN_EFFECT if best.kind == "refit" else VerdictKind.LIBRARY_EFFECT
+        draft.effects = [_single_entry(ev, best, draft.confidence)]
+        draft.missing_effect = best.effect if best.kind == "candidate" else None
+    else:
+        # a library effect helps, but what it leaves is not noise: say so rather than name it as the answer
+        draft.missing_effect = best.effect if best.kind == "candidate" else None
+        draft.reasons.append(_joined("but what remains is not noise: ", "EXPLAINED_FACTOR", best.cv_error_mm,
+                                     residual_kinds(ev, best.cv_error_mm)))
+    if not j.high:
+        withheld = lacks(ev, best, j)
+        draft.reasons.append(Reason("low confidence: " + "; ".join(r.text for r in withheld),
+                                    ", ".join(dict.fromkeys(r.rule for r in withheld)) or "high",
+                                    withheld[0].value if withheld else None, withheld[0].limit if withheld else None))
+    return draft
+
+
+def tries_combination(ev: Evidence) -> bool:
+    """Whether to try entries in combination: the examined entry leaves a pattern (judged, and the verdict on single
+    entries would be ``outside_library``), it has no per-test parameters, and the repeats' scatter is known."""
+    single = _single(ev)
+    return (single.judged_entry and single.kind is VerdictKind.OUTSIDE_LIBRARY and ev.best is not None
+            and not ev.best.per_test and math.isfinite(ev.repeat_scatter_mm))
+
+
+def combination_continues(current_mm: float, scatter_mm: float, steps: int) -> bool:
+    """Whether to look for one more entry: fewer than ``MAX_EFFECTS`` so far, and (after the first, which left a
+    pattern) what the entries so far leave is more than ``EXPLAINED_FACTOR`` x the scatter."""
+    return steps < MAX_EFFECTS and (steps == 1 or current_mm > EXPLAINED_FACTOR * scatter_mm)
+
+
+def beats(new: CandidateResult, current: CandidateResult) -> tuple[float, float]:
+    """``(gain, its standard error)``: how much lower ``new``'s held-out squared error is than ``current``'s (mm^2,
+    mean over the tests; :func:`~triplanar.workbench.parsimony.difference_se`)."""
+    return difference_se(new, current)
+
+
+def step_accepted(new: CandidateResult, current: CandidateResult) -> bool:
+    """A further entry joins a combination when it removes at least ``MIN_FALL`` of the current cross-validated
+    error and its gain is larger than the uncertainty of the gain."""
+    if not math.isfinite(new.cv_error_mm) or new.cv_error_mm > (1 - MIN_FALL) * current.cv_error_mm:
+        return False
+    gain, se = beats(new, current)
+    return not (math.isfinite(gain) and math.isfinite(se)) or gain > se
+
+
+def _step_confidence(step: Mapping[str, Any]) -> str:
+    runner = step["runner_up_cv_error_mm"]
+    separated = runner is None or not math.isfinite(runner) or runner >= MARGIN * step["cv_error_mm"]
+    return "high" if separated and not step["indistinguishable_from"] else "low"
+
+
+def _combined(ev: Evidence, draft: _Draft) -> _Draft:
+    """The verdict once the combination tried is in: ``library_effects`` when it explains (module doc), else the
+    single entries' verdict with what the combination left added to its reason."""
+    comb = ev.combination
+    assert comb is not None
+    steps = [{**s, "confidence": _step_confidence(s)} for s in comb.steps]
+    scatter = ev.repeat_scatter_mm
+    explains = comb.cv_error_mm <= EXPLAINED_FACTOR * scatter and not comb.periodic
+    draft.combination = {"steps": steps, "cv_error_mm": comb.cv_error_mm, "explains": explains,
+                         "periodic": comb.periodic, "systematic": comb.systematic,
+                         "gain_over_single_mm2": comb.gain_mm2, "gain_se_mm2": comb.gain_se_mm2}
+    listed = "; then ".join(
+        f"{'refitting the given ' if s['kind'] == 'refit' else ''}{s['effect']} ("
+        + ", ".join(_format_value(k, v, s["param_ci95"].get(k)) for k, v in s["params"].items())
+        + f") removes {s['share_of_improvement']:.0%}" for s in steps)
+    beats_single = not (math.isfinite(comb.gain_mm2) and math.isfinite(comb.gain_se_mm2)) \
+        or comb.gain_mm2 > comb.gain_se_mm2
+    if len(steps) >= 2 and explains and beats_single and scatter_ok(ev):
+        low = [f"{s['effect']} ({', '.join(s['indistinguishable_from'] or [str(s['runner_up'])])} "
+               f"{'fits as well' if s['indistinguishable_from'] else 'comes close'})"
+               for s in steps if s["confidence"] != "high"]
+        reason = Reason(f"two or more library effects explain the discrepancy, none alone: {listed} of the error "
+                        f"{ev.where}; together they leave {comb.cv_error_mm:.2f} mm against a repeat scatter of "
+                        f"{scatter:.2f} mm" + (f"; low confidence at the step of {'; '.join(low)}" if low else ""),
+                        "EXPLAINED_FACTOR", comb.cv_error_mm, EXPLAINED_FACTOR * scatter)
+        effects = [NamedEffect(s["effect"], s["kind"], dict(s["params"]), dict(s["param_ci95"]), s["confidence"],
+                               dict(s.get("given") or {}), {k: v for k, v in s.items() if k != "given"})
+                   for s in steps]
+        return _Draft(VerdictKind.LIBRARY_EFFECTS, effects,
+                      next((s["effect"] for s in steps if s["kind"] == "candidate"), None),
+                      "high" if all(s["confidence"] == "high" for s in steps) else "low", [reason],
+                      comb.cv_error_mm, draft.combination, True)
+    if len(steps) >= 2:
+        draft.reasons.append(Reason(f"in combination ({listed} of the error {ev.where}) they still leave "
+                                    f"{comb.cv_error_mm:.2f} mm" + (", periodic" if comb.periodic else ""),
+                                    "EXPLAINED_FACTOR", comb.cv_error_mm, EXPLAINED_FACTOR * scatter))
+    return draft
+
+
+def _format_value(name: str, value: float, ci: Sequence[float] | None) -> str:
+    """``name = value [low, high]`` (the one interval format of every command's output)."""
+    return f"{name} = {value:.4g}" + (f" [{ci[0]:.4g}, {ci[1]:.4g}]" if ci is not None else "")
+
+
+def decide(ev: Evidence) -> Verdict:
+    """The verdict on ``ev`` (module doc): the only place a :class:`~triplanar.workbench.verdict.Verdict` is made."""
+    draft = _single(ev)
+    if ev.experiments:
+        draft.reasons += [Reason(e["sentence"], "experiment.deciding_experiment",
+                                 (e.get("best") or {}).get("difference_mm")) for e in ev.experiments]
+    if ev.combination is not None:
+        draft = _combined(ev, draft)
+    return Verdict(draft.kind, tuple(draft.effects), draft.missing_effect, draft.confidence, tuple(draft.reasons),
+                   draft.unexplained_mm, draft.combination)
