@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 from triplanar.model import Model
+from triplanar.outcome import RUNNING
 
 from .base import ShearEnvBase
 from .core import (IN_REWARD, IN_TRUNC, ST_T, EpisodeDraw, EpisodeStart, ShearConfig, action_space, check_action,
@@ -139,9 +140,11 @@ class TriPlanarShearEnv(ShearEnvBase):
         self._base_key = specimen_key(self._specimen, self._foundation)
         self._starts: dict[EpisodeDraw, EpisodeStart] = {}
         self._action = np.zeros(2)
+        self._draw_info: dict[str, Any] = {}
 
     # -- Gymnasium API ---------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        self._begin_reset()
         super().reset(seed=seed)
         draw = draw_episode(self.np_random, self.config, self._specimen, options)
         start = self._starts.get(draw)
@@ -150,16 +153,18 @@ class TriPlanarShearEnv(ShearEnvBase):
             if len(self._starts) < 64:
                 self._starts[draw] = start
         self._load_start(start)
-        return self._obs.astype(np.float32), {"load_N": draw.load_N, "friction_deg": draw.friction_deg,
-                                              "tip_friction_deg": draw.tip_friction_deg, "time_s": self._st[ST_T]}
+        self._draw_info = {"friction_deg": draw.friction_deg, "tip_friction_deg": draw.tip_friction_deg}
+        info = info_dict(self._inf, RUNNING)   # the step's keys (the start's values), and the draw, as step gives
+        info.update(self._draw_info, load_N=draw.load_N, time_s=float(self._st[ST_T]))
+        return self._obs.astype(np.float32), info
 
     def step(self, action):
-        if self._start is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
+        self._check_step_allowed()
         self._action[:] = check_action(action)
         code = self._control_step(self._action)
-        return (self._obs.astype(np.float32), float(self._inf[IN_REWARD]), code > 0, bool(self._inf[IN_TRUNC]),
-                info_dict(self._inf, code))
+        info = info_dict(self._inf, code)
+        info.update(self._draw_info)
+        return self._obs.astype(np.float32), float(self._inf[IN_REWARD]), code > 0, bool(self._inf[IN_TRUNC]), info
 
     @property
     def model(self) -> Model:

@@ -81,7 +81,10 @@ class BenchConfig:
     observation_mode: str = "bench"
     randomize: bool = False
 
-    def validate(self, dt: float) -> None:
+    def validate(self, dt: float, time_limit_s: float) -> None:
+        """A ValueError naming the first argument that cannot be used, before anything is allocated from it."""
+        if not isinstance(self.randomize, (bool, np.bool_)):  # "no" would be truthy
+            raise ValueError(f"randomize must be True or False, got {self.randomize!r}")
         for name in ("stage_bandwidth_hz", "thrust_bandwidth_hz"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value > 0 and not math.isnan(value)):
@@ -90,6 +93,9 @@ class BenchConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        if self.latency_s > time_limit_s:  # (the latency queue holds latency_s / dt commands)
+            raise ValueError(f"latency_s must lie in [0, time_limit_s = {time_limit_s:g} s] (a command delayed "
+                             f"longer never acts within the episode), got {self.latency_s!r}")
         periods = self.latency_s / dt
         if abs(periods - round(periods)) > 1e-9:
             raise ValueError(f"latency_s must be a whole number of control periods ({dt:g} s), got {self.latency_s}")
@@ -328,6 +334,20 @@ def action_rate_reward(coef: float, d0: float, d1: float) -> float:
     return -coef * (d0 ** 2 + d1 ** 2)
 
 
+# Arguments of the batched env only (envs.vector_v1): a single env has no frame stack or start bank.
+BATCH_ONLY = ("frame_stack", "start_bank", "bank_reuse")
+
+
+def refuse_batch_arguments(kwargs: dict[str, Any]) -> None:
+    """A named error for a batched-env argument given to the single env (``gym.make``, or ``gym.make_vec`` in sync
+    or async mode, which makes single envs), instead of ShearConfig's TypeError."""
+    given = [name for name in BATCH_ONLY if name in kwargs]
+    if given:
+        raise TypeError(f"{', '.join(given)} is an argument of the batched env only: use gym.make_vec(..., "
+                        f"vectorization_mode='vector_entry_point', {given[0]}=...), or in sync/async mode "
+                        "wrappers=[lambda env: FlattenObservation(FrameStackObservation(env, k))] for a frame stack")
+
+
 class TriPlanarShearV1Env(ShearEnvBase):
     """
     ## Description
@@ -442,13 +462,14 @@ class TriPlanarShearV1Env(ShearEnvBase):
     def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
                  stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0, latency_s: float = 0.005,
                  sensor_noise_m: float = 2e-4, nominal_specimen: str | os.PathLike | None = None, **kwargs: Any):
+        refuse_batch_arguments(kwargs)
         if nominal_specimen is not None:  # identify, then control: the fitted specimen becomes the nominal one
             from triplanar.prior import load_prior  # (only when asked for)
             kwargs["specimen"] = load_prior(nominal_specimen, *make_config(None, **kwargs).base_specimen())
         self.config: ShearConfig = make_config(None, **kwargs)
         self.bench = BenchConfig(stage_bandwidth_hz, thrust_bandwidth_hz, latency_s, sensor_noise_m,
-                                 observation_mode, bool(randomize))
-        self.bench.validate(self.config.dt)
+                                 observation_mode, randomize)
+        self.bench.validate(self.config.dt, self.config.time_limit_s)
         self._init_core(render_mode)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.observation_space = observation_space_of(observation_mode)
@@ -461,6 +482,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
 
     # -- Gymnasium API ---------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        self._begin_reset()
         super().reset(seed=seed)
         bench = bench_option(options)
         if bench is None:
@@ -475,8 +497,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
         return self._observation(), self._info(0)
 
     def step(self, action):
-        if self._start is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
+        self._check_step_allowed()
         raw = check_action(action)
         if raw.dtype != np.float32 and raw.dtype != np.float64:  # (ints, float16: as exact in float64)
             raw = raw.astype(np.float64)
