@@ -1,5 +1,6 @@
-"""``TriPlanarShear-v1``: the tri-planar shear test on a bench that could exist (finite servo bandwidths, command
-latency, noisy sensors, unknown specimens). The physics and the reward are v0's compiled control step
+"""``TriPlanarShearRealistic-v0`` (first published as ``TriPlanarShear-v1``): the tri-planar shear test on a bench
+that could exist (finite servo bandwidths, command latency, noisy sensors, unknown specimens). The physics and the
+distance and termination rewards are the ideal bench's compiled control step
 (:func:`envs.core.control_step`, through :class:`envs.base.ShearEnvBase`); this module adds the bench between the
 agent and that step. :mod:`envs.vector_v1` runs the same over N envs.
 """
@@ -392,15 +393,19 @@ class TriPlanarShearV1Env(ShearEnvBase):
     | 12   | time since the start, s                                                           | 100   |
     | 13-14| previous action                                                                   | 1     |
 
-    No velocities: a controller gets history by keeping it (the scripted controllers of :mod:`agents.bench`
-    difference their own past observations), by a frame stack (``gymnasium.wrappers.FrameStackObservation``; the
+    No velocities: a controller gets history by keeping it (the scripted controllers of
+    :mod:`agents.bench_controllers` difference their own past observations), by a frame stack (``gymnasium.wrappers.FrameStackObservation``; the
     robust PPO ``ppo_robust`` uses 4 frames), or by a recurrent policy (``ppo_recurrent``: sb3-contrib's RecurrentPPO,
     an LSTM; :mod:`agents.train_robust`). The noise is drawn from the env's seeded generator.
 
     ## Rewards
 
-    v0's (``r_distance + r_action_rate + r_termination``), the action-rate term computed on the agent's actions.
-    The distance is to the hydrostatic reference of the episode's (true) specimen at its load level.
+    ``r_distance + r_action_rate + r_termination``, each defined as in the ideal bench's docstring
+    (:class:`envs.triplanar_shear.TriPlanarShearEnv`; the same compiled terms), except that the action-rate term is
+    computed on the agent's actions (before the latency and the servos), in this module. The distance is to the
+    hydrostatic reference of the episode's (true) specimen at its load level. An episode's return is minus its
+    mimicry error in mm (travel-weighted), minus the action-rate cost, minus 50 mm times the untravelled fraction if
+    it fails: a return of -1 or more is under the project's 1 mm target (``spec.reward_threshold``).
 
     ## Starting State
 
@@ -418,12 +423,17 @@ class TriPlanarShearV1Env(ShearEnvBase):
     **Termination** (v0's): ``travel`` (success, ``info["is_success"]``), ``lift_off``, ``mass_centre_outside``,
     ``left_plane``, ``arrested``, ``failed`` (``info["reason"]``, :class:`triplanar.outcome.Outcome` labels).
     **Truncation**: ``time_limit`` after ``time_limit_s`` (2 s), by the env itself (the core's step, as v0): 399
-    agent steps at 200 Hz (the first period runs in reset). It is the only truncation: the registration sets no
-    ``max_episode_steps``, so changing ``time_limit_s`` changes the episode's length and nothing disagrees with it.
+    agent steps at 200 Hz (the first period runs in reset). The registered ``max_episode_steps`` is the same 399
+    (what tools that read ``spec.max_episode_steps`` see); with a longer ``time_limit_s`` pass
+    ``gym.make(..., max_episode_steps=N)`` too, else Gymnasium's ``TimeLimit`` ends the episode at 399 steps.
+    A ``step`` after the episode ended warns once (as Gymnasium's CartPole); after a ``reset`` that raised, ``step``
+    is refused until a ``reset`` succeeds.
 
     ## Arguments
 
-    ``gym.make("TriPlanarShear-v1", **kwargs)``:
+    ``gym.make("TriPlanarShearRealistic-v0", **kwargs)`` (or ``"TriPlanarShear-v1"``); each checked where it enters,
+    refused with its name (``randomize`` a bool, ``latency_s`` at most ``time_limit_s``, load levels positive; the
+    batched env's ``frame_stack``, ``start_bank`` and ``bank_reuse`` are refused by name here):
 
     | name                 | type          | default   | meaning |
     |----------------------|---------------|-----------|---------|
@@ -457,6 +467,11 @@ class TriPlanarShearV1Env(ShearEnvBase):
       with it as soon as ``time_limit_s`` changed, is gone; at the defaults the episodes are bitwise the same);
       a batched version (``gym.make_vec``, :mod:`envs.vector_v1`).
     * v0: the ideal, known bench (:class:`envs.triplanar_shear.TriPlanarShearEnv`), unchanged.
+    * ``TriPlanarShearRealistic-v0``: this env under a name of its own (the realistic bench is a task, not a newer
+      version of the ideal one); ``TriPlanarShear-v1`` makes the same class. Since then: ``max_episode_steps=399``
+      and ``reward_threshold=-1`` registered, ``info["reason_code"]`` (as the batched env's), a warning on ``step``
+      after the end, ``step`` refused after a failed ``reset``, arguments checked by name. Rollouts of valid use are
+      bitwise the same (``benchmarks/fingerprint.py --compare``).
     """
 
     def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
