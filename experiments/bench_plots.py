@@ -89,8 +89,8 @@ def rows_plot(path: Path, rows: Sequence[Row], title: str) -> None:
     a1.axvline(TARGET_MM, color="k", lw=0.8, ls="--")
     a1.set_yticks(y, [f"{r[0]} ({r[1]})" for r in rows], fontsize=8)
     a1.set_xlabel("mimicry error of successful episodes, mm (points: episodes; diamond: mean with 95 % CI; "
-                  "bar: worst-decile mean; dashed: the 1 mm target; x: failed episodes, with their number)", fontsize=8)
-    a1.legend(fontsize=7, loc="lower right", markerscale=3)
+                  "bar: worst-decile mean;\ndashed: the 1 mm target; x: failed episodes, with their number)", fontsize=8)
+    a1.legend(fontsize=7, loc="best", markerscale=1.5)
     a2.set_xlabel("success rate, % (95 % CI)", fontsize=8)
     a2.set_xlim(min(50.0, min(100 * r[2]["success_low"] for r in rows) - 5), 101)
     fig.suptitle(title, fontsize=10)
