@@ -110,11 +110,33 @@ def write_table(work: Path) -> Path:
     return CSV
 
 
+def markdown(path: Path = CSV) -> str:
+    """The CSV as the Markdown table of docs/environment.md."""
+    def span(row: dict[str, str], key: str, low: str, high: str, scale: float = 1.0, unit: str = "") -> str:
+        if row[key] in ("nan", ""):
+            return "-"
+        value, lo, hi = (float(row[k]) * scale for k in (key, low, high))
+        return f"{value:.3g}{unit} [{lo:.3g}, {hi:.3g}]"
+    lines = ["| row | episodes (seeds x benches) | return [95 % CI] | success, % [95 % CI] | error over successes, "
+             "mm [95 % CI] | bench | command |", "|---|---|---|---|---|---|---|"]
+    for row in csv_rows(path):
+        lines.append(f"| {row['row']} | {row['n_episodes']} ({row['n_seeds']} x {row['n_benches']}) | "
+                     f"{span(row, 'mean_return', 'return_low', 'return_high')} | "
+                     f"{span(row, 'success_rate', 'success_low', 'success_high', 100.0)} | "
+                     f"{span(row, 'mimicry_error_mm', 'error_low_mm', 'error_high_mm')} | {row['bench']} | "
+                     f"`{row['command']}` |")
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--rows", nargs="+", choices=ROWS, default=list(ROWS))
     parser.add_argument("--work", type=Path, default=ROOT / "out" / "rl_reference")
+    parser.add_argument("--markdown", action="store_true", help="print docs/rl_reference.csv as a Markdown table")
     args = parser.parse_args(argv)
+    if args.markdown:
+        print(markdown())
+        return
     args.work.mkdir(parents=True, exist_ok=True)
     for name in args.rows:
         path = args.work / f"{name}.json"
