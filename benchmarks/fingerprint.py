@@ -45,6 +45,11 @@ def _traces() -> dict[str, np.ndarray]:
     return out
 
 
+# Info keys a record leaves out: v0's step info gained its episode's draw (so that reset and step info have the same
+# keys); the draw is the reset's, not a result of the step, and the records keep their columns.
+UNRECORDED_INFO = {"TriPlanarShear-v0": ("tip_friction_deg",)}
+
+
 def _env_steps(env_id: str = "TriPlanarShear-v0", n_steps: int = 3000, prefix: str = "env",
                **kwargs) -> dict[str, np.ndarray]:
     import gymnasium as gym
@@ -61,7 +66,8 @@ def _env_steps(env_id: str = "TriPlanarShear-v0", n_steps: int = 3000, prefix: s
         obs_rows.append(obs)
         rewards.append(reward)
         ends.append((terminated, truncated))
-        numbers.append([v for k, v in sorted(info.items()) if isinstance(v, float)])
+        numbers.append([v for k, v in sorted(info.items())
+                        if isinstance(v, float) and k not in UNRECORDED_INFO.get(env_id, ())])
         if terminated or truncated:
             episode += 1
             obs, info = env.reset(seed=7 + episode)

@@ -1,12 +1,13 @@
-"""Gymnasium environments of the project. ``import envs`` registers ``TriPlanarShear-v0`` and ``-v1``:
+"""Gymnasium environments of the project: two tasks, the ideal bench (``TriPlanarShearIdeal-v0``, first published
+as ``TriPlanarShear-v0``) and the realistic bench (``TriPlanarShearRealistic-v0``, first published as
+``TriPlanarShear-v1``). ``import triplanar`` (which ``import envs`` does too) registers every id
+(:mod:`triplanar.gym_registration`):
 
     import gymnasium as gym
-    import envs  # noqa: F401  (or gym.make("envs:TriPlanarShear-v0") without the import)
-
-    env = gym.make("TriPlanarShear-v0", load_N=27.8)
-    vec = gym.make_vec("TriPlanarShear-v0", num_envs=1024)  # the batched vector env (envs.vector)
-    vec1 = gym.make_vec("TriPlanarShear-v1", num_envs=64, vectorization_mode="vector_entry_point",
-                        randomize=True, frame_stack=4)      # v1 batched (envs.vector_v1)
+    env = gym.make("triplanar:TriPlanarShearIdeal-v0", load_N=27.8)
+    vec = gym.make_vec("triplanar:TriPlanarShearIdeal-v0", num_envs=1024)  # the batched vector env (envs.vector)
+    vec1 = gym.make_vec("triplanar:TriPlanarShearRealistic-v0", num_envs=64, vectorization_mode="vector_entry_point",
+                        randomize=True, frame_stack=4)                      # the realistic bench batched (envs.vector_v1)
 """
 
 from __future__ import annotations
@@ -16,9 +17,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-from gymnasium.envs.registration import register, registry
-
 from triplanar.compiled_cache import drop_if_stale, numba_cache_dir
+from triplanar.gym_registration import IDEAL_ID, REALISTIC_ID, register_envs
 
 
 def _drop_stale_compiled_code(cache: Path | None = None, sources: list[Path] | None = None) -> bool:
@@ -38,14 +38,14 @@ _drop_stale_compiled_code()
 from .triplanar_shear import ShearConfig, TriPlanarShearEnv  # after the stale cache is dropped
 
 ENV_ID = "TriPlanarShear-v0"
+V1_ID = "TriPlanarShear-v1"
+register_envs()  # (``triplanar`` registers them when Gymnasium loads; here Gymnasium is loaded, so now)
 
-if ENV_ID not in registry:
-    register(id=ENV_ID, entry_point="envs.triplanar_shear:TriPlanarShearEnv",
-             vector_entry_point="envs.vector:TriPlanarShearVectorEnv")
+__all__ = ["ENV_ID", "V1_ID", "IDEAL_ID", "REALISTIC_ID", "ShearConfig", "TriPlanarShearEnv", "V0_OUT_OF_DATE",
+           "v0_on_purpose"]
 
-__all__ = ["ENV_ID", "ShearConfig", "TriPlanarShearEnv", "V0_OUT_OF_DATE", "v0_on_purpose"]
-
-# Gymnasium's notice on making TriPlanarShear-v0 now that v1 exists (its convention for an older version).
+# Gymnasium's notice on making TriPlanarShear-v0 now that TriPlanarShear-v1 exists (two versions of one name, to
+# Gymnasium; two tasks in truth: TriPlanarShearIdeal-v0, the same env, gets no notice).
 V0_OUT_OF_DATE = r".*TriPlanarShear-v0 is out of date"
 
 
@@ -57,8 +57,3 @@ def v0_on_purpose() -> Iterator[None]:
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message=V0_OUT_OF_DATE, category=DeprecationWarning)
         yield
-
-V1_ID = "TriPlanarShear-v1"
-if V1_ID not in registry:  # truncated by the env itself at time_limit_s (no max_episode_steps: one mechanism)
-    register(id=V1_ID, entry_point="envs.triplanar_shear_v1:TriPlanarShearV1Env",
-             vector_entry_point="envs.vector_v1:TriPlanarShearV1VectorEnv")

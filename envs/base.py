@@ -15,7 +15,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
-from .core import (N_INFO, OBS_DIM, ST_CP_REST, ST_LOAD, ST_T, EpisodeStart, ShearConfig,
+from .core import (IN_TRUNC, N_INFO, OBS_DIM, ST_CP_REST, ST_LOAD, ST_T, EpisodeStart, ShearConfig,
                    contact_points_of, control_step, load_point_of, new_workspace)
 
 
@@ -44,6 +44,28 @@ class ShearEnvBase(gym.Env):
         self._trace: list[np.ndarray] = []
         self._renderer = None
         self._warned_display = False
+        self._reset_failed = False   # a reset raised: no episode until one succeeds
+        self._ended = False          # the episode has returned terminated or truncated
+        self._warned_ended = False
+
+    def _begin_reset(self) -> None:
+        """First thing in ``reset``: the previous episode is over whether or not this reset succeeds (a reset that
+        raises must not leave it running for the next ``step``)."""
+        self._start = None
+        self._reset_failed = True
+
+    def _check_step_allowed(self) -> None:
+        """Refuse ``step`` without an episode; warn once, as Gymnasium's CartPole does, on a step after the end."""
+        if self._start is None:
+            if self._reset_failed:
+                raise gym.error.ResetNeeded("the last reset() raised an error, so there is no episode to step: call "
+                                            "reset() again (successfully) before step()")
+            raise gym.error.ResetNeeded("call reset() before step()")
+        if self._ended and not self._warned_ended:
+            self._warned_ended = True
+            gym.logger.warn("You are calling 'step()' even though this environment has already returned terminated "
+                            "= True or truncated = True. You should always call 'reset()' once you receive "
+                            "'terminated = True' or 'truncated = True' -- any further steps are undefined behavior.")
 
     @property
     def dt(self) -> float:
@@ -58,17 +80,18 @@ class ShearEnvBase(gym.Env):
         self._ref = start.reference
         self._obs[:] = start.obs
         self._inf[:] = start.inf
+        self._reset_failed = self._ended = self._warned_ended = False
         if self.render_mode is not None:
             self._trace = [self.contact_points()]
             if self.render_mode == "human":
                 self.render()
 
     def _control_step(self, applied: np.ndarray) -> int:
-        """One control period with ``applied`` (the (thrust, tip) action the physics gets); the outcome code."""
-        if self._start is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
+        """One control period with ``applied`` (the (thrust, tip) action the physics gets); the outcome code (the
+        caller's ``step`` has called :meth:`_check_step_allowed`)."""
         code = control_step(self._y, self._p, self._modes, self._armed, self._st, self._ref, applied, self._cfg,
                             self._obs, self._inf, self._ws)
+        self._ended = code > 0 or self._inf[IN_TRUNC] != 0
         if self.render_mode is not None:
             self._trace.append(self.contact_points())
             if self.render_mode == "human":

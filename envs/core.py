@@ -136,6 +136,18 @@ class ShearConfig:
             raise ValueError("give load_N, load_range or a non-empty load_levels")
         if self.load_range is not None and not 0 < self.load_range[0] <= self.load_range[1]:
             raise ValueError(f"load_range must be (low, high) with 0 < low <= high, got {self.load_range}")
+        # (checked whether or not a reset uses them: v1's randomize draws its own loads, and a bad value given
+        # with it would otherwise pass silently)
+        if self.load_N is not None and not (_real(self.load_N) and self.load_N > 0):
+            raise ValueError(f"load_N must be a positive number, got {self.load_N!r}")
+        if not (isinstance(self.load_levels, (tuple, list, np.ndarray))
+                and all(_real(v) and v > 0 for v in self.load_levels)):
+            raise ValueError(f"load_levels must be a sequence of positive loads in N, got {self.load_levels!r}")
+
+    @property
+    def agent_steps(self) -> int:
+        """An episode's steps before its truncation (the first control period runs in reset): 399 at 2 s, 200 Hz."""
+        return round(self.time_limit_s * self.control_hz) - 1
 
     @property
     def dt(self) -> float:
@@ -585,8 +597,16 @@ def reason(code: int, truncated: bool) -> str:
     return Outcome.TIME_LIMIT.label if truncated else ""
 
 
+# info["reason"] by reason code, for the batched envs' arrays (object dtype, as a Gymnasium sync vector env stacks it)
+REASON_LABELS = np.array([reason(code, False) if code in Outcome._value2member_map_ else ""
+                          for code in range(max(Outcome) + 1)], dtype=object)
+
+
 def info_dict(inf: np.ndarray, code: int) -> dict[str, Any]:
     info: dict[str, Any] = dict(zip(INFO_KEYS, inf[_SLOTS].tolist()))
-    info["reason"] = reason(code, bool(inf[IN_TRUNC]))
+    truncated = bool(inf[IN_TRUNC])
+    info["reason"] = reason(code, truncated)
+    # (the batched envs' integer label of the same: the Outcome value, TIME_LIMIT when truncated, else RUNNING)
+    info["reason_code"] = int(code) if code != RUNNING else int(TIME_LIMIT if truncated else RUNNING)
     info["is_success"] = code == TRAVEL
     return info

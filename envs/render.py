@@ -1,7 +1,8 @@
 """A fast overhead renderer for the TriPlanarShear envs (Pillow; a frame in a few ms, where matplotlib takes ~170 ms).
 
 The view is v0's (x1 right, x3 up, as the paper's figures): the planes' intersection lines, the hydrostatic reference
-path (grey), the contact points' traces (black), the contact triangle (blue) and the load tip (red)."""
+path (grey), the contact points' traces (black), the contact triangle (blue) and the load tip (red), with a legend
+that says so (drawn once, into the background)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,9 @@ from triplanar.specimen import Foundation
 SIZE = 400
 X_RANGE = (-0.22, 0.14)   # m, as v0's view
 Z_RANGE = (-0.06, 0.32)
+# The legend: colour, line width, meaning (bottom left, where the view has no path).
+LEGEND = (((150, 150, 150), 1, "hydrostatic (case C) reference path"), ((0, 0, 0), 2, "contact points' paths"),
+          ((31, 119, 180), 1, "block: contact triangle"), ((214, 39, 40), 3, "load tip"))
 
 
 class Renderer:
@@ -29,6 +33,10 @@ class Renderer:
             d = d / np.hypot(d[0], d[2])
             ends = [self._px(np.array([s * d[0], 0.0, s * d[2]])) for s in (-1.0, 1.0)]
             draw.line(ends, fill=(200, 200, 200), width=1)
+        for row, (colour, width, text) in enumerate(LEGEND):
+            y = SIZE - 14 * (len(LEGEND) - row) - 4
+            draw.line([(8, y + 6), (28, y + 6)], fill=colour, width=width)
+            draw.text((34, y), text, fill=(0, 0, 0))
         self._window = None
 
     def _px(self, p: np.ndarray) -> tuple[float, float]:

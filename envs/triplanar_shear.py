@@ -13,6 +13,7 @@ import gymnasium as gym
 import numpy as np
 
 from triplanar.model import Model
+from triplanar.outcome import RUNNING
 
 from .base import ShearEnvBase
 from .core import (IN_REWARD, IN_TRUNC, ST_T, EpisodeDraw, EpisodeStart, ShearConfig, action_space, check_action,
@@ -79,8 +80,10 @@ class TriPlanarShearEnv(ShearEnvBase):
 
     Every term is in ``info`` (``reward_distance``, ``reward_action_rate``, ``reward_termination``) with
     ``distance_mm``, ``mimicry_error_mm`` (travel-averaged ``d`` so far), ``travel_m``, ``thrust_N``,
-    ``offset_command_m``, ``tip_offset_m``, ``stage_velocity_m_s``, ``time_s``, ``load_N``, ``reason`` and
-    ``is_success``.
+    ``offset_command_m``, ``tip_offset_m``, ``stage_velocity_m_s``, ``time_s``, ``load_N``, ``reason``,
+    ``reason_code`` (the :class:`triplanar.outcome.Outcome` value, as the batched env's), ``is_success`` and the
+    episode's draw (``friction_deg``, ``tip_friction_deg``); reset's ``info`` has the same keys. A return of -1 or
+    more (``spec.reward_threshold``) means a mimicry error under the project's 1 mm target.
 
     ## Starting State
 
@@ -107,7 +110,8 @@ class TriPlanarShearEnv(ShearEnvBase):
     * terminated, ``failed``: the integration failed (singular contact system; not seen in practice);
     * truncated, ``time_limit``: ``time_limit_s`` (2 s) after the start: the env's own and only truncation (the
       registration sets no ``max_episode_steps``; the first period runs in ``reset``, so 399 agent steps at the
-      defaults).
+      defaults). A ``step`` after the end warns once (as Gymnasium's CartPole); after a ``reset`` that raised,
+      ``step`` is refused until a ``reset`` succeeds.
 
     ## Arguments
 
@@ -129,6 +133,11 @@ class TriPlanarShearEnv(ShearEnvBase):
       terminations and truncations are bitwise the same as before. Since the shared env core
       (:class:`envs.base.ShearEnvBase`): the frames are drawn by v1's renderer (Pillow, one per control period) and
       ``render_fps`` is the control rate (a recorded video plays in real time; it was 30).
+    * ``TriPlanarShearIdeal-v0``: this env under a name of its own (the ideal bench and the realistic one,
+      ``TriPlanarShearRealistic-v0``, are two tasks); ``TriPlanarShear-v0`` makes the same class. Since then: reset
+      ``info`` has the step's keys (the start's values) and step ``info`` the draw's (``friction_deg``,
+      ``tip_friction_deg``), both ``reason_code``; a warning on ``step`` after the end, ``step`` refused after a failed
+      ``reset``; ``load_N`` and ``load_levels`` checked at construction. Rollouts bitwise the same.
     """
 
     def __init__(self, render_mode: str | None = None, config: ShearConfig | None = None, **kwargs: Any):
@@ -139,9 +148,11 @@ class TriPlanarShearEnv(ShearEnvBase):
         self._base_key = specimen_key(self._specimen, self._foundation)
         self._starts: dict[EpisodeDraw, EpisodeStart] = {}
         self._action = np.zeros(2)
+        self._draw_info: dict[str, Any] = {}
 
     # -- Gymnasium API ---------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        self._begin_reset()
         super().reset(seed=seed)
         draw = draw_episode(self.np_random, self.config, self._specimen, options)
         start = self._starts.get(draw)
@@ -150,16 +161,18 @@ class TriPlanarShearEnv(ShearEnvBase):
             if len(self._starts) < 64:
                 self._starts[draw] = start
         self._load_start(start)
-        return self._obs.astype(np.float32), {"load_N": draw.load_N, "friction_deg": draw.friction_deg,
-                                              "tip_friction_deg": draw.tip_friction_deg, "time_s": self._st[ST_T]}
+        self._draw_info = {"friction_deg": draw.friction_deg, "tip_friction_deg": draw.tip_friction_deg}
+        info = info_dict(self._inf, RUNNING)   # the step's keys (the start's values), and the draw, as step gives
+        info.update(self._draw_info, load_N=draw.load_N, time_s=float(self._st[ST_T]))
+        return self._obs.astype(np.float32), info
 
     def step(self, action):
-        if self._start is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
+        self._check_step_allowed()
         self._action[:] = check_action(action)
         code = self._control_step(self._action)
-        return (self._obs.astype(np.float32), float(self._inf[IN_REWARD]), code > 0, bool(self._inf[IN_TRUNC]),
-                info_dict(self._inf, code))
+        info = info_dict(self._inf, code)
+        info.update(self._draw_info)
+        return self._obs.astype(np.float32), float(self._inf[IN_REWARD]), code > 0, bool(self._inf[IN_TRUNC]), info
 
     @property
     def model(self) -> Model:

@@ -1,5 +1,6 @@
-"""``TriPlanarShear-v1``: the tri-planar shear test on a bench that could exist (finite servo bandwidths, command
-latency, noisy sensors, unknown specimens). The physics and the reward are v0's compiled control step
+"""``TriPlanarShearRealistic-v0`` (first published as ``TriPlanarShear-v1``): the tri-planar shear test on a bench
+that could exist (finite servo bandwidths, command latency, noisy sensors, unknown specimens). The physics and the
+distance and termination rewards are the ideal bench's compiled control step
 (:func:`envs.core.control_step`, through :class:`envs.base.ShearEnvBase`); this module adds the bench between the
 agent and that step. :mod:`envs.vector_v1` runs the same over N envs.
 """
@@ -81,7 +82,10 @@ class BenchConfig:
     observation_mode: str = "bench"
     randomize: bool = False
 
-    def validate(self, dt: float) -> None:
+    def validate(self, dt: float, time_limit_s: float) -> None:
+        """A ValueError naming the first argument that cannot be used, before anything is allocated from it."""
+        if not isinstance(self.randomize, (bool, np.bool_)):  # "no" would be truthy
+            raise ValueError(f"randomize must be True or False, got {self.randomize!r}")
         for name in ("stage_bandwidth_hz", "thrust_bandwidth_hz"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and value > 0 and not math.isnan(value)):
@@ -90,6 +94,9 @@ class BenchConfig:
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        if self.latency_s > time_limit_s:  # (the latency queue holds latency_s / dt commands)
+            raise ValueError(f"latency_s must lie in [0, time_limit_s = {time_limit_s:g} s] (a command delayed "
+                             f"longer never acts within the episode), got {self.latency_s!r}")
         periods = self.latency_s / dt
         if abs(periods - round(periods)) > 1e-9:
             raise ValueError(f"latency_s must be a whole number of control periods ({dt:g} s), got {self.latency_s}")
@@ -328,6 +335,20 @@ def action_rate_reward(coef: float, d0: float, d1: float) -> float:
     return -coef * (d0 ** 2 + d1 ** 2)
 
 
+# Arguments of the batched env only (envs.vector_v1): a single env has no frame stack or start bank.
+BATCH_ONLY = ("frame_stack", "start_bank", "bank_reuse")
+
+
+def refuse_batch_arguments(kwargs: dict[str, Any]) -> None:
+    """A named error for a batched-env argument given to the single env (``gym.make``, or ``gym.make_vec`` in sync
+    or async mode, which makes single envs), instead of ShearConfig's TypeError."""
+    given = [name for name in BATCH_ONLY if name in kwargs]
+    if given:
+        raise TypeError(f"{', '.join(given)} is an argument of the batched env only: use gym.make_vec(..., "
+                        f"vectorization_mode='vector_entry_point', {given[0]}=...), or in sync/async mode "
+                        "wrappers=[lambda env: FlattenObservation(FrameStackObservation(env, k))] for a frame stack")
+
+
 class TriPlanarShearV1Env(ShearEnvBase):
     """
     ## Description
@@ -372,15 +393,19 @@ class TriPlanarShearV1Env(ShearEnvBase):
     | 12   | time since the start, s                                                           | 100   |
     | 13-14| previous action                                                                   | 1     |
 
-    No velocities: a controller gets history by keeping it (the scripted controllers of :mod:`agents.bench`
-    difference their own past observations), by a frame stack (``gymnasium.wrappers.FrameStackObservation``; the
+    No velocities: a controller gets history by keeping it (the scripted controllers of
+    :mod:`agents.bench_controllers` difference their own past observations), by a frame stack (``gymnasium.wrappers.FrameStackObservation``; the
     robust PPO ``ppo_robust`` uses 4 frames), or by a recurrent policy (``ppo_recurrent``: sb3-contrib's RecurrentPPO,
     an LSTM; :mod:`agents.train_robust`). The noise is drawn from the env's seeded generator.
 
     ## Rewards
 
-    v0's (``r_distance + r_action_rate + r_termination``), the action-rate term computed on the agent's actions.
-    The distance is to the hydrostatic reference of the episode's (true) specimen at its load level.
+    ``r_distance + r_action_rate + r_termination``, each defined as in the ideal bench's docstring
+    (:class:`envs.triplanar_shear.TriPlanarShearEnv`; the same compiled terms), except that the action-rate term is
+    computed on the agent's actions (before the latency and the servos), in this module. The distance is to the
+    hydrostatic reference of the episode's (true) specimen at its load level. An episode's return is minus its
+    mimicry error in mm (travel-weighted), minus the action-rate cost, minus 50 mm times the untravelled fraction if
+    it fails: a return of -1 or more is under the project's 1 mm target (``spec.reward_threshold``).
 
     ## Starting State
 
@@ -398,12 +423,17 @@ class TriPlanarShearV1Env(ShearEnvBase):
     **Termination** (v0's): ``travel`` (success, ``info["is_success"]``), ``lift_off``, ``mass_centre_outside``,
     ``left_plane``, ``arrested``, ``failed`` (``info["reason"]``, :class:`triplanar.outcome.Outcome` labels).
     **Truncation**: ``time_limit`` after ``time_limit_s`` (2 s), by the env itself (the core's step, as v0): 399
-    agent steps at 200 Hz (the first period runs in reset). It is the only truncation: the registration sets no
-    ``max_episode_steps``, so changing ``time_limit_s`` changes the episode's length and nothing disagrees with it.
+    agent steps at 200 Hz (the first period runs in reset). The registered ``max_episode_steps`` is the same 399
+    (what tools that read ``spec.max_episode_steps`` see); with a longer ``time_limit_s`` pass
+    ``gym.make(..., max_episode_steps=N)`` too, else Gymnasium's ``TimeLimit`` ends the episode at 399 steps.
+    A ``step`` after the episode ended warns once (as Gymnasium's CartPole); after a ``reset`` that raised, ``step``
+    is refused until a ``reset`` succeeds.
 
     ## Arguments
 
-    ``gym.make("TriPlanarShear-v1", **kwargs)``:
+    ``gym.make("TriPlanarShearRealistic-v0", **kwargs)`` (or ``"TriPlanarShear-v1"``); each checked where it enters,
+    refused with its name (``randomize`` a bool, ``latency_s`` at most ``time_limit_s``, load levels positive; the
+    batched env's ``frame_stack``, ``start_bank`` and ``bank_reuse`` are refused by name here):
 
     | name                 | type          | default   | meaning |
     |----------------------|---------------|-----------|---------|
@@ -437,18 +467,24 @@ class TriPlanarShearV1Env(ShearEnvBase):
       with it as soon as ``time_limit_s`` changed, is gone; at the defaults the episodes are bitwise the same);
       a batched version (``gym.make_vec``, :mod:`envs.vector_v1`).
     * v0: the ideal, known bench (:class:`envs.triplanar_shear.TriPlanarShearEnv`), unchanged.
+    * ``TriPlanarShearRealistic-v0``: this env under a name of its own (the realistic bench is a task, not a newer
+      version of the ideal one); ``TriPlanarShear-v1`` makes the same class. Since then: ``max_episode_steps=399``
+      and ``reward_threshold=-1`` registered, ``info["reason_code"]`` (as the batched env's), a warning on ``step``
+      after the end, ``step`` refused after a failed ``reset``, arguments checked by name. Rollouts of valid use are
+      bitwise the same (``benchmarks/fingerprint.py --compare``).
     """
 
     def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
                  stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0, latency_s: float = 0.005,
                  sensor_noise_m: float = 2e-4, nominal_specimen: str | os.PathLike | None = None, **kwargs: Any):
+        refuse_batch_arguments(kwargs)
         if nominal_specimen is not None:  # identify, then control: the fitted specimen becomes the nominal one
             from triplanar.prior import load_prior  # (only when asked for)
             kwargs["specimen"] = load_prior(nominal_specimen, *make_config(None, **kwargs).base_specimen())
         self.config: ShearConfig = make_config(None, **kwargs)
         self.bench = BenchConfig(stage_bandwidth_hz, thrust_bandwidth_hz, latency_s, sensor_noise_m,
-                                 observation_mode, bool(randomize))
-        self.bench.validate(self.config.dt)
+                                 observation_mode, randomize)
+        self.bench.validate(self.config.dt, self.config.time_limit_s)
         self._init_core(render_mode)
         self.action_space = spaces.Box(-1.0, 1.0, shape=(2,), dtype=np.float32)
         self.observation_space = observation_space_of(observation_mode)
@@ -461,6 +497,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
 
     # -- Gymnasium API ---------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        self._begin_reset()
         super().reset(seed=seed)
         bench = bench_option(options)
         if bench is None:
@@ -475,8 +512,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
         return self._observation(), self._info(0)
 
     def step(self, action):
-        if self._start is None:
-            raise gym.error.ResetNeeded("call reset() before step()")
+        self._check_step_allowed()
         raw = check_action(action)
         if raw.dtype != np.float32 and raw.dtype != np.float64:  # (ints, float16: as exact in float64)
             raw = raw.astype(np.float64)

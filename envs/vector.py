@@ -155,6 +155,7 @@ class ShearBatch:
         codes = self.CODES[rows]
         info["reason_code"] = np.where(codes != RUNNING, codes, np.where(self.INF[rows, S.IN_TRUNC] != 0, TIME_LIMIT,
                                                                           RUNNING))
+        info["reason"] = S.REASON_LABELS[info["reason_code"]]
         info["is_success"] = codes == TRAVEL
         return info
 

@@ -87,7 +87,7 @@ class BenchBatch:
                                  ("bank_reuse", bank_reuse, 1)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise ValueError(f"{name} must be an integer >= {low}, got {value!r}")
-        bench.validate(config.dt)
+        bench.validate(config.dt, config.time_limit_s)
         self.num_envs, self.config, self.bench = int(num_envs), config, bench
         self.frame_stack = int(frame_stack)
         self.cfg, self.bc = config.packed(), bench_constants(bench, config)
@@ -226,6 +226,7 @@ class BenchBatch:
         info["load_cell_N"] = self.BS[:, BS_THRUST].copy()
         codes = self.CODES
         info["reason_code"] = np.where(codes != RUNNING, codes, np.where(self.truncated(), TIME_LIMIT, RUNNING))
+        info["reason"] = S.REASON_LABELS[info["reason_code"]]
         info["is_success"] = codes == TRAVEL
         return info
 
@@ -241,6 +242,19 @@ class BenchBatch:
     def reset_info(self, i: int) -> dict[str, Any]:
         bench = self.benches[i]
         return {"load_N": bench.load_N} if bench is not None else {}
+
+
+def check_max_episode_steps(max_episode_steps: Any, config: S.ShearConfig) -> None:
+    """``gym.make_vec`` passes the registered ``max_episode_steps`` (399); the batch truncates at ``time_limit_s``
+    itself and cannot end episodes earlier, so a limit below that is refused by name (one at or above it changes
+    nothing: the batch truncates first, as a single env under Gymnasium's ``TimeLimit`` does)."""
+    if max_episode_steps is None:
+        return
+    if isinstance(max_episode_steps, bool) or not isinstance(max_episode_steps, (int, np.integer)) \
+            or max_episode_steps < config.agent_steps:
+        raise ValueError(f"max_episode_steps must be None or an integer >= {config.agent_steps} (the steps of "
+                         f"time_limit_s = {config.time_limit_s:g} s, where the batched env truncates); got "
+                         f"{max_episode_steps!r} (with a longer time_limit_s, pass gym.make_vec(..., max_episode_steps=None))")
 
 
 class TriPlanarShearV1VectorEnv(VectorEnv):
@@ -260,12 +274,13 @@ class TriPlanarShearV1VectorEnv(VectorEnv):
     def __init__(self, num_envs: int = 1, render_mode: str | None = None, *, observation_mode: str = "bench",
                  randomize: bool = False, stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0,
                  latency_s: float = 0.005, sensor_noise_m: float = 2e-4, frame_stack: int = 1, start_bank: int = 0,
-                 bank_reuse: int = BANK_REUSE, **kwargs: Any):
+                 bank_reuse: int = BANK_REUSE, max_episode_steps: int | None = None, **kwargs: Any):
         if render_mode is not None:
             raise ValueError("the batched v1 does not render; render a single TriPlanarShear-v1 to watch a test")
         config = S.make_config(None, **kwargs)
+        check_max_episode_steps(max_episode_steps, config)
         bench = BenchConfig(stage_bandwidth_hz, thrust_bandwidth_hz, latency_s, sensor_noise_m, observation_mode,
-                            bool(randomize))
+                            randomize)
         self.batch = BenchBatch(num_envs, config, bench, frame_stack, start_bank, bank_reuse)
         self.config, self.num_envs, self.render_mode = config, int(num_envs), None
         self.single_observation_space = self.batch.single_observation_space()

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
-from matplotlib.ticker import NullFormatter, ScalarFormatter
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from triplanar.plotting import plt, save_figure
 
@@ -24,6 +24,29 @@ Row = tuple[str, str, dict[str, Any], Sequence[Sequence[Any]]]   # (label, bench
 def _errors(outcomes: Sequence[Sequence[Any]]) -> np.ndarray:
     values = np.array([o.mimicry_error_mm for seed in outcomes for o in seed], dtype=float)
     return values[np.isfinite(values)]
+
+
+def _failures(outcomes: Sequence[Sequence[Any]]) -> int:
+    return sum(not o.success for seed in outcomes for o in seed)
+
+
+def _error_axis(ax: Any, rows: Sequence[Row]) -> float:
+    """A log axis of mm that reads at every scale (ticks at 1, 2 and 5 of each decade, each labelled as a plain
+    number: 0.05, 0.1, 0.2, ...), spanning the episodes' errors and the 1 mm target, with a column at the right for
+    the failed episodes; returns that column's position."""
+    errors = np.concatenate([_errors(r[3]) for r in rows] + [np.array([TARGET_MM])])
+    errors = errors[errors > 0]
+    low, high = float(errors.min()) / 1.6, float(errors.max()) * 1.6
+    failed_at = high * 1.8
+    ax.set_xscale("log")
+    ax.set_xlim(low, failed_at * 1.8)
+    ax.xaxis.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}" if v < high * 1.1 else ""))
+    ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.axvline(high * 1.3, color="0.7", lw=0.6)
+    ax.text(failed_at, 1.0, "failed", transform=ax.get_xaxis_transform(), ha="center", va="bottom", fontsize=7,
+            color="tab:red")
+    return failed_at
 
 
 def _xerr(value: float, low: float, high: float) -> list[list[float]]:
@@ -41,12 +64,20 @@ def rows_plot(path: Path, rows: Sequence[Row], title: str) -> None:
     rng = np.random.default_rng(0)  # jitter only
     y = np.arange(n)[::-1]
     seen: set[str] = set()
+    failed_at = _error_axis(a1, rows)
     for yi, (label, bench_set, s, outcomes) in zip(y, rows):
         colour = COLOURS.get(bench_set, "tab:purple")
         errors = _errors(outcomes)
         a1.scatter(errors, yi + rng.uniform(-0.25, 0.25, errors.size), s=4, alpha=0.35, color=colour, lw=0,
                    label=None if bench_set in seen else bench_set)
         seen.add(bench_set)
+        failed = _failures(outcomes)
+        if failed:   # an episode without an error still counts: drawn in the failed column, with their number
+            a1.scatter(np.full(failed, failed_at), yi + rng.uniform(-0.25, 0.25, failed), s=14, marker="x",
+                       color="tab:red", lw=0.8, label=None if "failed" in seen else "failed episode")
+            a1.annotate(str(failed), (failed_at, yi), xytext=(8, 0), textcoords="offset points", va="center",
+                        fontsize=7, color="tab:red")
+            seen.add("failed")
         if np.isfinite(s["mimicry_error_mm"]):
             a1.errorbar(s["mimicry_error_mm"], yi, xerr=_xerr(s["mimicry_error_mm"], s["error_low_mm"],
                                                               s["error_high_mm"]),
@@ -56,13 +87,10 @@ def rows_plot(path: Path, rows: Sequence[Row], title: str) -> None:
         a2.errorbar(rate, yi, xerr=_xerr(rate, 100 * s["success_low"], 100 * s["success_high"]), fmt="o",
                     color=colour, capsize=3)
     a1.axvline(TARGET_MM, color="k", lw=0.8, ls="--")
-    a1.set_xscale("log")
-    a1.xaxis.set_major_formatter(ScalarFormatter())
-    a1.xaxis.set_minor_formatter(NullFormatter())
     a1.set_yticks(y, [f"{r[0]} ({r[1]})" for r in rows], fontsize=8)
     a1.set_xlabel("mimicry error of successful episodes, mm (points: episodes; diamond: mean with 95 % CI; "
-                  "bar: worst-decile mean)", fontsize=8)
-    a1.legend(fontsize=7, loc="lower right", markerscale=3)
+                  "bar: worst-decile mean;\ndashed: the 1 mm target; x: failed episodes, with their number)", fontsize=8)
+    a1.legend(fontsize=7, loc="best", markerscale=1.5)
     a2.set_xlabel("success rate, % (95 % CI)", fontsize=8)
     a2.set_xlim(min(50.0, min(100 * r[2]["success_low"] for r in rows) - 5), 101)
     fig.suptitle(title, fontsize=10)

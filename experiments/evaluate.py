@@ -1,8 +1,9 @@
 """``triplanar evaluate``: any scripted, model-based (mpc, limit) or shipped controller on the held-out, stress or nominal benches, with the
 statistics of :mod:`experiments.stats`.
 
-Writes ``OUT/{bench_set}.csv`` (one row: the controller, design, bench set and the statistics columns of
-:data:`experiments.tables.STATS_FIELDS`), ``OUT/{bench_set}_episodes.csv`` (one row per episode and seed),
+Writes ``OUT/{bench_set}.csv`` (one row: the controller, design, bench set, the statistics columns of
+:data:`experiments.tables.STATS_FIELDS` and the mean return with its interval, :data:`RETURN_FIELDS`),
+``OUT/{bench_set}_episodes.csv`` (one row per episode and seed),
 ``OUT/{bench_set}.json`` (the same row with its settings) and ``OUT/{bench_set}.png``; each complete or not at all.
 """
 
@@ -19,7 +20,7 @@ from triplanar.workbench.executor import ExecutorLike, run_tasks
 from . import tables
 from .designs import Design, design_by_name
 from .episodes import EpisodeBatch, outcome_table, run_batch
-from .stats import row_stats
+from .stats import return_stats, row_stats
 
 DEFAULT_DESIGN = "default"
 STEEL_TIP_DEG = 8.0     # the nominal specimen's tip: what the model-based controllers assume on the default bench
@@ -36,6 +37,7 @@ SCRIPTED = {"steel_tip": ("fixed_tip", None, False), "teflon_tip": ("fixed_tip",
 # against, not a controller a laboratory can build). Costly: about 1 s (mpc) and 10 s (limit) of CPU per episode.
 MODEL_BASED = {"mpc": ("mpc", None, False), "limit": ("limit", None, False)}
 BUILTIN = {**SCRIPTED, **MODEL_BASED}
+RETURN_FIELDS = ("mean_return", "return_low", "return_high")   # the summary's mean episode return, 95 % interval
 
 
 MAX_BENCHES = 100_000   # --n: about a day of CPU for a scripted controller; more is a typo
@@ -141,8 +143,10 @@ def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = 
     started = time.perf_counter()
     results = run_tasks(run_batch, batches, executor=executor, progress=progress, desc=f"{controller} on {bench_set}")
     errors, success = outcome_table(batches, results)
+    returns = [[o.episode_return for o in r] for r in results]
     return Evaluation(controller, design, bench_set, [b.seed for b in batches],
-                      row_stats(errors, success, FAILURE_SCORE_MM), results, time.perf_counter() - started)
+                      {**row_stats(errors, success, FAILURE_SCORE_MM), **return_stats(returns)}, results,
+                      time.perf_counter() - started)
 
 
 def write(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
@@ -156,8 +160,9 @@ def write(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
 
     def write_set(folder: Path) -> None:
         paths = [folder / name for name in names]
-        tables.write_csv(paths[0], ["controller", "design", "bench_set", *tables.STATS_FIELDS],
-                         [[e.controller, e.design, e.bench_set, *tables.stats_cells(e.stats)]])
+        tables.write_csv(paths[0], ["controller", "design", "bench_set", *tables.STATS_FIELDS, *RETURN_FIELDS],
+                         [[e.controller, e.design, e.bench_set, *tables.stats_cells(e.stats),
+                           *(tables.fmt(e.stats[k]) for k in RETURN_FIELDS)]])
         tables.write_csv(paths[1], tables.EPISODE_FIELDS,
                          [tables.episode_cells(o, seed) for seed, outcomes in zip(e.seeds, e.outcomes)
                           for o in outcomes])

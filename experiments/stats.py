@@ -14,7 +14,8 @@ benches.
 * :func:`success_ci`: the success rate's interval, the union of Wilson's (over all episodes: not empty when every
   episode succeeded, where a bootstrap collapses to a point) and the hierarchical bootstrap's (which sees that
   seeds differ; Wilson treats every episode as independent);
-* :func:`row_stats`: all of the above for one row, plus the per-seed means (the seeds' spread).
+* :func:`row_stats`: all of the above for one row, plus the per-seed means (the seeds' spread);
+* :func:`return_stats`: the mean episode return with its interval (the same bootstrap).
 
 Failed episodes have a NaN error and are never averaged into an error; they count in the success rate and in the
 score of :mod:`agents.heldout`.
@@ -115,6 +116,13 @@ def success_ci(success: Any, **kwargs: Any) -> tuple[float, float, float]:
     rate, b_low, b_high = bootstrap_ci(table, lambda t: float(t.mean()), **kwargs)
     w_low, w_high = wilson(int(table.sum()), int(table.size))
     return rate, min(w_low, b_low), max(w_high, b_high)
+
+
+def return_stats(returns: Any) -> dict[str, float]:
+    """``mean_return`` of a ``(seeds, benches)`` table of episode returns, with its hierarchical bootstrap interval
+    (``return_low``, ``return_high``): the figure an RL user compares first."""
+    mean, low, high = bootstrap_ci(_table(returns), lambda t: float(t.mean()))
+    return {"mean_return": mean, "return_low": low, "return_high": high}
 
 
 def row_stats(errors: Any, success: Any, failure_score_mm: float) -> dict[str, Any]:

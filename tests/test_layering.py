@@ -29,7 +29,8 @@ MAY_IMPORT = {"triplanar": (), "envs": ("triplanar",), "agents": ("triplanar", "
 # `evaluate` commands load the RL stack inside run() after checking that the `rl` extra is installed, and the warm-up compiles
 # the environments' kernels through their public API when Gymnasium is installed.
 ALLOWED_UPWARD = {("triplanar.commands.train", "run"), ("triplanar.commands.study", "run"),
-                  ("triplanar.commands.evaluate", "run"), ("triplanar.warmup", "warm_envs")}
+                  ("triplanar.commands.evaluate", "run"), ("triplanar.warmup", "warm_envs"),
+                  ("triplanar.commands.demo", "_rendered_episode")}   # the demo renders one episode
 # No import circle is left (the last, agents.train_ppo <-> triplanar.commands.train, went when the agents took a
 # config object of their own, agents.training.TrainRequest). A new exception goes here, with its reason.
 KNOWN_CIRCLES: list[set[str]] = []

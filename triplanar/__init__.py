@@ -5,6 +5,11 @@ Quick use::
     from triplanar import paper_model, simulate
     result = simulate(paper_model("A", 32.5))
     print(result.status, result.message, result.summary())
+
+Importing it also registers the Gymnasium ids (:mod:`triplanar.gym_registration`)::
+
+    import gymnasium as gym
+    env = gym.make("triplanar:TriPlanarShearRealistic-v0")
 """
 
 from .compiled_cache import announce_compilation
@@ -16,7 +21,10 @@ from .simulate import simulate
 from .specimen import (Foundation, Plane, Specimen, SpecimenError, load_toml, reference, scale_mass, scale_size,
                        scale_uniform)
 
+from .gym_registration import register_when_gymnasium_loads
+
 announce_compilation()  # (importing compiles nothing; a cold numba cache says so on stderr before it compiles)
+register_when_gymnasium_loads()  # the Gymnasium ids (entry-point strings only: no env module, no Gymnasium import)
 
 try:
     from importlib.metadata import version as _version

@@ -51,6 +51,7 @@ def run(args: argparse.Namespace) -> int:
     print(f"{args.controller} on {s['n_benches']} {args.benches} benches x {len(result.seeds)} seed(s): success "
           f"{100 * s['success_rate']:.1f} % ({100 * s['success_low']:.1f}-{100 * s['success_high']:.1f}), error over "
           f"successes {s['mimicry_error_mm']:.3f} mm ({s['error_low_mm']:.3f}-{s['error_high_mm']:.3f}), CVaR 10 % "
-          f"{s['cvar10_mm']:.3f} mm, score {s['score']:.3f} mm; {result.wall_s:.1f} s")
+          f"{s['cvar10_mm']:.3f} mm, score {s['score']:.3f} mm, mean return {s['mean_return']:.3f} "
+          f"({s['return_low']:.3f}-{s['return_high']:.3f}); {result.wall_s:.1f} s")
     print("wrote " + ", ".join(str(p) for p in paths))
     return 0
