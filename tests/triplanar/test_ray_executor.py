@@ -22,7 +22,9 @@ pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("ray")]
 def local_ray():
     by_value("ray_helpers")
     by_value(__name__)
-    ray.init(num_cpus=2, object_store_memory=OBJECT_STORE_BYTES, include_dashboard=False,
+    # "local": a new Ray even when a file of another (or of a dead one: /tmp/ray/ray_current_cluster) is on this
+    # machine; plain init() would try to join it (seen 2026-11-28: a leftover file made every test here an error)
+    ray.init(address="local", num_cpus=2, object_store_memory=OBJECT_STORE_BYTES, include_dashboard=False,
              _node_ip_address="127.0.0.1", log_to_driver=False)
     try:
         yield RayExecutor()  # uses the Ray above, leaves it running
