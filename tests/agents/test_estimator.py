@@ -45,11 +45,15 @@ def test_the_bank_varies_mass_and_tilts_and_is_full_of_hypotheses_that_start():
 @pytest.mark.parametrize("replan_every", [
     2,
     # long (`make test-slow`): a whole mpc episode whose only use is to show a documented miss still misses
-    pytest.param(1, marks=[pytest.mark.long, pytest.mark.xfail(strict=True, reason=(
-        "with mpc replanning every period (its setting since the eighth round) the commands differ and on this "
-        "tilted bench the 95 % interval ends at 6.22-7.43 deg, missing the 6 deg tip by 0.2 deg: one bench's "
-        "interval misses under some command sequence, as a 95 % interval may; that the bank is a sample of the "
-        "posterior is tests/agents/test_estimator_posterior.py's (its mean and spread against a brute-force grid)"))]),
+    # Not strict: the miss depends on the machine. On 2026-11-28's machine it passed (XPASS) on the code of four
+    # branches that share commit a411acb and differ elsewhere (workbench, mpc's optional bound, env registration,
+    # input checks), so the commands of a whole episode differ with the CPU's floating-point kernels, as the
+    # recurrent card's 1e-8 did (tests/experiments/test_evaluate.py).
+    pytest.param(1, marks=[pytest.mark.long, pytest.mark.xfail(strict=False, reason=(
+        "with mpc replanning every period the commands differ and, on some machines, on this tilted bench the 95 % "
+        "interval ends at 6.22-7.43 deg, missing the 6 deg tip by 0.2 deg: one bench's interval misses under some "
+        "command sequence, as a 95 % interval may; that the bank is a sample of the posterior is "
+        "tests/agents/test_estimator_posterior.py's (its mean and spread against a brute-force grid)"))]),
 ])
 def test_estimator_finds_a_known_tip_friction_on_tilted_planes(replan_every):
     """The nominal specimen with a 6 deg tip on planes tilted within v1's ranges, noiseless data, ``mpc`` in the
