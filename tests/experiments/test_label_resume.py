@@ -7,31 +7,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.bench_controllers import make_controller
 from experiments import distill_labels as dl
 
 SHORT = (("time_limit_s", 0.05),)  # 9 periods an episode
-TIMES = ("expert_cpu_s", "episode_cpu_s")  # CPU times: the only content that differs between runs
-
-
-@pytest.fixture
-def fast_expert(monkeypatch):
-    monkeypatch.setattr(dl, "make_expert", lambda settings: make_controller("pi_feedback", kp=-20.0, ki=200.0))
-
-
-def shards(out):
-    loaded = {}
-    for path in sorted((out / "shards").glob("*.npz")):
-        with np.load(path, allow_pickle=False) as s:
-            loaded[path.name] = {k: s[k] for k in s.files if k not in TIMES}
-    return loaded
 
 
 @pytest.mark.slow
-def test_an_interrupted_run_resumes_to_the_uninterrupted_shards(tmp_path, fast_expert, monkeypatch):
+def test_an_interrupted_run_resumes_to_the_uninterrupted_shards(tmp_path, fast_expert, read_shards, monkeypatch):
     settings = dl.LabelSettings(env_kwargs=SHORT)
     dl.generate(tmp_path / "whole", settings, 3, 6)
-    whole = shards(tmp_path / "whole")
+    whole = read_shards(tmp_path / "whole")
     assert len(whole) == 6 and sum(bool(s["started"]) for s in whole.values()) >= 3
 
     real, ran = dl.rollout, []
@@ -45,7 +30,7 @@ def test_an_interrupted_run_resumes_to_the_uninterrupted_shards(tmp_path, fast_e
     cut = tmp_path / "cut"
     with pytest.raises(KeyboardInterrupt):
         dl.generate(cut, settings, 3, 6)
-    before = shards(cut)
+    before = read_shards(cut)
     assert 2 <= len(before) < 6
     folder = cut / "shards"
     (folder / ".20020_0000008.999999999.0123456789ab.partial.npz").write_bytes(b"a hard kill's leftover")
@@ -56,7 +41,7 @@ def test_an_interrupted_run_resumes_to_the_uninterrupted_shards(tmp_path, fast_e
     resumed = dl.generate(cut, settings, 3, 6)
     redone = {f"{dl.TUNING_SEED}_{r['draw']:07d}.npz" for r in resumed}
     assert redone == (set(whole) - set(before)) | {damaged}  # complete shards were not run again
-    after = shards(cut)
+    after = read_shards(cut)
     assert sorted(after) == sorted(whole)
     for name in whole:
         assert sorted(after[name]) == sorted(whole[name])

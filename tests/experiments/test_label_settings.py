@@ -7,16 +7,10 @@ import json
 
 import pytest
 
-from agents.bench_controllers import make_controller
 from agents.heldout import HELDOUT_SEED, STRESS_SEED
 from experiments import distill_labels as dl
 
 SHORT = (("time_limit_s", 0.05),)
-
-
-@pytest.fixture
-def fast_expert(monkeypatch):
-    monkeypatch.setattr(dl, "make_expert", lambda settings: make_controller("pi_feedback", kp=-20.0, ki=200.0))
 
 
 def test_a_resume_with_other_settings_is_refused_naming_them(tmp_path, fast_expert, monkeypatch, capsys):
