@@ -8,8 +8,10 @@ checkpoint). A task's future (``ObjectRef.future()``) gives exactly that through
 
 Addresses: with ``address`` (``--ray-address``) or ``RAY_ADDRESS`` set, the sweep joins that cluster and leaves
 it running; otherwise a Ray is started for the sweep on this machine, bound to the loopback address only
-(127.0.0.1), with ``num_cpus`` CPUs and a small object store, and shut down after it. Inside an already
-initialised Ray (e.g. a test's cluster) the sweep uses it as it is.
+(127.0.0.1), with ``num_cpus`` CPUs and a small object store, and shut down after it; a watchdog process
+(:mod:`triplanar.ray_watchdog`) ends that Ray's processes within about a second if the command is killed before it
+can (Ray's own agents would otherwise outlive it by a minute). Inside an already initialised Ray (e.g. a test's
+cluster) the sweep uses it as it is.
 
 Plugins: the ``--plugin`` modules are imported on every worker before a task is unpickled
 (:func:`triplanar.plugins.ensure_plugins`; a ``.py`` plugin's source travels with the tasks).
@@ -94,6 +96,7 @@ class RayExecutor:
         self.plugins = plugin_sources(plugins)
         self.max_retries = max_retries
         self._initialised_here = False
+        self._watchdog = None   # the watchdog of a Ray started here (triplanar.ray_watchdog)
         self._remote = None
         self._pending: set[Any] = set()  # submitted and not finished: cancelled if the sweep fails
 
@@ -111,6 +114,8 @@ class RayExecutor:
                 # "local": a new Ray even when another runs on this machine (plain init() would join that one)
                 ray.init(address="local", num_cpus=self.num_cpus, object_store_memory=OBJECT_STORE_BYTES,
                          include_dashboard=False, _node_ip_address=LOOPBACK, log_to_driver=False)
+                from . import ray_watchdog
+                self._watchdog = ray_watchdog.start()
             self._initialised_here = True  # shutdown() stops a Ray started here, or only disconnects from a cluster
         self._remote = ray.remote(max_retries=self.max_retries, retry_exceptions=False, num_cpus=1)(_run_task)
         return self
@@ -126,6 +131,10 @@ class RayExecutor:
         self._pending.clear()
         if self._initialised_here and ray.is_initialized():
             ray.shutdown()
+        if self._watchdog is not None:   # Ray is down: nothing left to watch
+            self._watchdog.terminate()
+            self._watchdog.wait()
+            self._watchdog = None
         self._initialised_here = False
         self._remote = None
 
