@@ -7,7 +7,9 @@ Hyperparameters come from a YAML file (default ``agents/ppo.yaml``). The run dir
   that loads (a damaged one is skipped with a warning; ``--no-resume`` starts afresh and removes the previous
   run's checkpoints). Rows of ``learning_curve.csv`` written after the checkpoint resumed from are dropped, as
   they are written again;
-* ``tb/``: TensorBoard logs (``tensorboard --logdir OUT``), including ``mimicry/*`` from the evaluations;
+* ``tb/``: TensorBoard logs (``tensorboard --logdir OUT``; or under ``tensorboard_log``, ``--tensorboard-log DIR``):
+  SB3's ``rollout/*`` (episode return, length, success rate) and ``train/*`` (losses), ``rollout/error_mm_mean``
+  (:mod:`agents.train_logging`) and ``mimicry/*`` from the evaluations;
 * ``eval/``: EvalCallback's ``evaluations.npz`` and ``best_model.zip`` (highest mean return over the 12 loads);
 * ``learning_curve.csv``: at every evaluation, timesteps, cumulative wall-clock seconds, and the deterministic
   policy's mimicry error (mm) and outcome at each evaluation load;
@@ -43,6 +45,7 @@ from triplanar.executor import ExecutorLike, run_tasks
 
 from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer, token_of
 from .config_checks import check_hyperparams, check_n_envs, check_normalize
+from .train_logging import episode_error_callback
 
 DEFAULT_CONFIG = Path(__file__).with_name("ppo.yaml")
 _CHECKPOINT = re.compile(r"ppo_(\d+)_steps\.zip$")
@@ -238,9 +241,12 @@ def _truncate_curve(curve_path: Path, timesteps: int) -> None:
 
 def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str | Path = "runs/ppo", seed: int = 0,
               total_timesteps: int | None = None, resume: bool = True, callbacks: Sequence[Any] = (),
-              verbose: int = 0, progress: bool = False, token: str = "", named: bool = True) -> TrainResult:
+              verbose: int = 0, progress: bool = False, token: str = "", named: bool = True,
+              tensorboard_log: str | Path = "") -> TrainResult:
     """Train (or resume) one PPO run; see the module docstring for what it writes. ``named``: the caller named
-    ``out_dir`` (any checkpoint there may be resumed); otherwise only checkpoints stamped with ``token``."""
+    ``out_dir`` (any checkpoint there may be resumed); otherwise only checkpoints stamped with ``token``.
+    ``tensorboard_log``: a folder for the TensorBoard logs (the run's ``ppo_seed<S>_<N>`` in it; default the run
+    directory's ``tb/``)."""
     import torch
     from stable_baselines3 import PPO
     from stable_baselines3.common.callbacks import CallbackList, EvalCallback
@@ -256,6 +262,7 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
         raise ValueError(f"timesteps must be positive, got {total}")
     run_dir = Path(out_dir) / f"seed_{seed}"
     run_dir.mkdir(parents=True, exist_ok=True)
+    tb_dir, tb_name = (str(tensorboard_log), f"ppo_seed{seed}") if tensorboard_log else (str(run_dir / "tb"), "ppo")
     curve_path = run_dir / "learning_curve.csv"
     model_path, stats_path, done_path = run_dir / "final_model.zip", run_dir / "vecnormalize.pkl", run_dir / "done.json"
     if resume and done_path.exists():
@@ -269,7 +276,8 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
         done, checkpoint_model, checkpoint_stats = candidate  # the outputs stay final_model.zip, vecnormalize.pkl
         try:
             resumed_env = load_normalizer(checkpoint_stats, train_env.venv, timesteps=done)
-            model = PPO.load(str(checkpoint_model), env=resumed_env, device="cpu", tensorboard_log=str(run_dir / "tb"))
+            model = PPO.load(str(checkpoint_model), env=resumed_env, device="cpu", tensorboard_log=tb_dir,
+                             verbose=verbose)
             if model.num_timesteps != done:
                 raise CheckpointError(f"the model is at step {model.num_timesteps}, its name says {done}")
         except Exception as err:  # a truncated or damaged file: fall back to the previous one
@@ -288,8 +296,7 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
                 stale.unlink()
         ppo = dict(config.get("ppo", {}))
         policy = ppo.pop("policy", "MlpPolicy")
-        model = PPO(policy, train_env, seed=seed, device="cpu", verbose=verbose, tensorboard_log=str(run_dir / "tb"),
-                    **ppo)
+        model = PPO(policy, train_env, seed=seed, device="cpu", verbose=verbose, tensorboard_log=tb_dir, **ppo)
         done, wall_offset = 0, 0.0
     n_envs = train_env.num_envs
     started = time.perf_counter()
@@ -305,8 +312,9 @@ def train_ppo(config: str | Path | dict[str, Any] = DEFAULT_CONFIG, out_dir: str
         from .progress import progress_callback
         callbacks = [*callbacks, progress_callback(total, f"PPO seed {seed}")]
     if remaining:
-        model.learn(total_timesteps=remaining, callback=CallbackList([saver, evaluation, *callbacks]),
-                    reset_num_timesteps=checkpoint is None, tb_log_name="ppo")
+        model.learn(total_timesteps=remaining, callback=CallbackList([saver, evaluation, episode_error_callback(),
+                                                                      *callbacks]),
+                    reset_num_timesteps=checkpoint is None, tb_log_name=tb_name)
     write_atomic(model_path, lambda p: model.save(str(p)))
     write_atomic(stats_path, lambda p: model.get_vec_normalize_env().save(str(p)))
     wall = wall_offset + time.perf_counter() - started
@@ -328,19 +336,20 @@ class SeedRun:
     progress: bool = False
     token: str = ""
     named: bool = True
+    tensorboard_log: str = ""
 
 
 def train_seed_run(run: SeedRun) -> TrainResult:
     return train_ppo(run.config, run.out_dir, run.seed, run.total_timesteps, resume=run.resume, verbose=run.verbose,
-                     progress=run.progress, token=run.token, named=run.named)
+                     progress=run.progress, token=run.token, named=run.named, tensorboard_log=run.tensorboard_log)
 
 
 def train_seeds(config: str | Path | dict[str, Any], out_dir: str | Path, seeds: Sequence[int],
                 total_timesteps: int | None = None, resume: bool = True, verbose: int = 0,
                 executor: ExecutorLike = "serial", progress: bool = False, token: str = "",
-                named: bool = True) -> list[TrainResult]:
+                named: bool = True, tensorboard_log: str | Path = "") -> list[TrainResult]:
     """:func:`train_ppo` for each seed (one task per seed, through ``executor``), results in seed order. A seed
     whose worker dies (Ray retries it) resumes from its own checkpoints in ``OUT/seed_S``."""
-    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose, progress, token, named)
-             for seed in seeds]
+    tasks = [SeedRun(config, out_dir, int(seed), total_timesteps, resume, verbose, progress, token, named,
+                     str(tensorboard_log or "")) for seed in seeds]
     return run_tasks(train_seed_run, tasks, executor, progress, desc="PPO seeds")

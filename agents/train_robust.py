@@ -13,9 +13,11 @@ torch threads). ``triplanar train --env TriPlanarShear-v1 --config agents/robust
 ``train_seeds(out_dir, seeds, timesteps, executor=...)`` trains one run per seed through the project's executor
 (:func:`triplanar.workbench.executor.run_tasks`; a finished seed is read back, not trained again). Each run writes
 ``OUT/seed_S/``: ``config.json`` (the configuration it ran), ``final_model.zip`` and ``vecnormalize.pkl`` (temporary
-name, then rename), ``learning_curve.csv`` (at every evaluation: timesteps, wall seconds, and on ``CURVE_BENCHES``
-tuning benches, never the held-out ones, the success rate, mimicry error over successful episodes and the score of
-:mod:`agents.heldout`) and ``done.json``. While it trains, a run saves a checkpoint every ``checkpoint_freq`` steps
+name, then rename), ``learning_curve.csv`` (at every evaluation, every ``train.eval_freq`` steps, by default
+``EVALUATIONS`` points over the run: timesteps, wall seconds, and on ``CURVE_BENCHES`` tuning benches, never the
+held-out ones, the success rate, mimicry error over successful episodes and the score of :mod:`agents.heldout`) and
+``done.json``. It reports through SB3's logger (:mod:`agents.train_logging`): ``verbose=1`` prints SB3's table,
+``tensorboard_log`` names a TensorBoard folder (episode return, length, success, error, losses, evaluations). While it trains, a run saves a checkpoint every ``checkpoint_freq`` steps
 (``OUT/seed_S/checkpoint/``: ``model_<N>.zip``, the normalisation statistics ``vecnormalize_<N>.npz``, then
 ``state.json``, which names them, holds the learning curve so far and is written last, so that a kill between files
 leaves the previous set in force); an interrupted run continues from its last checkpoint (its remaining steps are then
@@ -45,10 +47,12 @@ from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer
 from .config_checks import check_hyperparams, check_n_envs, check_normalize
 from .ppo_controller import load_untrusted_sb3_zip, load_untrusted_vecnormalize
+from .train_logging import episode_error_callback, record_evaluation
 
 FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
 CURVE_BENCHES = 10
 CHECKPOINT_FREQ = 50_000
+EVALUATIONS = 20       # points of the learning curve when neither the YAML nor the caller sets train.eval_freq
 ALGOS = {"ppo": "ppo_robust", "recurrent": "ppo_recurrent"}  # algo -> controller name in the tables
 ROBUST_CONFIG = Path(__file__).with_name("robust.yaml")
 RECURRENT_CONFIG = Path(__file__).with_name("recurrent.yaml")
@@ -240,6 +244,8 @@ class RobustTask:
     resume: bool = True                    # False: the seed's previous run (finished or not) is removed first
     token: str = ""                        # stamped on the checkpoints this task writes
     named: bool = True                     # the caller named out_dir: any checkpoint there resumes; else only token's
+    verbose: int = 0                       # SB3's: 1 prints its table (episode return, success, error, losses)
+    tensorboard_log: str = ""              # a folder for TensorBoard logs (SB3's tensorboard_log); "": none
 
     def resolved(self) -> dict[str, Any]:
         """The run's configuration: the YAML with this task's values in it (checked)."""
@@ -258,10 +264,11 @@ class RobustTask:
         return config
 
 
-def _new_model(config: dict[str, Any], venv: Any, seed: int) -> Any:
+def _new_model(config: dict[str, Any], venv: Any, task: RobustTask) -> Any:
     algo = config.get("algo", "ppo")
     default_policy = "MlpLstmPolicy" if algo == "recurrent" else "MlpPolicy"
-    return _algo_class(algo)(config.get("policy", default_policy), venv, seed=seed, device="cpu", verbose=0,
+    return _algo_class(algo)(config.get("policy", default_policy), venv, seed=task.seed, device="cpu",
+                             verbose=task.verbose, tensorboard_log=task.tensorboard_log or None,
                              **(config.get("hyperparams") or {}))
 
 
@@ -321,6 +328,7 @@ class _SeedRun:
         else:
             policy = RobustPolicy(self.model, self.venv, frames=self.frames)
         stats = summarise(evaluate_policy_on(policy, self.curve_benches, self.env_kwargs, "tuning"))
+        record_evaluation(self.model, stats)
         self.rows.append({"timesteps": self.model.num_timesteps, "wall_s": self.wall(), **stats})
 
     def checkpoint(self, token: str = "") -> None:
@@ -360,14 +368,14 @@ def _read_checkpoint_state(task: RobustTask, ckpt: Path) -> dict[str, Any]:
 def _start_or_resume(task: RobustTask, config: dict[str, Any], run_dir: Path) -> _SeedRun:
     """A new model on a new normalised env, or the run's checkpoint (model, normalisation statistics, curve and
     wall time so far) when there is one."""
-    from stable_baselines3.common.vec_env import VecNormalize
+    from stable_baselines3.common.vec_env import VecMonitor, VecNormalize
 
     from .heldout import TUNING_SEED, random_benches
 
     algo = config.get("algo", "ppo")
     # the single env's arguments (evaluation episodes): the batch's own keys left out
     env_kwargs = {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS}
-    venv_raw = make_vec_env(config, task.seed)
+    venv_raw = VecMonitor(make_vec_env(config, task.seed))   # episode return and length for SB3's logger
     ckpt = run_dir / "checkpoint"
     rows: list[dict[str, float]] = []
     wall_before = 0.0
@@ -376,17 +384,25 @@ def _start_or_resume(task: RobustTask, config: dict[str, Any], run_dir: Path) ->
         rows, wall_before = state["curve"], state["wall_s"]
         venv_raw.seed(task.seed + 7919 * state["timesteps"])   # a fresh stream for the remaining steps
         venv = load_normalizer(ckpt / state["vecnormalize"], venv_raw, timesteps=state["timesteps"])
-        model = _algo_class(algo).load(str(ckpt / state["model"]), env=venv, device="cpu")
+        model = _algo_class(algo).load(str(ckpt / state["model"]), env=venv, device="cpu", verbose=task.verbose,
+                                       tensorboard_log=task.tensorboard_log or None)
         if model.num_timesteps != state["timesteps"]:
             raise CheckpointError(f"{ckpt / state['model']}: a model at step {model.num_timesteps}, state.json says "
                                   f"{state['timesteps']}")
     else:
         norm = {"norm_obs": True, "norm_reward": True, "clip_obs": 10.0, "gamma": 0.99, **(config.get("normalize") or {})}
         venv = VecNormalize(venv_raw, **norm)
-        model = _new_model(config, venv, task.seed)
+        model = _new_model(config, venv, task)
     curve_benches = random_benches(CURVE_BENCHES, TUNING_SEED + 1, env_kwargs)
     return _SeedRun(algo, frame_stack_of(config), model, venv, rows, wall_before, ckpt, env_kwargs, curve_benches,
                     started=time.perf_counter())
+
+
+def default_eval_freq(config: dict[str, Any], timesteps: int) -> int:
+    """Steps between the learning curve's evaluations when nobody set them: ``EVALUATIONS`` points over the run, at
+    least one rollout (``n_envs * n_steps``) apart."""
+    rollout = int(config.get("n_envs", 16)) * int((config.get("hyperparams") or {}).get("n_steps", 2048))
+    return max(rollout, timesteps // EVALUATIONS)
 
 
 def _curve_callback(run: _SeedRun, timesteps: int, eval_freq: int, checkpoint_freq: int, token: str = "") -> Any:
@@ -446,9 +462,10 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
     import torch
 
     config = task.resolved()
-    train = {"total_timesteps": 100_000, "eval_freq": 20_000, "checkpoint_freq": CHECKPOINT_FREQ, "torch_threads": 1,
+    train = {"total_timesteps": 100_000, "checkpoint_freq": CHECKPOINT_FREQ, "torch_threads": 1,
              **(config.get("train") or {})}
     timesteps = train["total_timesteps"]
+    train.setdefault("eval_freq", default_eval_freq(config, timesteps))
     torch.set_num_threads(int(train["torch_threads"]))
     run_dir = _prepare_run_dir(task, config)
     done = run_dir / "done.json"
@@ -458,11 +475,12 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
     run = _start_or_resume(task, config, run_dir)
     remaining = timesteps - run.model.num_timesteps
     if remaining > 0:
-        callbacks = [_curve_callback(run, timesteps, train["eval_freq"], train["checkpoint_freq"], task.token)]
+        callbacks = [_curve_callback(run, timesteps, train["eval_freq"], train["checkpoint_freq"], task.token),
+                     episode_error_callback()]
         if task.progress:
             from .progress import progress_callback
             callbacks.append(progress_callback(timesteps, f"{ALGOS[run.algo]} seed {task.seed}"))
-        run.model.learn(total_timesteps=remaining, callback=callbacks,
+        run.model.learn(total_timesteps=remaining, callback=callbacks, tb_log_name=f"{ALGOS[run.algo]}_seed{task.seed}",
                         reset_num_timesteps=run.model.num_timesteps == 0)
     run.evaluate()
     return _write_results(run, task, run_dir)
@@ -471,7 +489,8 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
 def seed_tasks(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps: int = 0, *,
                env_kwargs: dict[str, Any] | None = None, eval_freq: int = 0, algo: str = "",
                checkpoint_freq: int = 0, config: str | Path = "", overrides: dict[str, Any] | None = None,
-               progress: bool = False, resume: bool = True, token: str = "", named: bool = True) -> list[RobustTask]:
+               progress: bool = False, resume: bool = True, token: str = "", named: bool = True, verbose: int = 0,
+               tensorboard_log: str | Path = "") -> list[RobustTask]:
     """The tasks of :func:`train_seeds` (one per seed), for callers that run several kinds in one executor call;
     0 or empty values take the YAML's (``config``, default by ``algo``). The configuration is checked here, before
     any task runs."""
@@ -482,7 +501,7 @@ def seed_tasks(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps:
     Path(out_dir).mkdir(parents=True, exist_ok=True)
     tasks = [RobustTask(str(out_dir), int(s), int(timesteps), tuple(sorted((env_kwargs or {}).items())), eval_freq,
                         algo, checkpoint_freq, str(config), tuple(sorted((overrides or {}).items())), progress,
-                        resume, token, named)
+                        resume, token, named, verbose, str(tensorboard_log or ""))
              for s in seeds]
     if tasks:  # checked now, and each task names its algorithm (callers sort the runs by it)
         resolved_algo = tasks[0].resolved().get("algo", "ppo")
@@ -494,12 +513,13 @@ def train_seeds(out_dir: str | Path, seeds: Sequence[int] = (0, 1, 2), timesteps
                 env_kwargs: dict[str, Any] | None = None, executor: ExecutorLike = None,
                 eval_freq: int = 0, algo: str = "", config: str | Path = "",
                 overrides: dict[str, Any] | None = None, progress: bool = True,
-                resume: bool = True, token: str = "", named: bool = True) -> list[dict[str, Any]]:
+                resume: bool = True, token: str = "", named: bool = True, verbose: int = 0,
+                tensorboard_log: str | Path = "") -> list[dict[str, Any]]:
     """One robust PPO run per seed (``algo``: ``"ppo"`` frame stack, ``"recurrent"`` LSTM; or ``config``, a YAML),
     through the project's executor (resumable per seed, and inside a seed from its last checkpoint)."""
     tasks = seed_tasks(out_dir, seeds, timesteps, env_kwargs=env_kwargs, eval_freq=eval_freq, algo=algo,
                        config=config, overrides=overrides, progress=progress, resume=resume, token=token,
-                       named=named)
+                       named=named, verbose=verbose, tensorboard_log=tensorboard_log)
     name = ALGOS[tasks[0].resolved().get("algo", "ppo")] if tasks else "robust"
-    return run_tasks(train_robust, tasks, executor=executor, progress=True, desc=f"{name} seeds",
+    return run_tasks(train_robust, tasks, executor=executor, progress=progress, desc=f"{name} seeds",
                      checkpoint=TaskCheckpoint(Path(out_dir) / "tasks") if resume else None)

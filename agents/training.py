@@ -22,7 +22,9 @@ ALGOS = ("ppo", "recurrent")
 class TrainRequest:
     """What to train: the env id, the YAML (default: ``agents/ppo.yaml`` for v0, by ``algo`` for v1), env
     arguments and ``key.path=value`` overrides on top of it, seeds, steps (None: the YAML's), where to write,
-    whether to resume and show progress. ``named``: the user named ``out_dir`` (``--out`` or ``--resume``), so a
+    whether to resume and show progress (``progress=False``: no bar at all), SB3's ``verbose`` (1: its table of
+    episode return, length, success, error and losses on stdout) and ``tensorboard_log`` (a folder for TensorBoard
+    logs; "": v0's run directories' ``tb/``, none for v1). ``named``: the user named ``out_dir`` (``--out`` or ``--resume``), so a
     checkpoint found there may be resumed (SB3 unpickles its zip); otherwise only checkpoints stamped with ``token``
     (this invocation's, after a worker was retried) are."""
 
@@ -39,6 +41,7 @@ class TrainRequest:
     progress: bool = True
     token: str = ""
     named: bool = True
+    tensorboard_log: str = ""
 
     def check(self) -> None:
         if self.env_id not in ENV_IDS:
@@ -51,6 +54,8 @@ class TrainRequest:
             raise ValueError(f"timesteps must be positive, got {self.timesteps}")
         if not self.seeds:
             raise ValueError("give at least one seed")
+        if isinstance(self.verbose, bool) or not isinstance(self.verbose, int) or not 0 <= self.verbose <= 2:
+            raise ValueError(f"verbose must be 0, 1 or 2 (SB3's), got {self.verbose!r}")
 
 
 def refuse_leftovers(out_dir: str, seeds: tuple[int, ...]) -> None:
@@ -85,12 +90,13 @@ def train(request: TrainRequest, executor: ExecutorLike = "serial") -> list[Trai
         config = load_config(request.config or DEFAULT_CONFIG, overrides)
         results = train_seeds(config, request.out_dir, request.seeds, request.timesteps, request.resume,
                               request.verbose, executor, progress=request.progress, token=request.token,
-                              named=request.named)
+                              named=request.named, tensorboard_log=request.tensorboard_log)
         return [TrainedRun(seed, r.timesteps, r.wall_s, r.run_dir) for seed, r in zip(request.seeds, results)]
     from .train_robust import train_seeds as train_robust_seeds
     summaries = train_robust_seeds(request.out_dir, request.seeds, request.timesteps or 0,
                                    env_kwargs=request.env_kwargs, executor=executor, algo=request.algo or "",
                                    config=request.config or "", overrides=request.overrides,
                                    progress=request.progress, resume=request.resume, token=request.token,
-                                   named=request.named)
+                                   named=request.named, verbose=request.verbose,
+                                   tensorboard_log=request.tensorboard_log)
     return [TrainedRun(s["seed"], s["timesteps"], s["wall_s"], Path(s["run_dir"])) for s in summaries]

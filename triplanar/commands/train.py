@@ -11,6 +11,7 @@ import argparse
 from typing import Any
 
 from ..cli_args import add_executor_arguments, executor_from_args
+from ..gym_registration import IDEAL_ID, REALISTIC_ID
 from ..output_set import output_lock
 from . import require
 
@@ -18,6 +19,7 @@ NAME = "train"
 HELP = ("train PPO on TriPlanarShear-v0, or robust/recurrent PPO on TriPlanarShear-v1 (hyperparameters in a YAML "
         "file; resumes from checkpoints)")
 ENV_IDS = ("TriPlanarShear-v0", "TriPlanarShear-v1")
+TASK_IDS = {IDEAL_ID: "TriPlanarShear-v0", REALISTIC_ID: "TriPlanarShear-v1"}   # the tasks' names: the same envs
 DEFAULT_OUT = {"TriPlanarShear-v0": "runs/ppo", "TriPlanarShear-v1": "runs/robust", "recurrent": "runs/recurrent"}
 
 
@@ -47,8 +49,9 @@ def key_value(text: str) -> tuple[str, Any]:
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--env", default="TriPlanarShear-v0", choices=ENV_IDS,
-                        help="the env id (default TriPlanarShear-v0); v1 trains robust PPO on the realistic bench")
+    parser.add_argument("--env", default="TriPlanarShear-v0", choices=ENV_IDS + tuple(TASK_IDS),
+                        help=f"the env id (default TriPlanarShear-v0, the same as {IDEAL_ID}); TriPlanarShear-v1 "
+                             f"({REALISTIC_ID}) trains robust PPO on the realistic bench")
     parser.add_argument("--config", help="hyperparameter YAML (default agents/ppo.yaml for v0; agents/robust.yaml "
                                          "for v1, agents/recurrent.yaml with --algo recurrent)")
     parser.add_argument("--algo", choices=("ppo", "recurrent"),
@@ -69,14 +72,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "runs you made")
     resume.add_argument("--no-resume", action="store_true",
                         help="start afresh even if checkpoints exist (the previous run's checkpoints are removed)")
-    parser.add_argument("--no-progress", action="store_true", help="no progress bar")
-    parser.add_argument("--verbose", type=int, default=0)
+    parser.add_argument("--eval-freq", type=positive_int, metavar="STEPS",
+                        help="env steps between the learning curve's evaluations (train.eval_freq; v1's default: "
+                             "20 points over the run)")
+    parser.add_argument("--tensorboard-log", metavar="DIR",
+                        help="TensorBoard logs under DIR (episode return, length, success rate, error over successes, "
+                             "evaluations, SB3's losses; `tensorboard --logdir DIR`); default: v0 in each seed's "
+                             "tb/, v1 none")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars (neither the seeds' nor a run's)")
+    parser.add_argument("--verbose", type=int, default=0, choices=(0, 1, 2),
+                        help="SB3's verbosity: 1 prints its table (rollout/ep_rew_mean, success_rate, error_mm_mean, "
+                             "train/ losses) at every update")
     add_executor_arguments(parser)  # the seeds are the tasks (each seed's run directory must be shared on a cluster)
 
 
 def run(args: argparse.Namespace) -> int:
     require()
     from agents.training import TrainRequest, train  # the RL stack, only when training
+    args.env = TASK_IDS.get(args.env, args.env)
     if args.algo is not None and args.env == "TriPlanarShear-v0":
         raise ValueError("--algo is for --env TriPlanarShear-v1 (v0 trains PPO with agents/ppo.yaml)")
     seeds = tuple(args.seed or [0])
@@ -85,10 +98,14 @@ def run(args: argparse.Namespace) -> int:
     out = args.out or DEFAULT_OUT[args.algo if args.algo == "recurrent" else args.env]
     named = args.out is not None or args.resume   # else the default folder's checkpoints are refused, not loaded
     from agents.checkpoint_files import new_token
+    overrides = dict(args.overrides)
+    if args.eval_freq is not None:
+        overrides["train.eval_freq"] = args.eval_freq
     request = TrainRequest(env_id=args.env, config=args.config, algo=args.algo, env_kwargs=dict(args.env_arg),
-                           overrides=dict(args.overrides), seeds=seeds, timesteps=args.timesteps,
+                           overrides=overrides, seeds=seeds, timesteps=args.timesteps,
                            out_dir=out, resume=not args.no_resume, token=new_token(), named=named,
-                           verbose=args.verbose, progress=not args.no_progress)
+                           verbose=args.verbose, progress=not args.no_progress,
+                           tensorboard_log=args.tensorboard_log or "")
     with output_lock(out), executor_from_args(args) as executor:   # one run at a time into a folder
         results = train(request, executor)
     for result in results:
