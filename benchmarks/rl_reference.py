@@ -9,7 +9,10 @@ it), and the number of episodes and seeds pooled::
 
 Each row is kept in ``--work`` (``out/rl_reference/NAME.json``) as it finishes, so an interrupted run resumes; the
 CSV is rewritten whole from the rows done so far. The PPO row trains with the README's script
-(``examples/train_ppo_v1.py``, the adapter route, seed 0) and scores the result on the same benches.
+(``examples/train_ppo_v1.py``, the adapter route, seed 0) and scores the result on the same benches. The 2M-step row
+trains ``agents/robust.yaml``'s recipe (the script's PPO settings, with its start bank) with ``triplanar train``, which
+checkpoints every 100k steps, so that a killed run continues where it was when the command is run again: about
+2,950 steps per CPU-second, so about 12 CPU-minutes (``docs/environment.md``, beside the table).
 """
 
 from __future__ import annotations
@@ -29,9 +32,10 @@ N_BENCHES = 50
 SHIPPED_BENCHES = 20   # x each shipped agent's seeds (3 or 5): 60-100 episodes, a few minutes of CPU each
 MPC_BENCHES = 20       # mpc costs about 1 s of CPU per episode, more on hard benches
 PPO_TIMESTEPS = 100_000
+PPO_LONG_TIMESTEPS = 2_000_000
 RANDOM_SEED = 40_040
 SHIPPED = ("ppo_robust", "ppo_recurrent", "ppo_steel_slow_noisy")
-ROWS = ("random", "zero", "ppo_100k", *SHIPPED, "mpc")
+ROWS = ("random", "zero", "ppo_100k", "ppo_2m", *SHIPPED, "mpc")
 FIELDS = ("row", "n_episodes", "n_seeds", "n_benches", "mean_return", "return_low", "return_high", "success_rate",
           "success_low", "success_high", "mimicry_error_mm", "error_low_mm", "error_high_mm", "bench", "command")
 
@@ -81,6 +85,22 @@ def _ppo(work: Path, n: int) -> dict[str, Any]:
             "command": "python " + " ".join(command[:-1] + ["OUT"])}
 
 
+def _ppo_long(work: Path, n: int) -> dict[str, Any]:
+    """``agents/robust.yaml`` at PPO_LONG_TIMESTEPS, seed 0, through ``triplanar train`` (resumable), scored on the
+    held-out benches as the other rows (one episode per bench, sensor noise seeded by its index)."""
+    from agents.heldout import heldout_benches
+    from agents.train_robust import BATCH_KEYS, evaluate_policy_on, load_policy, run_config
+    out = work / "ppo_2m"
+    command = ["train", "--env", "TriPlanarShearRealistic-v0", "--seed", "0", "--timesteps", str(PPO_LONG_TIMESTEPS),
+               "--out", str(out), "--executor", "serial", "--no-progress"]
+    subprocess.run([sys.executable, "-m", "triplanar.cli", *command], cwd=ROOT, check=True)  # resumes; done: returns
+    run_dir = out / "seed_0"
+    env_kwargs = {k: v for k, v in run_config(run_dir)["env"].items() if k not in BATCH_KEYS}
+    outcomes = evaluate_policy_on(load_policy(run_dir), heldout_benches(n), env_kwargs, "heldout")
+    return {**_stats(*_tables([outcomes])), "bench": "default",
+            "command": "triplanar " + " ".join(command[:-5] + ["--out", "OUT"])}
+
+
 def csv_rows(path: Path):
     import csv
     with open(path, newline="") as f:
@@ -101,6 +121,8 @@ def make_row(name: str, work: Path) -> dict[str, Any]:
         return _fixed_policy(name, N_BENCHES)
     if name == "ppo_100k":
         return _ppo(work, N_BENCHES)
+    if name == "ppo_2m":
+        return _ppo_long(work, N_BENCHES)
     return _evaluated(name, MPC_BENCHES if name == "mpc" else SHIPPED_BENCHES)
 
 

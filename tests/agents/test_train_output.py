@@ -37,8 +37,8 @@ def no_bar(stderr: str) -> bool:
 def test_v1_training_reports_its_episodes_losses_and_evaluations(tmp_path, capsys, monkeypatch) -> None:
     from agents import train_robust
     monkeypatch.setattr(train_robust, "CURVE_BENCHES", 1)   # one tuning bench per point of the curve: cheap
-    code = cli.main(["train", "--env", "TriPlanarShearRealistic-v0", "--timesteps", "2048", "--out", str(tmp_path / "run"),
-                     "--executor", "serial", "--no-progress", "--verbose", "1",
+    code = cli.main(["train", "--env", "TriPlanarShearRealistic-v0", "--timesteps", "1024",
+                     "--out", str(tmp_path / "run"), "--executor", "serial", "--no-progress", "--verbose", "1",
                      "--tensorboard-log", str(tmp_path / "tb"), *V1_TINY])
     out, err = capsys.readouterr()
     assert code == 0, err
@@ -53,7 +53,7 @@ def test_v1_training_reports_its_episodes_losses_and_evaluations(tmp_path, capsy
     with open(tmp_path / "run" / "seed_0" / "learning_curve.csv") as f:
         steps = [int(row["timesteps"]) for row in csv.DictReader(f)]
     # the default frequency: 20 points over the run, at least a rollout (4 x 64 = 256 steps) apart
-    assert len(steps) >= 5 and steps == sorted(steps) and steps[-1] == 2048, steps
+    assert len(steps) >= 5 and steps == sorted(steps) and steps[-1] == 1024, steps
 
 
 @pytest.mark.slow
