@@ -17,14 +17,15 @@ name, then rename), ``learning_curve.csv`` (at every evaluation, every ``train.e
 ``EVALUATIONS`` points over the run: timesteps, wall seconds, and on ``CURVE_BENCHES`` tuning benches, never the
 held-out ones, the success rate, mimicry error over successful episodes and the score of :mod:`agents.heldout`) and
 ``done.json``. It reports through SB3's logger (:mod:`agents.train_logging`): ``verbose=1`` prints SB3's table,
-``tensorboard_log`` names a TensorBoard folder (episode return, length, success, error, losses, evaluations). While it trains, a run saves a checkpoint every ``checkpoint_freq`` steps
-(``OUT/seed_S/checkpoint/``: ``model_<N>.zip``, the normalisation statistics ``vecnormalize_<N>.npz``, then
-``state.json``, which names them, holds the learning curve so far and is written last, so that a kill between files
-leaves the previous set in force); an interrupted run continues from its last checkpoint (its remaining steps are then
-drawn from a generator seeded anew, so a resumed run is not bitwise the run an uninterrupted one would have been). The
-SB3 zips are read by SB3 with cloudpickle, which can run code: a checkpoint is resumed only in a run the caller named
-(``RobustTask.named``) or when it carries the task's ``token`` (written by this invocation), and ``final_model.zip``
-and ``vecnormalize.pkl`` are for loading only runs you trained.
+``tensorboard_log`` names a TensorBoard folder (episode return, length, success, error, losses, evaluations). While it
+trains, a run saves a checkpoint every ``checkpoint_freq`` steps (``OUT/seed_S/checkpoint/``: ``model_<N>.zip``, the
+normalisation statistics ``vecnormalize_<N>.npz``, then ``state.json``, which names them, holds the learning curve so
+far and is written last, so that a kill between files leaves the previous set in force); an interrupted run continues
+from its last checkpoint (its remaining steps are then drawn from a generator seeded anew, so a resumed run is not
+bitwise the run an uninterrupted one would have been). The SB3 zips are read by SB3 with cloudpickle, which can run
+code: a checkpoint is resumed only in a run the caller named (``RobustTask.named``) or when it carries the task's
+``token`` (written by this invocation), and ``final_model.zip`` and ``vecnormalize.pkl`` are for loading only runs you
+trained.
 """
 
 from __future__ import annotations
@@ -480,7 +481,8 @@ def train_robust(task: RobustTask) -> dict[str, Any]:
         if task.progress:
             from .progress import progress_callback
             callbacks.append(progress_callback(timesteps, f"{ALGOS[run.algo]} seed {task.seed}"))
-        run.model.learn(total_timesteps=remaining, callback=callbacks, tb_log_name=f"{ALGOS[run.algo]}_seed{task.seed}",
+        run.model.learn(total_timesteps=remaining, callback=callbacks,
+                        tb_log_name=f"{ALGOS[run.algo]}_seed{task.seed}",
                         reset_num_timesteps=run.model.num_timesteps == 0)
     run.evaluate()
     return _write_results(run, task, run_dir)

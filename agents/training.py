@@ -20,13 +20,13 @@ ALGOS = ("ppo", "recurrent")
 
 @dataclass(frozen=True)
 class TrainRequest:
-    """What to train: the env id, the YAML (default: ``agents/ppo.yaml`` for v0, by ``algo`` for v1), env
-    arguments and ``key.path=value`` overrides on top of it, seeds, steps (None: the YAML's), where to write,
-    whether to resume and show progress (``progress=False``: no bar at all), SB3's ``verbose`` (1: its table of
-    episode return, length, success, error and losses on stdout) and ``tensorboard_log`` (a folder for TensorBoard
-    logs; "": v0's run directories' ``tb/``, none for v1). ``named``: the user named ``out_dir`` (``--out`` or ``--resume``), so a
-    checkpoint found there may be resumed (SB3 unpickles its zip); otherwise only checkpoints stamped with ``token``
-    (this invocation's, after a worker was retried) are."""
+    """What to train: the env id, the YAML (default: ``agents/ppo.yaml`` for v0, by ``algo`` for v1), env arguments and
+    ``key.path=value`` overrides on top of it, seeds, steps (None: the YAML's), where to write, whether to resume
+    and show progress (``progress=False``: no bar at all), SB3's ``verbose`` (1: its table of episode return,
+    length, success, error and losses on stdout) and ``tensorboard_log`` (a folder for TensorBoard logs; "": v0's
+    run directories' ``tb/``, none for v1). ``named``: the user named ``out_dir`` (``--out`` or ``--resume``), so
+    a checkpoint found there may be resumed (SB3 unpickles its zip); otherwise only checkpoints stamped with
+    ``token`` (this invocation's, after a worker was retried) are."""
 
     env_id: str = "TriPlanarShear-v0"
     config: str | None = None
