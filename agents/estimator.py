@@ -53,7 +53,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from envs.core import N_INFO, OBS_DIM, OBS_POS, StartError, new_workspace
-from envs.prediction import BenchState, snapshot, step_state
+from envs.prediction import BenchState, step_state
 from envs.triplanar_shear_v1 import (
     B_RANGE,
     RANDOM_FRICTION_DEG,
@@ -238,7 +238,7 @@ class SpecimenBank:
             self._env.reset(seed=0, options={"bench": bench})
         except StartError:
             return None, hypothesis_of(bench)
-        return snapshot(self._env), hypothesis_of(bench)
+        return self._env.get_state(), hypothesis_of(bench)
 
     def _advance(self, s: BenchState, raw: np.ndarray, measured: np.ndarray) -> float:
         """One period of hypothesis ``s``; the log-likelihood of ``measured`` (-inf if it ended the test)."""

@@ -1,5 +1,5 @@
 """``limit``: what a bench design allows, with perfect knowledge. The controller reads the env's exact state, true
-specimen, bench dynamics and the true specimen's case-C reference (:func:`envs.prediction.snapshot`), and each
+specimen, bench dynamics and the true specimen's case-C reference (the env's public state, ``get_state``), and each
 period replans the action sequence by the cross-entropy method over rollouts of the env's own compiled step
 (:class:`agents.planner.CEMPlanner`), sending the first action: horizon 48 periods (240 ms), 64 candidates x 4
 iterations, thrusts within ``1 +- thrust_envelope`` (0.4) times the load level. Its plans keep ``mpc``'s margin from
@@ -25,7 +25,6 @@ from typing import Any
 import numpy as np
 
 from envs.core import ShearConfig
-from envs.prediction import snapshot
 from envs.triplanar_shear_v1 import BS_PREV
 
 from .planner import CEMPlanner
@@ -69,7 +68,7 @@ class LimitController:
     def act(self, obs: np.ndarray) -> np.ndarray:
         if self._env is None:
             raise RuntimeError("limit needs the env's true state: call bind(env) after env.reset (run_episode does)")
-        state = snapshot(self._env)
+        state = self._env.get_state()
         plan = self._planner.plan([state], [1.0], state.bs[BS_PREV:BS_PREV + 2])
         self._planner.advance(plan)
         self.decisions.append(self._planner.last_cost)

@@ -62,7 +62,8 @@ def best_of(repeats: int, fn) -> float:
 def kernel_floor(n: int) -> float:
     env = TriPlanarShearEnv(load_N=27.8)
     env.reset(seed=0)
-    y, p, modes = env._y.copy(), env._p.copy(), env._modes.copy()
+    state = env.get_state()
+    y, p, modes = state.y, state.p, state.modes
     _kernel_periods(y, p, modes, 10, 1.0)
     t0 = CLOCK[0]()
     _kernel_periods(y, p, modes, n, 1.0)

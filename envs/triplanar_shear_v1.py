@@ -21,7 +21,7 @@ from triplanar import kernel as K
 from triplanar.layout import Layout
 from triplanar.specimen import Foundation, Plane, Specimen
 
-from .base import ShearEnvBase
+from .base import ShearEnvBase, ShearState
 from .core import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, OBS_POS, OBS_PREV, ST_LOAD, ST_T, EpisodeDraw,
                    EpisodeStart, ShearConfig, StartError, check_action, draw_episode, episode_start, info_dict,
                    make_config, observation_space, specimen_key)
@@ -207,6 +207,17 @@ def bench_observation(obs: np.ndarray, noise: np.ndarray, bs: np.ndarray, y: np.
             v = high[i]
         result[i] = np.float32(v)
     return result
+
+
+@dataclass
+class BenchState(ShearState):
+    """A v1 episode's whole state: :class:`envs.base.ShearState` and the bench's, its constants ``bc``
+    (``BC_*``), state ``bs`` (``BS_*``) and latency ``queue`` (:meth:`TriPlanarShearV1Env.get_state`; the
+    model-based controllers predict from it, :mod:`envs.prediction`)."""
+
+    bc: np.ndarray
+    bs: np.ndarray
+    queue: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -540,6 +551,22 @@ class TriPlanarShearV1Env(ShearEnvBase):
         info["thrust_N"] = float(self._inf[IN_THRUST])
         info["load_cell_N"] = float(self._bs[BS_THRUST])
         return info
+
+    def get_state(self) -> BenchState:
+        """The episode's state now, the bench's included (copies; after ``reset``): the truth the ``limit``
+        controller plans from."""
+        return BenchState(**vars(super().get_state()), bc=self._bc.copy(), bs=self._bs.copy(),
+                          queue=self._queue.copy())
+
+    def set_state(self, state: BenchState) -> None:
+        """Continue the episode from ``state`` (:meth:`envs.base.ShearEnvBase.set_state`, the bench's state too)."""
+        if not isinstance(state, BenchState):
+            raise TypeError(f"set_state: expected a BenchState (TriPlanarShearV1Env.get_state), got {state!r}")
+        if not np.array_equal(state.bc, self._bc) or np.shape(state.queue) != self._queue.shape:
+            raise ValueError("set_state: state.bc or state.queue is of another bench (servos, latency)")
+        super().set_state(state)
+        self._bs[:] = state.bs
+        self._queue[:] = state.queue
 
     @property
     def episode_bench(self) -> Bench:
