@@ -59,14 +59,37 @@ BENCH_STATE = Layout("BS_", "N_BS", [
 (BS_THRUST, BS_PREV, BS_HEAD, N_BS) = BENCH_STATE.constants().values()
 assert all(globals()[name] == value for name, value in BENCH_STATE.constants().items())
 
-# Ranges of the unknown specimens (randomize=True); docs/environment.md gives the reasons.
-RANDOM_FRICTION_DEG = 2.0           # each contact's friction angle, +- around the specimen's
-RANDOM_TIP_FRICTION_DEG = (3.0, 12.0)
-RANDOM_MASS = 0.05                  # +- 5 %; the inertia tensor scales with it
-RANDOM_MASS_CENTRE_M = 0.005        # +- 5 mm on each body axis
-RANDOM_TILT_DEG = 0.5               # each plane's dip, +-; the horizontal plane gets a dip in [0, 0.5] deg
-RANDOM_TILT_DIRECTION_DEG = 5.0     # the dipping planes' dip direction, +-
-RANDOM_LOAD_N = (27.8, 55.6)
+
+
+@dataclass(frozen=True)
+class BenchRanges:
+    """The ranges an unknown specimen is drawn from (:func:`draw_bench`, uniform in each): ``friction_deg``, each
+    contact's friction angle +- around the specimen's; ``tip_friction_deg`` (low, high); ``mass``, +- a fraction (the
+    inertia tensor scales with it); ``mass_centre_m``, +- on each body axis; ``tilt_deg``, each plane's dip +- (a plane
+    dipping less, the horizontal one, gets a dip in [0, tilt_deg] in any direction); ``tilt_direction_deg``, the dipping
+    planes' dip direction +-; ``load_N`` (low, high)."""
+
+    friction_deg: float = 2.0
+    tip_friction_deg: tuple[float, float] = (3.0, 12.0)
+    mass: float = 0.05
+    mass_centre_m: float = 0.005
+    tilt_deg: float = 0.5
+    tilt_direction_deg: float = 5.0
+    load_N: tuple[float, float] = (27.8, 55.6)
+
+
+# v1's unknown specimens (randomize=True): the training ranges; docs/environment.md gives the reasons. Everything that
+# draws or bounds a bench imports this object (the held-out and tuning streams, the estimator's prior; the stress set
+# widens it, agents.heldout.STRESS_RANGES).
+TRAINING_RANGES = BenchRanges()
+# (the same numbers under their earlier names, kept for code that imports them)
+RANDOM_FRICTION_DEG = TRAINING_RANGES.friction_deg
+RANDOM_TIP_FRICTION_DEG = TRAINING_RANGES.tip_friction_deg
+RANDOM_MASS = TRAINING_RANGES.mass
+RANDOM_MASS_CENTRE_M = TRAINING_RANGES.mass_centre_m
+RANDOM_TILT_DEG = TRAINING_RANGES.tilt_deg
+RANDOM_TILT_DIRECTION_DEG = TRAINING_RANGES.tilt_direction_deg
+RANDOM_LOAD_N = TRAINING_RANGES.load_N
 START_ATTEMPTS = 20                 # draws before giving up on a specimen that friction holds at rest
 
 
@@ -236,23 +259,26 @@ class Bench:
                 "plane_dips_deg": tuple(float(p.dip_deg) for p in f.planes)}
 
 
-def draw_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundation) -> Bench:
-    """An unknown specimen: the ranges above, uniform, from ``rng``."""
+def draw_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundation,
+               ranges: BenchRanges = TRAINING_RANGES, label: str = "random") -> Bench:
+    """An unknown specimen from ``ranges`` (v1's training ranges by default), uniform, from ``rng``; its name is the
+    specimen's with ``(label)``."""
+    r = ranges
     friction = tuple(float(v) for v in np.asarray(specimen.friction_deg)
-                     + rng.uniform(-RANDOM_FRICTION_DEG, RANDOM_FRICTION_DEG, 3))
-    tip = float(rng.uniform(*RANDOM_TIP_FRICTION_DEG))
-    scale = 1.0 + float(rng.uniform(-RANDOM_MASS, RANDOM_MASS))
-    centre = np.asarray(specimen.mass_centre_m) + rng.uniform(-RANDOM_MASS_CENTRE_M, RANDOM_MASS_CENTRE_M, 3)
+                     + rng.uniform(-r.friction_deg, r.friction_deg, 3))
+    tip = float(rng.uniform(*r.tip_friction_deg))
+    scale = 1.0 + float(rng.uniform(-r.mass, r.mass))
+    centre = np.asarray(specimen.mass_centre_m) + rng.uniform(-r.mass_centre_m, r.mass_centre_m, 3)
     planes = []
     for plane in foundation.planes:
-        if plane.dip_deg < RANDOM_TILT_DEG:  # a (nearly) horizontal plane tilts a little in any direction
-            planes.append(Plane(float(rng.uniform(0.0, RANDOM_TILT_DEG)), float(rng.uniform(0.0, 360.0))))
+        if plane.dip_deg < r.tilt_deg:  # a (nearly) horizontal plane tilts a little in any direction
+            planes.append(Plane(float(rng.uniform(0.0, r.tilt_deg)), float(rng.uniform(0.0, 360.0))))
         else:
-            planes.append(Plane(plane.dip_deg + float(rng.uniform(-RANDOM_TILT_DEG, RANDOM_TILT_DEG)),
-                                plane.dip_direction_deg + float(rng.uniform(-RANDOM_TILT_DIRECTION_DEG,
-                                                                            RANDOM_TILT_DIRECTION_DEG))))
-    load = float(rng.uniform(*RANDOM_LOAD_N))
-    return unknown_bench(specimen, friction, tip, scale, centre, tuple(planes), load, f"{specimen.name} (random)")
+            planes.append(Plane(plane.dip_deg + float(rng.uniform(-r.tilt_deg, r.tilt_deg)),
+                                plane.dip_direction_deg + float(rng.uniform(-r.tilt_direction_deg,
+                                                                            r.tilt_direction_deg))))
+    load = float(rng.uniform(*r.load_N))
+    return unknown_bench(specimen, friction, tip, scale, centre, tuple(planes), load, f"{specimen.name} ({label})")
 
 
 def unknown_bench(specimen: Specimen, friction_deg: tuple[float, ...], tip_friction_deg: float, mass_scale: float,
