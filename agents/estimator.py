@@ -56,6 +56,7 @@ from envs.core import N_INFO, OBS_DIM, OBS_POS, StartError, new_workspace
 from envs.prediction import BenchState, step_state
 from envs.triplanar_shear_v1 import (
     B_RANGE,
+    DEFAULT_BENCH,
     TRAINING_RANGES,
     Bench,
     BenchRanges,
@@ -159,7 +160,7 @@ class SpecimenBank:
     env_kwargs: dict
     size: int = 32
     seed: int = 0
-    sensor_noise_m: float = 2e-4
+    sensor_noise_m: float = DEFAULT_BENCH.sensor_noise_m
     model_error_m: float = 6e-4
     intervals: dict | None = None
     vary_geometry: bool = True

@@ -25,8 +25,9 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from envs.core import EpisodeDraw, StartError, episode_start, make_config, specimen_key
-from envs.triplanar_shear_v1 import BENCH_FIELDS, TRAINING_RANGES, Bench, TriPlanarShearV1Env, draw_bench
+from envs.core import make_config
+from envs.triplanar_shear_v1 import (BENCH_FIELDS, TRAINING_RANGES, Bench, TriPlanarShearV1Env, can_start,
+                                     draw_bench)
 from triplanar import PAPER_LOADS_N
 from triplanar.specimen import Foundation, Specimen
 
@@ -41,20 +42,14 @@ BENCH_SETS = ("heldout", "stress", "nominal")
 # contact friction, mass and mass centre vary as in training.
 STRESS_RANGES = replace(TRAINING_RANGES, tip_friction_deg=(2.0, 15.0), load_N=(25.0, 60.0), tilt_deg=1.0)
 
+
 def _shear_kwargs(env_kwargs: dict[str, Any] | None) -> dict[str, Any]:
     """The ``ShearConfig`` part of v1's keyword arguments (the bench's own are not needed to draw specimens)."""
     return {k: v for k, v in (env_kwargs or {}).items() if k not in BENCH_FIELDS}
 
 
 def _startable(bench: Bench, env_kwargs: dict[str, Any]) -> bool:
-    config = make_config(None, **_shear_kwargs(env_kwargs))
-    try:
-        episode_start(config, EpisodeDraw(bench.load_N, tuple(bench.specimen.friction_deg),
-                                          float(bench.specimen.tip_friction_deg)),
-                      bench.specimen, bench.foundation, specimen_key(bench.specimen, bench.foundation))
-    except StartError:
-        return False
-    return True
+    return can_start(make_config(None, **_shear_kwargs(env_kwargs)), bench)
 
 
 def random_benches(n: int, seed: int, env_kwargs: dict[str, Any] | None = None,

@@ -23,8 +23,8 @@ from triplanar.specimen import Foundation, Plane, Specimen
 
 from .base import ShearEnvBase, ShearState
 from .core import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, OBS_POS, OBS_PREV, ST_LOAD, ST_T, EpisodeDraw,
-                   EpisodeStart, ShearConfig, StartError, check_action, draw_episode, episode_start, info_dict,
-                   make_config, observation_space, specimen_key)
+                   EpisodeStart, ShearConfig, StartCache, StartError, check_action, draw_episode, episode_start,
+                   info_dict, make_config, observation_space, specimen_key)
 
 # (This module's compiled functions read the kernel's and v0's layouts; envs/__init__.py drops the package's numba
 # cache when those change.)
@@ -128,6 +128,11 @@ class BenchConfig:
 
     def latency_periods(self, dt: float) -> int:
         return int(round(self.latency_s / dt))
+
+
+# v1's hardware and observation by default: the one place its defaults are written (the single and the batched env's
+# arguments and agents.mpc's known hardware read them here).
+DEFAULT_BENCH = BenchConfig()
 
 
 def servo_constants(bandwidth_hz: float, dt: float) -> tuple[float, float]:
@@ -309,22 +314,33 @@ def draw_bench_for(rng: np.random.Generator, config: ShearConfig, randomize: boo
                  foundation, draw.load_N)
 
 
-def bench_start(config: ShearConfig, bench: Bench) -> EpisodeStart:
-    """The cached start of ``bench`` (:func:`envs.core.episode_start`; StartError if it cannot start)."""
+def bench_start(config: ShearConfig, bench: Bench, cache: StartCache | None = None) -> EpisodeStart:
+    """The start of ``bench`` (:func:`envs.core.episode_start`, kept in ``cache`` if given; StartError if it cannot
+    start)."""
     specimen = bench.specimen
     return episode_start(config, EpisodeDraw(bench.load_N, tuple(specimen.friction_deg),
                                              float(specimen.tip_friction_deg)),
-                         specimen, bench.foundation, specimen_key(specimen, bench.foundation))
+                         specimen, bench.foundation, specimen_key(specimen, bench.foundation), cache)
+
+
+def can_start(config: ShearConfig, bench: Bench, cache: StartCache | None = None) -> bool:
+    """Whether ``bench`` can start under ``config`` (friction does not hold it at rest and its first period does not
+    end the test): the check each reset makes, :func:`bench_start`; a laboratory would not run a bench that fails it."""
+    try:
+        bench_start(config, bench, cache)
+    except StartError:
+        return False
+    return True
 
 
 def draw_start(rng: np.random.Generator, config: ShearConfig, randomize: bool, specimen: Specimen,
-               foundation: Foundation) -> tuple[Bench, EpisodeStart]:
+               foundation: Foundation, cache: StartCache | None = None) -> tuple[Bench, EpisodeStart]:
     """What a reset draws from ``rng`` and its start; an unknown specimen that friction holds at rest is drawn
     again (up to ``START_ATTEMPTS`` draws). The single and the batched v1 both call it, so they draw alike."""
     for _ in range(START_ATTEMPTS):
         bench = draw_bench_for(rng, config, randomize, specimen, foundation)
         try:
-            return bench, bench_start(config, bench)
+            return bench, bench_start(config, bench, cache)
         except StartError:
             if not randomize:
                 raise
@@ -511,9 +527,11 @@ class TriPlanarShearV1Env(ShearEnvBase):
       bitwise the same (``benchmarks/fingerprint.py --compare``).
     """
 
-    def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
-                 stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0, latency_s: float = 0.005,
-                 sensor_noise_m: float = 2e-4, nominal_specimen: str | os.PathLike | None = None, **kwargs: Any):
+    def __init__(self, render_mode: str | None = None, *, observation_mode: str = DEFAULT_BENCH.observation_mode,
+                 randomize: bool = DEFAULT_BENCH.randomize, stage_bandwidth_hz: float = DEFAULT_BENCH.stage_bandwidth_hz,
+                 thrust_bandwidth_hz: float = DEFAULT_BENCH.thrust_bandwidth_hz,
+                 latency_s: float = DEFAULT_BENCH.latency_s, sensor_noise_m: float = DEFAULT_BENCH.sensor_noise_m,
+                 nominal_specimen: str | os.PathLike | None = None, **kwargs: Any):
         refuse_batch_arguments(kwargs)
         if nominal_specimen is not None:  # identify, then control: the fitted specimen becomes the nominal one
             from triplanar.prior import load_prior  # (only when asked for)
@@ -531,6 +549,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
         self._no_noise = np.zeros(0)
         self._applied = np.zeros(2)
         self._episode: Bench | None = None
+        self._start_cache = StartCache()   # this env's starts (a bench it has run before starts from here)
 
     # -- Gymnasium API ---------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -539,9 +558,9 @@ class TriPlanarShearV1Env(ShearEnvBase):
         bench = bench_option(options)
         if bench is None:
             bench, start = draw_start(self.np_random, self.config, self.bench.randomize, self._specimen,
-                                      self._foundation)
+                                      self._foundation, self._start_cache)
         else:
-            start = bench_start(self.config, bench)
+            start = bench_start(self.config, bench, self._start_cache)
         self._episode = bench
         self._episode_info = bench.info()
         reset_bench_state(self.config, start, self._bs, self._queue)
@@ -593,6 +612,11 @@ class TriPlanarShearV1Env(ShearEnvBase):
         super().set_state(state)
         self._bs[:] = state.bs
         self._queue[:] = state.queue
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = super().__getstate__()
+        state["_start_cache"] = StartCache()   # (a copy of the env starts with its own, empty)
+        return state
 
     @property
     def episode_bench(self) -> Bench:
