@@ -29,6 +29,8 @@ from envs.core import make_config
 from envs.triplanar_shear_v1 import (BENCH_FIELDS, TRAINING_RANGES, Bench, TriPlanarShearV1Env, can_start,
                                      draw_bench)
 from triplanar import PAPER_LOADS_N
+
+from .controller_base import Controller, play
 from triplanar.specimen import Foundation, Specimen
 
 HELDOUT_SEED = 10_010
@@ -157,29 +159,29 @@ class Outcome:
 def run_episode(controller: Any, bench: Bench, *, env_kwargs: dict[str, Any] | None = None, seed: int = 0,
                 bench_set: str = "heldout", index: int = 0, policy: Any = None,
                 on_step: Callable[[dict], None] | None = None) -> Outcome:
-    """One episode of ``controller`` (a bench controller with ``reset``/``act``, or ``policy(obs) -> action``
-    with ``controller`` its name) on ``bench``; ``seed`` seeds the sensor noise; ``on_step`` is called with every
-    step's ``info``."""
+    """One episode of ``controller`` (a :class:`agents.controller_base.Controller`, or ``policy(obs) -> action``
+    with ``controller`` its name) on ``bench`` through the one episode loop (:func:`agents.controller_base.play`);
+    ``seed`` seeds the sensor noise; ``on_step`` is called with every step's ``info``."""
     env = TriPlanarShearV1Env(**(env_kwargs or {}))
     obs, info = env.reset(seed=seed, options={"bench": bench})
     name = controller if isinstance(controller, str) else controller.name
-    if policy is None:
-        if getattr(controller, "needs_env", False):  # the limit controller reads the true state
-            controller.bind(env)
-        controller.reset(bench.load_N, env.config)
-        policy = controller.act
-    total, steps = 0.0, 0
-    while True:
-        obs, reward, terminated, truncated, info = env.step(np.asarray(policy(obs), dtype=np.float32))
-        total += reward
-        steps += 1
-        if on_step is not None:
-            on_step(info)
-        if terminated or truncated:
-            break
+    if policy is not None:   # a bare policy: nothing to reset
+        controller = _Policy(name, policy)
+    total, steps, info = play(controller, env, obs, bench.load_N, prepared=policy is not None,
+                              on_step=None if on_step is None else lambda action, step_info: on_step(step_info))
     success = bool(info["is_success"])
     return Outcome(name, bench_set, index, bench.load_N, success, info["reason"],
                    float(info["mimicry_error_mm"]) if success else math.nan, float(info["travel_m"]), total, steps)
+
+
+class _Policy(Controller):
+    """``policy(obs) -> action`` as a controller."""
+
+    def __init__(self, name: str, policy: Callable[[np.ndarray], np.ndarray]):
+        self.name, self.policy = name, policy
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        return self.policy(obs)
 
 
 def summarise(outcomes: Sequence[Outcome]) -> dict[str, float]:

@@ -13,8 +13,8 @@ or the candidates beyond it moves the figure by about 0.01 mm, within the benche
 optimum, no longer falling with more search. No laboratory can build it (it sees the truth); it is the reference a
 design's real controllers are judged against.
 
-It needs the env: :func:`agents.heldout.run_episode` hands it over through :meth:`bind` (a controller with
-``needs_env = True``).
+It needs the env: the episode loop (:func:`agents.controller_base.play`) hands it over through :meth:`bind` (a
+controller with ``needs_env = True``).
 """
 
 from __future__ import annotations
@@ -27,10 +27,12 @@ import numpy as np
 from envs.core import ShearConfig
 from envs.triplanar_shear_v1 import BS_PREV
 
+from .controller_base import Controller
 from .planner import CEMPlanner
 
+
 @dataclass
-class LimitController:
+class LimitController(Controller):
     """Perfect-knowledge receding-horizon control (module docstring); the planner's settings are its fields
     (``normal_margin``: :func:`envs.prediction.predict`'s lift-off margin, 0.1 of the normal load as ``mpc``'s;
     ``plane_margin_m``: its margin from leaving a plane, none: the limit knows where the planes meet;

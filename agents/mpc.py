@@ -71,12 +71,13 @@ from envs.triplanar_shear_v1 import DEFAULT_BENCH, nominal_command
 from triplanar import kernel as K
 from triplanar.prior import fitted_intervals, load_prior
 
+from .controller_base import Controller
 from .estimator import GEOMETRY, PARAMETERS, SpecimenBank
 from .planner import CEMPlanner
 
 
 @dataclass
-class MPCController:
+class MPCController(Controller):
     """Estimator + receding-horizon planner (module docstring); the fields are its settings and the bench's
     known hardware."""
 
