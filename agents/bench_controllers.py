@@ -1,8 +1,8 @@
 """Controllers for ``TriPlanarShear-v1``'s bench observations (``observation_mode="bench"``): they see only the
 noisy rangefinders, the load cell, the stage encoder, the load level and time, and know only the nominal specimen.
 
-Each has ``reset(load_N, config)`` (called by :func:`agents.heldout.run_episode` after ``env.reset``) and
-``act(obs) -> action``. ``docs/actuator-study.md`` describes them and how the feedback gains were tuned.
+Each is an :class:`agents.controller_base.Controller`: ``reset(load_N, config)`` (called by the episode loop after
+``env.reset``) and ``act(obs) -> action``. ``docs/actuator-study.md`` describes them and how the feedback gains were tuned.
 """
 
 from __future__ import annotations
@@ -21,12 +21,13 @@ from triplanar.model import Loading, Model, paper_model
 from triplanar.paths import lateral_dilation
 from triplanar.simulate import simulate
 
+from .controller_base import Controller
 from .limit import LimitController
 from .mpc import MPCController
 
 
 @dataclass
-class BenchController:
+class BenchController(Controller):
     """Constant thrust at the load level, tip fixed at ``offset_m`` (the steel, PTFE, rolling or frictionless tip
     of the laboratory today: the tip's friction is the bench's, not the controller's)."""
 

@@ -1,14 +1,14 @@
-"""Controllers for TriPlanarShear-v0, all with ``act(obs) -> action`` (see ``docs/actuator-study.md``).
+"""Controllers for TriPlanarShear-v0 (:class:`agents.controller_base.Controller`s; ``docs/actuator-study.md``).
 
 A controller may need hardware different from the default bench (``env_overrides``, e.g. a teflon tip) and the
-task's scaling (``setup(config)``: thrust and offset ranges); :func:`agents.evaluation.evaluate` does both.
+task's scaling (``reset(load_N, config)``: thrust and offset ranges); :func:`agents.evaluation.evaluate` does both.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
@@ -16,24 +16,23 @@ from envs.core import (OBS_FACE, OBS_LOAD, OBS_OFFSET, OBS_POS, OBS_VEL, ShearCo
 from triplanar import kernel as K
 from triplanar.model import Loading, Model
 
+from .controller_base import Controller
 
-class Controller(Protocol):
-    name: str
-    env_overrides: dict[str, Any]
-
-    def setup(self, config: ShearConfig) -> None: ...
-
-    def act(self, obs: np.ndarray) -> np.ndarray: ...
+__all__ = ["Controller", "LowFrictionTip", "MomentMatching", "SteelTip", "TrackingTip"]
 
 
 @dataclass
-class _Scaled:
+class _Scaled(Controller):
     """Physical commands to actions for a given :class:`ShearConfig`."""
 
     config: ShearConfig = field(default_factory=ShearConfig)
 
-    def setup(self, config: ShearConfig) -> None:
+    def reset(self, load_N: float, config: ShearConfig) -> None:
         self.config = config
+
+    def setup(self, config: ShearConfig) -> None:
+        """Deprecated: ``reset(load_N, config)`` (the load level is not used here)."""
+        self.reset(0.0, config)
 
     def action(self, thrust_N: float, load_N: float, offset_m: float) -> np.ndarray:
         a0 = 2.0 * thrust_N / (self.config.thrust_scale * load_N) - 1.0
@@ -103,8 +102,8 @@ class MomentMatching(_Scaled):
     passes: int = 2
     _geometry: tuple | None = None
 
-    def setup(self, config: ShearConfig) -> None:
-        super().setup(config)
+    def reset(self, load_N: float, config: ShearConfig) -> None:
+        super().reset(load_N, config)
         specimen, foundation = config.base_specimen()
         model = Model(Loading(1.0, "actuator", config.end_friction, config.tip_offset_m), specimen, foundation)
         p = model.kernel_params()
@@ -121,7 +120,7 @@ class MomentMatching(_Scaled):
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         if self._geometry is None:
-            self.setup(self.config)
+            self.reset(0.0, self.config)
         rest, com_b, pcl_b, p0, tan_ef = self._geometry
         cps = rest + obs[OBS_POS:OBS_POS + 9].reshape(3, 3)
         g1 = cps[1] - cps[0]

@@ -53,16 +53,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from envs.core import N_INFO, OBS_DIM, OBS_POS, StartError, new_workspace
-from envs.prediction import BenchState, snapshot, step_state
+from envs.prediction import BenchState, step_state
 from envs.triplanar_shear_v1 import (
     B_RANGE,
-    RANDOM_FRICTION_DEG,
-    RANDOM_MASS,
-    RANDOM_MASS_CENTRE_M,
-    RANDOM_TILT_DEG,
-    RANDOM_TILT_DIRECTION_DEG,
-    RANDOM_TIP_FRICTION_DEG,
+    DEFAULT_BENCH,
+    TRAINING_RANGES,
     Bench,
+    BenchRanges,
     TriPlanarShearV1Env,
     draw_bench,
     unknown_bench,
@@ -121,33 +118,35 @@ def with_parameters(specimen: Specimen, theta: np.ndarray) -> Specimen:
                    mass_centre_m=np.array(theta[4:7], dtype=float))
 
 
-def prior_ranges(prior: Specimen, intervals: dict[str, tuple[float, float]] | None = None
-                 ) -> tuple[np.ndarray, np.ndarray]:
-    """v1's ranges of the unknown specimen (``docs/environment.md``) around ``prior``'s contact friction and mass
-    centre, the tip friction over v1's whole range; a parameter with an identified interval (``intervals``, e.g.
+def prior_ranges(prior: Specimen, intervals: dict[str, tuple[float, float]] | None = None,
+                 ranges: BenchRanges = TRAINING_RANGES) -> tuple[np.ndarray, np.ndarray]:
+    """The unknown specimen's ``ranges`` (v1's, ``docs/environment.md``) around ``prior``'s contact friction and mass
+    centre, the tip friction over its whole range; a parameter with an identified interval (``intervals``, e.g.
     :func:`triplanar.prior.fitted_intervals` of a fit) is drawn within that interval instead."""
     centre = parameters_of(prior)
-    half = np.array([0.0] + [RANDOM_FRICTION_DEG] * 3 + [RANDOM_MASS_CENTRE_M] * 3)
+    half = np.array([0.0] + [ranges.friction_deg] * 3 + [ranges.mass_centre_m] * 3)
     low, high = centre - half, centre + half
-    low[0], high[0] = RANDOM_TIP_FRICTION_DEG
+    low[0], high[0] = ranges.tip_friction_deg
     for name, (lo, hi) in (intervals or {}).items():
         k = PARAMETERS.index(name)
         low[k], high[k] = lo, hi
     return low, high
 
 
-def geometry_ranges(prior: Specimen, foundation: Foundation) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """v1's ranges of the mass, the dips and the dip directions (:func:`envs.triplanar_shear_v1.draw_bench`), and
-    which coordinates are angles around the circle (a horizontal plane's dip direction: any)."""
-    low, high, circular = [prior.mass_kg * (1 - RANDOM_MASS)], [prior.mass_kg * (1 + RANDOM_MASS)], [False]
-    flat = [plane.dip_deg < RANDOM_TILT_DEG for plane in foundation.planes]
+def geometry_ranges(prior: Specimen, foundation: Foundation, ranges: BenchRanges = TRAINING_RANGES
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The ``ranges`` (v1's) of the mass, the dips and the dip directions (:func:`envs.triplanar_shear_v1.draw_bench`),
+    and which coordinates are angles around the circle (a horizontal plane's dip direction: any)."""
+    tilt, direction = ranges.tilt_deg, ranges.tilt_direction_deg
+    low, high, circular = [prior.mass_kg * (1 - ranges.mass)], [prior.mass_kg * (1 + ranges.mass)], [False]
+    flat = [plane.dip_deg < tilt for plane in foundation.planes]
     for plane, level in zip(foundation.planes, flat):
-        low.append(0.0 if level else plane.dip_deg - RANDOM_TILT_DEG)
-        high.append(RANDOM_TILT_DEG if level else plane.dip_deg + RANDOM_TILT_DEG)
+        low.append(0.0 if level else plane.dip_deg - tilt)
+        high.append(tilt if level else plane.dip_deg + tilt)
         circular.append(False)
     for plane, level in zip(foundation.planes, flat):
-        low.append(0.0 if level else plane.dip_direction_deg - RANDOM_TILT_DIRECTION_DEG)
-        high.append(360.0 if level else plane.dip_direction_deg + RANDOM_TILT_DIRECTION_DEG)
+        low.append(0.0 if level else plane.dip_direction_deg - direction)
+        high.append(360.0 if level else plane.dip_direction_deg + direction)
         circular.append(level)
     return np.array(low), np.array(high), np.array(circular)
 
@@ -161,7 +160,7 @@ class SpecimenBank:
     env_kwargs: dict
     size: int = 32
     seed: int = 0
-    sensor_noise_m: float = 2e-4
+    sensor_noise_m: float = DEFAULT_BENCH.sensor_noise_m
     model_error_m: float = 6e-4
     intervals: dict | None = None
     vary_geometry: bool = True
@@ -174,6 +173,7 @@ class SpecimenBank:
     refine_evaluations: int = 30
     refine_inflation: float = 1.5
     move_periods: int = 0
+    ranges: BenchRanges = TRAINING_RANGES   # what the bench's unknown specimen is drawn from (the prior's support)
 
     def reset(self, load_N: float) -> None:
         if self.move not in MOVES:
@@ -182,8 +182,8 @@ class SpecimenBank:
             raise ValueError(f"move_steps must be a positive integer, got {self.move_steps!r}")
         self._env = TriPlanarShearV1Env(**self.env_kwargs)
         self.load_N = float(load_N)
-        low, high = prior_ranges(self.prior, self.intervals)
-        glow, ghigh, gcircular = geometry_ranges(self.prior, self.foundation)
+        low, high = prior_ranges(self.prior, self.intervals, self.ranges)
+        glow, ghigh, gcircular = geometry_ranges(self.prior, self.foundation, self.ranges)
         self.low, self.high = np.concatenate([low, glow]), np.concatenate([high, ghigh])
         self.circular = np.concatenate([np.zeros(len(low), dtype=bool), gcircular])
         self.resolution = (self.high - self.low)[:N_REPORTED] / self.size
@@ -219,7 +219,7 @@ class SpecimenBank:
         has too."""
         specimen, foundation = with_parameters(self.prior, theta), self.foundation
         if self.vary_geometry:
-            drawn = draw_bench(self._rng, specimen, foundation)
+            drawn = draw_bench(self._rng, specimen, foundation, self.ranges)
             return replace(drawn, specimen=replace(drawn.specimen, friction_deg=specimen.friction_deg,
                                                    tip_friction_deg=specimen.tip_friction_deg,
                                                    mass_centre_m=specimen.mass_centre_m, name=self.prior.name),
@@ -238,7 +238,7 @@ class SpecimenBank:
             self._env.reset(seed=0, options={"bench": bench})
         except StartError:
             return None, hypothesis_of(bench)
-        return snapshot(self._env), hypothesis_of(bench)
+        return self._env.get_state(), hypothesis_of(bench)
 
     def _advance(self, s: BenchState, raw: np.ndarray, measured: np.ndarray) -> float:
         """One period of hypothesis ``s``; the log-likelihood of ``measured`` (-inf if it ended the test)."""

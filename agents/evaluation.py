@@ -1,4 +1,4 @@
-"""One function evaluates every controller: run it on TriPlanarShear-v0 at a load level, measure the mimicry."""
+"""One function evaluates every v0 controller: run it on TriPlanarShear-v0 at a load level through the one episode loop\n(:func:`agents.controller_base.play`), measure the mimicry."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import numpy as np
 
 from envs.triplanar_shear import ShearConfig, TriPlanarShearEnv, make_config
 
-from .controllers import Controller
+from .controller_base import Controller, play
 
 
 @dataclass(frozen=True)
@@ -46,22 +46,20 @@ def make_env(controller: Controller, load_N: float, env_kwargs: dict[str, Any] |
 
 def evaluate(controller: Controller, load_N: float, *, seed: int | None = 0,
              env_kwargs: dict[str, Any] | None = None) -> EpisodeResult:
-    """Run ``controller`` for one episode at ``load_N`` (the env is deterministic for fixed friction; ``seed``
-    matters with friction noise in ``env_kwargs``)."""
+    """Run ``controller`` for one episode at ``load_N`` through the one episode loop
+    (:func:`agents.controller_base.play`; the env is deterministic for fixed friction; ``seed`` matters with friction
+    noise in ``env_kwargs``)."""
     env = make_env(controller, load_N, env_kwargs)
-    controller.setup(env.config)
     obs, _ = env.reset(seed=seed)
-    cps, actions, thrust, offset, total = [env.contact_points()], [], [], [], 0.0
-    while True:
-        action = np.asarray(controller.act(obs), dtype=np.float32)
-        obs, reward, terminated, truncated, info = env.step(action)
+    cps, actions, thrust, offset = [env.contact_points()], [], [], []
+
+    def record(action: np.ndarray, info: dict) -> None:
         actions.append(action)
         thrust.append(info["thrust_N"])
         offset.append(info["tip_offset_m"])
         cps.append(env.contact_points())
-        total += reward
-        if terminated or truncated:
-            break
+
+    total, steps, info = play(controller, env, obs, load_N, on_step=record)
     success = bool(info["is_success"])
     return EpisodeResult(controller.name, float(load_N), seed,
                          info["mimicry_error_mm"] if success else float("nan"), info["reason"],

@@ -25,11 +25,13 @@ from typing import Any, Callable, Iterable, Sequence
 
 import numpy as np
 
-from envs import triplanar_shear_v1 as v1
-from envs.core import EpisodeDraw, StartError, episode_start, make_config, specimen_key
-from envs.triplanar_shear_v1 import BENCH_FIELDS, Bench, TriPlanarShearV1Env, draw_bench
+from envs.core import make_config
+from envs.triplanar_shear_v1 import (BENCH_FIELDS, TRAINING_RANGES, Bench, TriPlanarShearV1Env, can_start,
+                                     draw_bench)
 from triplanar import PAPER_LOADS_N
-from triplanar.specimen import Foundation, Plane, Specimen
+
+from .controller_base import Controller, play
+from triplanar.specimen import Foundation, Specimen
 
 HELDOUT_SEED = 10_010
 TUNING_SEED = 20_020
@@ -37,10 +39,10 @@ STRESS_SEED = 30_030
 FAILURE_SCORE_MM = 10.0
 BENCH_SETS = ("heldout", "stress", "nominal")
 
-# The stress set's ranges: wider than v1's randomisation (envs.triplanar_shear_v1.RANDOM_*) in the tip friction, the
-# load and the plane tilts (a worn tip, loads beyond the paper's, a foundation levelled less well); contact friction,
-# mass and mass centre vary as in training.
-STRESS_RANGES = {"tip_friction_deg": (2.0, 15.0), "load_N": (25.0, 60.0), "tilt_deg": 1.0}
+# The stress set's ranges: wider than v1's training ranges (envs.triplanar_shear_v1.TRAINING_RANGES) in the tip
+# friction, the load and the plane tilts (a worn tip, loads beyond the paper's, a foundation levelled less well);
+# contact friction, mass and mass centre vary as in training.
+STRESS_RANGES = replace(TRAINING_RANGES, tip_friction_deg=(2.0, 15.0), load_N=(25.0, 60.0), tilt_deg=1.0)
 
 
 def _shear_kwargs(env_kwargs: dict[str, Any] | None) -> dict[str, Any]:
@@ -49,14 +51,7 @@ def _shear_kwargs(env_kwargs: dict[str, Any] | None) -> dict[str, Any]:
 
 
 def _startable(bench: Bench, env_kwargs: dict[str, Any]) -> bool:
-    config = make_config(None, **_shear_kwargs(env_kwargs))
-    try:
-        episode_start(config, EpisodeDraw(bench.load_N, tuple(bench.specimen.friction_deg),
-                                          float(bench.specimen.tip_friction_deg)),
-                      bench.specimen, bench.foundation, specimen_key(bench.specimen, bench.foundation))
-    except StartError:
-        return False
-    return True
+    return can_start(make_config(None, **_shear_kwargs(env_kwargs)), bench)
 
 
 def random_benches(n: int, seed: int, env_kwargs: dict[str, Any] | None = None,
@@ -91,44 +86,22 @@ def heldout_benches(n: int = 50, tip_friction_deg: float | None = None) -> list[
 
 
 def draw_stress_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundation) -> Bench:
-    """An unknown specimen from :data:`STRESS_RANGES` (uniform; the same construction as
-    :func:`envs.triplanar_shear_v1.draw_bench`, whose ranges are the training ones and fixed)."""
-    friction = tuple(float(v) for v in np.asarray(specimen.friction_deg)
-                     + rng.uniform(-v1.RANDOM_FRICTION_DEG, v1.RANDOM_FRICTION_DEG, 3))
-    tip = float(rng.uniform(*STRESS_RANGES["tip_friction_deg"]))
-    scale = 1.0 + float(rng.uniform(-v1.RANDOM_MASS, v1.RANDOM_MASS))
-    centre = np.asarray(specimen.mass_centre_m) + rng.uniform(-v1.RANDOM_MASS_CENTRE_M, v1.RANDOM_MASS_CENTRE_M, 3)
-    tilt = STRESS_RANGES["tilt_deg"]
-    planes = []
-    for plane in foundation.planes:
-        if plane.dip_deg < v1.RANDOM_TILT_DEG:  # the horizontal plane: a dip in any direction
-            planes.append(Plane(float(rng.uniform(0.0, tilt)), float(rng.uniform(0.0, 360.0))))
-        else:
-            planes.append(Plane(plane.dip_deg + float(rng.uniform(-tilt, tilt)),
-                                plane.dip_direction_deg + float(rng.uniform(-v1.RANDOM_TILT_DIRECTION_DEG,
-                                                                            v1.RANDOM_TILT_DIRECTION_DEG))))
-    points = np.array(specimen.contact_points_m, dtype=float)
-    for i, plane in enumerate(planes):  # the block sits on the tilted planes
-        points[i, 1] = float(plane.height(points[i, 0], points[i, 2]))
-    load = float(rng.uniform(*STRESS_RANGES["load_N"]))
-    new = replace(specimen, contact_points_m=points, friction_deg=friction, tip_friction_deg=tip,
-                  mass_kg=specimen.mass_kg * scale, inertia_kg_m2=np.asarray(specimen.inertia_kg_m2) * scale,
-                  mass_centre_m=centre, name=f"{specimen.name} (stress)")
-    return Bench(new, Foundation(tuple(planes)), load)
+    """An unknown specimen from :data:`STRESS_RANGES` (:func:`envs.triplanar_shear_v1.draw_bench` with them)."""
+    return draw_bench(rng, specimen, foundation, STRESS_RANGES, "stress")
 
 
 def outside_training_ranges(bench: Bench, foundation: Foundation) -> list[str]:
     """The parameters of ``bench`` outside v1's randomisation ranges around the nominal ``foundation``."""
-    out = []
-    low, high = v1.RANDOM_TIP_FRICTION_DEG
+    out, r = [], TRAINING_RANGES
+    low, high = r.tip_friction_deg
     if not low <= bench.specimen.tip_friction_deg <= high:
         out.append("tip_friction_deg")
-    low, high = v1.RANDOM_LOAD_N
+    low, high = r.load_N
     if not low <= bench.load_N <= high:
         out.append("load_N")
     for nominal, plane in zip(foundation.planes, bench.foundation.planes):
-        reference = 0.0 if nominal.dip_deg < v1.RANDOM_TILT_DEG else nominal.dip_deg
-        if abs(plane.dip_deg - reference) > v1.RANDOM_TILT_DEG:
+        reference = 0.0 if nominal.dip_deg < r.tilt_deg else nominal.dip_deg
+        if abs(plane.dip_deg - reference) > r.tilt_deg:
             out.append("plane_tilt")
             break
     return out
@@ -186,29 +159,29 @@ class Outcome:
 def run_episode(controller: Any, bench: Bench, *, env_kwargs: dict[str, Any] | None = None, seed: int = 0,
                 bench_set: str = "heldout", index: int = 0, policy: Any = None,
                 on_step: Callable[[dict], None] | None = None) -> Outcome:
-    """One episode of ``controller`` (a bench controller with ``reset``/``act``, or ``policy(obs) -> action``
-    with ``controller`` its name) on ``bench``; ``seed`` seeds the sensor noise; ``on_step`` is called with every
-    step's ``info``."""
+    """One episode of ``controller`` (a :class:`agents.controller_base.Controller`, or ``policy(obs) -> action``
+    with ``controller`` its name) on ``bench`` through the one episode loop (:func:`agents.controller_base.play`);
+    ``seed`` seeds the sensor noise; ``on_step`` is called with every step's ``info``."""
     env = TriPlanarShearV1Env(**(env_kwargs or {}))
     obs, info = env.reset(seed=seed, options={"bench": bench})
     name = controller if isinstance(controller, str) else controller.name
-    if policy is None:
-        if getattr(controller, "needs_env", False):  # the limit controller reads the true state
-            controller.bind(env)
-        controller.reset(bench.load_N, env.config)
-        policy = controller.act
-    total, steps = 0.0, 0
-    while True:
-        obs, reward, terminated, truncated, info = env.step(np.asarray(policy(obs), dtype=np.float32))
-        total += reward
-        steps += 1
-        if on_step is not None:
-            on_step(info)
-        if terminated or truncated:
-            break
+    if policy is not None:   # a bare policy: nothing to reset
+        controller = _Policy(name, policy)
+    total, steps, info = play(controller, env, obs, bench.load_N, prepared=policy is not None,
+                              on_step=None if on_step is None else lambda action, step_info: on_step(step_info))
     success = bool(info["is_success"])
     return Outcome(name, bench_set, index, bench.load_N, success, info["reason"],
                    float(info["mimicry_error_mm"]) if success else math.nan, float(info["travel_m"]), total, steps)
+
+
+class _Policy(Controller):
+    """``policy(obs) -> action`` as a controller."""
+
+    def __init__(self, name: str, policy: Callable[[np.ndarray], np.ndarray]):
+        self.name, self.policy = name, policy
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        return self.policy(obs)
 
 
 def summarise(outcomes: Sequence[Outcome]) -> dict[str, float]:

@@ -1,5 +1,5 @@
 """``limit``: what a bench design allows, with perfect knowledge. The controller reads the env's exact state, true
-specimen, bench dynamics and the true specimen's case-C reference (:func:`envs.prediction.snapshot`), and each
+specimen, bench dynamics and the true specimen's case-C reference (the env's public state, ``get_state``), and each
 period replans the action sequence by the cross-entropy method over rollouts of the env's own compiled step
 (:class:`agents.planner.CEMPlanner`), sending the first action: horizon 48 periods (240 ms), 64 candidates x 4
 iterations, thrusts within ``1 +- thrust_envelope`` (0.4) times the load level. Its plans keep ``mpc``'s margin from
@@ -13,8 +13,8 @@ or the candidates beyond it moves the figure by about 0.01 mm, within the benche
 optimum, no longer falling with more search. No laboratory can build it (it sees the truth); it is the reference a
 design's real controllers are judged against.
 
-It needs the env: :func:`agents.heldout.run_episode` hands it over through :meth:`bind` (a controller with
-``needs_env = True``).
+It needs the env: the episode loop (:func:`agents.controller_base.play`) hands it over through :meth:`bind` (a
+controller with ``needs_env = True``).
 """
 
 from __future__ import annotations
@@ -25,13 +25,14 @@ from typing import Any
 import numpy as np
 
 from envs.core import ShearConfig
-from envs.prediction import snapshot
 from envs.triplanar_shear_v1 import BS_PREV
 
+from .controller_base import Controller
 from .planner import CEMPlanner
 
+
 @dataclass
-class LimitController:
+class LimitController(Controller):
     """Perfect-knowledge receding-horizon control (module docstring); the planner's settings are its fields
     (``normal_margin``: :func:`envs.prediction.predict`'s lift-off margin, 0.1 of the normal load as ``mpc``'s;
     ``plane_margin_m``: its margin from leaving a plane, none: the limit knows where the planes meet;
@@ -69,7 +70,7 @@ class LimitController:
     def act(self, obs: np.ndarray) -> np.ndarray:
         if self._env is None:
             raise RuntimeError("limit needs the env's true state: call bind(env) after env.reset (run_episode does)")
-        state = snapshot(self._env)
+        state = self._env.get_state()
         plan = self._planner.plan([state], [1.0], state.bs[BS_PREV:BS_PREV + 2])
         self._planner.advance(plan)
         self.decisions.append(self._planner.last_cost)

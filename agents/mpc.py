@@ -67,16 +67,17 @@ from typing import Any
 import numpy as np
 
 from envs.core import ShearConfig
-from envs.triplanar_shear_v1 import nominal_command
+from envs.triplanar_shear_v1 import DEFAULT_BENCH, nominal_command
 from triplanar import kernel as K
 from triplanar.prior import fitted_intervals, load_prior
 
+from .controller_base import Controller
 from .estimator import GEOMETRY, PARAMETERS, SpecimenBank
 from .planner import CEMPlanner
 
 
 @dataclass
-class MPCController:
+class MPCController(Controller):
     """Estimator + receding-horizon planner (module docstring); the fields are its settings and the bench's
     known hardware."""
 
@@ -114,10 +115,10 @@ class MPCController:
     start_offset_ratio: float = -1.0
     start_centre_m: float = 0.0
     seed: int = 0
-    stage_bandwidth_hz: float = 20.0
-    thrust_bandwidth_hz: float = 30.0
-    latency_s: float = 0.005
-    sensor_noise_m: float = 2e-4
+    stage_bandwidth_hz: float = DEFAULT_BENCH.stage_bandwidth_hz
+    thrust_bandwidth_hz: float = DEFAULT_BENCH.thrust_bandwidth_hz
+    latency_s: float = DEFAULT_BENCH.latency_s
+    sensor_noise_m: float = DEFAULT_BENCH.sensor_noise_m
     tip_friction_deg: float | None = None
     prior: Any = None
     info: dict = field(default_factory=dict)

@@ -11,6 +11,8 @@ import numpy as np
 
 from envs.triplanar_shear import ShearConfig
 
+from .controller_base import Controller
+
 
 def load_untrusted_sb3_zip(path: str | Path, algo: str = "ppo") -> Any:
     """UNPICKLES: an SB3 model zip (``PPO.load``, or sb3-contrib's ``RecurrentPPO.load`` for ``algo="recurrent"``).
@@ -30,7 +32,7 @@ def load_untrusted_vecnormalize(path: str | Path) -> Any:
         return pickle.load(f)
 
 
-class PPOController:
+class PPOController(Controller):
     """Deterministic actions of a stable-baselines3 PPO model on observations normalised as in training."""
 
     env_overrides: dict[str, Any] = {}
@@ -47,7 +49,7 @@ class PPOController:
         return cls(load_untrusted_sb3_zip(model_path), normalizer, name)
 
     def setup(self, config: ShearConfig) -> None:
-        pass
+        """Deprecated: ``reset(load_N, config)`` (nothing to set up)."""
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         if self.normalizer is not None:

@@ -62,7 +62,8 @@ def best_of(repeats: int, fn) -> float:
 def kernel_floor(n: int) -> float:
     env = TriPlanarShearEnv(load_N=27.8)
     env.reset(seed=0)
-    y, p, modes = env._y.copy(), env._p.copy(), env._modes.copy()
+    state = env.get_state()
+    y, p, modes = state.y, state.p, state.modes
     _kernel_periods(y, p, modes, 10, 1.0)
     t0 = CLOCK[0]()
     _kernel_periods(y, p, modes, n, 1.0)
@@ -95,8 +96,8 @@ _V1_RUNS = [0]
 def single_v1(n: int, stats: dict, **kwargs) -> float:
     """TriPlanarShear-v1 (default: bench observations, unknown specimens), random actions, autoreset by hand.
 
-    Each call starts from a seed of its own: with the same seed a repeat would draw the same specimens and find
-    their starts in the start cache (``envs.core.episode_start``), which training never does."""
+    Each call starts from a seed of its own: with the same seed a repeat would draw the same specimens, whose starts
+    a long-lived env finds in its start cache (``envs.core.StartCache``), which training never does."""
     from envs.triplanar_shear_v1 import TriPlanarShearV1Env
     env = TriPlanarShearV1Env(**{"observation_mode": "bench", "randomize": True, **kwargs})
     actions = np.random.default_rng(0).uniform(-1, 1, (n, 2)).astype(np.float32)

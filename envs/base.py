@@ -10,6 +10,7 @@ lies between the agent's action and the step (v1's bench), and what the agent ob
 from __future__ import annotations
 
 import os
+from dataclasses import dataclass, fields
 from typing import Any
 
 import gymnasium as gym
@@ -17,6 +18,26 @@ import numpy as np
 
 from .core import (IN_TRUNC, N_INFO, OBS_DIM, ST_CP_REST, ST_LOAD, ST_T, EpisodeStart, ShearConfig,
                    contact_points_of, control_step, load_point_of, new_workspace)
+
+
+@dataclass
+class ShearState:
+    """An episode's whole state, as the compiled step reads and writes it (copies: an env's arrays are never shared):
+    the kernel state ``y`` (``triplanar.kernel.S_*``) and parameters ``p``, the stick/slip ``modes``, the armed
+    events, the bookkeeping ``st`` (``envs.core.ST_*``), the episode's reference ``ref`` and the packed configuration
+    ``cfg`` (``envs.core.CF_*``). :meth:`ShearEnvBase.get_state` makes one, :meth:`ShearEnvBase.set_state` loads one
+    (MuJoCo envs' ``state_vector``/``set_state``)."""
+
+    y: np.ndarray
+    p: np.ndarray
+    modes: np.ndarray
+    armed: np.ndarray
+    st: np.ndarray
+    ref: np.ndarray
+    cfg: np.ndarray
+
+    def copy(self):
+        return type(self)(*(np.array(getattr(self, f.name)) for f in fields(self)))
 
 
 class ShearEnvBase(gym.Env):
@@ -128,6 +149,33 @@ class ShearEnvBase(gym.Env):
     def _load_point(self) -> np.ndarray:
         """Overhead (x1, x3) of the load point: where the rendering draws the tip."""
         return load_point_of(self._st[ST_T], self._y, self._p, self._modes)
+
+    def get_state(self) -> ShearState:
+        """The episode's state now (copies; after ``reset``): what a prediction starts from."""
+        self._require_episode("get_state")
+        return ShearState(self._y.copy(), self._p.copy(), self._modes.copy(), self._armed.copy(), self._st.copy(),
+                          np.array(self._ref), self._cfg.copy())
+
+    def set_state(self, state: ShearState) -> None:
+        """Continue the episode from ``state`` (copied in; one of :meth:`get_state`'s, of an env with the same
+        configuration, else a ValueError naming the field). The next ``step`` runs from it; the observation held
+        until then is the last one's."""
+        self._require_episode("set_state")
+        if not np.array_equal(state.cfg, self._cfg):
+            raise ValueError("set_state: state.cfg differs from this env's configuration (a state of another env)")
+        for name in ("y", "p", "modes", "armed", "st"):
+            mine, theirs = getattr(self, "_" + name), np.asarray(getattr(state, name))
+            if theirs.shape != mine.shape:
+                raise ValueError(f"set_state: state.{name} has shape {theirs.shape}, expected {mine.shape}")
+            mine[:] = theirs
+        if np.shape(state.ref) != np.shape(self._ref):
+            raise ValueError(f"set_state: state.ref has shape {np.shape(state.ref)}, expected {np.shape(self._ref)}")
+        self._ref = np.array(state.ref)
+        self._ended = self._warned_ended = False
+
+    def _require_episode(self, what: str) -> None:
+        if self._start is None:
+            raise gym.error.ResetNeeded(f"call reset() before {what}()")
 
     @property
     def state(self) -> np.ndarray:

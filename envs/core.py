@@ -311,8 +311,26 @@ class StartError(ValueError):
     """The block cannot start: friction holds it at rest under the load level."""
 
 
-_STARTS: OrderedDict[tuple, EpisodeStart] = OrderedDict()
-_MAX_STARTS = 2048
+class StartCache:
+    """Starting states by specimen, draw and configuration, computed once each and kept (the ``size`` most recently
+    used). Each env owns one (a reset at a load level it has run before finds its start here); pass one to
+    :func:`episode_start` to share it among the callers that hold it. No cache is global: what an env computes is
+    its own."""
+
+    def __init__(self, size: int = 2048):
+        self.size = int(size)
+        self.entries: OrderedDict[tuple, EpisodeStart] = OrderedDict()
+
+    def get(self, key: tuple) -> EpisodeStart | None:
+        entry = self.entries.get(key)
+        if entry is not None:
+            self.entries.move_to_end(key)
+        return entry
+
+    def put(self, key: tuple, entry: EpisodeStart) -> None:
+        self.entries[key] = entry
+        if len(self.entries) > self.size:
+            self.entries.popitem(last=False)
 
 
 def specimen_key(specimen: Specimen, foundation: Foundation) -> tuple:
@@ -322,22 +340,20 @@ def specimen_key(specimen: Specimen, foundation: Foundation) -> tuple:
 
 
 def episode_start(config: ShearConfig, draw: EpisodeDraw, specimen: Specimen, foundation: Foundation,
-                  base_key: tuple | None = None) -> EpisodeStart:
-    """The starting state for ``draw`` (computed once per distinct specimen, friction and load, then cached).
+                  base_key: tuple | None = None, cache: StartCache | None = None) -> EpisodeStart:
+    """The starting state for ``draw`` (StartError if the block cannot start), from ``cache`` if it holds it, else
+    computed (and kept there).
 
     ``specimen`` and ``foundation`` are :meth:`ShearConfig.base_specimen`'s; ``base_key`` their
     :func:`specimen_key` (pass it to save recomputing it)."""
     base_key = base_key if base_key is not None else specimen_key(specimen, foundation)
     key = (base_key, draw, config.end_friction, config.tip_offset_m, config.control_hz, config.substeps,
            config.travel_m, config.thrust_scale, config.offset_range_m, config.stage_speed_m_s, config.time_limit_s)
-    entry = _STARTS.get(key)
-    if entry is not None:
-        _STARTS.move_to_end(key)
-        return entry
-    entry = _compute_start(key, config, draw, specimen, foundation)
-    _STARTS[key] = entry
-    if len(_STARTS) > _MAX_STARTS:
-        _STARTS.popitem(last=False)
+    entry = cache.get(key) if cache is not None else None
+    if entry is None:
+        entry = _compute_start(key, config, draw, specimen, foundation)
+        if cache is not None:
+            cache.put(key, entry)
     return entry
 
 

@@ -37,7 +37,7 @@ distance from the FP2/FP3 line but 0.6 mm from a line between planes whose dips 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import fields
 
 import numpy as np
 from numba import njit
@@ -61,37 +61,19 @@ from .core import (
     control_step,
     new_workspace,
 )
-from .triplanar_shear_v1 import bench_command
+from .triplanar_shear_v1 import BenchState, bench_command
+
+__all__ = ["BENCH_STATE_FIELDS", "BenchState", "crossing_slopes", "margin_intrusion", "plane_intrusion", "predict",
+           "rollout_costs", "snapshot", "step_state", "warm_up"]
 
 
-@dataclass
-class BenchState:
-    """Everything the compiled step reads and writes for one bench (copies; the env's arrays are never touched)."""
-
-    y: np.ndarray
-    p: np.ndarray
-    modes: np.ndarray
-    armed: np.ndarray
-    st: np.ndarray
-    ref: np.ndarray
-    cfg: np.ndarray
-    bc: np.ndarray
-    bs: np.ndarray
-    queue: np.ndarray
-
-    def copy(self) -> BenchState:
-        return BenchState(*(np.array(getattr(self, name)) for name in BENCH_STATE_FIELDS))
-
-
-BENCH_STATE_FIELDS = ("y", "p", "modes", "armed", "st", "ref", "cfg", "bc", "bs", "queue")
+BENCH_STATE_FIELDS = tuple(f.name for f in fields(BenchState))
 
 
 def snapshot(env) -> BenchState:
-    """The exact state of a reset ``TriPlanarShearV1Env`` (unwrapped): what the limit controller knows."""
-    env = env.unwrapped
-    return BenchState(env._y.copy(), env._p.copy(), env._modes.copy(), env._armed.copy(), env._st.copy(),
-                      np.array(env._ref), env._cfg.copy(), env._bc.copy(), env._bs.copy(),
-                      env._queue.copy())
+    """The exact state of a reset ``TriPlanarShearV1Env`` (its :meth:`~envs.triplanar_shear_v1.TriPlanarShearV1Env.get_state`;
+    wrappers are looked through): what the limit controller knows."""
+    return env.unwrapped.get_state()
 
 
 @njit(cache=True, error_model="numpy")

@@ -21,10 +21,10 @@ from triplanar import kernel as K
 from triplanar.layout import Layout
 from triplanar.specimen import Foundation, Plane, Specimen
 
-from .base import ShearEnvBase
+from .base import ShearEnvBase, ShearState
 from .core import (IN_R_DIST, IN_R_TERM, IN_THRUST, IN_TRUNC, OBS_POS, OBS_PREV, ST_LOAD, ST_T, EpisodeDraw,
-                   EpisodeStart, ShearConfig, StartError, check_action, draw_episode, episode_start, info_dict,
-                   make_config, observation_space, specimen_key)
+                   EpisodeStart, ShearConfig, StartCache, StartError, check_action, draw_episode, episode_start,
+                   info_dict, make_config, observation_space, specimen_key)
 
 # (This module's compiled functions read the kernel's and v0's layouts; envs/__init__.py drops the package's numba
 # cache when those change.)
@@ -59,14 +59,37 @@ BENCH_STATE = Layout("BS_", "N_BS", [
 (BS_THRUST, BS_PREV, BS_HEAD, N_BS) = BENCH_STATE.constants().values()
 assert all(globals()[name] == value for name, value in BENCH_STATE.constants().items())
 
-# Ranges of the unknown specimens (randomize=True); docs/environment.md gives the reasons.
-RANDOM_FRICTION_DEG = 2.0           # each contact's friction angle, +- around the specimen's
-RANDOM_TIP_FRICTION_DEG = (3.0, 12.0)
-RANDOM_MASS = 0.05                  # +- 5 %; the inertia tensor scales with it
-RANDOM_MASS_CENTRE_M = 0.005        # +- 5 mm on each body axis
-RANDOM_TILT_DEG = 0.5               # each plane's dip, +-; the horizontal plane gets a dip in [0, 0.5] deg
-RANDOM_TILT_DIRECTION_DEG = 5.0     # the dipping planes' dip direction, +-
-RANDOM_LOAD_N = (27.8, 55.6)
+
+
+@dataclass(frozen=True)
+class BenchRanges:
+    """The ranges an unknown specimen is drawn from (:func:`draw_bench`, uniform in each): ``friction_deg``, each
+    contact's friction angle +- around the specimen's; ``tip_friction_deg`` (low, high); ``mass``, +- a fraction (the
+    inertia tensor scales with it); ``mass_centre_m``, +- on each body axis; ``tilt_deg``, each plane's dip +- (a plane
+    dipping less, the horizontal one, gets a dip in [0, tilt_deg] in any direction); ``tilt_direction_deg``, the dipping
+    planes' dip direction +-; ``load_N`` (low, high)."""
+
+    friction_deg: float = 2.0
+    tip_friction_deg: tuple[float, float] = (3.0, 12.0)
+    mass: float = 0.05
+    mass_centre_m: float = 0.005
+    tilt_deg: float = 0.5
+    tilt_direction_deg: float = 5.0
+    load_N: tuple[float, float] = (27.8, 55.6)
+
+
+# v1's unknown specimens (randomize=True): the training ranges; docs/environment.md gives the reasons. Everything that
+# draws or bounds a bench imports this object (the held-out and tuning streams, the estimator's prior; the stress set
+# widens it, agents.heldout.STRESS_RANGES).
+TRAINING_RANGES = BenchRanges()
+# (the same numbers under their earlier names, kept for code that imports them)
+RANDOM_FRICTION_DEG = TRAINING_RANGES.friction_deg
+RANDOM_TIP_FRICTION_DEG = TRAINING_RANGES.tip_friction_deg
+RANDOM_MASS = TRAINING_RANGES.mass
+RANDOM_MASS_CENTRE_M = TRAINING_RANGES.mass_centre_m
+RANDOM_TILT_DEG = TRAINING_RANGES.tilt_deg
+RANDOM_TILT_DIRECTION_DEG = TRAINING_RANGES.tilt_direction_deg
+RANDOM_LOAD_N = TRAINING_RANGES.load_N
 START_ATTEMPTS = 20                 # draws before giving up on a specimen that friction holds at rest
 
 
@@ -105,6 +128,11 @@ class BenchConfig:
 
     def latency_periods(self, dt: float) -> int:
         return int(round(self.latency_s / dt))
+
+
+# v1's hardware and observation by default: the one place its defaults are written (the single and the batched env's
+# arguments and agents.mpc's known hardware read them here).
+DEFAULT_BENCH = BenchConfig()
 
 
 def servo_constants(bandwidth_hz: float, dt: float) -> tuple[float, float]:
@@ -209,6 +237,17 @@ def bench_observation(obs: np.ndarray, noise: np.ndarray, bs: np.ndarray, y: np.
     return result
 
 
+@dataclass
+class BenchState(ShearState):
+    """A v1 episode's whole state: :class:`envs.base.ShearState` and the bench's, its constants ``bc``
+    (``BC_*``), state ``bs`` (``BS_*``) and latency ``queue`` (:meth:`TriPlanarShearV1Env.get_state`; the
+    model-based controllers predict from it, :mod:`envs.prediction`)."""
+
+    bc: np.ndarray
+    bs: np.ndarray
+    queue: np.ndarray
+
+
 @dataclass(frozen=True)
 class Bench:
     """One episode's specimen and foundation (the nominal ones, or an unknown specimen's draw)."""
@@ -225,23 +264,26 @@ class Bench:
                 "plane_dips_deg": tuple(float(p.dip_deg) for p in f.planes)}
 
 
-def draw_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundation) -> Bench:
-    """An unknown specimen: the ranges above, uniform, from ``rng``."""
+def draw_bench(rng: np.random.Generator, specimen: Specimen, foundation: Foundation,
+               ranges: BenchRanges = TRAINING_RANGES, label: str = "random") -> Bench:
+    """An unknown specimen from ``ranges`` (v1's training ranges by default), uniform, from ``rng``; its name is the
+    specimen's with ``(label)``."""
+    r = ranges
     friction = tuple(float(v) for v in np.asarray(specimen.friction_deg)
-                     + rng.uniform(-RANDOM_FRICTION_DEG, RANDOM_FRICTION_DEG, 3))
-    tip = float(rng.uniform(*RANDOM_TIP_FRICTION_DEG))
-    scale = 1.0 + float(rng.uniform(-RANDOM_MASS, RANDOM_MASS))
-    centre = np.asarray(specimen.mass_centre_m) + rng.uniform(-RANDOM_MASS_CENTRE_M, RANDOM_MASS_CENTRE_M, 3)
+                     + rng.uniform(-r.friction_deg, r.friction_deg, 3))
+    tip = float(rng.uniform(*r.tip_friction_deg))
+    scale = 1.0 + float(rng.uniform(-r.mass, r.mass))
+    centre = np.asarray(specimen.mass_centre_m) + rng.uniform(-r.mass_centre_m, r.mass_centre_m, 3)
     planes = []
     for plane in foundation.planes:
-        if plane.dip_deg < RANDOM_TILT_DEG:  # a (nearly) horizontal plane tilts a little in any direction
-            planes.append(Plane(float(rng.uniform(0.0, RANDOM_TILT_DEG)), float(rng.uniform(0.0, 360.0))))
+        if plane.dip_deg < r.tilt_deg:  # a (nearly) horizontal plane tilts a little in any direction
+            planes.append(Plane(float(rng.uniform(0.0, r.tilt_deg)), float(rng.uniform(0.0, 360.0))))
         else:
-            planes.append(Plane(plane.dip_deg + float(rng.uniform(-RANDOM_TILT_DEG, RANDOM_TILT_DEG)),
-                                plane.dip_direction_deg + float(rng.uniform(-RANDOM_TILT_DIRECTION_DEG,
-                                                                            RANDOM_TILT_DIRECTION_DEG))))
-    load = float(rng.uniform(*RANDOM_LOAD_N))
-    return unknown_bench(specimen, friction, tip, scale, centre, tuple(planes), load, f"{specimen.name} (random)")
+            planes.append(Plane(plane.dip_deg + float(rng.uniform(-r.tilt_deg, r.tilt_deg)),
+                                plane.dip_direction_deg + float(rng.uniform(-r.tilt_direction_deg,
+                                                                            r.tilt_direction_deg))))
+    load = float(rng.uniform(*r.load_N))
+    return unknown_bench(specimen, friction, tip, scale, centre, tuple(planes), load, f"{specimen.name} ({label})")
 
 
 def unknown_bench(specimen: Specimen, friction_deg: tuple[float, ...], tip_friction_deg: float, mass_scale: float,
@@ -272,22 +314,33 @@ def draw_bench_for(rng: np.random.Generator, config: ShearConfig, randomize: boo
                  foundation, draw.load_N)
 
 
-def bench_start(config: ShearConfig, bench: Bench) -> EpisodeStart:
-    """The cached start of ``bench`` (:func:`envs.core.episode_start`; StartError if it cannot start)."""
+def bench_start(config: ShearConfig, bench: Bench, cache: StartCache | None = None) -> EpisodeStart:
+    """The start of ``bench`` (:func:`envs.core.episode_start`, kept in ``cache`` if given; StartError if it cannot
+    start)."""
     specimen = bench.specimen
     return episode_start(config, EpisodeDraw(bench.load_N, tuple(specimen.friction_deg),
                                              float(specimen.tip_friction_deg)),
-                         specimen, bench.foundation, specimen_key(specimen, bench.foundation))
+                         specimen, bench.foundation, specimen_key(specimen, bench.foundation), cache)
+
+
+def can_start(config: ShearConfig, bench: Bench, cache: StartCache | None = None) -> bool:
+    """Whether ``bench`` can start under ``config`` (friction does not hold it at rest and its first period does not
+    end the test): the check each reset makes, :func:`bench_start`; a laboratory would not run a bench that fails it."""
+    try:
+        bench_start(config, bench, cache)
+    except StartError:
+        return False
+    return True
 
 
 def draw_start(rng: np.random.Generator, config: ShearConfig, randomize: bool, specimen: Specimen,
-               foundation: Foundation) -> tuple[Bench, EpisodeStart]:
+               foundation: Foundation, cache: StartCache | None = None) -> tuple[Bench, EpisodeStart]:
     """What a reset draws from ``rng`` and its start; an unknown specimen that friction holds at rest is drawn
     again (up to ``START_ATTEMPTS`` draws). The single and the batched v1 both call it, so they draw alike."""
     for _ in range(START_ATTEMPTS):
         bench = draw_bench_for(rng, config, randomize, specimen, foundation)
         try:
-            return bench, bench_start(config, bench)
+            return bench, bench_start(config, bench, cache)
         except StartError:
             if not randomize:
                 raise
@@ -474,9 +527,11 @@ class TriPlanarShearV1Env(ShearEnvBase):
       bitwise the same (``benchmarks/fingerprint.py --compare``).
     """
 
-    def __init__(self, render_mode: str | None = None, *, observation_mode: str = "bench", randomize: bool = False,
-                 stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0, latency_s: float = 0.005,
-                 sensor_noise_m: float = 2e-4, nominal_specimen: str | os.PathLike | None = None, **kwargs: Any):
+    def __init__(self, render_mode: str | None = None, *, observation_mode: str = DEFAULT_BENCH.observation_mode,
+                 randomize: bool = DEFAULT_BENCH.randomize, stage_bandwidth_hz: float = DEFAULT_BENCH.stage_bandwidth_hz,
+                 thrust_bandwidth_hz: float = DEFAULT_BENCH.thrust_bandwidth_hz,
+                 latency_s: float = DEFAULT_BENCH.latency_s, sensor_noise_m: float = DEFAULT_BENCH.sensor_noise_m,
+                 nominal_specimen: str | os.PathLike | None = None, **kwargs: Any):
         refuse_batch_arguments(kwargs)
         if nominal_specimen is not None:  # identify, then control: the fitted specimen becomes the nominal one
             from triplanar.prior import load_prior  # (only when asked for)
@@ -494,6 +549,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
         self._no_noise = np.zeros(0)
         self._applied = np.zeros(2)
         self._episode: Bench | None = None
+        self._start_cache = StartCache()   # this env's starts (a bench it has run before starts from here)
 
     # -- Gymnasium API ---------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -502,9 +558,9 @@ class TriPlanarShearV1Env(ShearEnvBase):
         bench = bench_option(options)
         if bench is None:
             bench, start = draw_start(self.np_random, self.config, self.bench.randomize, self._specimen,
-                                      self._foundation)
+                                      self._foundation, self._start_cache)
         else:
-            start = bench_start(self.config, bench)
+            start = bench_start(self.config, bench, self._start_cache)
         self._episode = bench
         self._episode_info = bench.info()
         reset_bench_state(self.config, start, self._bs, self._queue)
@@ -540,6 +596,27 @@ class TriPlanarShearV1Env(ShearEnvBase):
         info["thrust_N"] = float(self._inf[IN_THRUST])
         info["load_cell_N"] = float(self._bs[BS_THRUST])
         return info
+
+    def get_state(self) -> BenchState:
+        """The episode's state now, the bench's included (copies; after ``reset``): the truth the ``limit``
+        controller plans from."""
+        return BenchState(**vars(super().get_state()), bc=self._bc.copy(), bs=self._bs.copy(),
+                          queue=self._queue.copy())
+
+    def set_state(self, state: BenchState) -> None:
+        """Continue the episode from ``state`` (:meth:`envs.base.ShearEnvBase.set_state`, the bench's state too)."""
+        if not isinstance(state, BenchState):
+            raise TypeError(f"set_state: expected a BenchState (TriPlanarShearV1Env.get_state), got {state!r}")
+        if not np.array_equal(state.bc, self._bc) or np.shape(state.queue) != self._queue.shape:
+            raise ValueError("set_state: state.bc or state.queue is of another bench (servos, latency)")
+        super().set_state(state)
+        self._bs[:] = state.bs
+        self._queue[:] = state.queue
+
+    def __getstate__(self) -> dict[str, Any]:
+        state = super().__getstate__()
+        state["_start_cache"] = StartCache()   # (a copy of the env starts with its own, empty)
+        return state
 
     @property
     def episode_bench(self) -> Bench:

@@ -42,7 +42,7 @@ from triplanar import kernel as K
 from triplanar.outcome import RUNNING, TIME_LIMIT, TRAVEL
 
 from . import core as S
-from .triplanar_shear_v1 import (BENCH_HIGH, BENCH_OBS_DIM, BS_PREV, BS_THRUST, N_BS, Bench, BenchConfig,
+from .triplanar_shear_v1 import (BENCH_HIGH, BENCH_OBS_DIM, BS_PREV, BS_THRUST, DEFAULT_BENCH, N_BS, Bench, BenchConfig,
                                  action_rate_reward, bench_command, bench_constants, bench_observation, bench_option,
                                  bench_start, draw_start, observation_space_of, reset_bench_state)
 from .vector import seed_list
@@ -92,6 +92,7 @@ class BenchBatch:
         self.frame_stack = int(frame_stack)
         self.cfg, self.bc = config.packed(), bench_constants(bench, config)
         self.specimen, self.foundation = config.base_specimen()
+        self._start_cache = S.StartCache()   # the batch's starts, as a single env's
         n, dim = self.num_envs, self.obs_dim
         self.Y, self.P, self.MODES = np.zeros((n, K.N_STATE)), np.zeros((n, K.N_PARAM)), np.zeros((n, K.N_MODE))
         self.ARMED = np.zeros((n, 5), dtype=np.bool_)
@@ -138,7 +139,7 @@ class BenchBatch:
 
     def _bank_draw(self) -> list[Any]:
         bench, start = draw_start(np.random.default_rng([BANK_STREAM, self._bank_seed, self._bank_drawn]),
-                                  self.config, True, self.specimen, self.foundation)
+                                  self.config, True, self.specimen, self.foundation, self._start_cache)
         self._bank_drawn += 1
         return [bench, start, self._bank_reuse]
 
@@ -161,12 +162,12 @@ class BenchBatch:
         rows = np.asarray(rows, dtype=np.int64)
         for i in rows.tolist():
             if bench is not None:
-                episode, start = bench, bench_start(self.config, bench)
+                episode, start = bench, bench_start(self.config, bench, self._start_cache)
             elif self._bank_size:
                 episode, start = self._bank_take()
             else:
                 episode, start = draw_start(self.rngs[i], self.config, self.bench.randomize, self.specimen,
-                                            self.foundation)
+                                            self.foundation, self._start_cache)
             self.benches[i] = episode
             reset_bench_state(self.config, start, self.BS[i], self.QUEUE[i])
             self.Y[i], self.P[i], self.MODES[i], self.ARMED[i] = start.y, start.p, start.modes, start.armed
@@ -271,9 +272,12 @@ class TriPlanarShearV1VectorEnv(VectorEnv):
 
     metadata = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
-    def __init__(self, num_envs: int = 1, render_mode: str | None = None, *, observation_mode: str = "bench",
-                 randomize: bool = False, stage_bandwidth_hz: float = 20.0, thrust_bandwidth_hz: float = 30.0,
-                 latency_s: float = 0.005, sensor_noise_m: float = 2e-4, frame_stack: int = 1, start_bank: int = 0,
+    def __init__(self, num_envs: int = 1, render_mode: str | None = None, *,
+                 observation_mode: str = DEFAULT_BENCH.observation_mode, randomize: bool = DEFAULT_BENCH.randomize,
+                 stage_bandwidth_hz: float = DEFAULT_BENCH.stage_bandwidth_hz,
+                 thrust_bandwidth_hz: float = DEFAULT_BENCH.thrust_bandwidth_hz,
+                 latency_s: float = DEFAULT_BENCH.latency_s, sensor_noise_m: float = DEFAULT_BENCH.sensor_noise_m,
+                 frame_stack: int = 1, start_bank: int = 0,
                  bank_reuse: int = BANK_REUSE, max_episode_steps: int | None = None, **kwargs: Any):
         if render_mode is not None:
             raise ValueError("the batched v1 does not render; render a single TriPlanarShear-v1 to watch a test")

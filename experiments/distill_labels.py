@@ -409,7 +409,7 @@ def expert_pairs(pairs: list[str]) -> tuple:
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
-    from triplanar.cli_args import add_executor_arguments
+    from triplanar.commands.options import add_executor_arguments
     parser = argparse.ArgumentParser(prog="python -m experiments.distill_labels", description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", required=True, help="the round's folder (settings.json and shards/); rerun to resume")
     parser.add_argument("--first", type=int, default=1000, help="the first draw of the stream (default 1000: the "
@@ -437,7 +437,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.status:
         print(json.dumps(status(args.out), indent=1))
         return 0
-    from triplanar.cli_args import executor_from_args
+    from triplanar.commands.options import executor_from_args
     try:
         settings = LabelSettings(stream=args.stream, round=args.round, driver=args.driver, beta=args.beta,
                                  expert=expert_pairs(args.expert))

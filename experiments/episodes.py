@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from agents.bench_controllers import make_controller
+from agents.controller_base import Controller
 from agents.heldout import TUNING_SEED, Outcome, bench_set, random_benches, run_episode
 
 NOISE_SEED = 40_040
@@ -51,13 +52,14 @@ def benches_of(batch: EpisodeBatch) -> list[Any]:
     return bench_set(batch.bench_set, batch.n, batch.tip_friction_deg)
 
 
-@dataclass
-class _Named:
-    name: str
-    act: Any
+class _Named(Controller):
+    """A policy's ``act`` under the batch's label."""
 
-    def reset(self, load_N: float, config: Any) -> None:
-        pass
+    def __init__(self, name: str, policy_act: Any):
+        self.name, self.policy_act = name, policy_act
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        return self.policy_act(obs)
 
 
 def controller_of(batch: EpisodeBatch) -> tuple[Any, dict[str, Any], bool]:

@@ -11,23 +11,31 @@ import importlib
 import signal
 import sys
 import threading
+from typing import Any
 
 from .commands import MissingDependency
 
 COMMANDS = ("simulate", "lab_data", "paper", "compare", "diagnose", "fit", "train", "study", "evaluate", "demo")
 
 
+def command_modules() -> list[Any]:
+    """The modules of :data:`COMMANDS` this installation has, in order."""
+    modules = []
+    for module_name in COMMANDS:
+        try:
+            modules.append(importlib.import_module(f"triplanar.commands.{module_name}"))
+        except ModuleNotFoundError as err:
+            if err.name != f"triplanar.commands.{module_name}":
+                raise
+            # (not written yet)
+    return modules
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="triplanar", description="Tri-planar shear model of Galic, Glaser & "
                                      "Goodman (2008): simulate, reproduce the paper, compare with measurements.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for module_name in COMMANDS:
-        try:
-            module = importlib.import_module(f"triplanar.commands.{module_name}")
-        except ModuleNotFoundError as err:
-            if err.name == f"triplanar.commands.{module_name}":
-                continue  # not written yet
-            raise
+    for module in command_modules():
         cmd = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(cmd)
         cmd.set_defaults(handler=module.run)

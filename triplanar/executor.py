@@ -122,6 +122,28 @@ def _raise_terminated(signum, frame) -> None:
 
 
 @contextmanager
+def open_executor(backend: str = "local", address: str | None = None, workers: int | None = None,
+                  plugins: Sequence[str] = ()) -> Iterator[Any]:
+    """The executor of ``backend``, shut down on exit: ``"serial"``, this process; ``"ray"``, Ray tasks (the cluster
+    at ``address``, else a local Ray with ``workers`` CPUs; the ``plugins`` modules reach its workers); ``"local"``, a
+    pool of ``workers`` processes (``None``: each sweep makes one sized to its tasks, :func:`run_tasks`). The
+    ``--executor``, ``--ray-address`` and ``--workers`` options of the commands arrive here as plain arguments."""
+    if backend == "serial":
+        yield SerialExecutor()
+    elif backend == "ray":
+        from .ray_executor import RayExecutor  # Ray is the optional `ray` extra
+        with RayExecutor(address, num_cpus=workers, plugins=plugins) as ex:
+            yield ex
+    elif backend != "local":
+        raise ValueError(f"executor backend must be 'local', 'serial' or 'ray', got {backend!r}")
+    elif workers is None:
+        yield "local"
+    else:
+        with pool_scope(workers) as ex:
+            yield ex
+
+
+@contextmanager
 def pool_scope(workers: int) -> Iterator[Executor]:
     """A process pool of ``workers`` (in this process when 1), shut down on exit; on an error, an interrupt or
     SIGTERM its workers are terminated."""

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ..controller_base import Controller
 from .cards import ShippedAgentError, bench_arguments_of_env, check_bench
 
 POLICY = "policy.safetensors"
@@ -131,7 +132,7 @@ def build_policy(card: dict[str, Any], state_dict: dict[str, Any]) -> Any:
     return policy
 
 
-class ShippedAgent:
+class ShippedAgent(Controller):
     """One training seed of a shipped agent (see the module docstring for the memory and ``state``)."""
 
     needs_env = True    # agents.heldout.run_episode binds the env it made: checked against the card (bind)

@@ -145,7 +145,8 @@ def test_plane_distance_is_the_horizontal_distance_to_where_the_planes_meet():
     three planes meet)."""
     env = TriPlanarShearV1Env(observation_mode="state")
     env.reset(seed=0, options={"bench": nominal_benches([40.0])[0]})
-    p = env.unwrapped._p
+    state = env.unwrapped.get_state()
+    p = state.p
     normals = [p[K.P_N + 3 * j:K.P_N + 3 * j + 3] for j in range(3)]
     direction = np.cross(normals[2], normals[1])[[0, 2]]
     direction /= np.linalg.norm(direction)
@@ -157,6 +158,6 @@ def test_plane_distance_is_the_horizontal_distance_to_where_the_planes_meet():
         distance = (K.plane_gap(cp, p, 2, 1, pair) - K.LEFT_PLANE_TOL) / K.crossing_slope(p, 2, 1)
         assert distance == pytest.approx(expected, rel=1e-9)
     cp = np.zeros((3, 3))
-    K.contact_points(env.unwrapped._y, p, cp)
+    K.contact_points(state.y, p, cp)
     start = (K.plane_gap(cp, p, 2, 1, pair) - K.LEFT_PLANE_TOL) / K.crossing_slope(p, 2, 1)
     assert 0.0 <= start < 1e-4  # on the line, but for the tens of um the block has settled by at reset

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import importlib.util
 
-from ..cli_args import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
+from .options import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
 
 #: What ``agents`` and ``experiments`` import beyond the core (the ``rl`` extra of ``pyproject.toml``).
 RL_MODULES = ("torch", "stable_baselines3", "yaml")

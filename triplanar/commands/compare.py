@@ -10,7 +10,7 @@ HELP = ("simulate every measured test with your model (default: case B, no end f
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..workbench.cli_common import add_data_arguments
+    from .workbench_options import add_data_arguments
     add_data_arguments(parser, "out/compare")
 
 
@@ -18,7 +18,7 @@ def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
     from ..atomic import write_atomic
-    from ..workbench.cli_common import model_and_tests, out_dir, refuse_overwriting_inputs
+    from .workbench_options import model_and_tests, out_dir, refuse_overwriting_inputs
     from ..workbench.compare import compare
     from ..workbench.report import (plot_deviations, plot_error_map, plot_overhead, plot_residuals,
                                     plot_time_residuals)

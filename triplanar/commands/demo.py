@@ -27,11 +27,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..cli import build_parser
+    from ..cli import build_parser, command_modules
 
     out = Path(args.out)
     parser = build_parser()
-    known = set(parser._subparsers._group_actions[0].choices)  # the commands this installation has
+    known = {module.NAME for module in command_modules()}  # the commands this installation has
     steps = [["simulate", "--case", case, "--force", "32.5", "--out", str(out / f"case{case}_32.5N.csv"),
               "--plot", str(out / f"case{case}_32.5N.png")] for case in "ABC"]
     steps += [["paper", "--data", args.data, "--out", str(out / "paper")],

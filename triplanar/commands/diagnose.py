@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..workbench.cli_common import (add_data_arguments, add_start_arguments, add_worker_arguments, check_effect_names,
+from .workbench_options import (add_data_arguments, add_start_arguments, add_worker_arguments, check_effect_names,
                                     executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
                                     refuse_overwriting_inputs)
 from ..workbench.diagnose import Diagnoser

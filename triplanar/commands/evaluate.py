@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..cli_args import add_executor_arguments, executor_from_args
+from .options import add_executor_arguments, executor_from_args
 from ..output_set import output_lock
 from . import require
 from .train import positive_int

@@ -6,11 +6,11 @@ import argparse
 from dataclasses import replace
 from pathlib import Path
 
-from ..cli_args import load_specimen
+from .options import load_specimen
 from ..effects import EffectError
 from ..measurement import MeasuredTest
 from ..prior import drawing_record
-from ..workbench.cli_common import (add_data_arguments, add_start_arguments, add_worker_arguments, check_effect_names,
+from .workbench_options import (add_data_arguments, add_start_arguments, add_worker_arguments, check_effect_names,
                                     executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
                                     refuse_overwriting_inputs)
 from ..workbench.compare import Comparison, compare

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from ..cli_args import add_executor_arguments, executor_from_args
+from .options import add_executor_arguments, executor_from_args
 from . import add_model_arguments, load_specimen, parse_effects, refuse_overwriting
 
 NAME = "lab-data"

@@ -15,7 +15,7 @@ HELP = "simulate one shear test (case A, B or C) and print what happened"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..cli_args import effects_help
+    from .options import effects_help
     parser.formatter_class = argparse.RawDescriptionHelpFormatter
     parser.epilog = effects_help()
     parser.add_argument("--case", choices=["A", "B", "C"], default="A",
@@ -37,7 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from ..cli_args import refuse_idle_effects
+    from .options import refuse_idle_effects
     from ..measurement import MIN_SAMPLES
     from ..model import paper_model
     from ..plugins import import_plugins

@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..cli_args import add_executor_arguments, executor_from_args
+from .options import add_executor_arguments, executor_from_args
 from . import require
 from .train import positive_int
 

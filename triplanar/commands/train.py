@@ -10,8 +10,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ..cli_args import add_executor_arguments, executor_from_args
 from ..gym_registration import IDEAL_ID, REALISTIC_ID
+from .options import add_executor_arguments, executor_from_args
 from ..output_set import output_lock
 from . import require
 

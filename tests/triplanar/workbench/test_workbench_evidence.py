@@ -11,7 +11,7 @@ import pytest
 
 from triplanar import EffectError, paper_model
 from triplanar.measurement import MeasuredTest
-from triplanar.workbench.cli_common import parse_starts
+from triplanar.commands.workbench_options import parse_starts
 from triplanar.workbench.discrepancy import TestDiscrepancy
 from triplanar.workbench.evidence import dominant_frequency, instrument_noise_mm, noise_floor_mm, time_domain
 from triplanar.workbench.intervals import inflation, interval95

@@ -16,7 +16,7 @@ from triplanar.effects import EffectError
 from triplanar.labdata import generate_lab_data
 from triplanar.workbench import Candidate, EffectFit, ModelSpec
 from triplanar.workbench.candidates import default_candidate
-from triplanar.workbench.cli_common import parse_per_test
+from triplanar.commands.workbench_options import parse_per_test
 from triplanar.workbench.pertest import projected, summarize
 
 import numpy as np

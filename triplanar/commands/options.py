@@ -1,8 +1,6 @@
-"""Command-line options shared by the core's commands and the workbench's (``--specimen``, ``--effect``).
-
-They live here, below both :mod:`triplanar.commands` and :mod:`triplanar.workbench`, because the workbench
-must not import the commands (data flows triplanar -> workbench -> commands).
-"""
+"""Command-line options shared by the commands (``--specimen``, ``--effect``, ``--executor``) and the one guard
+against an output that would overwrite an input. The library takes plain arguments; this is where the flags become
+them."""
 
 from __future__ import annotations
 
@@ -11,8 +9,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, Iterator
 
-from .effects import Effect, EffectError, make_effect
-from .specimen import Foundation, Specimen, load_toml, reference
+from ..effects import Effect, EffectError, make_effect
+from ..specimen import Foundation, Specimen, load_toml, reference
 
 
 def add_model_arguments(parser: argparse.ArgumentParser) -> None:
@@ -36,7 +34,7 @@ def parse_effects(specs: list[str]) -> list[Effect]:
 
 def effects_help() -> str:
     """The registered effects and their parameters (unit, default, bounds), for ``--help``."""
-    from .effects import REGISTRY
+    from ..effects import REGISTRY
     lines = ["effects (--effect NAME:P=V,...; angles in degrees):"]
     for name, cls in REGISTRY.items():
         kind = " [instrument]" if cls.acts_on == "instrument" else ""
@@ -67,17 +65,26 @@ def load_specimen(path: str | None) -> tuple[Specimen, Foundation]:
     return load_toml(path) if path else reference()
 
 
-def refuse_overwriting(outputs: list[tuple[str, str | None]], inputs: list[tuple[str, str | None]]) -> None:
+def same_file(a: str | Path, b: str | Path) -> bool:
+    """True if ``a`` and ``b`` name the same file (also through links, or both missing but the same path)."""
+    a, b = Path(a), Path(b)
+    try:
+        if a.exists() and b.exists():
+            return a.samefile(b)
+    except OSError:
+        pass
+    return a.resolve() == b.resolve()
+
+
+def refuse_overwriting(outputs: list[tuple[str, str | Path | None]],
+                       inputs: list[tuple[str, str | Path | None]]) -> None:
     """A ValueError if an output option names the same file as an input option (``[(option, path), ...]``;
-    ``None`` paths are skipped): nothing the user gave is overwritten."""
+    ``None`` paths are skipped): nothing the user gave is overwritten. The one such guard of the commands."""
     for out_option, out in outputs:
         for in_option, given in inputs:
-            if out and given:
-                a, b = Path(out), Path(given)
-                same = a.samefile(b) if a.exists() and b.exists() else a.resolve() == b.resolve()
-                if same:
-                    raise ValueError(f"{out_option} {out} is the input {in_option} {given}; it would be "
-                                     "overwritten. Choose another output path")
+            if out and given and same_file(out, given):
+                raise ValueError(f"{out_option} {out} is the input {in_option} {given}; it would be "
+                                 "overwritten. Choose another output path")
 
 
 def add_executor_arguments(parser: argparse.ArgumentParser) -> None:
@@ -98,24 +105,15 @@ def executor_from_args(args: argparse.Namespace, workers: int | None = None) -> 
     reach Ray workers."""
     import importlib.util
 
-    from .executor import SerialExecutor, pool_scope
+    from ..executor import open_executor
     backend = getattr(args, "executor", "local") or "local"
     address = getattr(args, "ray_address", None)
     if address is not None and backend != "ray":
         raise ValueError(f"--ray-address {address}: give --executor ray too (the executor is {backend})")
     if workers is not None and workers < 1:
         raise ValueError(f"--workers {workers}: give at least 1")
-    if backend == "serial":
-        yield SerialExecutor()
-    elif backend == "ray":
-        if importlib.util.find_spec("ray") is None:
-            raise ValueError("--executor ray: Ray is not installed; pip install 'triplanar-shear[ray]' (or `make` "
-                             "in a clone)")
-        from .ray_executor import RayExecutor  # Ray is the optional `ray` extra
-        with RayExecutor(address, num_cpus=workers, plugins=getattr(args, "plugin", None) or ()) as ex:
-            yield ex
-    elif workers is None:
-        yield "local"  # each sweep makes a pool sized to its tasks (run_tasks), shut down after it
-    else:
-        with pool_scope(workers) as ex:
-            yield ex
+    if backend == "ray" and importlib.util.find_spec("ray") is None:
+        raise ValueError("--executor ray: Ray is not installed; pip install 'triplanar-shear[ray]' (or `make` "
+                         "in a clone)")
+    with open_executor(backend, address, workers, getattr(args, "plugin", None) or ()) as executor:
+        yield executor

@@ -1,18 +1,19 @@
-"""Shared plumbing of the ``compare``, ``diagnose`` and ``fit`` commands."""
+"""Shared plumbing of the workbench's commands, ``compare``, ``diagnose`` and ``fit``: their options, parsed into
+the workbench's plain arguments."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from ..cli_args import (add_executor_arguments, add_model_arguments, executor_from_args, load_specimen, parse_effects,
-                        refuse_idle_effects)
 from ..effects import REGISTRY, EffectError
-from ..plugins import import_plugins  # re-exported: commands and tests import it from here
 from ..measurement import MeasuredTest
-from .compare import load_tests
-from .executor import DEFAULT_WORKERS
-from .spec import ModelSpec
+from ..plugins import import_plugins  # re-exported: commands and tests import it from here
+from ..workbench.compare import load_tests
+from ..workbench.executor import DEFAULT_WORKERS
+from ..workbench.spec import ModelSpec
+from .options import (add_executor_arguments, add_model_arguments, executor_from_args, load_specimen, parse_effects,
+                      refuse_idle_effects, refuse_overwriting)
 
 
 def add_data_arguments(parser: argparse.ArgumentParser, default_out: str) -> None:
@@ -110,28 +111,14 @@ def executor_for(args: argparse.Namespace):
     return executor_from_args(args, max(1, int(args.workers)))
 
 
-def same_file(a: str | Path, b: str | Path) -> bool:
-    """True if ``a`` and ``b`` name the same file (also through links, or both missing but the same path)."""
-    a, b = Path(a), Path(b)
-    try:
-        if a.exists() and b.exists():
-            return a.samefile(b)
-    except OSError:
-        pass
-    return a.resolve() == b.resolve()
-
-
 def refuse_overwriting_inputs(args: argparse.Namespace, outputs: list[tuple[str, Path | str]]) -> None:
-    """Refuse (ValueError naming both) an output that would replace one of the command's input files."""
+    """Refuse (ValueError naming both) an output that would replace one of the command's input files
+    (:func:`triplanar.commands.options.refuse_overwriting` over the data, ``--specimen`` and ``.py`` plugins)."""
     inputs = [("DATA.csv", args.data)]
     if getattr(args, "specimen", None):
         inputs.append(("--specimen", args.specimen))
     inputs += [("--plugin", p) for p in getattr(args, "plugin", []) if p.endswith(".py")]
-    for what, output in outputs:
-        for kind, given in inputs:
-            if same_file(output, given):
-                raise ValueError(f"{what} {output} is the input {kind} {given}; it would be overwritten. "
-                                 "Choose another output path")
+    refuse_overwriting(outputs, inputs)
 
 
 def out_dir(args: argparse.Namespace) -> Path:
