@@ -24,9 +24,10 @@ lint: $(STAMP)
 	$(PY) -m pytest -q -p no:cacheprovider tests/test_layering.py tests/test_function_length.py
 
 # The tests run on every core (pytest-xdist; the two Ray files share one worker, so that one Ray runs at a time).
+# Tests that share a costly fixture share a worker too (`xdist_group`); the costliest start first (tests/conftest.py).
 # `make test` runs every test but those marked `long`, and the fuzz tests with 100 inputs each; `make test-slow`
-# runs the `long` ones (study-scale training and evaluation, the Ray cluster) and the fuzz tests (hypothesis's own
-# `hypothesis` marker) with 1,000 inputs each. .ci/run runs both.
+# runs the `long` ones (study-scale training and evaluation, a 30-seed coverage rate, the Ray cluster) and the fuzz
+# tests (hypothesis's own `hypothesis` marker) with 1,000 inputs each. .ci/run runs both.
 test: install
 	$(PY) -m pytest -q -n auto --dist loadgroup --durations=15 -m "not long"
 

@@ -22,3 +22,36 @@ def _effect_registry_restored():
     yield
     REGISTRY.clear()
     REGISTRY.update(before)
+
+
+# The longest tests first. `make test` runs on two xdist workers, which take tests in collection order as they
+# become free, so a test of minutes collected near the end (the workbench's come last) would run alone on one worker
+# while the other idles. These are the costliest tests of `make test` (CPU seconds measured with
+# benchmarks/cpu_per_test.py, or the quiet CI's wall: docs/performance.md), longest first; the rest keep their order,
+# the `slow` ones first.
+# A name here that no longer exists is ignored: the list only orders, it selects nothing.
+LONGEST_FIRST = (
+    "tests/triplanar/workbench/test_workbench_tutorial.py::",
+    "tests/agents/test_mpc_prior.py::test_tutorial_identify_then_control",
+    "tests/triplanar/workbench/test_workbench_refit_parsimony.py::",
+    "tests/agents/test_train_resume.py::test_train_killed_and_rerun_finishes_without_touching_its_checkpoints",
+    "tests/triplanar/workbench/test_workbench_user_effect.py::test_forward_selection_finds_the_users_effect",
+    "tests/triplanar/workbench/test_workbench_instruments.py::test_a_lateral_gain_error_below_the_scatter",
+    "tests/triplanar/commands/test_train_cli.py::test_a_killed_v1_run_continues_from_its_checkpoint",
+    "tests/agents/test_mpc.py::test_limit_at_nominal_loads_on_the_ideal_bench_beats_in_sample_ppo",
+    "tests/triplanar/workbench/test_workbench_hidden.py::test_hidden_builtin_effect_is_ranked_first_and_fitted[plane",
+    "tests/triplanar/workbench/test_workbench_hidden.py::test_hidden_builtin_effect_is_ranked_first_and_fitted[cont",
+    "tests/triplanar/commands/test_command_safety.py::test_diagnose_killed_and_rerun_resumes_to_the_same_report",
+    "tests/agents/test_mpc.py::test_estimator_finds_a_known_tip_friction_on_noiseless_data",
+    "tests/triplanar/workbench/test_workbench_combinations.py::test_two_hidden_library_effects_are_both_named",
+)
+
+
+def pytest_collection_modifyitems(config, items):
+    def rank(item) -> tuple[int, int]:
+        listed = [i for i, prefix in enumerate(LONGEST_FIRST) if item.nodeid.startswith(prefix)]
+        if listed:
+            return 0, listed[0]
+        return (1 if item.get_closest_marker("slow") else 2), 0
+
+    items.sort(key=rank)  # stable: within a rank, collection order

@@ -95,6 +95,7 @@ def _pin(monkeypatch, tiny_zoo):
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("tiny_zoo")  # one worker trains the module's tiny zoo, once
 def test_evaluate_on_a_shipped_agent_reproduces_its_card(tiny_zoo, tmp_path, monkeypatch):
     _pin(monkeypatch, tiny_zoo)
     card = zoo.read_card("tiny_ppo")
@@ -154,6 +155,7 @@ def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.xdist_group("tiny_zoo")  # one worker trains the module's tiny zoo, once
 def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_files(tiny_zoo, monkeypatch, tmp_path,
                                                                                      capsys):
     _pin(monkeypatch, tiny_zoo)

@@ -55,10 +55,18 @@ SIDEWAYS_EDGE = pytest.mark.xfail(strict=True, reason="plane_tilt's dip1_e3_deg 
                                   "physical step) and is read as implausible: contact_friction is named")
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=SIDEWAYS_EDGE) if n == "plane_tilt" else n for n in HIDDEN])
-def test_hidden_builtin_effect_is_ranked_first_and_fitted(name: str) -> None:
+# the diagnoses test_workbench_verdicts.py reads too (tests/triplanar/workbench/conftest.py): one worker, made once
+SHARED = pytest.mark.xdist_group("default_diagnoses")
+
+
+def marks(name: str) -> list:
+    return [SIDEWAYS_EDGE] if name == "plane_tilt" else [SHARED] if name == "rate_friction" else []
+
+
+@pytest.mark.parametrize("name", [pytest.param(n, marks=marks(n)) for n in HIDDEN])
+def test_hidden_builtin_effect_is_ranked_first_and_fitted(name: str, default_diagnosis) -> None:
     spec, truth = HIDDEN[name]
-    report = Diagnoser(folds=FOLDS, progress=False).fit(lab([make_effect(spec)])).report_
+    report = default_diagnosis([spec], LOADS, REPEATS, SEED, FOLDS)[1].report_
     show(name, report)
     best = report["candidates"][0]
     assert best["effect"] == name
@@ -80,8 +88,9 @@ def test_hidden_builtin_effect_is_ranked_first_and_fitted(name: str) -> None:
         assert report["missing_kind"] == "physics"
 
 
-def test_no_hidden_effect_gives_null() -> None:
-    report = Diagnoser(folds=FOLDS, progress=False).fit(lab([])).report_
+@SHARED
+def test_no_hidden_effect_gives_null(default_diagnosis) -> None:
+    report = default_diagnosis([], LOADS, REPEATS, SEED, FOLDS)[1].report_
     show("none", report)
     assert report["missing_effect"] is None
     assert report["confidence"] == "none"

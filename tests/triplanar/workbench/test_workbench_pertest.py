@@ -143,6 +143,7 @@ def test_diagnose_names_a_per_test_candidate_and_the_cli_fits_one(tmp_path, caps
 
 
 @pytest.mark.slow
+@pytest.mark.long  # a coverage rate over 30 seeded fits (~100 s of CPU): fewer seeds cannot tell 95 % from 80 %
 def test_shared_intervals_cover_the_truth_with_per_test_parameters() -> None:
     """Honest intervals of a shared parameter next to per-test ones: end friction (shared) with a tip offset per test,
     30 seeded datasets of 6 tests (the generator's per-test draws). The profiled sandwich with the CR3 correction:

@@ -1,0 +1,33 @@
+"""Diagnoses that more than one workbench test reads, made once per process.
+
+``test_workbench_hidden.py`` and ``test_workbench_verdicts.py`` both diagnose the same reduced campaign (4 loads x 2
+repeats, seed 1, 2 folds, every default candidate) with rate friction hidden in it and with nothing hidden. The tests
+that read one of these carry ``xdist_group("default_diagnoses")``, so that one xdist worker runs them all and makes
+each diagnosis once.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import pytest
+
+from triplanar import make_effect
+from triplanar.labdata import generate_lab_data
+from triplanar.workbench import Diagnoser
+
+
+@functools.lru_cache(maxsize=None)
+def _diagnosed(specs: tuple[str, ...], loads: tuple[float, ...], repeats: int, seed: int,
+               folds: int) -> tuple[list, Diagnoser]:
+    tests, truth = generate_lab_data(loads=loads, repeats=repeats, effects=[make_effect(s) for s in specs], seed=seed)
+    assert not truth["skipped"]
+    return tests, Diagnoser(folds=folds, progress=False).fit(tests)
+
+
+@pytest.fixture(scope="session")
+def default_diagnosis():
+    """``default_diagnosis(specs, loads, repeats, seed, folds) -> (tests, Diagnoser)``: the generator's data made
+    with the effects ``specs`` (``--effect`` strings; none: nothing hidden), diagnosed with the default candidates
+    against the plain model. Cached per process: read it, do not change it."""
+    return lambda specs, loads, repeats, seed, folds: _diagnosed(tuple(specs), tuple(loads), repeats, seed, folds)
