@@ -48,14 +48,7 @@ def show(name: str, report: dict) -> None:
               f"{'' if c['plausible'] else '  (implausible)'}")
 
 
-# plane_tilt fits FP1's two apparent dips (4 free parameters): ranked first with dip2 2.545 (truth 2.5), but the
-# sideways component stops at the end of its fit range (-0.019 of -0.02, just below the left_plane step), which is
-# read as implausible, and contact_friction is named (issue 32; the range's end is a physical step, not a finding)
-SIDEWAYS_EDGE = pytest.mark.xfail(strict=True, reason="plane_tilt's dip1_e3_deg ends at its range end (-0.02, a "
-                                  "physical step) and is read as implausible: contact_friction is named")
-
-
-@pytest.mark.parametrize("name", [pytest.param(n, marks=SIDEWAYS_EDGE) if n == "plane_tilt" else n for n in HIDDEN])
+@pytest.mark.parametrize("name", list(HIDDEN))
 def test_hidden_builtin_effect_is_ranked_first_and_fitted(name: str) -> None:
     spec, truth = HIDDEN[name]
     report = Diagnoser(folds=FOLDS, progress=False).fit(lab([make_effect(spec)])).report_
