@@ -33,7 +33,7 @@ from .intervals import interval95
 from .parameters import (FitParameter, at_bound_of, intervals_of, profiles_of, shared_values, standard_errors,
                          statuses_of)
 from .executor import ExecutorLike, executor_scope
-from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
+from .fitbase import DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalResult, EvalTask, ModelSpec, group_by_force, spec_with_values, tasks_for
 
 
@@ -277,10 +277,7 @@ def run_fit(task: FitTask, mapper: Callable = map, cache: dict | None = None,
     errs: dict[str, dict[str, float]] = {}
     for (effect, param), se in zip(problem.names, stderr):
         errs.setdefault(effect, {})[param] = float(se)
-    # At a bound and not at the neutral start (a parameter resting at "no effect", e.g. phi = 0, is not
-    # implausible; it just does nothing).
-    at_bound = tuple(f"{e}.{p}" for (e, p), ui, u0 in zip(problem.names, u, neutral)
-                     if (ui <= AT_BOUND or ui >= 1 - AT_BOUND) and abs(ui - u0) > AT_BOUND)
+    at_bound = problem.at_bound(u, neutral)
     return FitOutcome(task.label, tuple(c.effect for c in task.candidates), values, errs, at_bound,
                       overall_error(found), {d.test_id: (d.force_N, d.error_mm) for d in found}, held,
                       problem.nfev, time.perf_counter() - began, str(message), tuple(float(v) for v in x))

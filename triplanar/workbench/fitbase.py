@@ -76,6 +76,25 @@ class ScaledBox:
     def scaled(self, x: Sequence[float]) -> np.ndarray:
         return np.clip((np.asarray(x, dtype=float) - self.lo) / (self.hi - self.lo), 0.0, 1.0)
 
+    def at_bound(self, u: np.ndarray, neutral: np.ndarray) -> tuple[str, ...]:
+        """``effect.param`` of the parameters fitted to an end of their range (implausible): not those resting at
+        their neutral start (a parameter at "no effect", e.g. phi = 0, just does nothing), nor those at an end the
+        effect declares a physical limit (``Parameter.limit_ends``: the model cannot go past it, e.g. a contact point
+        leaving its plane, so a fit resting there says the value is at or near that limit, not beyond what is
+        physical)."""
+        from ..effects import REGISTRY
+        out = []
+        for (effect, param), ui, u0, lo, hi in zip(self.names, u, neutral, self.lo, self.hi):
+            end = "lower" if ui <= AT_BOUND else "upper" if ui >= 1 - AT_BOUND else None
+            if end is None or abs(ui - u0) <= AT_BOUND:
+                continue
+            declared = REGISTRY[effect].parameters.get(param) if effect in REGISTRY else None
+            if declared is not None and declared.fit is not None and end in declared.limit_ends \
+                    and (lo if end == "lower" else hi) == declared.fit[0 if end == "lower" else 1]:
+                continue
+            out.append(f"{effect}.{param}")
+        return tuple(out)
+
 
 def cluster_robust_stderr(jacobians: Sequence[np.ndarray], residuals: Sequence[np.ndarray]) -> np.ndarray:
     """Standard errors of a least-squares fit with one cluster per test (``jacobians[t]``: d residuals / d parameters

@@ -41,7 +41,7 @@ from scipy.optimize import least_squares
 from ..measurement import MeasuredTest
 from .candidates import Candidate
 from .discrepancy import TestDiscrepancy
-from .fitbase import AT_BOUND, DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
+from .fitbase import DIFF_STEP, FitOutcome, ScaledBox, cluster_robust_stderr, safe_evaluate
 from .spec import EvalTask, ModelSpec, spec_with_values
 
 #: Least-squares evaluations of one test's profile (warm-started ones converge in 3-6).
@@ -321,8 +321,7 @@ def run_profiled_fit(task, mapper: Callable = map):
     for prof in [*profiles, *held_profiles]:
         for (effect, param), v in zip(problem.per_test_names, prof.phi):
             per_test.setdefault(effect, {}).setdefault(param, {})[prof.test_id] = float(v)
-    at_bound = tuple(f"{e}.{p}" for (e, p), ui, u0 in zip(problem.names, u, neutral)
-                     if (ui <= AT_BOUND or ui >= 1 - AT_BOUND) and abs(ui - u0) > AT_BOUND)
+    at_bound = problem.at_bound(u, neutral)
     train_errors = {p.test_id: (p.force_N, p.error_mm) for p in profiles}
     return FitOutcome(task.label, tuple(c.effect for c in task.candidates), values, errs, at_bound,
                       overall_error_from(train_errors), train_errors, held, problem.nfev,

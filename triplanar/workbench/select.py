@@ -23,7 +23,7 @@ from .diagnose import Diagnoser
 from .executor import ExecutorLike
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
 from .parameters import EffectParameters, FitParameter, listed, shared_values
-from .rules import QUIET_FACTOR
+from .rules import MIN_FALL, QUIET_FACTOR
 from .spec import ModelSpec
 
 
@@ -77,7 +77,8 @@ class ForwardSelection:
     Args:
         candidates: as for :class:`Diagnoser` (default: every registered effect).
         max_effects: most effects to add.
-        min_fall: smallest fraction of the current error an addition must remove to be kept.
+        min_fall: smallest fraction of the current error an addition must remove to be kept (default: the
+            verdict rules' ``rules.MIN_FALL``, the one step rule of combinations).
         folds, executor, progress, max_nfev: passed to each :class:`Diagnoser` / :class:`EffectFit`.
 
     Fitted attributes: ``steps_`` (list of :class:`SelectionStep`, step 0 the user's model),
@@ -85,7 +86,7 @@ class ForwardSelection:
     """
 
     def __init__(self, candidates: Sequence[str | Candidate] | None = None, max_effects: int = 3,
-                 min_fall: float = 0.1, folds: int = 3, executor: ExecutorLike = None, progress: bool = True,
+                 min_fall: float = MIN_FALL, folds: int = 3, executor: ExecutorLike = None, progress: bool = True,
                  max_nfev: int = 30):
         if isinstance(max_effects, bool) or not isinstance(max_effects, int) or max_effects < 1:
             raise ValueError(f"max_effects = {max_effects!r}: forward selection adds at least 1 effect")

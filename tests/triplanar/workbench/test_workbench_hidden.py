@@ -48,19 +48,12 @@ def show(name: str, report: dict) -> None:
               f"{'' if c['plausible'] else '  (implausible)'}")
 
 
-# plane_tilt fits FP1's two apparent dips (4 free parameters): ranked first with dip2 2.545 (truth 2.5), but the
-# sideways component stops at the end of its fit range (-0.019 of -0.02, just below the left_plane step), which is
-# read as implausible, and contact_friction is named (issue 32; the range's end is a physical step, not a finding)
-SIDEWAYS_EDGE = pytest.mark.xfail(strict=True, reason="plane_tilt's dip1_e3_deg ends at its range end (-0.02, a "
-                                  "physical step) and is read as implausible: contact_friction is named")
-
-
 # the diagnoses test_workbench_verdicts.py reads too (tests/triplanar/workbench/conftest.py): one worker, made once
 SHARED = pytest.mark.xdist_group("default_diagnoses")
 
 
 def marks(name: str) -> list:
-    return [SIDEWAYS_EDGE] if name == "plane_tilt" else [SHARED] if name == "rate_friction" else []
+    return [SHARED] if name == "rate_friction" else []
 
 
 @pytest.mark.parametrize("name", [pytest.param(n, marks=marks(n)) for n in HIDDEN])
