@@ -371,24 +371,32 @@ def frame_stacked(obs: np.ndarray, frames: int) -> np.ndarray:
     return np.concatenate([padded[k:k + len(obs)] for k in range(frames)], axis=1)
 
 
-def load_labels(folders: list[str | Path], frames: int = 4) -> dict[str, np.ndarray]:
+def label_shards(folders: list[str | Path]) -> list[Path]:
+    """The shard files of ``folders`` in the order :func:`load_labels` reads them (folder by folder, by name)."""
+    return [path for folder in folders for path in sorted((Path(folder) / "shards").glob("*.npz"))]
+
+
+def load_labels(folders: list[str | Path], frames: int = 4, shards: list[str | Path] | None = None
+                ) -> dict[str, np.ndarray]:
     """Every started episode's decisions in ``folders`` (DAgger's aggregate of rounds) as one training set: ``x``
     (frame-stacked observations, :func:`frame_stacked`), ``y`` (``mpc``'s actions), ``truth`` (each decision's
-    bench's privileged row), ``episode`` (an index per shard, for splitting by episode) and ``step``."""
-    parts: dict[str, list] = {k: [] for k in ("x", "y", "truth", "episode", "step")}
+    bench's privileged row), ``episode`` (an index per shard, for splitting by episode), ``step`` and ``draw``.
+    ``shards``: exactly these shard files instead (a training run that must read the same set again while a label
+    run adds to the folders)."""
+    parts: dict[str, list] = {k: [] for k in ("x", "y", "truth", "episode", "step", "draw")}
     episode = 0
-    for folder in folders:
-        for path in sorted((Path(folder) / "shards").glob("*.npz")):
-            with np.load(path, allow_pickle=False) as s:
-                if not bool(s["started"]):
-                    continue
-                steps = int(s["steps"])
-                parts["x"].append(frame_stacked(s["obs"], frames))
-                parts["y"].append(s["expert_action"])
-                parts["truth"].append(np.repeat(s["truth"][None, :], steps, axis=0))
-                parts["episode"].append(np.full(steps, episode))
-                parts["step"].append(np.arange(steps))
-                episode += 1
+    for path in label_shards(folders) if shards is None else [Path(p) for p in shards]:
+        with np.load(path, allow_pickle=False) as s:
+            if not bool(s["started"]):
+                continue
+            steps = int(s["steps"])
+            parts["x"].append(frame_stacked(s["obs"], frames))
+            parts["y"].append(s["expert_action"])
+            parts["truth"].append(np.repeat(s["truth"][None, :], steps, axis=0))
+            parts["episode"].append(np.full(steps, episode))
+            parts["step"].append(np.arange(steps))
+            parts["draw"].append(np.full(steps, int(s["draw"]) if "draw" in s.files else -1))
+            episode += 1
     if not episode:
         raise ValueError(f"no started episode in {[str(f) for f in folders]}")
     return {k: np.concatenate(v) for k, v in parts.items()}
