@@ -22,10 +22,12 @@ from typing import Any
 
 import numpy as np
 
+from envs.triplanar_shear_v1 import BENCH_OBSERVATION
+
 WEIGHTS = "student.safetensors"
 SPEC = "student.json"
 FORMAT = 1
-OBS_SIZE = 15   # envs.triplanar_shear_v1.BENCH_OBSERVATION.size (checked against the env by the trainer's tests)
+OBS_SIZE = BENCH_OBSERVATION.size   # the 15 bench observations
 ACTION_SIZE = 2
 
 
