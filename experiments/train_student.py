@@ -297,9 +297,18 @@ def train(folders: list[str | Path], out: str | Path, settings: StudentSettings,
     record = {"env_kwargs": meta["env_kwargs"], "labels": meta["labels"], "settings": meta["settings"],
               "episodes": data.n_episodes, "decisions": int(len(data.y)), "validation_episodes": data.val_episodes,
               "validation_decisions": int(len(data.val)), "best_epoch": meta["best_epoch"],
+              "val_action_rms_of_the_mean": _rms_of_the_mean(data),
               "history_columns": ["epoch", "train_loss", "val_loss", "val_action_rms", "val_aux_rms"],
               "history": meta["history"], "shards": [Path(p).name for p in meta["shards"]]}
     return write_student(out, best, data, settings, record)
+
+
+def _rms_of_the_mean(data: Dataset) -> float:
+    """The validation action RMS error of the constant guess (the training rows' mean action): what the student's
+    own figure is to be read against."""
+    if not len(data.val):
+        return math.nan
+    return float(np.sqrt(((data.y[data.val] - data.y[data.train].mean(axis=0)) ** 2).mean()))
 
 
 def load_checkpoint_meta(path: Path) -> dict[str, Any]:
@@ -360,8 +369,10 @@ def main(argv: list[str] | None = None) -> int:
                                           else getattr(args, f.name) for f in fields(StudentSettings)})
             spec = train(args.labels, args.out, settings, args.checkpoint_every, log=sys.stdout)
             t = spec["training"]
+            best = t["history"][t["best_epoch"] - 1]
             print(f"student in {args.out}: {t['episodes']} episodes, {t['decisions']} decisions, best epoch "
-                  f"{t['best_epoch']}")
+                  f"{t['best_epoch']} (validation action RMS {best[3]:.4f}; the mean action's "
+                  f"{t['val_action_rms_of_the_mean']:.4f})")
         if args.judge:
             print(json.dumps(judge(args.out, args.judge), indent=1))
     except ValueError as error:
