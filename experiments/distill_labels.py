@@ -17,7 +17,8 @@ and told the action that ran (its estimator must follow the bench, not its own w
 With ``--beta B`` the expert's own action runs instead in a fraction ``B`` of the periods (DAgger's mixture, drawn
 from a generator seeded by the round and the draw). Each round is a folder of its own; the student is trained on
 the union of the rounds' shards (DAgger's aggregation): :func:`load_labels` reads them as one frame-stacked training
-set.
+set. ``--teacher limit`` labels with the privileged ``limit`` (:mod:`agents.limit`, which knows the bench) instead of
+``mpc``, at about a fifth of its CPU; the folder records the teacher.
 
 **A shard** (``numpy.load(path)``; arrays over the episode's ``T`` decisions):
 
