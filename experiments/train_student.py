@@ -1,6 +1,6 @@
 """Train a student of ``mpc`` (:mod:`agents.student`) on expert labels (:mod:`experiments.distill_labels`):
-behaviour cloning of ``mpc``'s action from the frame-stacked bench observations, with an auxiliary head that
-infers the bench's unknowns (the shards' privileged ``truth`` row, normalised; ``--aux none`` leaves it out).
+behaviour cloning of ``mpc``'s action from the frame-stacked bench observations, optionally with an auxiliary head
+that infers the bench's unknowns (``--aux truth``: the shards' privileged ``truth`` row, normalised).
 
 ``python -m experiments.train_student --labels DIR [DIR ...] --out OUT [--epochs 300]`` writes ``OUT/student.json``
 and ``OUT/student.safetensors`` (the student, no pickle; :func:`agents.student.read_student` loads it) from the
@@ -46,7 +46,7 @@ class StudentSettings:
 
     frames: int = 4
     hidden: tuple = (256, 256)
-    aux: str = "truth"          # "truth": infer the privileged row as a second head; "none"
+    aux: str = "none"           # "truth": infer the privileged row as a second head (it did not help: docs)
     aux_weight: float = 0.1
     lr: float = 1e-3
     weight_decay: float = 1e-5
@@ -171,8 +171,9 @@ def _losses(net: Any, data: Dataset, rows: np.ndarray, settings: StudentSettings
     with torch.no_grad():
         action, aux = net(torch.from_numpy(data.x[rows]))
         action_mse = float(((action - torch.from_numpy(data.y[rows])) ** 2).mean())
-        aux_mse = float(((aux - torch.from_numpy(data.aux[rows])) ** 2).mean()) if aux is not None else 0.0
-    return action_mse + settings.aux_weight * aux_mse, math.sqrt(action_mse), math.sqrt(aux_mse)
+        aux_mse = float(((aux - torch.from_numpy(data.aux[rows])) ** 2).mean()) if aux is not None else math.nan
+    loss = action_mse + (settings.aux_weight * aux_mse if aux is not None else 0.0)
+    return loss, math.sqrt(action_mse), math.sqrt(aux_mse)
 
 
 def _epoch(net: Any, optimizer: Any, data: Dataset, settings: StudentSettings, epoch: int) -> float:

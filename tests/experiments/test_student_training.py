@@ -11,7 +11,7 @@ import pytest
 from agents.student import SPEC, WEIGHTS, StudentController, read_student
 from experiments import train_student as ts
 
-SMALL = ts.StudentSettings(hidden=(16, 16), epochs=4, batch=32, val_fraction=0.34, lr=3e-3)
+SMALL = ts.StudentSettings(hidden=(16, 16), epochs=4, batch=32, val_fraction=0.34, lr=3e-3, aux="truth")
 
 
 def test_a_student_trains_saves_and_acts_as_its_network(tiny_labels, tmp_path):
