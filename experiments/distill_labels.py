@@ -17,7 +17,8 @@ and told the action that ran (its estimator must follow the bench, not its own w
 With ``--beta B`` the expert's own action runs instead in a fraction ``B`` of the periods (DAgger's mixture, drawn
 from a generator seeded by the round and the draw). Each round is a folder of its own; the student is trained on
 the union of the rounds' shards (DAgger's aggregation): :func:`load_labels` reads them as one frame-stacked training
-set.
+set. ``--teacher limit`` labels with the privileged ``limit`` (:mod:`agents.limit`, which knows the bench) instead of
+``mpc``, at about a fifth of its CPU; the folder records the teacher.
 
 **A shard** (``numpy.load(path)``; arrays over the episode's ``T`` decisions):
 
@@ -62,6 +63,7 @@ import numpy as np
 
 from agents.estimator import DIRECTIONS, GEOMETRY, PARAMETERS, hypothesis_of
 from agents.heldout import HELDOUT_SEED, STRESS_SEED, TUNING_SEED, first_startable
+from agents.limit import LimitController
 from agents.mpc import MPCController
 from envs.core import make_config
 from envs.triplanar_shear_v1 import BENCH_FIELDS, BENCH_OBSERVATION, TriPlanarShearV1Env, draw_bench
@@ -72,6 +74,8 @@ from triplanar.workbench.report import write_json
 from .episodes import noise_seed
 
 FORMAT = 1
+TEACHERS = {"mpc": MPCController, "limit": LimitController}   # limit knows the specimen (privileged)
+LIMIT_STATE = ("needs_env", "decisions")                    # LimitController fields that are not settings
 MIX_SEED = 50_050  # the DAgger mixture's generator: [MIX_SEED, round, draw]
 REFUSED_STREAMS = {HELDOUT_SEED: "the held-out stream", STRESS_SEED: "the stress stream"}
 NOT_SETTINGS = ("name", "config", "load_N", "info")  # MPCController fields that are state, not settings
@@ -102,6 +106,7 @@ class LabelSettings:
     beta: float = 0.0
     expert: tuple = ()
     env_kwargs: tuple = ()
+    teacher: str = "mpc"     # or "limit": the privileged teacher, which knows the bench (TEACHERS)
 
     def __post_init__(self) -> None:
         if self.stream in REFUSED_STREAMS:
@@ -114,24 +119,29 @@ class LabelSettings:
         if (self.driver == "expert") != (self.round == 0):
             raise ValueError(f"round {self.round} with driver {self.driver!r}: round 0 is driven by the expert "
                              "and a later round by a student (--driver)")
-        unknown = [k for k, _ in self.expert if k not in MPCController.__dataclass_fields__ or k in NOT_SETTINGS]
+        if self.teacher not in TEACHERS:
+            raise ValueError(f"teacher must be one of {sorted(TEACHERS)}, got {self.teacher!r}")
+        kind = TEACHERS[self.teacher]
+        unknown = [k for k, _ in self.expert if k not in kind.__dataclass_fields__ or k in NOT_SETTINGS]
         if unknown:
-            raise ValueError(f"expert settings {unknown} are not MPCController settings")
+            raise ValueError(f"expert settings {unknown} are not {kind.__name__} settings")
         bench = [k for k, _ in self.env_kwargs if k in BENCH_FIELDS and k != "randomize"]
         if bench or any(k == "randomize" for k, _ in self.env_kwargs):
             raise ValueError(f"env_kwargs {bench or ['randomize']}: labels run v1's default bench, whose hardware "
                              "mpc knows (its fields), and the stream gives the specimen")
 
 
-def make_expert(settings: LabelSettings) -> MPCController:
+def make_expert(settings: LabelSettings) -> Any:
     """The expert of ``settings`` (tests replace this with a faster one where the point is the bookkeeping)."""
-    return MPCController(**dict(settings.expert))
+    return TEACHERS[settings.teacher](**dict(settings.expert))
 
 
 def expert_settings(settings: LabelSettings) -> dict[str, Any]:
     """Every setting of the expert (defaults included: a changed default is a changed expert), JSON-ready."""
-    expert = MPCController(**dict(settings.expert))
-    out = {f.name: getattr(expert, f.name) for f in fields(MPCController) if f.name not in NOT_SETTINGS}
+    kind = TEACHERS[settings.teacher]
+    expert = kind(**dict(settings.expert))
+    state = NOT_SETTINGS + (LIMIT_STATE if settings.teacher == "limit" else ())
+    out = {f.name: getattr(expert, f.name) for f in fields(kind) if f.name not in state and not f.name.startswith("_")}
     return {k: str(v) if isinstance(v, Path) else v for k, v in out.items()}
 
 
@@ -152,11 +162,19 @@ def code_version() -> dict[str, str]:
     return {**{name: source_hash(root / name) for name in CODE}, "numpy": np.__version__, "numba": numba.__version__}
 
 
+def teacher_code(teacher: str) -> dict[str, str]:
+    """The teacher's own source where it is not ``mpc``'s (whose sources :data:`CODE` lists)."""
+    root = Path(__file__).resolve().parent.parent
+    return {"agents/limit.py": source_hash(root / "agents/limit.py")} if teacher == "limit" else {}
+
+
 def settings_record(settings: LabelSettings) -> dict[str, Any]:
     """``settings.json``'s content."""
     return {"format": FORMAT, "stream": settings.stream, "round": settings.round, "driver": settings.driver,
             "beta": settings.beta, "env_kwargs": dict(settings.env_kwargs), "expert": expert_settings(settings),
-            "code_version": code_version()}
+            "code_version": {**code_version(), **teacher_code(settings.teacher)},
+            # the teacher only where it is not mpc: the folders written before the field resume as they were
+            **({"teacher": settings.teacher} if settings.teacher != "mpc" else {})}
 
 
 def _flat(record: dict, prefix: str = "") -> dict[str, Any]:
@@ -243,6 +261,8 @@ def rollout(settings: LabelSettings, bench, draw: int) -> dict[str, Any]:
     seed = noise_seed(draw, settings.round)
     obs, info = env.reset(seed=seed, options={"bench": bench})
     expert, driver = make_expert(settings), driver_of(settings, env_kwargs)
+    if getattr(expert, "needs_env", False):  # limit reads the bench's true state
+        expert.bind(env)
     expert.reset(bench.load_N, env.config)
     if driver is not None:
         if getattr(driver, "needs_env", False):
@@ -371,36 +391,45 @@ def frame_stacked(obs: np.ndarray, frames: int) -> np.ndarray:
     return np.concatenate([padded[k:k + len(obs)] for k in range(frames)], axis=1)
 
 
-def load_labels(folders: list[str | Path], frames: int = 4) -> dict[str, np.ndarray]:
+def label_shards(folders: list[str | Path]) -> list[Path]:
+    """The shard files of ``folders`` in the order :func:`load_labels` reads them (folder by folder, by name)."""
+    return [path for folder in folders for path in sorted((Path(folder) / "shards").glob("*.npz"))]
+
+
+def load_labels(folders: list[str | Path], frames: int = 4, shards: list[str | Path] | None = None
+                ) -> dict[str, np.ndarray]:
     """Every started episode's decisions in ``folders`` (DAgger's aggregate of rounds) as one training set: ``x``
     (frame-stacked observations, :func:`frame_stacked`), ``y`` (``mpc``'s actions), ``truth`` (each decision's
-    bench's privileged row), ``episode`` (an index per shard, for splitting by episode) and ``step``."""
-    parts: dict[str, list] = {k: [] for k in ("x", "y", "truth", "episode", "step")}
+    bench's privileged row), ``episode`` (an index per shard, for splitting by episode), ``step`` and ``draw``.
+    ``shards``: exactly these shard files instead (a training run that must read the same set again while a label
+    run adds to the folders)."""
+    parts: dict[str, list] = {k: [] for k in ("x", "y", "truth", "episode", "step", "draw")}
     episode = 0
-    for folder in folders:
-        for path in sorted((Path(folder) / "shards").glob("*.npz")):
-            with np.load(path, allow_pickle=False) as s:
-                if not bool(s["started"]):
-                    continue
-                steps = int(s["steps"])
-                parts["x"].append(frame_stacked(s["obs"], frames))
-                parts["y"].append(s["expert_action"])
-                parts["truth"].append(np.repeat(s["truth"][None, :], steps, axis=0))
-                parts["episode"].append(np.full(steps, episode))
-                parts["step"].append(np.arange(steps))
-                episode += 1
+    for path in label_shards(folders) if shards is None else [Path(p) for p in shards]:
+        with np.load(path, allow_pickle=False) as s:
+            if not bool(s["started"]):
+                continue
+            steps = int(s["steps"])
+            parts["x"].append(frame_stacked(s["obs"], frames))
+            parts["y"].append(s["expert_action"])
+            parts["truth"].append(np.repeat(s["truth"][None, :], steps, axis=0))
+            parts["episode"].append(np.full(steps, episode))
+            parts["step"].append(np.arange(steps))
+            parts["draw"].append(np.full(steps, int(s["draw"]) if "draw" in s.files else -1))
+            episode += 1
     if not episode:
         raise ValueError(f"no started episode in {[str(f) for f in folders]}")
     return {k: np.concatenate(v) for k, v in parts.items()}
 
 
-def expert_pairs(pairs: list[str]) -> tuple:
+def expert_pairs(pairs: list[str], teacher: str = "mpc") -> tuple:
     """``--expert FIELD=VALUE`` pairs (values as JSON: numbers, true/false, "strings") as sorted settings."""
     out = {}
+    kind = TEACHERS[teacher]
     for pair in pairs:
         name, sep, value = pair.partition("=")
-        if not sep or name not in MPCController.__dataclass_fields__ or name in NOT_SETTINGS:
-            raise SystemExit(f"--expert {pair!r}: expected FIELD=VALUE with FIELD one of MPCController's settings")
+        if not sep or name not in kind.__dataclass_fields__ or name in NOT_SETTINGS:
+            raise SystemExit(f"--expert {pair!r}: expected FIELD=VALUE with FIELD one of {kind.__name__}'s settings")
         try:
             out[name] = json.loads(value)
         except json.JSONDecodeError:
@@ -424,6 +453,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         "expert's own action runs (DAgger's mixture; default 0)")
     parser.add_argument("--expert", action="append", default=[], metavar="FIELD=VALUE",
                         help="an MPCController setting of the expert (repeatable; default: mpc as shipped)")
+    parser.add_argument("--teacher", default="mpc", choices=sorted(TEACHERS), help="the expert whose actions "
+                        "label (default mpc; limit: the privileged teacher that knows the bench, about 3 CPU s per "
+                        "episode against mpc's 20-30; --expert then sets limit's fields)")
     parser.add_argument("--workers", type=int, default=1, help="processes (default 1; a local pool for more)")
     parser.add_argument("--accept-code-change", action="store_true", help="resume although the code version of "
                         "the expert or the env differs (only that: checked to leave the expert's actions unchanged)")
@@ -440,7 +472,7 @@ def main(argv: list[str] | None = None) -> int:
     from triplanar.commands.options import executor_from_args
     try:
         settings = LabelSettings(stream=args.stream, round=args.round, driver=args.driver, beta=args.beta,
-                                 expert=expert_pairs(args.expert))
+                                 expert=expert_pairs(args.expert, args.teacher), teacher=args.teacher)
         start = time.time()
         with executor_from_args(args, args.workers) as executor:
             done = generate(args.out, settings, args.first, args.n, executor, progress=True,

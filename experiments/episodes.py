@@ -35,7 +35,8 @@ class EpisodeBatch:
     label: str                       # the name written to the tables
     controller: str                  # agents.bench_controllers name, "ppo:<run_dir>" (frame stack),
     #                                  "ppo_recurrent:<run_dir>" (LSTM), "ppo_state:<run_dir>" (v0, exact state) or
-    #                                  "shipped:<name>" (agents.zoo; ``zoo_dir`` names the zoo)
+    #                                  "shipped:<name>" (agents.zoo; ``zoo_dir`` names the zoo) or
+    #                                  "student:<folder>" (agents.student, experiments.train_student)
     params: tuple = ()
     bench_set: str = "heldout"       # heldout, stress, nominal or tuning
     n: int = 50
@@ -74,6 +75,10 @@ def controller_of(batch: EpisodeBatch) -> tuple[Any, dict[str, Any], bool]:
         run = Path(rest)
         ppo = PPOController.load(run / "final_model.zip", run / "vecnormalize.pkl", name=batch.label)
         return _Named(batch.label, ppo.act), {**env_kwargs, "observation_mode": "state"}, True
+    if kind == "student":
+        from agents.student import StudentController
+        student = StudentController.load(rest, name=batch.label)
+        return student, {**student.env_kwargs, **env_kwargs}, True
     if kind == "shipped":
         from agents.zoo import bench_arguments, check_bench, check_layout, load_shipped, read_card
         zoo = Path(batch.zoo_dir) if batch.zoo_dir else None
