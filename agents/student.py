@@ -24,6 +24,8 @@ import numpy as np
 
 from envs.triplanar_shear_v1 import BENCH_OBSERVATION
 
+from .controller_base import Controller
+
 WEIGHTS = "student.safetensors"
 SPEC = "student.json"
 FORMAT = 1
@@ -114,7 +116,7 @@ def read_student(folder: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarr
     return spec, tensors
 
 
-class StudentController:
+class StudentController(Controller):
     """A student as a bench controller (module docstring). ``estimate`` holds the auxiliary head's last output
     (the unknowns it was trained to infer, ``aux_names``), empty without one."""
 
