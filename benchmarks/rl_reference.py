@@ -127,9 +127,15 @@ def make_row(name: str, work: Path) -> dict[str, Any]:
 
 
 def write_table(work: Path) -> Path:
+    """Rewrite the CSV whole: the rows finished in ``work``, and the CSV's other rows as they were (a run of some
+    rows in a new ``--work`` keeps the rest of the table)."""
     from experiments.tables import fmt, write_csv
-    done = [json.loads((work / f"{name}.json").read_text()) for name in ROWS if (work / f"{name}.json").exists()]
-    write_csv(CSV, FIELDS, [[fmt(row[k]) for k in FIELDS] for row in done])
+    kept = {row["row"]: [row[k] for k in FIELDS] for row in csv_rows(CSV)} if CSV.exists() else {}
+    for name in ROWS:
+        if (work / f"{name}.json").exists():
+            row = json.loads((work / f"{name}.json").read_text())
+            kept[name] = [fmt(row[k]) for k in FIELDS]
+    write_csv(CSV, FIELDS, [kept[name] for name in ROWS if name in kept])
     return CSV
 
 
