@@ -36,6 +36,15 @@ class _Ripple(Effect):
         return force, np.cross(state.load_point - state.position, force)
 
 
+class _RippleMomentOf(_Ripple):
+    name = "bench_thrust_ripple_moment_of"
+
+    def wrench(self, t, state):
+        extra = self["frac"] * state.thrust_N * math.sin(2 * math.pi * self["freq_hz"] * t)
+        force = extra * state.thrust_direction
+        return force, state.moment_of(force, at=state.load_point)
+
+
 def _cpu_per_trace(model, repeats: int) -> float:
     simulate(model)
     times = []
@@ -47,11 +56,12 @@ def _cpu_per_trace(model, repeats: int) -> float:
 
 
 def main(repeats: int = 15) -> None:
-    for cls in (_Drag, _Ripple):
+    for cls in (_Drag, _Ripple, _RippleMomentOf):
         register(cls)
     try:
         for label, effects in [("plain", []), ("viscous drag 15 N s/m", ["bench_viscous_drag:c_N_s_m=15"]),
-                               ("thrust ripple 0.3 at 10 Hz", ["bench_thrust_ripple:frac=0.3,freq_hz=10"])]:
+                               ("thrust ripple, np.cross", ["bench_thrust_ripple:frac=0.3,freq_hz=10"]),
+                               ("thrust ripple, moment_of", ["bench_thrust_ripple_moment_of:frac=0.3,freq_hz=10"])]:
             model = paper_model("A", 40.0, effects=[make_effect(e) for e in effects])
             calls = [0]
             if model.force_effects:
@@ -61,7 +71,7 @@ def main(repeats: int = 15) -> None:
             print(f"{label:28s} {cpu * 1e3:7.1f} ms CPU a trace (median of {repeats}), "
                   f"{calls[0] // (repeats + 1)} callbacks a trace")
     finally:
-        for cls in (_Drag, _Ripple):
+        for cls in (_Drag, _Ripple, _RippleMomentOf):
             EFFECTS.pop(cls.name, None)
 
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import kernel as K
 from .effects import Effect
-from .specimen import GRAVITY, PLANE_TOLERANCE_M, Foundation, Specimen, SpecimenError, reference
+from .specimen import GRAVITY, PLANE_TOLERANCE_M, Foundation, Specimen, SpecimenError, cross3, reference
 
 PAPER_CASES = ("A", "B", "C")
 SEAT_TOLERANCE_M = 1e-4  # how far a re-seated contact point may start across a line where planes meet
@@ -69,6 +69,12 @@ class BlockState:
     @property
     def time_since_actuator_s(self) -> float:
         return self.t
+
+    def moment_of(self, force: np.ndarray, at: np.ndarray) -> np.ndarray:
+        """The moment about the mass centre of ``force`` acting at the point ``at`` (world axes): (at - position) x
+        force, the same bits as ``np.cross`` at a tenth of its cost (``np.cross`` takes tens of microseconds, and a
+        ``wrench`` runs at every right-hand-side evaluation)."""
+        return cross3(np.asarray(at, dtype=float) - self.position, np.asarray(force, dtype=float))
 
 
 @dataclass(frozen=True)
