@@ -724,6 +724,29 @@ def _call_user_wrench(t: float, y: np.ndarray, p: np.ndarray) -> None:
 
 
 @njit(cache=True, error_model="numpy")
+def block_kinematics(y: np.ndarray, p: np.ndarray, R: np.ndarray, cps: np.ndarray, cpv: np.ndarray,
+                     load_point: np.ndarray) -> None:
+    """What a user effect's state needs, in one compiled call (the slow path calls it at every right-hand-side
+    evaluation): rotation ``R`` (3, 3), contact points ``cps`` (3, 3) and their velocities ``cpv`` (v + w x d),
+    and the load point (mass centre + :func:`load_arm`)."""
+    quat_to_matrix(y[S_Q:S_Q + 4], R)
+    tmp = np.empty(3)
+    for i in range(3):
+        _rotate(R, p, P_C + 3 * i, tmp)
+        for k in range(3):
+            cps[i, k] = y[S_R + k] + tmp[k]
+    w0, w1, w2 = y[S_W], y[S_W + 1], y[S_W + 2]
+    for i in range(3):
+        d0, d1, d2 = cps[i, 0] - y[S_R], cps[i, 1] - y[S_R + 1], cps[i, 2] - y[S_R + 2]
+        cpv[i, 0] = y[S_V] + (w1 * d2 - w2 * d1)
+        cpv[i, 1] = y[S_V + 1] + (w2 * d0 - w0 * d2)
+        cpv[i, 2] = y[S_V + 2] + (w0 * d1 - w1 * d0)
+    load_arm(y, p, R, tmp)
+    for k in range(3):
+        load_point[k] = y[S_R + k] + tmp[k]
+
+
+@njit(cache=True, error_model="numpy")
 def _user_wrench(t: float, y: np.ndarray, p: np.ndarray) -> None:
     with objmode():
         _call_user_wrench(t, y, p)
