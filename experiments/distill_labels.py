@@ -13,12 +13,13 @@ expert's, the round's, the stream, the code version of the expert and the env) a
 round rolls out another controller, the *driver* (the student of the previous round: any controller
 :func:`agents.controller_specs.parse_controller` reads, ``ppo:RUN``, ``ppo_recurrent:RUN``, ``shipped:NAME``,
 ``student:FOLDER`` or a bench controller such as ``pi_feedback``), with ``mpc`` alongside it: every period ``mpc``
-is shown the same observation and told the action that ran (its estimator must follow the bench, not its own wish), and its action is the label.
-With ``--beta B`` the expert's own action runs instead in a fraction ``B`` of the periods (DAgger's mixture, drawn
-from a generator seeded by the round and the draw). Each round is a folder of its own; the student is trained on
-the union of the rounds' shards (DAgger's aggregation): :func:`load_labels` reads them as one frame-stacked training
-set. ``--teacher limit`` labels with the privileged ``limit`` (:mod:`agents.limit`, which knows the bench) instead of
-``mpc``, at about a fifth of its CPU; the folder records the teacher.
+is shown the same observation and told the action that ran (its estimator must follow the bench, not its own wish),
+and its action is the label. With ``--beta B`` the expert's own action runs instead in a fraction ``B`` of the
+periods (DAgger's mixture, drawn from a generator seeded by the round and the draw). Each round is a folder of its
+own; the student is trained on the union of the rounds' shards (DAgger's aggregation): :func:`load_labels` reads
+them as one frame-stacked training set. ``--teacher limit`` labels with the privileged ``limit``
+(:mod:`agents.limit`, which knows the bench) instead of ``mpc``, at about a fifth of its CPU; the folder records the
+teacher.
 
 **A shard** (``numpy.load(path)``; arrays over the episode's ``T`` decisions):
 
