@@ -198,11 +198,20 @@ class AdaptiveMomentMatching(BenchMomentMatching):
         return self.action(thrust, offset)
 
 
+def _factories() -> dict[str, type]:
+    return {"fixed_tip": BenchController, "frictionless_tip": BenchController, "moment_matching": BenchMomentMatching,
+            "tracking_tip": BenchTracking, "pi_feedback": BenchPI, "adaptive": AdaptiveMomentMatching,
+            "limit": LimitController, "mpc": MPCController}
+
+
+def controller_names() -> list[str]:
+    """The names :func:`make_controller` builds."""
+    return sorted(_factories())
+
+
 def make_controller(name: str, **params: float) -> BenchController:
     """A controller by name (picklable specs for the executor: a name and numbers)."""
-    factories = {"fixed_tip": BenchController, "frictionless_tip": BenchController,
-                 "moment_matching": BenchMomentMatching, "tracking_tip": BenchTracking, "pi_feedback": BenchPI, "adaptive": AdaptiveMomentMatching}
-    factories.update({"limit": LimitController, "mpc": MPCController})
+    factories = _factories()
     if name not in factories:
         raise ValueError(f"unknown controller {name!r}; choose from {sorted(factories)}")
     controller = factories[name](**params)

@@ -47,6 +47,7 @@ from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 
 from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer
 from .config_checks import check_hyperparams, check_n_envs, check_normalize
+from .controller_base import Controller
 from .ppo_controller import load_untrusted_sb3_zip, load_untrusted_vecnormalize
 from .train_logging import episode_error_callback, record_evaluation
 
@@ -152,7 +153,7 @@ def _algo_class(algo: str):
     return PPO
 
 
-class RobustPolicy:
+class RobustPolicy(Controller):
     """A trained robust PPO as ``policy(obs) -> action`` on raw bench observations: keeps the frame stack itself
     (filled with the first observation of an episode, as ``FrameStackObservation`` pads)."""
 
@@ -180,7 +181,7 @@ class RobustPolicy:
         return np.asarray(action, dtype=np.float32)
 
 
-class RecurrentPolicy:
+class RecurrentPolicy(Controller):
     """A trained recurrent PPO (``RecurrentPPO``) as ``policy(obs) -> action`` on raw bench observations: keeps the
     LSTM state itself, reset at each episode's start."""
 

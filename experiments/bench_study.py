@@ -30,6 +30,7 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
+from agents.controller_specs import PPOSpec, ScriptedSpec
 from agents.heldout import FAILURE_SCORE_MM, summarise
 from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 
@@ -64,10 +65,10 @@ def tune(out_dir: Path, executor: ExecutorLike) -> tuple[dict[str, float], dict[
     """Grid search of the PI gains and the adaptive gain on the tuning benches (default bench, drawn tips); the
     lowest score wins (ties: the first in the grid)."""
     mm = (("tip_friction_deg", 8.0),)
-    batches = [EpisodeBatch(f"pi kp={kp:g} ki={ki:g}", "pi_feedback", (("kp", kp), ("ki", ki)) + mm, "tuning",
-                            TUNING_BENCHES) for kp, ki in PI_GRID]
-    batches += [EpisodeBatch(f"adaptive gain={g:g}", "adaptive", (("gain_deg_per_m_s", g),), "tuning",
-                             TUNING_BENCHES) for g in ADAPTIVE_GRID]
+    batches = [EpisodeBatch.of(ScriptedSpec("pi_feedback", (("kp", kp), ("ki", ki)) + mm), f"pi kp={kp:g} ki={ki:g}",
+                               "tuning", TUNING_BENCHES) for kp, ki in PI_GRID]
+    batches += [EpisodeBatch.of(ScriptedSpec("adaptive", (("gain_deg_per_m_s", g),)), f"adaptive gain={g:g}",
+                                "tuning", TUNING_BENCHES) for g in ADAPTIVE_GRID]
     results = run_tasks(run_batch, batches, executor=executor, progress=True, desc="tuning",
                         checkpoint=TaskCheckpoint(out_dir / "tasks"))
     rows = [[b.label, *[summarise(r)[k] for k in ("n_episodes", "success_rate", "mimicry_error_mm", "score")]]
@@ -105,9 +106,9 @@ def evaluation_batches(pi: dict[str, float], adaptive: dict[str, float], n: int,
         for r in runs:
             kind = "ppo" if r["algo"] == "ppo" else "ppo_recurrent"
             label = "ppo_robust" if r["algo"] == "ppo" else "ppo_recurrent"
-            batches.append(EpisodeBatch(label, f"{kind}:{r['run_dir']}", (), bench_set, n, seed=r["seed"]))
+            batches.append(EpisodeBatch.of(PPOSpec(str(r["run_dir"]), kind), label, bench_set, n, seed=r["seed"]))
         if in_sample_run is not None:
-            batches.append(EpisodeBatch("ppo_in_sample", f"ppo_state:{in_sample_run}", (), bench_set, n))
+            batches.append(EpisodeBatch.of(PPOSpec(str(in_sample_run), "ppo_state"), "ppo_in_sample", bench_set, n))
     return batches
 
 
@@ -161,8 +162,8 @@ def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design],
     kwargs_of = {d.name: tuple(sorted(d.env_kwargs().items())) for d in designs}
     by_name = {d.name: d for d in designs}
     for (_, design, _, seed), run in zip(tasks, design_runs):
-        batches.append(EpisodeBatch(f"{design.name}|ppo_robust", f"ppo:{run['run_dir']}", (), "heldout", n,
-                                    design.tip_friction_deg, kwargs_of[design.name], seed))
+        batches.append(EpisodeBatch.of(PPOSpec(str(run["run_dir"])), f"{design.name}|ppo_robust", "heldout", n,
+                                       design.tip_friction_deg, kwargs_of[design.name], seed))
     results = run_tasks(run_batch, batches, executor=executor, progress=True, desc="design sweep",
                         checkpoint=_checkpoint(out_dir, batches, rerun))
     grouped = _rows(batches, results, lambda b: b.label)

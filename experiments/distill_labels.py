@@ -11,14 +11,15 @@ expert's, the round's, the stream, the code version of the expert and the env) a
 
 **Rounds.** Round 0 (``--driver expert``) rolls out ``mpc`` itself, so the label is the action that ran. A later
 round rolls out another controller, the *driver* (the student of the previous round: any controller
-:func:`experiments.episodes.controller_of` loads, ``ppo:RUN``, ``ppo_recurrent:RUN``, ``shipped:NAME`` or a bench
-controller such as ``pi_feedback``), with ``mpc`` alongside it: every period ``mpc`` is shown the same observation
-and told the action that ran (its estimator must follow the bench, not its own wish), and its action is the label.
-With ``--beta B`` the expert's own action runs instead in a fraction ``B`` of the periods (DAgger's mixture, drawn
-from a generator seeded by the round and the draw). Each round is a folder of its own; the student is trained on
-the union of the rounds' shards (DAgger's aggregation): :func:`load_labels` reads them as one frame-stacked training
-set. ``--teacher limit`` labels with the privileged ``limit`` (:mod:`agents.limit`, which knows the bench) instead of
-``mpc``, at about a fifth of its CPU; the folder records the teacher.
+:func:`agents.controller_specs.parse_controller` reads, ``ppo:RUN``, ``ppo_recurrent:RUN``, ``shipped:NAME``,
+``student:FOLDER`` or a bench controller such as ``pi_feedback``), with ``mpc`` alongside it: every period ``mpc``
+is shown the same observation and told the action that ran (its estimator must follow the bench, not its own wish),
+and its action is the label. With ``--beta B`` the expert's own action runs instead in a fraction ``B`` of the
+periods (DAgger's mixture, drawn from a generator seeded by the round and the draw). Each round is a folder of its
+own; the student is trained on the union of the rounds' shards (DAgger's aggregation): :func:`load_labels` reads
+them as one frame-stacked training set. ``--teacher limit`` labels with the privileged ``limit``
+(:mod:`agents.limit`, which knows the bench) instead of ``mpc``, at about a fifth of its CPU; the folder records the
+teacher.
 
 **A shard** (``numpy.load(path)``; arrays over the episode's ``T`` decisions):
 
@@ -61,6 +62,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.controller_specs import ControllerSpecError, parse_controller
 from agents.estimator import DIRECTIONS, GEOMETRY, PARAMETERS, hypothesis_of
 from agents.heldout import HELDOUT_SEED, STRESS_SEED, TUNING_SEED, first_startable
 from agents.limit import LimitController
@@ -119,6 +121,11 @@ class LabelSettings:
         if (self.driver == "expert") != (self.round == 0):
             raise ValueError(f"round {self.round} with driver {self.driver!r}: round 0 is driven by the expert "
                              "and a later round by a student (--driver)")
+        if self.driver != "expert":
+            try:
+                parse_controller(self.driver)   # recorded as given: its canonical string (agents.controller_specs)
+            except ControllerSpecError as error:
+                raise ValueError(f"driver: {error}") from None
         if self.teacher not in TEACHERS:
             raise ValueError(f"teacher must be one of {sorted(TEACHERS)}, got {self.teacher!r}")
         kind = TEACHERS[self.teacher]
@@ -238,8 +245,8 @@ def driver_of(settings: LabelSettings, env_kwargs: dict[str, Any]):
     """The round's driver (None: the expert drives), refused if it needs another env than the labels'."""
     if settings.driver == "expert":
         return None
-    from .episodes import EpisodeBatch, controller_of
-    driver, own_kwargs, _ = controller_of(EpisodeBatch(label="driver", controller=settings.driver))
+    built = parse_controller(settings.driver).build("driver", {})
+    driver, own_kwargs = built.controller, built.env_kwargs
     if own_kwargs and own_kwargs != env_kwargs:
         raise ValueError(f"driver {settings.driver!r} runs with env_kwargs {own_kwargs}, the labels with "
                          f"{env_kwargs}: a student must see the expert's bench")
@@ -448,7 +455,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
                         "the tuning stream; the held-out and stress streams are refused)")
     parser.add_argument("--round", type=int, default=0, help="DAgger round (0: the expert drives)")
     parser.add_argument("--driver", default="expert", help="round >= 1: the controller that drives (ppo:RUN, "
-                        "ppo_recurrent:RUN, shipped:NAME or a bench controller); mpc labels the states it visits")
+                        "ppo_recurrent:RUN, shipped:NAME, student:FOLDER or a bench controller); mpc labels the states it visits")
     parser.add_argument("--beta", type=float, default=0.0, help="round >= 1: the fraction of periods in which the "
                         "expert's own action runs (DAgger's mixture; default 0)")
     parser.add_argument("--expert", action="append", default=[], metavar="FIELD=VALUE",

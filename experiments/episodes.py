@@ -9,13 +9,11 @@ seed 0 and for every learned controller, as the held-out tables always did).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from agents.bench_controllers import make_controller
-from agents.controller_base import Controller
+from agents.controller_specs import ControllerSpec, ScriptedSpec, ShippedSpec, parse_controller
 from agents.heldout import TUNING_SEED, Outcome, bench_set, random_benches, run_episode
 
 NOISE_SEED = 40_040
@@ -30,20 +28,34 @@ def noise_seed(index: int, replicate: int) -> int:
 
 @dataclass(frozen=True)
 class EpisodeBatch:
-    """One controller on a list of benches under one bench configuration."""
+    """One controller on a list of benches under one bench configuration. Build it from a spec with
+    :meth:`of`; its fields are the spec's canonical string and numbers (:mod:`agents.controller_specs`), so that
+    a batch pickles as it always did and the bench study's task checkpoints keep their keys."""
 
     label: str                       # the name written to the tables
-    controller: str                  # agents.bench_controllers name, "ppo:<run_dir>" (frame stack),
-    #                                  "ppo_recurrent:<run_dir>" (LSTM), "ppo_state:<run_dir>" (v0, exact state) or
-    #                                  "shipped:<name>" (agents.zoo; ``zoo_dir`` names the zoo) or
-    #                                  "student:<folder>" (agents.student, experiments.train_student)
-    params: tuple = ()
+    controller: str                  # the spec's canonical string (agents.controller_specs): a bench controller
+    #                                  name, "ppo:<run_dir>", "ppo_recurrent:<run_dir>", "ppo_state:<run_dir>",
+    #                                  "shipped:<name>" or "student:<folder>"
+    params: tuple = ()               # a scripted controller's numbers
     bench_set: str = "heldout"       # heldout, stress, nominal or tuning
     n: int = 50
     tip_friction_deg: float | None = None
     env_kwargs: tuple = ()
-    seed: int = 0
-    zoo_dir: str | None = None
+    seed: int = 0                    # the row's seed; a shipped agent's training seed
+    zoo_dir: str | None = None       # a shipped agent's zoo
+
+    @classmethod
+    def of(cls, spec: ControllerSpec, label: str, bench_set: str = "heldout", n: int = 50,
+           tip_friction_deg: float | None = None, env_kwargs: tuple = (), seed: int = 0) -> EpisodeBatch:
+        """The batch of ``spec`` (a shipped agent's ``seed`` is its spec's)."""
+        if isinstance(spec, ShippedSpec):
+            return cls(label, spec.text, (), bench_set, n, tip_friction_deg, env_kwargs, spec.seed, spec.zoo_dir)
+        params = spec.params if isinstance(spec, ScriptedSpec) else ()
+        return cls(label, spec.text, params, bench_set, n, tip_friction_deg, env_kwargs, seed)
+
+    @property
+    def spec(self) -> ControllerSpec:
+        return parse_controller(self.controller, params=self.params, seed=self.seed, zoo_dir=self.zoo_dir)
 
 
 def benches_of(batch: EpisodeBatch) -> list[Any]:
@@ -53,47 +65,10 @@ def benches_of(batch: EpisodeBatch) -> list[Any]:
     return bench_set(batch.bench_set, batch.n, batch.tip_friction_deg)
 
 
-class _Named(Controller):
-    """A policy's ``act`` under the batch's label."""
-
-    def __init__(self, name: str, policy_act: Any):
-        self.name, self.policy_act = name, policy_act
-
-    def act(self, obs: np.ndarray) -> np.ndarray:
-        return self.policy_act(obs)
-
-
 def controller_of(batch: EpisodeBatch) -> tuple[Any, dict[str, Any], bool]:
     """(controller, env kwargs, learned) of a batch."""
-    env_kwargs = dict(batch.env_kwargs)
-    kind, _, rest = batch.controller.partition(":")
-    if kind in ("ppo", "ppo_recurrent"):
-        from agents.train_robust import load_policy
-        return load_policy(rest, "ppo" if kind == "ppo" else "recurrent", name=batch.label), env_kwargs, True
-    if kind == "ppo_state":
-        from agents.ppo_controller import PPOController
-        run = Path(rest)
-        ppo = PPOController.load(run / "final_model.zip", run / "vecnormalize.pkl", name=batch.label)
-        return _Named(batch.label, ppo.act), {**env_kwargs, "observation_mode": "state"}, True
-    if kind == "student":
-        from agents.student import StudentController
-        student = StudentController.load(rest, name=batch.label)
-        return student, {**student.env_kwargs, **env_kwargs}, True
-    if kind == "shipped":
-        from agents.zoo import bench_arguments, check_bench, check_layout, load_shipped, read_card
-        zoo = Path(batch.zoo_dir) if batch.zoo_dir else None
-        card = read_card(rest, zoo)
-        env_kwargs = {**card["env_kwargs"], **env_kwargs}
-        env_kwargs.pop("randomize", None)   # the bench set gives the specimen
-        check_layout(card, env_kwargs)
-        tip = {} if batch.tip_friction_deg is None else {"tip_friction_deg": batch.tip_friction_deg}
-        check_bench(card, bench_arguments({**env_kwargs, **tip}), "the batch's bench")
-        policy = load_shipped(rest, batch.seed, zoo)
-        policy.name = batch.label
-        return policy, env_kwargs, True
-    controller = make_controller(batch.controller, **dict(batch.params))
-    controller.name = batch.label
-    return controller, env_kwargs, False
+    built = batch.spec.build(batch.label, dict(batch.env_kwargs), batch.tip_friction_deg)
+    return built.controller, built.env_kwargs, built.learned
 
 
 def run_batch(batch: EpisodeBatch) -> list[Outcome]:

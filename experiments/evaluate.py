@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
+from agents.controller_specs import ScriptedSpec, ShippedSpec
 from agents.heldout import BENCH_SETS, FAILURE_SCORE_MM
 from triplanar.workbench.executor import ExecutorLike, run_tasks
 
@@ -84,8 +85,8 @@ def scripted_batch(name: str, design: Design | None, bench_set: str, n: int, see
     if factory == "mpc" and design is not None:  # it predicts with the hardware and the tip the laboratory built
         params.update(design.env_kwargs(), tip_friction_deg=design.tip_friction_deg)
     kwargs = tuple(sorted(design.env_kwargs().items())) if design is not None else ()
-    return EpisodeBatch(label or name, factory, tuple(params.items()), bench_set, n,
-                        fixed_tip if fixed_tip is not None else bench_tip, kwargs, seed)
+    return EpisodeBatch.of(ScriptedSpec(factory, tuple(params.items())), label or name, bench_set, n,
+                           fixed_tip if fixed_tip is not None else bench_tip, kwargs, seed)
 
 
 def batches_for(controller: str, design: Design | None, bench_set: str, n: int, seeds: Sequence[int] | None,
@@ -107,8 +108,8 @@ def batches_for(controller: str, design: Design | None, bench_set: str, n: int, 
     kwargs = tuple(sorted(design.env_kwargs().items())) if design is not None else ()
     # Without a design the agent runs on its own hardware (its card's arguments), known tip included.
     tip = design.tip_friction_deg if design is not None else card["env_kwargs"].get("tip_friction_deg")
-    return [EpisodeBatch(controller, f"shipped:{controller}", (), bench_set, n, tip, kwargs, s,
-                         str(zoo_dir) if zoo_dir else None) for s in chosen]
+    return [EpisodeBatch.of(ShippedSpec(controller, s, str(zoo_dir) if zoo_dir else None), controller, bench_set,
+                            n, tip, kwargs) for s in chosen]
 
 
 @dataclass

@@ -25,8 +25,10 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Sequence
 
-from agents.heldout import FAILURE_SCORE_MM
 import numpy as np
+
+from agents.controller_specs import PPOSpec
+from agents.heldout import FAILURE_SCORE_MM
 
 from agents.zoo import CARD, ZOO_DIR, card_markdown, load_shipped, model_files, observation_layout, parse_card
 from triplanar.workbench.executor import ExecutorLike, run_tasks
@@ -143,7 +145,7 @@ def figures(run_dirs: Sequence[Path], algo: str, env_kwargs: dict[str, Any], n: 
     tip = env_kwargs.get("tip_friction_deg")
     out = {}
     for bench_set in SHIPPED_SETS:
-        batches = [EpisodeBatch(kind, f"{kind}:{run}", (), bench_set, n, tip, kwargs, _run_seed(run)[0])
+        batches = [EpisodeBatch.of(PPOSpec(str(run), kind), kind, bench_set, n, tip, kwargs, _run_seed(run)[0])
                    for run in run_dirs]
         results = run_tasks(run_batch, batches, executor=executor, progress=True, desc=f"card: {bench_set}")
         out[bench_set] = row_stats(*outcome_table(batches, results), FAILURE_SCORE_MM)
