@@ -71,21 +71,11 @@ def test_every_shipped_agent_runs_through_the_loop():
         _runs(agent, env, obs, bench.load_N)
 
 
-def test_a_student_runs_through_the_loop(tmp_path):
-    import hashlib
-    import json
-
-    from safetensors.numpy import save
-
-    from agents.student import SPEC, WEIGHTS, StudentController, tensor_shapes
-    spec = {"format": 1, "frames": 2, "hidden": [4], "aux_names": [], "env_kwargs": {}}
-    rng = np.random.default_rng(0)
-    tensors = {k: rng.normal(size=shape).astype(np.float32) for k, shape in tensor_shapes(spec).items()}
-    tensors["obs_std"] = np.abs(tensors["obs_std"]) + 1
-    blob = save(tensors)
-    (tmp_path / WEIGHTS).write_bytes(blob)
-    (tmp_path / SPEC).write_text(json.dumps({**spec, "weights_sha256": hashlib.sha256(blob).hexdigest()}))
+def test_a_student_runs_through_the_loop(tmp_path, student_files):
+    from agents.student import StudentController
+    folder = student_files.write(tmp_path / "s", {"format": 1, "frames": 2, "hidden": [4], "aux_names": [],
+                                                  "env_kwargs": {}})
     bench = nominal_benches([40.0])[0]
     env = TriPlanarShearV1Env()
     obs, _ = env.reset(seed=0, options={"bench": bench})
-    _runs(StudentController.load(tmp_path), env, obs, bench.load_N)
+    _runs(StudentController.load(folder), env, obs, bench.load_N)

@@ -85,18 +85,11 @@ def test_ppo_specs_build_controllers(kind, tmp_path, monkeypatch):
     assert (built.env_kwargs == {"observation_mode": "state"}) == (kind == "ppo_state")
 
 
-def test_a_student_spec_builds_a_controller(tmp_path):
-    import hashlib
-    import json
-
+def test_a_student_spec_builds_a_controller(tmp_path, student_files):
     import numpy as np
-    from safetensors.numpy import save
 
-    from agents.student import SPEC, WEIGHTS, tensor_shapes
+    from agents.student import tensor_shapes
     spec = {"format": 1, "frames": 2, "hidden": [4], "aux_names": ["tip"], "env_kwargs": {}}
-    tensors = {k: np.ones(shape, dtype=np.float32) for k, shape in tensor_shapes(spec).items()}
-    blob = save(tensors)
-    (tmp_path / WEIGHTS).write_bytes(blob)
-    (tmp_path / SPEC).write_text(json.dumps({**spec, "weights_sha256": hashlib.sha256(blob).hexdigest()}))
+    student_files.write(tmp_path, spec, {k: np.ones(shape, dtype=np.float32) for k, shape in tensor_shapes(spec).items()})
     built = cs.StudentSpec(str(tmp_path)).build("row", {})
     assert isinstance(built.controller, Controller) and built.controller.name == "row" and built.learned

@@ -3,35 +3,19 @@ that are not the ones the spec's SHA-256 names, a spec field of the wrong kind, 
 
 from __future__ import annotations
 
-import hashlib
-import json
 
 import numpy as np
 import pytest
 from safetensors.numpy import save
 
-from agents.student import SPEC, WEIGHTS, StudentController, StudentFileError, tensor_shapes
-
-
-def write(folder, spec, tensors):
-    folder.mkdir(exist_ok=True)
-    blob = save(tensors)
-    (folder / WEIGHTS).write_bytes(blob)
-    (folder / SPEC).write_text(json.dumps({**spec, "weights_sha256": hashlib.sha256(blob).hexdigest()}))
+from agents.student import WEIGHTS, StudentController, StudentFileError
 
 
 SPEC_OK = {"format": 1, "frames": 2, "hidden": [4], "aux_names": ["tip"], "env_kwargs": {}}
 
 
-def tensors_of(spec):
-    rng = np.random.default_rng(0)
-    out = {k: rng.normal(size=shape).astype(np.float32) for k, shape in tensor_shapes(spec).items()}
-    out["obs_std"], out["aux_std"] = np.abs(out["obs_std"]) + 1, np.abs(out["aux_std"]) + 1
-    return out
-
-
-def test_a_consistent_student_loads_and_acts(tmp_path):
-    write(tmp_path / "s", SPEC_OK, tensors_of(SPEC_OK))
+def test_a_consistent_student_loads_and_acts(tmp_path, student_files):
+    student_files.write(tmp_path / "s", SPEC_OK, student_files.tensors(SPEC_OK))
     student = StudentController.load(tmp_path / "s")
     student.reset(30.0, None)
     action = student.act(np.zeros(15, dtype=np.float32))
@@ -40,16 +24,16 @@ def test_a_consistent_student_loads_and_acts(tmp_path):
         student.act(np.zeros(14))
 
 
-def test_inconsistent_student_files_are_refused_naming_what(tmp_path):
-    write(tmp_path / "s", SPEC_OK, tensors_of(SPEC_OK))
-    (tmp_path / "s" / WEIGHTS).write_bytes(save({k: v + 1 for k, v in tensors_of(SPEC_OK).items()}))
+def test_inconsistent_student_files_are_refused_naming_what(tmp_path, student_files):
+    student_files.write(tmp_path / "s", SPEC_OK, student_files.tensors(SPEC_OK))
+    (tmp_path / "s" / WEIGHTS).write_bytes(save({k: v + 1 for k, v in student_files.tensors(SPEC_OK).items()}))
     with pytest.raises(StudentFileError, match="SHA-256 differs"):
         StudentController.load(tmp_path / "s")
-    write(tmp_path / "s", {**SPEC_OK, "hidden": [0]}, tensors_of(SPEC_OK))
+    student_files.write(tmp_path / "s", {**SPEC_OK, "hidden": [0]}, student_files.tensors(SPEC_OK))
     with pytest.raises(StudentFileError, match="field 'hidden'"):
         StudentController.load(tmp_path / "s")
-    wrong = {**tensors_of(SPEC_OK), "action.bias": np.zeros(3, np.float32)}
-    write(tmp_path / "s", SPEC_OK, wrong)
+    wrong = {**student_files.tensors(SPEC_OK), "action.bias": np.zeros(3, np.float32)}
+    student_files.write(tmp_path / "s", SPEC_OK, wrong)
     with pytest.raises(StudentFileError, match=r"tensor 'action.bias' must be finite float32 of shape \(2,\)"):
         StudentController.load(tmp_path / "s")
     with pytest.raises(StudentFileError, match="cannot read"):

@@ -1,0 +1,40 @@
+"""Fixtures shared by the agents' tests."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+
+import numpy as np
+import pytest
+
+
+class StudentFiles:
+    """A student's two files made by hand (``agents.student``): ``tensors(spec)``, seeded weights of the spec's
+    shapes (spreads positive); ``write(folder, spec, tensors=None)``, the weights and the spec naming their SHA-256."""
+
+    @staticmethod
+    def tensors(spec: dict) -> dict[str, np.ndarray]:
+        from agents.student import tensor_shapes
+        rng = np.random.default_rng(0)
+        out = {k: rng.normal(size=shape).astype(np.float32) for k, shape in tensor_shapes(spec).items()}
+        for spread in ("obs_std", "aux_std"):
+            if spread in out:
+                out[spread] = np.abs(out[spread]) + 1
+        return out
+
+    @staticmethod
+    def write(folder, spec: dict, tensors: dict[str, np.ndarray] | None = None):
+        from safetensors.numpy import save
+
+        from agents.student import SPEC, WEIGHTS
+        folder.mkdir(exist_ok=True)
+        blob = save(StudentFiles.tensors(spec) if tensors is None else tensors)
+        (folder / WEIGHTS).write_bytes(blob)
+        (folder / SPEC).write_text(json.dumps({**spec, "weights_sha256": hashlib.sha256(blob).hexdigest()}))
+        return folder
+
+
+@pytest.fixture
+def student_files() -> type[StudentFiles]:
+    return StudentFiles
