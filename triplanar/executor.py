@@ -88,8 +88,11 @@ def _watch_parent(owner: int) -> None:
 def die_with_parent(owner: int) -> None:
     """Worker initializer: exit when process ``owner`` (the pool's maker) dies, however it dies. Ctrl-C (SIGINT,
     sent to the whole foreground group) is the maker's to handle: it terminates its workers, which would otherwise
-    each print a ``KeyboardInterrupt`` traceback."""
+    each print a ``KeyboardInterrupt`` traceback. SIGTERM goes back to its default: a worker forked while
+    :func:`pool_scope`'s handler is installed would inherit it, and a ``Terminated`` raised inside a task is caught by
+    the pool's worker loop as the task's error, so the worker would live on and the command hang at exit."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     if sys.platform.startswith("linux") and os.getppid() == owner:
         try:
             ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # PR_SET_PDEATHSIG = 1
