@@ -1,7 +1,8 @@
 """The shipped YAMLs train, for a seed, the very model they trained when the two older trainers (agents.train_ppo
 for v0, agents.train_robust for v1) were one (agents.trainer): policy parameters, optimiser state and normalisation
 statistics after one rollout (4,096 steps, seed 3), against their sha256 recorded then, when the old and the new
-path gave the same digests (commit cc52950's tests/agents/test_trainer_matches_old_paths.py). The digests are this
+path gave the same digests (commit cc52950's tests/agents/test_trainer_matches_old_paths.py; these digests
+computed by this file's model_digest on the old trainers' runs). The digests are this
 machine's with the pinned torch; another CPU or torch build may differ in the last bits (then re-record them from a
 commit whose training is known unchanged). That the trainer's callbacks leave training untouched is checked on any
 machine by tests/agents/test_trainer_bitwise.py."""
@@ -19,10 +20,10 @@ pytest.importorskip("sb3_contrib")
 
 RECORDED = {  # kind: (env id, algo, overrides, sha256)
     "v0": ("TriPlanarShear-v0", "ppo", {"train.eval_freq": 2048, "train.checkpoint_freq": 2048},
-           "83ee2f95c3be2d5d8d203a4f0d9258145125378552666a2ba8504506aa65167b"),
-    "v1-ppo": ("TriPlanarShear-v1", "ppo", {}, "bfbedadb87966332caa902023fb84e5b0a2722e94dceaeee9c1dad138747019c"),
+           "f54f02b9c95d8b4afee35fad6e63c96202a3a3d2346ead1991eba67c97de30e7"),
+    "v1-ppo": ("TriPlanarShear-v1", "ppo", {}, "049ff43cfd69a2c40023561f9cd2a9d9cf03b3fa967278f065c055b36e0c09be"),
     "v1-recurrent": ("TriPlanarShear-v1", "recurrent", {},
-                     "1b7d2aaab157dff17a2f08f5d45f6317c621f471e53441dbcc78a193d3ccdb70"),
+                     "e917d6f15052f50de5f3a6257215a2db6322c672e7f252255a1a1e64afeeb2d1"),
 }
 
 
