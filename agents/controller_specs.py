@@ -6,7 +6,7 @@ spec               canonical string            builds
 =================  ==========================  =============================================================
 ``ScriptedSpec``   ``NAME`` (``pi_feedback``)  a scripted or model-based (``mpc``, ``limit``) controller of
                                                :mod:`agents.bench_controllers`, with its ``params``
-``PPOSpec``        ``ppo:RUN``,                a finished run of :mod:`agents.train_robust` (frame stack,
+``PPOSpec``        ``ppo:RUN``,                a finished run of :mod:`agents.trainer` (frame stack,
                    ``ppo_recurrent:RUN``,      LSTM) or a ``TriPlanarShear-v0`` run that reads the exact state
                    ``ppo_state:RUN``
 ``ShippedSpec``    ``shipped:NAME``            training seed ``seed`` of a shipped agent (:mod:`agents.zoo`)
@@ -120,7 +120,7 @@ class PPOSpec:
             run = Path(self.path)
             ppo = PPOController.load(run / "final_model.zip", run / "vecnormalize.pkl", name=label)
             return Built(_Named(label, ppo.act), {**env_kwargs, "observation_mode": "state"}, True)
-        from .train_robust import load_policy
+        from .robust_policy import load_policy
         return Built(load_policy(self.path, "ppo" if self.kind == "ppo" else "recurrent", name=label),
                      dict(env_kwargs), True)
 

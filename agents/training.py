@@ -1,9 +1,7 @@
 """Train a controller on either env version from a plain request (what ``triplanar train`` builds from its options;
-the command owns the argument parsing, the agents take this object).
-
-* ``TriPlanarShear-v0``: PPO with ``agents/ppo.yaml``'s schema (:mod:`agents.train_ppo`);
-* ``TriPlanarShear-v1``: robust PPO (``algo: ppo``, frame stack) or recurrent PPO (``algo: recurrent``) with
-  ``agents/robust.yaml``'s schema (:mod:`agents.train_robust`).
+the command owns the argument parsing, the agents take this object), with the one trainer, :mod:`agents.trainer`
+(the YAML's schema: :mod:`agents.train_config`; default YAMLs ``agents/ppo.yaml`` for v0, ``agents/robust.yaml``
+or, with ``algo: recurrent``, ``agents/recurrent.yaml`` for v1).
 """
 
 from __future__ import annotations
@@ -84,19 +82,10 @@ def train(request: TrainRequest, executor: ExecutorLike = "serial") -> list[Trai
     request.check()
     if request.resume and not request.named:
         refuse_leftovers(request.out_dir, request.seeds)
-    if request.env_id == "TriPlanarShear-v0":
-        from .train_ppo import DEFAULT_CONFIG, load_config, train_seeds
-        overrides = {**request.overrides, **{f"env.{k}": v for k, v in request.env_kwargs.items()}}
-        config = load_config(request.config or DEFAULT_CONFIG, overrides)
-        results = train_seeds(config, request.out_dir, request.seeds, request.timesteps, request.resume,
-                              request.verbose, executor, progress=request.progress, token=request.token,
-                              named=request.named, tensorboard_log=request.tensorboard_log)
-        return [TrainedRun(seed, r.timesteps, r.wall_s, r.run_dir) for seed, r in zip(request.seeds, results)]
-    from .train_robust import train_seeds as train_robust_seeds
-    summaries = train_robust_seeds(request.out_dir, request.seeds, request.timesteps or 0,
-                                   env_kwargs=request.env_kwargs, executor=executor, algo=request.algo or "",
-                                   config=request.config or "", overrides=request.overrides,
-                                   progress=request.progress, resume=request.resume, token=request.token,
-                                   named=request.named, verbose=request.verbose,
-                                   tensorboard_log=request.tensorboard_log)
+    from .trainer import train_seeds
+    summaries = train_seeds(request.out_dir, request.seeds, request.timesteps or 0, executor=executor,
+                            progress=request.progress, env_id=request.env_id, config=request.config or "",
+                            algo=request.algo or "", env_kwargs=request.env_kwargs, overrides=request.overrides,
+                            resume=request.resume, token=request.token, named=request.named,
+                            verbose=request.verbose, tensorboard_log=request.tensorboard_log)
     return [TrainedRun(s["seed"], s["timesteps"], s["wall_s"], Path(s["run_dir"])) for s in summaries]

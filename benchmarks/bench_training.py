@@ -29,8 +29,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _ppo_settings() -> tuple[dict[str, Any], int]:
-    from agents.train_ppo import load_config
-    config = load_config(ROOT / "agents" / "ppo.yaml")
+    from agents.train_config import load_config
+    config = load_config(ROOT / "agents" / "ppo.yaml", None, "TriPlanarShear-v0")
     return dict(config["ppo"]), int(config["n_envs"])
 
 
@@ -75,9 +75,9 @@ def main() -> int:
                         help="start bank of the v1 run (default: agents/robust.yaml's)")
     parser.add_argument("--json", help="also write the numbers here")
     args = parser.parse_args()
-    from agents.train_robust import ROBUST_CONFIG, load_robust_config
+    from agents.train_config import load_config
     bank = args.start_bank if args.start_bank is not None else \
-        int(load_robust_config(ROBUST_CONFIG)["env"].get("start_bank", 0))
+        int(load_config(ROOT / "agents" / "robust.yaml", None, "TriPlanarShear-v1")["env"].get("start_bank", 0))
     _, n_envs = _ppo_settings()
     setups = {"cartpole": lambda: _cartpole_env(n_envs, 0),
               "v1_robust": lambda: _v1_env(n_envs, 0, bank),

@@ -89,7 +89,8 @@ def _ppo_long(work: Path, n: int) -> dict[str, Any]:
     """``agents/robust.yaml`` at PPO_LONG_TIMESTEPS, seed 0, through ``triplanar train`` (resumable), scored on the
     held-out benches as the other rows (one episode per bench, sensor noise seeded by its index)."""
     from agents.heldout import heldout_benches
-    from agents.train_robust import BATCH_KEYS, evaluate_policy_on, load_policy, run_config
+    from agents.robust_policy import evaluate_policy_on, load_policy, run_config
+    from agents.train_config import BATCH_KEYS
     out = work / "ppo_2m"
     command = ["train", "--env", "TriPlanarShearRealistic-v0", "--seed", "0", "--timesteps", str(PPO_LONG_TIMESTEPS),
                "--out", str(out), "--executor", "serial", "--no-progress"]

@@ -6,7 +6,7 @@
 of :func:`triplanar.workbench.executor.run_tasks` with a checkpoint directory under DIR/tasks):
 
 1. tune the feedback and adaptive gains on ``TUNING_BENCHES`` tuning benches (never the held-out ones);
-2. train robust PPO (:mod:`agents.train_robust`) on the default bench, one run per seed and kind: with a 4-frame stack
+2. train robust PPO (:mod:`agents.trainer`) on the default bench, one run per seed and kind: with a 4-frame stack
    (``ppo_robust``) and recurrent (``ppo_recurrent``, sb3-contrib's RecurrentPPO, an LSTM), all in one executor call;
 3. evaluate every controller on the nominal bench (the paper's 12 loads, steel tip), the held-out benches and the
    stress benches (outside the training ranges), each scripted controller for ``scripted_seeds`` sensor-noise
@@ -187,10 +187,11 @@ DESIGN_FIELDS = ("design", "tip_friction_deg", "stage_bandwidth_hz", "latency_s"
 
 
 def _design_ppo(task: tuple[str, Design, int, int]) -> dict[str, Any]:
-    from agents.train_robust import RobustTask, train_robust
+    from agents.trainer import TrainTask, train_run
     out, design, timesteps, seed = task
     kwargs = {**design.env_kwargs(), "tip_friction_deg": design.tip_friction_deg}
-    return train_robust(RobustTask(out, seed, timesteps, tuple(sorted(kwargs.items())), max(timesteps // 2, 1)))
+    return train_run(TrainTask(out, seed, timesteps, tuple(sorted(kwargs.items())), max(timesteps // 2, 1),
+                               env_id="TriPlanarShear-v1"))
 
 
 def best_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
@@ -266,7 +267,7 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
     """The whole study (resumable in ``out_dir``); ``recurrent_timesteps=None`` leaves the recurrent PPO out.
     ``rerun`` names scripted or model-based controllers whose stored evaluation batches are run again (their code
     changed since they ran); pass it once: a run resumed with it again redoes them again."""
-    from agents.train_robust import seed_tasks, train_robust
+    from agents.trainer import seed_tasks, train_run
 
     from . import bench_plots, bench_report
     unknown = sorted(set(rerun) - {*SCRIPTED, *MODEL_BASED})
@@ -285,10 +286,11 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
     timings["tuning_s"] = time.perf_counter() - started
 
     started = time.perf_counter()
-    tasks = seed_tasks(out_dir / "ppo_robust", seeds, ppo_timesteps)
+    tasks = seed_tasks(out_dir / "ppo_robust", seeds, ppo_timesteps, env_id="TriPlanarShear-v1")
     if recurrent_timesteps is not None:
-        tasks += seed_tasks(out_dir / "ppo_recurrent", seeds, recurrent_timesteps, algo="recurrent")
-    trained = run_tasks(train_robust, tasks, executor=executor, progress=True, desc="robust PPO seeds",
+        tasks += seed_tasks(out_dir / "ppo_recurrent", seeds, recurrent_timesteps, algo="recurrent",
+                            env_id="TriPlanarShear-v1")
+    trained = run_tasks(train_run, tasks, executor=executor, progress=True, desc="robust PPO seeds",
                         checkpoint=TaskCheckpoint(out_dir / "tasks"))
     timings["ppo_training_s"] = time.perf_counter() - started  # (both kinds: they share the executor's workers)
     timings["ppo_training_wall_s_per_seed"] = {f"{r['algo']}_seed_{r['seed']}": r["wall_s"] for r in trained}
@@ -331,7 +333,7 @@ def main(argv: Iterable[str] | None = None) -> int:
     parser.add_argument("--scripted-seeds", type=int, nargs="+", default=list(SCRIPTED_SEEDS),
                         help="sensor-noise replicates of each scripted controller")
     parser.add_argument("--n-heldout", type=int, default=N_HELDOUT, help="held-out (and stress) benches")
-    parser.add_argument("--in-sample-run", help="a finished v0 PPO run directory (agents.train_ppo) to evaluate")
+    parser.add_argument("--in-sample-run", help="a finished v0 PPO run directory (agents.trainer) to evaluate")
     parser.add_argument("--doc", help="also write the report (bench_report.md) here")
     parser.add_argument("--model-based", nargs="*", default=list(MODEL_BASED), choices=list(MODEL_BASED),
                         help="model-based controllers to evaluate (default: mpc limit; none: leave them out)")

@@ -393,7 +393,7 @@ def status(out: str | Path) -> dict[str, Any]:
 
 def frame_stacked(obs: np.ndarray, frames: int) -> np.ndarray:
     """(T, frames * 15): at each decision the last ``frames`` observations, oldest first, the episode's first
-    observation repeated before it (what :class:`agents.train_robust.RobustPolicy` feeds its network)."""
+    observation repeated before it (what :class:`agents.robust_policy.RobustPolicy` feeds its network)."""
     padded = np.concatenate([np.repeat(obs[:1], frames - 1, axis=0), obs])
     return np.concatenate([padded[k:k + len(obs)] for k in range(frames)], axis=1)
 

@@ -62,7 +62,7 @@ def check_converted(agent: Any, model: Any, normalizer: Any, steps: int = CHECK_
     """Roll the original (unpickled) policy out on the card's env and feed the same observations to the converted
     agent: every action must be bitwise equal (refused otherwise, naming the step). Also checks the rebuilt policy's
     spaces and arguments against the model's. Returns the number of steps compared."""
-    from agents.train_robust import RecurrentPolicy, RobustPolicy
+    from agents.robust_policy import RecurrentPolicy, RobustPolicy
     card = agent.card
     for attr in ("observation_space", "action_space"):
         want, have = getattr(model.policy, attr), getattr(agent.policy, attr)
@@ -115,9 +115,9 @@ def _finish_card(card: dict[str, Any], agent_dir: Path, sources: dict[int, tuple
 
 
 def run_hyperparameters(runs: Sequence[Path]) -> dict[str, Any]:
-    """What the runs trained with (each run's ``config.json``, written by :func:`agents.train_robust.train_robust`),
+    """What the runs trained with (each run's ``config.json``, written by :func:`agents.trainer.train_run`),
     for the card; runs of one agent must share it (the seed and the step budget aside)."""
-    from agents.train_robust import run_config
+    from agents.robust_policy import run_config
     configs = []
     for run in runs:
         config = run_config(run)
@@ -129,7 +129,7 @@ def run_hyperparameters(runs: Sequence[Path]) -> dict[str, Any]:
 
 
 def _run_seed(run_dir: Path) -> tuple[int, int]:
-    """(seed, timesteps) of a finished run of :func:`agents.train_robust.train_robust`."""
+    """(seed, timesteps) of a finished run of :func:`agents.trainer.train_run`."""
     done = run_dir / "done.json"
     if not done.is_file():
         raise ValueError(f"{run_dir}: not a finished run (no done.json)")

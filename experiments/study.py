@@ -1,6 +1,6 @@
 """The actuator design study: ``triplanar study --out DIR`` (the command calls :func:`run_study`).
 
-Trains PPO (``agents.train_ppo``; finished or interrupted runs are resumed, not redone), evaluates every
+Trains PPO (``agents.trainer``; finished or interrupted runs are resumed, not redone), evaluates every
 controller at the 12 load levels with :func:`agents.evaluation.evaluate`, and writes to DIR:
 
 * ``episodes.csv``: one row per controller, load level and seed (mimicry error, outcome, travel, steps, ...);
@@ -28,13 +28,15 @@ from typing import Callable, Iterable, Sequence
 import numpy as np
 
 from agents import EpisodeResult, LowFrictionTip, MomentMatching, SteelTip, TrackingTip, evaluate
-from agents.train_ppo import DEFAULT_CONFIG, TrainResult, eval_loads, load_config, train_seeds
+from agents.train_config import PROFILES, V0, eval_loads, load_config
+from agents.trainer import TrainResult, train_seeds
 from triplanar import PAPER_LOADS_N
 from triplanar.atomic import write_atomic
 from triplanar.executor import ExecutorLike, run_tasks
 from .tables import write_csv
 
 PPO_NAME = "PPO"
+DEFAULT_CONFIG = PROFILES[V0].configs["ppo"]
 
 
 def scripted_controllers() -> list:
@@ -110,7 +112,7 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     loads = tuple(float(f) for f in loads)
-    ppo_config = load_config(config)
+    ppo_config = load_config(config, None, V0)
     if train and f"{loads[0]:g}" not in {f"{f:g}" for f in eval_loads(ppo_config)}:
         raise ValueError(f"{config}: eval_loads must include {loads[0]:g} N, the load of the learning-curve plot")
     eval_freq = int((ppo_config.get("train") or {}).get("eval_freq", 0))
@@ -126,7 +128,8 @@ def run_study(out_dir: str | Path, *, ppo_dir: str | Path = "runs/ppo", seeds: S
     if train:
         started = time.perf_counter()
         log(f"PPO seeds {', '.join(map(str, seeds))}: training (or resuming) in {ppo_dir}")
-        runs = train_seeds(ppo_config, ppo_dir, seeds, timesteps, executor=executor)
+        runs = [TrainResult.of(s) for s in train_seeds(ppo_dir, seeds, timesteps or 0, executor=executor,
+                                                       progress=False, config=ppo_config, env_id=V0)]
         timings["ppo_training_this_call_s"] = time.perf_counter() - started
     for seed in seeds if not train else ():
         run_dir = Path(ppo_dir) / f"seed_{seed}"

@@ -142,7 +142,7 @@ def observation_layout(env_kwargs: dict[str, Any], algo: str, frames: int | None
     from envs.core import OBSERVATION
     from envs.triplanar_shear_v1 import BENCH_OBSERVATION
 
-    from ..train_robust import FRAMES
+    from ..robust_policy import FRAMES
     mode = env_kwargs.get("observation_mode", "bench")
     layout = BENCH_OBSERVATION if mode == "bench" else OBSERVATION
     return {"observation_mode": mode, "fields": [[f.name, f.size] for f in layout.fields.values()],

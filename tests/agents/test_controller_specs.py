@@ -9,7 +9,7 @@ import pickle
 import pytest
 
 import agents.ppo_controller as ppo_controller
-import agents.train_robust as train_robust
+import agents.robust_policy as robust_policy
 from agents import controller_specs as cs
 from agents.controller_base import Controller
 from agents.zoo import read_card
@@ -76,8 +76,8 @@ class _Normalizer:
 @pytest.mark.parametrize("kind", cs.PPO_KINDS)
 def test_ppo_specs_build_controllers(kind, tmp_path, monkeypatch):
     # the run's files are stood in for (loading real runs: tests/agents/test_train_robust.py, test_evaluate.py)
-    monkeypatch.setattr(train_robust, "load_untrusted_sb3_zip", lambda path, algo="ppo": _Model())
-    monkeypatch.setattr(train_robust, "load_untrusted_vecnormalize", lambda path: _Normalizer())
+    monkeypatch.setattr(robust_policy, "load_untrusted_sb3_zip", lambda path, algo="ppo": _Model())
+    monkeypatch.setattr(robust_policy, "load_untrusted_vecnormalize", lambda path: _Normalizer())
     monkeypatch.setattr(ppo_controller.PPOController, "load",
                         classmethod(lambda cls, *a, name="ppo": cls.__new__(cls)))
     built = cs.PPOSpec(str(tmp_path), kind).build("row", {})

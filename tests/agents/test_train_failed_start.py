@@ -17,11 +17,11 @@ class Reached(Exception):
 
 
 def test_the_corrected_rerun_is_not_refused(tmp_path, monkeypatch) -> None:
-    import agents.train_robust as train_robust
+    import agents.trainer as trainer
 
     def fails(task, config, run_dir):
         raise Reached(config["hyperparams"]["learning_rate"])
-    monkeypatch.setattr(train_robust, "_start_or_resume", fails)
+    monkeypatch.setattr(trainer, "_start_or_resume", fails)
     argv = ["train", "--env", "TriPlanarShear-v1", "--timesteps", "64", "--out", str(tmp_path), "--executor",
             "serial", "--no-progress"]
     with pytest.raises(Reached):

@@ -35,8 +35,8 @@ def no_bar(stderr: str) -> bool:
 
 @pytest.mark.slow
 def test_v1_training_reports_its_episodes_losses_and_evaluations(tmp_path, capsys, monkeypatch) -> None:
-    from agents import train_robust
-    monkeypatch.setattr(train_robust, "CURVE_BENCHES", 1)   # one tuning bench per point of the curve: cheap
+    from agents import run_benches
+    monkeypatch.setattr(run_benches, "CURVE_BENCHES", 1)   # one tuning bench per point of the curve: cheap
     code = cli.main(["train", "--env", "TriPlanarShearRealistic-v0", "--timesteps", "1024",
                      "--out", str(tmp_path / "run"), "--executor", "serial", "--no-progress", "--verbose", "1",
                      "--tensorboard-log", str(tmp_path / "tb"), *V1_TINY])

@@ -9,13 +9,13 @@ import pytest
 
 pytest.importorskip("sb3_contrib")
 
-from agents import train_robust as tr
+from agents import run_benches, train_robust as tr
 from agents.heldout import nominal_benches, run_episode
 
 
 @pytest.mark.slow
 def test_recurrent_run_resumes_from_its_checkpoint_and_plays_an_episode(tmp_path, monkeypatch):
-    monkeypatch.setattr(tr, "CURVE_BENCHES", 1)
+    monkeypatch.setattr(run_benches, "CURVE_BENCHES", 1)
     small = {"n_envs": 4, "hyperparams.n_steps": 64, "hyperparams.batch_size": 64, "hyperparams.n_epochs": 1,
              "env.start_bank": 4}
     task = tr.RobustTask(str(tmp_path), 0, 512, (), 256, "recurrent", checkpoint_freq=256,
@@ -25,7 +25,7 @@ def test_recurrent_run_resumes_from_its_checkpoint_and_plays_an_episode(tmp_path
         pass
 
     # Interrupt the run after its first checkpoint (as a kill would), then run the task again: it continues.
-    real_save = tr.write_atomic
+    real_save = run_benches.write_atomic
     saved: list[str] = []
 
     def save_then_stop(path, save):
@@ -34,10 +34,10 @@ def test_recurrent_run_resumes_from_its_checkpoint_and_plays_an_episode(tmp_path
         if path.name == "state.json":
             raise Stop
 
-    monkeypatch.setattr(tr, "write_atomic", save_then_stop)
+    monkeypatch.setattr(run_benches, "write_atomic", save_then_stop)
     with pytest.raises(Stop):
         tr.train_robust(task)
-    monkeypatch.setattr(tr, "write_atomic", real_save)
+    monkeypatch.setattr(run_benches, "write_atomic", real_save)
     state = json.loads((tmp_path / "seed_0" / "checkpoint" / "state.json").read_text())
     assert 256 <= state["timesteps"] < 512
     summary = tr.train_robust(task)

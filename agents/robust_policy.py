@@ -1,0 +1,103 @@
+"""A finished ``TriPlanarShear-v1`` run (:mod:`agents.trainer`) as a bench controller (``reset``/``act`` on raw bench
+observations): the frame-stack PPO (``ppo_robust``) keeps its frame stack itself, the recurrent PPO
+(``ppo_recurrent``) its LSTM state.
+
+The SB3 zips and ``vecnormalize.pkl`` are read with (cloud)pickle, which can run code: load only runs you trained
+(:mod:`agents.ppo_controller`'s untrusted loaders, called with a run the caller named).
+"""
+
+from __future__ import annotations
+
+import json
+from collections import deque
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from .controller_base import Controller
+from .ppo_controller import load_untrusted_sb3_zip, load_untrusted_vecnormalize
+from .train_config import ALGOS, frame_stack_of
+
+FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
+
+
+class RobustPolicy(Controller):
+    """A trained robust PPO as ``policy(obs) -> action`` on raw bench observations: keeps the frame stack itself
+    (filled with the first observation of an episode, as ``FrameStackObservation`` pads)."""
+
+    def __init__(self, model: Any, normalizer: Any, name: str = "ppo_robust", frames: int = FRAMES):
+        self.model, self.normalizer, self.name, self.n_frames = model, normalizer, name, frames
+        self.frames: deque = deque(maxlen=frames)
+
+    @classmethod
+    def load(cls, run_dir: str | Path, name: str = "ppo_robust") -> RobustPolicy:
+        run_dir = Path(run_dir)  # UNPICKLES: a run the caller named (agents.ppo_controller's untrusted loaders)
+        normalizer = load_untrusted_vecnormalize(run_dir / "vecnormalize.pkl")
+        frames = frame_stack_of(run_config(run_dir)) if (run_dir / "config.json").exists() else FRAMES
+        return cls(load_untrusted_sb3_zip(run_dir / "final_model.zip"), normalizer, name, frames)
+
+    def reset(self, load_N: float, config: Any) -> None:
+        self.frames.clear()
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        if not self.frames:
+            self.frames.extend([obs] * self.n_frames)
+        else:
+            self.frames.append(obs)
+        stacked = np.concatenate(list(self.frames)).astype(np.float32)
+        action, _ = self.model.predict(self.normalizer.normalize_obs(stacked), deterministic=True)
+        return np.asarray(action, dtype=np.float32)
+
+
+class RecurrentPolicy(Controller):
+    """A trained recurrent PPO (``RecurrentPPO``) as ``policy(obs) -> action`` on raw bench observations: keeps the
+    LSTM state itself, reset at each episode's start."""
+
+    def __init__(self, model: Any, normalizer: Any, name: str = "ppo_recurrent"):
+        self.model, self.normalizer, self.name = model, normalizer, name
+        self.state: Any = None
+        self.episode_start = np.ones((1,), dtype=bool)
+
+    @classmethod
+    def load(cls, run_dir: str | Path, name: str = "ppo_recurrent") -> RecurrentPolicy:
+        run_dir = Path(run_dir)  # UNPICKLES: a run the caller named (agents.ppo_controller's untrusted loaders)
+        normalizer = load_untrusted_vecnormalize(run_dir / "vecnormalize.pkl")
+        return cls(load_untrusted_sb3_zip(run_dir / "final_model.zip", "recurrent"), normalizer, name)
+
+    def reset(self, load_N: float, config: Any) -> None:
+        self.state = None
+        self.episode_start = np.ones((1,), dtype=bool)
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        normalized = self.normalizer.normalize_obs(np.asarray(obs, dtype=np.float32)[None, :])
+        action, self.state = self.model.predict(normalized, state=self.state, episode_start=self.episode_start,
+                                                deterministic=True)
+        self.episode_start = np.zeros((1,), dtype=bool)
+        return np.asarray(action[0], dtype=np.float32)
+
+
+def run_config(run_dir: str | Path) -> dict[str, Any]:
+    """The configuration a run trained with (its ``config.json``)."""
+    return json.loads((Path(run_dir) / "config.json").read_text())
+
+
+def policy_of_model(model: Any, normalizer: Any, algo: str, frames: int) -> RobustPolicy | RecurrentPolicy:
+    """A model in training (and its normaliser) as a bench controller."""
+    if algo == "recurrent":
+        return RecurrentPolicy(model, normalizer)
+    return RobustPolicy(model, normalizer, frames=frames)
+
+
+def load_policy(run_dir: str | Path, algo: str = "ppo", name: str | None = None) -> RobustPolicy | RecurrentPolicy:
+    """A finished v1 run as a bench controller (``reset``/``act``)."""
+    cls = RecurrentPolicy if algo == "recurrent" else RobustPolicy
+    return cls.load(run_dir, name=name or ALGOS[algo])
+
+
+def evaluate_policy_on(policy: RobustPolicy | RecurrentPolicy, benches: Sequence[Any],
+                       env_kwargs: dict[str, Any] | None = None, bench_set: str = "heldout",
+                       tip_friction_deg: float | None = None) -> list[Any]:
+    from .heldout import run_episode, with_tip
+    return [run_episode(policy, with_tip(b, tip_friction_deg), env_kwargs=env_kwargs, seed=i, bench_set=bench_set,
+                        index=i) for i, b in enumerate(benches)]
