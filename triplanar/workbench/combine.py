@@ -57,7 +57,7 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
                                 first.params)
     else:
         added[first.effect] = dict(first.all_values[first.effect])
-    others = [c for c in ev.ranked if c is not first]
+    others = [c for c in ev.ranked if c.key != first.key]
     steps = [_step(first, others[0] if others else None, ev.baseline_error_mm, ev.baseline_error_mm, ev.lookalikes)]
     results = [first]
     while rules.combination_continues(results[-1].cv_error_mm, ev.repeat_scatter_mm, len(steps)):
@@ -71,21 +71,21 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
         best, look = parsimonious(plausible) if plausible else (None, [])
         if best is None or not rules.step_accepted(best, results[-1]):
             break
-        rest = [c for c in nxt.evidence_.ranked if c is not best]
+        rest = [c for c in nxt.evidence_.ranked if c.key != best.key]
         steps.append(_step(best, rest[0] if rest else None, results[-1].cv_error_mm, ev.baseline_error_mm, look))
         results.append(best)
         added = {k: dict(v) for k, v in best.all_values.items()}
     final = results[-1]
     for step in steps:
         name = step["effect"]
-        if name in final.all_values and (final is not first or step["kind"] == "candidate"):
+        if name in final.all_values and (len(results) > 1 or step["kind"] == "candidate"):
             step["params"] = {k: v for k, v in final.all_values[name].items() if k in final.all_ci95.get(name, {})}
             step["param_ci95"] = final.all_ci95.get(name, {})
         else:                                   # a refitted given effect, held since its own round
             step["params"], step["param_ci95"] = dict(first.params), dict(first.param_ci95)
         if step["kind"] == "refit":
             step["given"] = dict(first.given)
-    if final is first:
+    if len(results) == 1:                   # no entry joined
         after, spec = ev.after, None
     else:
         after, spec = residual_of(base, final, tests), spec_of(base, final)

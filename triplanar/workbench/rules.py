@@ -197,7 +197,7 @@ def judge(ev: Evidence, best: CandidateResult) -> Judgement:
     ok = scatter_ok(ev)
     periodic = ev.time_domain_after.get("dominant_frequency_hz") is not None
     systematic = ev.systematic_after["systematic"]
-    others = [c for c in ev.ranked if c is not best]
+    others = [c for c in ev.ranked if c.key != best.key]
     runner = others[0] if others else None
     if best.per_test and math.isfinite(expected):
         # per-test parameters explain test-to-test differences: what they leave is judged against what noise
@@ -235,7 +235,7 @@ def _why(ev: Evidence, best: CandidateResult, j: Judgement) -> list[Reason]:
             why.append(Reason(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {j.scatter:.2f} mm",
                               "EXPLAINED_FACTOR", best.cv_error_mm, EXPLAINED_FACTOR * j.scatter))
     top = ev.ranked[0]
-    if best is not top:
+    if best.key != top.key:
         why.append(Reason(f"{label(best)} ({len(best.params)} free parameter(s)) is named over {top.effect} "
                           f"({len(top.params)}), whose {ev.error_word} {top.cv_error_mm:.3f} mm is lower by less than "
                           f"the uncertainty of the difference (one-standard-error rule)", "parsimony.one_standard_error",

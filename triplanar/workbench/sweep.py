@@ -67,6 +67,13 @@ class CandidateResult:
     model_form: dict[str, dict[str, Any]] = field(default_factory=dict)              # alternatives.py; named
     intervals: tuple[str, ...] = ()
 
+    @property
+    def key(self) -> tuple[str, str]:
+        """``(kind, effect)``: what identifies an entry within one diagnosis (a candidate and a refit of the same
+        effect are two entries). Entries are compared by it, never by identity, so that a diagnosis's Evidence read
+        back from a file (:mod:`triplanar.plain_data`) gives the same verdict."""
+        return (self.kind, self.effect)
+
     # -- views of ``joint`` ----------------------------------------------------------------------------------------
     @property
     def all_values(self) -> dict[str, dict[str, float]]:
