@@ -514,7 +514,7 @@ def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | 
     truth = json.loads(path.with_name(path.name + ".truth.json").read_text(encoding="utf-8"))
     ev = plain_data.load(kept)
     for c in ev.ranked:
-        c.at_bound = [p for p in c.at_bound if not _at_physical_limit(c.effect, p, c.params[p])]
+        c.at_bound = [p for p in c.at_bound if not _at_physical_limit(c.effect, p, c.params[p])]   # today's rule
         c.plausible = not c.at_bound
     best, _ = rules.examined_entry(ev.ranked, ev.baseline_error_mm, ev.repeat_scatter_mm,
                                    ev.systematic["systematic"])
@@ -532,14 +532,11 @@ def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | 
 
 
 def _at_physical_limit(effect: str, param: str, value: float) -> bool:
-    """Whether ``value`` rests at an end of the parameter's fit range that its effect declares a physical limit."""
+    """Whether ``value`` rests at an end of the parameter's fit range that its effect declares a physical limit
+    (``Parameter.at_physical_limit``, as the fits read it)."""
+    from triplanar.workbench.fitbase import AT_BOUND
     declared = REGISTRY[effect].parameters.get(param)
-    if declared is None or declared.fit is None or not getattr(declared, "limit_ends", ()):
-        return False
-    lo, hi = declared.fit
-    near = 0.01 * (hi - lo)
-    return ("lower" in declared.limit_ends and value - lo <= near) or ("upper" in declared.limit_ends
-                                                                       and hi - value <= near)
+    return declared is not None and declared.at_physical_limit(value, AT_BOUND)
 
 
 def _best_entry(best) -> dict[str, Any] | None:
