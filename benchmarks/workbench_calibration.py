@@ -516,6 +516,7 @@ def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | 
     for c in ev.ranked:
         c.at_bound = [p for p in c.at_bound if not _at_physical_limit(c.effect, p, c.params[p])]   # today's rule
         c.plausible = not c.at_bound
+    _allow_form_in_combination(ev)
     best, _ = rules.examined_entry(ev.ranked, ev.baseline_error_mm, ev.repeat_scatter_mm,
                                    ev.systematic["systematic"])
     stale = []
@@ -529,6 +530,20 @@ def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | 
         path, truth["settings"]))
     row["stale"] = "; ".join(stale)
     return row
+
+
+def _allow_form_in_combination(ev) -> None:
+    """Kept evidence gathered before a combination's jointly refitted entries kept their own round's model-form
+    allowance (``combine._own_allowance``; such a step has no ``form_allowance``): add it, for a two-step combination
+    whose first step is a candidate (its round's baseline is the model as given). Longer ones stay as kept."""
+    from triplanar.workbench.combine import _own_allowance, _widened
+    comb = ev.combination
+    if comb is None or len(comb.steps) != 2 or ev.best is None:
+        return
+    first = comb.steps[0]
+    if first["kind"] == "candidate" and "form_allowance" not in first:
+        first["form_allowance"] = _own_allowance(ev.best, ev.baseline_error_mm)
+        first["param_ci95"] = _widened(first.get("param_ci95", {}), first["effect"], first["form_allowance"])
 
 
 def _at_physical_limit(effect: str, param: str, value: float) -> bool:
