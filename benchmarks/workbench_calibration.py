@@ -516,12 +516,13 @@ def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | 
     for c in ev.ranked:
         c.at_bound = [p for p in c.at_bound if not _at_physical_limit(c.effect, p, c.params[p])]   # today's rule
         c.plausible = not c.at_bound
+    ev = _allow_implementation(ev)
     _allow_form_in_combination(ev)
-    best, _ = rules.examined_entry(ev.ranked, ev.baseline_error_mm, ev.repeat_scatter_mm,
-                                   ev.systematic["systematic"])
+    best, _ = rules.examined_entry(ev.ranked)
     stale = []
-    if (best is None) != (ev.best is None) or (best is not None and (best.effect, best.kind) != (ev.best.effect,
-                                                                                                 ev.best.kind)):
+    if best is None and ev.best is not None:
+        ev = _nothing_examined(ev)          # exactly what the diagnosis gathers then
+    elif (best is None) != (ev.best is None) or (best is not None and best.key != ev.best.key):
         stale.append(f"examined entry now {best and best.effect} (kept {ev.best and ev.best.effect})")
     tries = rules.tries_combination(replace(ev, combination=None))
     if tries != (ev.combination is not None):
@@ -530,6 +531,38 @@ def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | 
         path, truth["settings"]))
     row["stale"] = "; ".join(stale)
     return row
+
+
+def _nothing_examined(ev):
+    """Kept evidence whose examined entry today's rules would not examine (none explains): as the diagnosis gathers
+    it then (``Diagnoser._gather``): the residual after is the model as given's, no look-alikes, no experiments, no
+    combination."""
+    from triplanar.workbench.evidence import growth_along_travel, time_domain
+    return replace(ev, best=None, lookalikes=[], after=None, time_domain_after=time_domain(ev.baseline),
+                   growth_after=growth_along_travel(ev.baseline), systematic_after=ev.systematic, experiments=(),
+                   combination=None)
+
+
+def _allow_implementation(ev):
+    """Kept evidence gathered before every interval admitted ``rules.IMPLEMENTATION_TOLERANCE_M``
+    (``implementation_tolerance_mm`` 0): each single entry's intervals widened by what it adds to the effect's own
+    form allowance (the allowance at the model as given, as the diagnosis computes it)."""
+    from triplanar.workbench import rules
+    from triplanar.workbench.intervals import form_allowance
+    today = rules.IMPLEMENTATION_TOLERANCE_M * 1e3
+    if ev.implementation_tolerance_mm >= today:
+        return ev
+    for c in {id(c): c for c in (*ev.ranked, *([ev.best] if ev.best else []), *ev.lookalikes)}.values():
+        own = REGISTRY[c.effect].form_tolerance_m * 1e3
+        for k, p in list(c.parameters.items()):
+            if p.ci95 is None or p.start is None:
+                continue
+            extra = (form_allowance(p.value, p.start, ev.baseline_error_mm, c.fit_error_mm, max(own, today))
+                     - form_allowance(p.value, p.start, ev.baseline_error_mm, c.fit_error_mm, own))
+            declared = REGISTRY[c.effect].parameters[k]
+            c.parameters[k] = replace(p, ci95=(max(declared.lower, p.ci95[0] - extra),
+                                               min(declared.upper, p.ci95[1] + extra)))
+    return replace(ev, implementation_tolerance_mm=today)
 
 
 def _allow_form_in_combination(ev) -> None:
@@ -659,10 +692,6 @@ def which_rule(r: dict[str, Any]) -> str:
     if r["kind"] == "pair" and verdict in ("library_effect", "refit_given_effect"):
         return (f"{head} named alone: its cv {ev['explained_ratio']:.2f} x scatter passed explained_factor 2.0, "
                 f"so no pair was tried")
-    if ev["quiet_ratio"] <= 1.5 and ev["systematic_given"] and ev["improvement"] < 0.3:
-        return (f"hidden-bias rule: the model as given is within quiet_factor 1.5 x scatter (ratio "
-                f"{ev['quiet_ratio']:.2f}) but leaves a shared bias, so {ev['best']} was named removing "
-                f"{ev['improvement']:.0%} (< min_improvement 30 %; look-alikes: {', '.join(ev['lookalikes']) or 'none'})")
     if r["kind"] in ("outside_library", "none_missing"):
         return (f"{head} named: cv {ev['explained_ratio']:.2f} x scatter <= explained_factor 2.0, scatter ratio "
                 f"{ev['scatter_ratio']:.2f}, no pattern (baseline {ev['quiet_ratio']:.2f} x scatter vs quiet_factor 1.5"

@@ -107,11 +107,11 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
 
 def _own_allowance(entry: CandidateResult, baseline_mm: float) -> dict[str, float]:
     """``{param: allowance}``: the model-form allowance (:func:`~triplanar.workbench.intervals.form_allowance`,
-    ``Effect.form_tolerance_m``) of ``entry``'s parameters at its own round, where its sensitivity is measured (the
+    :func:`~triplanar.workbench.rules.form_tolerance_mm`) of ``entry``'s parameters at its own round, where its sensitivity is measured (the
     error it removed from that round's baseline per unit of its move from its start). A later round's joint fit
     cannot measure it (its baseline already holds the entry), so its interval for the entry lacks it; on the
     calibration's pairs that left the actuator rise's tau outside its interval (s1022, s2022, s2051)."""
-    tolerance_mm = REGISTRY[entry.effect].form_tolerance_m * 1e3
+    tolerance_mm = rules.form_tolerance_mm(entry.effect)
     return {k: form_allowance(p.value, p.start if p.start is not None else p.value, baseline_mm, entry.fit_error_mm,
                               tolerance_mm) for k, p in entry.parameters.items()}
 

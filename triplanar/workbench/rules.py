@@ -8,8 +8,10 @@ The rules:
 
 * ``repeat_scatter_mm``: the discrepancy a perfect model would still show (repeats' spread about their mean
   path, :func:`~triplanar.workbench.discrepancy.repeat_scatter_mm`).
-* Nothing to explain: baseline error below ``QUIET_FACTOR`` x scatter (and no bias common to all tests that an
-  entry removes) -> ``none_missing``, or ``outside_library`` when the residual shows a pattern.
+* Nothing to explain: baseline error below ``QUIET_FACTOR`` x scatter (and no entry that explains, as below, a bias
+  common to all tests) -> ``none_missing``, or ``outside_library`` when the residual shows a pattern (periodic, or
+  repeats scattering beyond noise and the specimen). A bias common to all tests below the scatter that no entry
+  explains is said, but is not a pattern (:func:`_nothing_to_explain`: why).
 * An entry *explains* the data when its improvement (fraction of the baseline error removed, cross-validated) is
   at least ``MIN_IMPROVEMENT`` and none of its parameters ends at the edge of its plausible range; of those, the
   one-standard-error rule names the simplest that fits as well as the best (:mod:`~triplanar.workbench.parsimony`).
@@ -44,6 +46,11 @@ that show, never ``high`` on a wrong answer once the actuator rise's interval ad
 ``time_offset`` removing 30.4 % (``MIN_IMPROVEMENT`` 0.34 would refuse it, but the nearest in-library verdict, a
 refit, removes 37.7 %: too close to move the bar on one dataset), and a lateral rangefinder gain below the limit
 (s1030, 23 %) called ``outside_library``. Those were left as they are; the held-out part reports the rest.
+
+Then, on 2026-11-28, after the first held-out report (seeds 2000-2065; looked at, so tuning data since: 100 tuning
+datasets, seeds 1000-1033 and 2000-2065, ``run --part tuning --out /work/calib4 --redecide``), the hidden-bias rule
+was removed (:func:`examined_entry`, :func:`_nothing_to_explain` say why, with the numbers) and every interval
+admits ``IMPLEMENTATION_TOLERANCE_M``; the constants were kept.
 """
 
 from __future__ import annotations
@@ -91,6 +98,16 @@ SYSTEMATIC_ALPHA = 0.01
 #: confidence either (an unmodelled look-alike biases a parameter while leaving little else;
 #: ``benchmarks/interval_coverage.py``); the intervals' model-form allowance uses it too.
 HINT_ALPHA = 0.05
+#: Every fitted value's 95 % interval admits the change that moves the traces by this much (m; the
+#: :func:`~triplanar.workbench.intervals.form_allowance` of :func:`form_tolerance_mm`), whatever the effect: two
+#: faithful implementations of the paper's equations differ by about 0.01 mm along a path where they differ at all
+#: (``benchmarks/workbench_calibration.py check``: end friction with the law smoothed below 0.05 mm/s 0.011 mm, FP1
+#: tilted 0.018 mm; issue 32). Chosen from that measurement, not from a dataset; on the tuning part (seeds 1000-1033,
+#: 2000-2065) it widens the examined entries' intervals by 2 % of their half-width (median of 92; at most 28 %, a
+#: rangefinder offset) and brings the one ``high`` with its truth outside
+#: (s2040: a rangefinder gain's interval missing by 0.0005, which 0.008 mm of trace covers) inside; a 95 % interval
+#: without it holds the truth 19 times in 20 by design, so a miss at ``high`` had no other cause to remove.
+IMPLEMENTATION_TOLERANCE_M = 1e-5
 #: A further entry of a combination must remove at least this fraction of the current cross-validated error.
 MIN_FALL = 0.1
 #: At most this many entries in a combination.
@@ -101,20 +118,38 @@ def _fmt(values: Mapping[str, float]) -> str:
     return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
 
 
+def form_tolerance_mm(effect: str) -> float:
+    """The trace difference (mm) a fitted value of ``effect`` admits in its interval: the larger of the effect's own
+    form tolerance (``Effect.form_tolerance_m``: where the paper leaves its equations a choice) and
+    ``IMPLEMENTATION_TOLERANCE_M``."""
+    from ..effects import REGISTRY
+    own = REGISTRY[effect].form_tolerance_m if effect in REGISTRY else 0.0
+    return max(own, IMPLEMENTATION_TOLERANCE_M) * 1e3
+
+
 def scatter_ok(ev: Evidence) -> bool:
     """The repeats scatter no more than ``SCATTER_FACTOR`` x what noise and the specimen explain."""
     scatter, expected = ev.repeat_scatter_mm, ev.expected_scatter_mm
     return not (math.isfinite(scatter) and math.isfinite(expected) and scatter > SCATTER_FACTOR * expected)
 
 
-def examined_entry(ranked: Sequence[CandidateResult], baseline_error_mm: float, scatter_mm: float,
-                   systematic: bool) -> tuple[CandidateResult | None, list[CandidateResult]]:
-    """The entry a diagnosis examines (the parsimonious one of those that explain) and its look-alikes. A bias shared
-    by all tests below the scatter opens the bar: an entry that removes any of it may explain it (judged by what it
-    leaves); a model whose error is above the scatter keeps ``MIN_IMPROVEMENT``."""
-    below = math.isfinite(scatter_mm) and baseline_error_mm <= QUIET_FACTOR * scatter_mm
-    least = 1e-9 if systematic and below else MIN_IMPROVEMENT
-    explaining = [c for c in ranked if c.plausible and c.improvement >= least]
+def examined_entry(ranked: Sequence[CandidateResult]) -> tuple[CandidateResult | None, list[CandidateResult]]:
+    """The entry a diagnosis examines (the parsimonious one of those that explain: plausible, removing at least
+    ``MIN_IMPROVEMENT``) and its look-alikes.
+
+    One bar for every dataset. Until 2026-11-28 a bias shared by all tests below the scatter (the model as given
+    within ``QUIET_FACTOR`` x scatter, ``SYSTEMATIC_ALPHA``) opened it: any entry removing some of the error could be
+    named. On the 100 tuning datasets (seeds 1000-1033, 2000-2065) that path was taken 8 times, naming entries that
+    removed 2-24 %: library instrument effects below detectability 4 times (s1031, s1032, s2050, s2062: 8-24 %),
+    outside causes 3 times (s2004 11 %, s2024 13 %, s2019 22 %: a sideways pull taken for rangefinder drift) and a
+    clean dataset once (s2048, 2 %). On the 16 clean datasets the best plausible entry removes 0-7 % (what the
+    independent implementation's difference and the noise leave an entry to take); a bar above that (as the brief
+    of this change proposed) still names the three outside causes, whose 11-22 % lie among the library effects'
+    8-24 %: what an entry removes below ``MIN_IMPROVEMENT`` does not tell a library cause from another. And naming
+    is not needed there: a cause below detectability may be called ``none_missing``. So the opening is gone: the
+    8 become ``none_missing`` (:func:`_nothing_to_explain`), right in 7 (s2019, an outside cause at D 1.06, is
+    wrong, as it was)."""
+    explaining = [c for c in ranked if c.plausible and c.improvement >= MIN_IMPROVEMENT]
     return parsimonious(explaining) if explaining else (None, [])
 
 
@@ -310,7 +345,13 @@ class _Draft:
 
 def _nothing_to_explain(ev: Evidence) -> _Draft | None:
     """The model as given is within the repeats' scatter (and no entry explains a shared bias below it): its verdict
-    (``none_missing``, or ``outside_library`` when the residual has a pattern); else ``None``."""
+    (``none_missing``, or ``outside_library`` when the residual has a pattern); else ``None``.
+
+    A bias common to all tests below the scatter that no entry explains (none removes ``MIN_IMPROVEMENT``) is said in
+    the reason but is not a pattern: on the tuning part (seeds 1000-1033, 2000-2065) such a bias came with a clean
+    model (s2048: the independent implementation's own difference, p = 0.009), with library instrument effects below
+    detectability (s1031, s1032, s2050, s2062) and with outside causes (s2004, s2024 below detectability; s2019 at
+    D 1.06): ``outside_library`` would be right in 3 of those 8, ``none_missing`` is in 7."""
     scatter, expected, base = ev.repeat_scatter_mm, ev.expected_scatter_mm, ev.baseline_error_mm
     # a candidate with per-test parameters that brings the error down to what noise and the specimen explain
     # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter
@@ -321,12 +362,21 @@ def _nothing_to_explain(ev: Evidence) -> _Draft | None:
         return None
     draft = _Draft(unexplained_mm=base)
     periodic = ev.time_domain_after.get("dominant_frequency_hz") is not None
-    if scatter_ok(ev) and not periodic and not ev.systematic_after["systematic"]:
+    unexplained_bias = ev.systematic["systematic"] and ev.best is None
+    if scatter_ok(ev) and not periodic and (unexplained_bias or not ev.systematic_after["systematic"]):
         draft.kind = VerdictKind.NONE_MISSING
         draft.reasons = [Reason(f"the model already matches the data to within the repeats' own scatter (error "
                                 f"{base:.2f} mm, scatter {scatter:.2f} mm), and that scatter is what instrument "
                                 f"noise and the specimen's variability explain ({expected:.2f} mm): nothing is "
                                 f"missing", "QUIET_FACTOR", base, QUIET_FACTOR * scatter)]
+        if unexplained_bias:
+            bias = ev.systematic
+            top = next((c for c in ev.ranked if c.plausible), None)
+            draft.reasons.append(Reason(
+                f"a bias common to all tests below the scatter remains ({bias['feature']}, p = "
+                f"{bias['p_value_all']:.2g}) that no library entry removes {MIN_IMPROVEMENT:.0%} of"
+                + (f" (the most, {label(top)}, {top.improvement:.0%})" if top is not None else "")
+                + ": too small to name a cause", "SYSTEMATIC_ALPHA", bias["p_value_all"], SYSTEMATIC_ALPHA))
     else:
         draft.reasons = [_joined(f"the model matches the data as well as the repeats agree with each other (error "
                                  f"{base:.2f} mm, scatter {scatter:.2f} mm), but something outside the library "
