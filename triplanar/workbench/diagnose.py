@@ -215,7 +215,7 @@ class Diagnoser:
         noise = instrument_noise_mm(tests)
         baseline_error = overall_error(baseline)
         systematic = systematic_bias(baseline)
-        best, lookalikes = rules.examined_entry(ranked)
+        best, lookalikes = rules.examined_entry(ranked, baseline_error, scatter, systematic["p_value_all"])
         after = residual_of(user_base, best, tests) if best is not None else None
         shown = after if after is not None else baseline
         return Evidence(user_base, base, refit, folds, baseline, baseline_error, errors_by_load(baseline), scatter,

@@ -8,10 +8,10 @@ The rules:
 
 * ``repeat_scatter_mm``: the discrepancy a perfect model would still show (repeats' spread about their mean
   path, :func:`~triplanar.workbench.discrepancy.repeat_scatter_mm`).
-* Nothing to explain: baseline error below ``QUIET_FACTOR`` x scatter (and no entry that explains, as below, a bias
-  common to all tests) -> ``none_missing``, or ``outside_library`` when the residual shows a pattern (periodic, or
-  repeats scattering beyond noise and the specimen). A bias common to all tests below the scatter that no entry
-  explains is said, but is not a pattern (:func:`_nothing_to_explain`: why).
+* Nothing to explain: baseline error below ``QUIET_FACTOR`` x scatter (and no bias common to all tests that an
+  entry removes; below the scatter a bias lets any entry be examined only at p < ``HIDDEN_BIAS_ALPHA``) ->
+  ``none_missing``, or ``outside_library`` when the residual shows a pattern (periodic, or repeats scattering beyond
+  noise and the specimen). A weaker shared bias is said, but is not a pattern (:func:`_nothing_to_explain`: why).
 * An entry *explains* the data when its improvement (fraction of the baseline error removed, cross-validated) is
   at least ``MIN_IMPROVEMENT`` and none of its parameters ends at the edge of its plausible range; of those, the
   one-standard-error rule names the simplest that fits as well as the best (:mod:`~triplanar.workbench.parsimony`).
@@ -49,8 +49,8 @@ refit, removes 37.7 %: too close to move the bar on one dataset), and a lateral 
 
 Then, on 2026-11-28, after the first held-out report (seeds 2000-2065; looked at, so tuning data since: 100 tuning
 datasets, seeds 1000-1033 and 2000-2065, ``run --part tuning --out /work/calib4 --redecide``), the hidden-bias rule
-was removed (:func:`examined_entry`, :func:`_nothing_to_explain` say why, with the numbers) and every interval
-admits ``IMPLEMENTATION_TOLERANCE_M``; the constants were kept.
+got its own level ``HIDDEN_BIAS_ALPHA`` (:func:`examined_entry`, :func:`_nothing_to_explain` say why, with the
+numbers) and every interval admits ``IMPLEMENTATION_TOLERANCE_M``; the other constants were kept.
 """
 
 from __future__ import annotations
@@ -108,6 +108,10 @@ HINT_ALPHA = 0.05
 #: (s2040: a rangefinder gain's interval missing by 0.0005, which 0.008 mm of trace covers) inside; a 95 % interval
 #: without it holds the truth 19 times in 20 by design, so a miss at ``high`` had no other cause to remove.
 IMPLEMENTATION_TOLERANCE_M = 1e-5
+#: A bias shared by all tests below the scatter lets an entry that removes less than ``MIN_IMPROVEMENT`` be examined
+#: only at a p-value below this: ten times below the strongest such bias the independent implementation's own
+#: difference left on the 16 clean tuning datasets (p = 0.0091, s2048; :func:`examined_entry` says what it decides).
+HIDDEN_BIAS_ALPHA = 1e-3
 #: A further entry of a combination must remove at least this fraction of the current cross-validated error.
 MIN_FALL = 0.1
 #: At most this many entries in a combination.
@@ -133,23 +137,29 @@ def scatter_ok(ev: Evidence) -> bool:
     return not (math.isfinite(scatter) and math.isfinite(expected) and scatter > SCATTER_FACTOR * expected)
 
 
-def examined_entry(ranked: Sequence[CandidateResult]) -> tuple[CandidateResult | None, list[CandidateResult]]:
+def examined_entry(ranked: Sequence[CandidateResult], baseline_error_mm: float, scatter_mm: float,
+                   bias_p: float) -> tuple[CandidateResult | None, list[CandidateResult]]:
     """The entry a diagnosis examines (the parsimonious one of those that explain: plausible, removing at least
-    ``MIN_IMPROVEMENT``) and its look-alikes.
+    ``MIN_IMPROVEMENT``) and its look-alikes. A bias shared by all tests below the scatter (the model as given within
+    ``QUIET_FACTOR`` x scatter) whose p-value (``bias_p``, :func:`~triplanar.workbench.evidence.systematic_bias`'s
+    ``p_value_all``) is below ``HIDDEN_BIAS_ALPHA`` opens the bar: an entry that removes any of the error may
+    explain it (judged by what it leaves).
 
-    One bar for every dataset. Until 2026-11-28 a bias shared by all tests below the scatter (the model as given
-    within ``QUIET_FACTOR`` x scatter, ``SYSTEMATIC_ALPHA``) opened it: any entry removing some of the error could be
-    named. On the 100 tuning datasets (seeds 1000-1033, 2000-2065) that path was taken 8 times, naming entries that
-    removed 2-24 %: library instrument effects below detectability 4 times (s1031, s1032, s2050, s2062: 8-24 %),
-    outside causes 3 times (s2004 11 %, s2024 13 %, s2019 22 %: a sideways pull taken for rangefinder drift) and a
-    clean dataset once (s2048, 2 %). On the 16 clean datasets the best plausible entry removes 0-7 % (what the
-    independent implementation's difference and the noise leave an entry to take); a bar above that (as the brief
-    of this change proposed) still names the three outside causes, whose 11-22 % lie among the library effects'
-    8-24 %: what an entry removes below ``MIN_IMPROVEMENT`` does not tell a library cause from another. And naming
-    is not needed there: a cause below detectability may be called ``none_missing``. So the opening is gone: the
-    8 become ``none_missing`` (:func:`_nothing_to_explain`), right in 7 (s2019, an outside cause at D 1.06, is
-    wrong, as it was)."""
-    explaining = [c for c in ranked if c.plausible and c.improvement >= MIN_IMPROVEMENT]
+    Until 2026-11-28 any bias at ``SYSTEMATIC_ALPHA`` opened it. On the 100 tuning datasets (seeds 1000-1033,
+    2000-2065) that path was taken 8 times, naming entries that removed 2-24 %: library instrument effects below
+    detectability 4 times (s1031 p = 1.8e-8, s2062 8.4e-6, s2050 7.6e-7, s1032 4.8e-4), outside causes 3 times (s2019
+    p = 2.1e-4: a sideways pull taken for rangefinder drift; s2024 2.4e-3, s2004 3.8e-3) and a clean dataset once
+    (s2048, p = 0.0091, 2 %). What the entry removes does not tell them apart (the outside causes' 11-22 % lie among
+    the library effects' 8-24 %; on the 16 clean datasets the best entry removes 0-7 %), nor does the significance of
+    its gain; the bias's own strength partly does: the independent implementation's own difference from the model
+    left a clean dataset a shared bias at p = 0.0091 (the smallest of the 16 clean datasets'), so a bias opens the bar
+    only when it is an order of magnitude stronger than that (:data:`HIDDEN_BIAS_ALPHA`). Of the 8, the clean one and
+    the two outside causes below detectability then become ``none_missing`` (right); the four instrument effects are
+    still named (right); s2019 still is (wrong). The project's own kernel data, where the model is exact, show such
+    biases far stronger (a lateral rangefinder gain of 20 %: p = 5e-18, ``test_workbench_instruments.py``)."""
+    quiet = math.isfinite(scatter_mm) and baseline_error_mm <= QUIET_FACTOR * scatter_mm
+    least = 1e-9 if quiet and bias_p < HIDDEN_BIAS_ALPHA else MIN_IMPROVEMENT
+    explaining = [c for c in ranked if c.plausible and c.improvement >= least]
     return parsimonious(explaining) if explaining else (None, [])
 
 
@@ -347,11 +357,11 @@ def _nothing_to_explain(ev: Evidence) -> _Draft | None:
     """The model as given is within the repeats' scatter (and no entry explains a shared bias below it): its verdict
     (``none_missing``, or ``outside_library`` when the residual has a pattern); else ``None``.
 
-    A bias common to all tests below the scatter that no entry explains (none removes ``MIN_IMPROVEMENT``) is said in
-    the reason but is not a pattern: on the tuning part (seeds 1000-1033, 2000-2065) such a bias came with a clean
-    model (s2048: the independent implementation's own difference, p = 0.009), with library instrument effects below
-    detectability (s1031, s1032, s2050, s2062) and with outside causes (s2004, s2024 below detectability; s2019 at
-    D 1.06): ``outside_library`` would be right in 3 of those 8, ``none_missing`` is in 7."""
+    A bias common to all tests below the scatter that no entry is examined for (weaker than ``HIDDEN_BIAS_ALPHA``, and
+    none removes ``MIN_IMPROVEMENT``) is said in the reason but is not a pattern: on the tuning part (seeds 1000-1033,
+    2000-2065) such biases came with a clean model (s2048: the independent implementation's own difference, p =
+    0.0091) and with outside causes below detectability (s2004, s2024), where ``none_missing`` is right and
+    ``outside_library`` would be wrong for the clean one."""
     scatter, expected, base = ev.repeat_scatter_mm, ev.expected_scatter_mm, ev.baseline_error_mm
     # a candidate with per-test parameters that brings the error down to what noise and the specimen explain
     # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter

@@ -10,6 +10,7 @@ import math
 import pytest
 
 from triplanar.effects import REGISTRY
+from triplanar.workbench import rules
 from triplanar.workbench.combine import _own_allowance, _widened
 from triplanar.workbench.parameters import FitParameter
 from triplanar.workbench.sweep import CandidateResult
@@ -25,7 +26,7 @@ def _entry(effect: str, param: str, value: float, start: float, fit_error_mm: fl
 def test_a_jointly_refitted_rise_keeps_its_own_rounds_allowance() -> None:
     rise = _entry("actuator_rise", "tau_s", 0.07, 0.0, 1.0)
     allowance = _own_allowance(rise, 5.0)
-    tolerance_mm = REGISTRY["actuator_rise"].form_tolerance_m * 1e3
+    tolerance_mm = rules.form_tolerance_mm("actuator_rise")
     assert tolerance_mm > 0
     # the change of tau that moves the traces by the tolerance, at the rise's own sensitivity in its round
     assert allowance["tau_s"] == pytest.approx(tolerance_mm * 0.07 / math.sqrt(5.0 ** 2 - 1.0 ** 2))
@@ -36,7 +37,12 @@ def test_a_jointly_refitted_rise_keeps_its_own_rounds_allowance() -> None:
     assert _widened({"tau_s": (0.0, 0.01)}, "actuator_rise", {"tau_s": 0.5})["tau_s"][0] == 0.0   # physical bound
 
 
-def test_an_effect_without_a_form_tolerance_is_not_widened() -> None:
+def test_an_effect_without_its_own_form_tolerance_admits_the_implementations_difference() -> None:
     tip = _entry("tip_offset", "offset_m", 0.005, 0.0, 1.0)
     assert REGISTRY["tip_offset"].form_tolerance_m == 0.0
-    assert _widened({"offset_m": (0.004, 0.006)}, "tip_offset", _own_allowance(tip, 5.0)) == {"offset_m": (0.004, 0.006)}
+    assert rules.form_tolerance_mm("tip_offset") == rules.IMPLEMENTATION_TOLERANCE_M * 1e3
+    assert rules.form_tolerance_mm("actuator_rise") == REGISTRY["actuator_rise"].form_tolerance_m * 1e3   # the larger
+    allowance = _own_allowance(tip, 5.0)["offset_m"]
+    assert allowance == pytest.approx(rules.IMPLEMENTATION_TOLERANCE_M * 1e3 * 0.005 / math.sqrt(24.0))
+    assert _widened({"offset_m": (0.004, 0.006)}, "tip_offset", {"offset_m": allowance})["offset_m"] == \
+        pytest.approx((0.004 - allowance, 0.006 + allowance))
