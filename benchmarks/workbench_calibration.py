@@ -411,6 +411,7 @@ def _evidence(ev, verdict) -> dict[str, Any]:
            "systematic_feature": ev.systematic_after.get("feature"),
            "systematic_p": ev.systematic_after.get("p_value_all"),
            "systematic_given": bool(ev.systematic["systematic"]),
+           "systematic_given_p": ev.systematic.get("p_value_all"),
            "combination_tried": ev.combination is not None}
     best = ev.best
     if best is not None:
@@ -693,6 +694,11 @@ def which_rule(r: dict[str, Any]) -> str:
     if r["kind"] == "pair" and verdict in ("library_effect", "refit_given_effect"):
         return (f"{head} named alone: its cv {ev['explained_ratio']:.2f} x scatter passed explained_factor 2.0, "
                 f"so no pair was tried")
+    if ev["quiet_ratio"] <= 1.5 and ev["systematic_given"] and ev["improvement"] < 0.3:
+        return (f"hidden-bias rule: the model as given is within quiet_factor 1.5 x scatter (ratio "
+                f"{ev['quiet_ratio']:.2f}) but leaves a shared bias (p = {ev.get('systematic_given_p', math.nan):.2g} "
+                f"< hidden_bias_alpha 0.001), so {ev['best']} was named removing {ev['improvement']:.0%} "
+                f"(< min_improvement 30 %; look-alikes: {', '.join(ev['lookalikes']) or 'none'})")
     if r["kind"] in ("outside_library", "none_missing"):
         return (f"{head} named: cv {ev['explained_ratio']:.2f} x scatter <= explained_factor 2.0, scatter ratio "
                 f"{ev['scatter_ratio']:.2f}, no pattern (baseline {ev['quiet_ratio']:.2f} x scatter vs quiet_factor 1.5"
