@@ -50,7 +50,10 @@ refit, removes 37.7 %: too close to move the bar on one dataset), and a lateral 
 Then, on 2026-11-28, after the first held-out report (seeds 2000-2065; looked at, so tuning data since: 100 tuning
 datasets, seeds 1000-1033 and 2000-2065, ``run --part tuning --out /work/calib4 --redecide``), the hidden-bias rule
 got its own level ``HIDDEN_BIAS_ALPHA`` (:func:`examined_entry`, :func:`_nothing_to_explain` say why, with the
-numbers) and every interval admits ``IMPLEMENTATION_TOLERANCE_M``; the other constants were kept.
+numbers) and every interval admits ``IMPLEMENTATION_TOLERANCE_M``; the other constants were kept. On those 100 the
+verdict is right in 94 (60 of 62 in-library datasets whose cause shows, 16 of 16 clean ones, 6 of 8 outside causes,
+12 of 14 below detectability; before: 91), never ``high`` on a wrong answer (before: once, s2040). The held-out part
+is seeds 3000-3065.
 """
 
 from __future__ import annotations
