@@ -97,6 +97,16 @@ class Parameter:
         """Where a fit starts: ``start`` if given, else the neutral value."""
         return self.neutral_value if self.start is None else self.start
 
+    def at_physical_limit(self, value: float, near: float) -> bool:
+        """Whether ``value`` rests (within ``near`` x the range) at an end of ``fit`` that ``limit_ends`` declares a
+        physical limit: a fit resting there says the value is at or near that limit, not implausible. The one test
+        of it (the fits' ``at_bound`` and the calibration benchmark's re-reading of kept fits)."""
+        if self.fit is None or not self.limit_ends:
+            return False
+        lo, hi = self.fit
+        return ("lower" in self.limit_ends and value - lo <= near * (hi - lo)) or (
+            "upper" in self.limit_ends and hi - value <= near * (hi - lo))
+
     def fit_range(self, start: float) -> tuple[float, float]:
         """The range a fit starting at ``start`` may move this parameter over."""
         if self.fit is not None:

@@ -10,7 +10,9 @@ and which entry joins (:func:`~triplanar.workbench.rules.step_accepted`).
 
 Each step records its entry, its parameters with 95 % intervals *from the final joint fit*, its own share of the
 improvement (``(cv error before it - cv error after it) / baseline error``: the shares add up to the total
-improvement), its runner-up and its look-alikes (the verdict judges each step's confidence from them). A refit of an
+improvement), its runner-up and its look-alikes (the verdict judges each step's confidence from them). An entry
+refitted jointly in a later round keeps the model-form allowance of its own round (:func:`_own_allowance`), which
+the joint fit's interval lacks. A refit of an
 effect the user gave may be the first step; it is then held at its refitted values in later rounds (only added
 candidates are refitted jointly). The result is evidence (a :class:`~triplanar.workbench.verdict.Combination`); the
 verdict on it is :func:`~triplanar.workbench.rules.decide`'s.
@@ -19,12 +21,14 @@ verdict on it is :func:`~triplanar.workbench.rules.decide`'s.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
+from ..effects import REGISTRY
 from ..measurement import MeasuredTest
 from . import rules
 from .candidates import resolve, without_effect
 from .evidence import growth_along_travel, systematic_bias, time_domain
+from .intervals import form_allowance
 from .parsimony import parsimonious
 from .spec import spec_with_values
 from .sweep import residual_of, spec_of
@@ -57,9 +61,10 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
                                 first.params)
     else:
         added[first.effect] = dict(first.all_values[first.effect])
-    others = [c for c in ev.ranked if c is not first]
+    others = [c for c in ev.ranked if c.key != first.key]
     steps = [_step(first, others[0] if others else None, ev.baseline_error_mm, ev.baseline_error_mm, ev.lookalikes)]
     results = [first]
+    baselines = [ev.baseline_error_mm]          # each round's baseline (the entries so far), for _own_allowance
     while rules.combination_continues(results[-1].cv_error_mm, ev.repeat_scatter_mm, len(steps)):
         if not resolve(diag.candidates, exclude=(*base.effect_names, *added), specimen=base.specimen):
             break                              # every candidate is in already (a short candidate list)
@@ -71,21 +76,25 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
         best, look = parsimonious(plausible) if plausible else (None, [])
         if best is None or not rules.step_accepted(best, results[-1]):
             break
-        rest = [c for c in nxt.evidence_.ranked if c is not best]
+        rest = [c for c in nxt.evidence_.ranked if c.key != best.key]
         steps.append(_step(best, rest[0] if rest else None, results[-1].cv_error_mm, ev.baseline_error_mm, look))
         results.append(best)
+        baselines.append(nxt.evidence_.baseline_error_mm)
         added = {k: dict(v) for k, v in best.all_values.items()}
     final = results[-1]
-    for step in steps:
+    for i, step in enumerate(steps):
         name = step["effect"]
-        if name in final.all_values and (final is not first or step["kind"] == "candidate"):
+        if name in final.all_values and (len(results) > 1 or step["kind"] == "candidate"):
             step["params"] = {k: v for k, v in final.all_values[name].items() if k in final.all_ci95.get(name, {})}
             step["param_ci95"] = final.all_ci95.get(name, {})
+            if i < len(results) - 1 and step["kind"] == "candidate":    # refitted jointly since its own round
+                step["form_allowance"] = _own_allowance(results[i], baselines[i])
+                step["param_ci95"] = _widened(step["param_ci95"], name, step["form_allowance"])
         else:                                   # a refitted given effect, held since its own round
             step["params"], step["param_ci95"] = dict(first.params), dict(first.param_ci95)
         if step["kind"] == "refit":
             step["given"] = dict(first.given)
-    if final is first:
+    if len(results) == 1:                   # no entry joined
         after, spec = ev.after, None
     else:
         after, spec = residual_of(base, final, tests), spec_of(base, final)
@@ -94,3 +103,25 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
     return Combination(tuple(steps), final.cv_error_mm, td.get("dominant_frequency_hz") is not None,
                        bool(systematic_bias(after)["systematic"]) if after is not None else False, spec, after, td,
                        growth_along_travel(after) if after is not None else ev.growth_after, gain, gain_se)
+
+
+def _own_allowance(entry: CandidateResult, baseline_mm: float) -> dict[str, float]:
+    """``{param: allowance}``: the model-form allowance (:func:`~triplanar.workbench.intervals.form_allowance`,
+    :func:`~triplanar.workbench.rules.form_tolerance_mm`) of ``entry``'s parameters at its own round, where its sensitivity is measured (the
+    error it removed from that round's baseline per unit of its move from its start). A later round's joint fit
+    cannot measure it (its baseline already holds the entry), so its interval for the entry lacks it; on the
+    calibration's pairs that left the actuator rise's tau outside its interval (s1022, s2022, s2051)."""
+    tolerance_mm = rules.form_tolerance_mm(entry.effect)
+    return {k: form_allowance(p.value, p.start if p.start is not None else p.value, baseline_mm, entry.fit_error_mm,
+                              tolerance_mm) for k, p in entry.parameters.items()}
+
+
+def _widened(ci95: Mapping[str, Any], effect: str, allowance: Mapping[str, float]) -> dict[str, Any]:
+    """``ci95`` with each interval's half-width grown by ``allowance`` (clipped to the parameter's physical bounds)."""
+    out = dict(ci95)
+    for k, ci in ci95.items():
+        extra = allowance.get(k, 0.0)
+        if ci is not None and extra > 0:
+            par = REGISTRY[effect].parameters[k]
+            out[k] = (max(par.lower, ci[0] - extra), min(par.upper, ci[1] + extra))
+    return out

@@ -215,7 +215,7 @@ class Diagnoser:
         noise = instrument_noise_mm(tests)
         baseline_error = overall_error(baseline)
         systematic = systematic_bias(baseline)
-        best, lookalikes = rules.examined_entry(ranked, baseline_error, scatter, systematic["systematic"])
+        best, lookalikes = rules.examined_entry(ranked, baseline_error, scatter, systematic["p_value_all"])
         after = residual_of(user_base, best, tests) if best is not None else None
         shown = after if after is not None else baseline
         return Evidence(user_base, base, refit, folds, baseline, baseline_error, errors_by_load(baseline), scatter,
@@ -223,7 +223,7 @@ class Diagnoser:
                         expected_scatter_mm(base, tests, noise, self.friction_scatter_deg, evaluate),
                         self.friction_scatter_deg, ranked, time_domain(baseline), systematic, best, lookalikes, after,
                         time_domain(shown), growth_along_travel(shown), systematic_bias(shown) if after is not None
-                        else systematic)
+                        else systematic, implementation_tolerance_mm=rules.IMPLEMENTATION_TOLERANCE_M * 1e3)
 
     # -- views of the evidence and the verdict (read-only) ---------------------------------------------------------
     verdict_ = property(lambda self: self.decision_.kind.value, doc="The verdict's kind (``\"library_effect\"``, ...).")

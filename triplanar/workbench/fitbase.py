@@ -89,8 +89,7 @@ class ScaledBox:
             if end is None or abs(ui - u0) <= AT_BOUND:
                 continue
             declared = REGISTRY[effect].parameters.get(param) if effect in REGISTRY else None
-            if declared is not None and declared.fit is not None and end in declared.limit_ends \
-                    and (lo if end == "lower" else hi) == declared.fit[0 if end == "lower" else 1]:
+            if declared is not None and declared.at_physical_limit(lo + ui * (hi - lo), AT_BOUND):
                 continue
             out.append(f"{effect}.{param}")
         return tuple(out)

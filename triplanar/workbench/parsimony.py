@@ -42,9 +42,9 @@ def parsimonious(entries: Sequence[CandidateResult]) -> tuple[CandidateResult, l
         if math.isfinite(mean) and mean <= se:
             close.append(other)
     chosen = min(close, key=lambda c: (len(c.params) + len(c.per_test), c.cv_error_mm))
-    look = [c for c in close if c is not chosen]
-    if chosen is not top:      # the look-alikes of the chosen one: within its own standard error
-        look = [c for c in entries if c is not chosen and _within(chosen, c)]
+    look = [c for c in close if c.key != chosen.key]
+    if chosen.key != top.key:      # the look-alikes of the chosen one: within its own standard error
+        look = [c for c in entries if c.key != chosen.key and _within(chosen, c)]
     return chosen, look
 
 

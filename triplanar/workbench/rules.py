@@ -9,7 +9,9 @@ The rules:
 * ``repeat_scatter_mm``: the discrepancy a perfect model would still show (repeats' spread about their mean
   path, :func:`~triplanar.workbench.discrepancy.repeat_scatter_mm`).
 * Nothing to explain: baseline error below ``QUIET_FACTOR`` x scatter (and no bias common to all tests that an
-  entry removes) -> ``none_missing``, or ``outside_library`` when the residual shows a pattern.
+  entry removes; below the scatter a bias lets any entry be examined only at p < ``HIDDEN_BIAS_ALPHA``) ->
+  ``none_missing``, or ``outside_library`` when the residual shows a pattern (periodic, or repeats scattering beyond
+  noise and the specimen). A weaker shared bias is said, but is not a pattern (:func:`_nothing_to_explain`: why).
 * An entry *explains* the data when its improvement (fraction of the baseline error removed, cross-validated) is
   at least ``MIN_IMPROVEMENT`` and none of its parameters ends at the edge of its plausible range; of those, the
   one-standard-error rule names the simplest that fits as well as the best (:mod:`~triplanar.workbench.parsimony`).
@@ -44,6 +46,14 @@ that show, never ``high`` on a wrong answer once the actuator rise's interval ad
 ``time_offset`` removing 30.4 % (``MIN_IMPROVEMENT`` 0.34 would refuse it, but the nearest in-library verdict, a
 refit, removes 37.7 %: too close to move the bar on one dataset), and a lateral rangefinder gain below the limit
 (s1030, 23 %) called ``outside_library``. Those were left as they are; the held-out part reports the rest.
+
+Then, on 2026-11-28, after the first held-out report (seeds 2000-2065; looked at, so tuning data since: 100 tuning
+datasets, seeds 1000-1033 and 2000-2065, ``run --part tuning --out /work/calib4 --redecide``), the hidden-bias rule
+got its own level ``HIDDEN_BIAS_ALPHA`` (:func:`examined_entry`, :func:`_nothing_to_explain` say why, with the
+numbers) and every interval admits ``IMPLEMENTATION_TOLERANCE_M``; the other constants were kept. On those 100 the
+verdict is right in 94 (60 of 62 in-library datasets whose cause shows, 16 of 16 clean ones, 6 of 8 outside causes,
+12 of 14 below detectability; before: 91), never ``high`` on a wrong answer (before: once, s2040). The held-out part
+is seeds 3000-3065.
 """
 
 from __future__ import annotations
@@ -91,6 +101,20 @@ SYSTEMATIC_ALPHA = 0.01
 #: confidence either (an unmodelled look-alike biases a parameter while leaving little else;
 #: ``benchmarks/interval_coverage.py``); the intervals' model-form allowance uses it too.
 HINT_ALPHA = 0.05
+#: Every fitted value's 95 % interval admits the change that moves the traces by this much (m; the
+#: :func:`~triplanar.workbench.intervals.form_allowance` of :func:`form_tolerance_mm`), whatever the effect: two
+#: faithful implementations of the paper's equations differ by about 0.01 mm along a path where they differ at all
+#: (``benchmarks/workbench_calibration.py check``: end friction with the law smoothed below 0.05 mm/s 0.011 mm, FP1
+#: tilted 0.018 mm; issue 32). Chosen from that measurement, not from a dataset; on the tuning part (seeds 1000-1033,
+#: 2000-2065) it widens the examined entries' intervals by 2 % of their half-width (median of 92; at most 28 %, a
+#: rangefinder offset) and brings the one ``high`` with its truth outside
+#: (s2040: a rangefinder gain's interval missing by 0.0005, which 0.008 mm of trace covers) inside; a 95 % interval
+#: without it holds the truth 19 times in 20 by design, so a miss at ``high`` had no other cause to remove.
+IMPLEMENTATION_TOLERANCE_M = 1e-5
+#: A bias shared by all tests below the scatter lets an entry that removes less than ``MIN_IMPROVEMENT`` be examined
+#: only at a p-value below this: ten times below the strongest such bias the independent implementation's own
+#: difference left on the 16 clean tuning datasets (p = 0.0091, s2048; :func:`examined_entry` says what it decides).
+HIDDEN_BIAS_ALPHA = 1e-3
 #: A further entry of a combination must remove at least this fraction of the current cross-validated error.
 MIN_FALL = 0.1
 #: At most this many entries in a combination.
@@ -101,6 +125,15 @@ def _fmt(values: Mapping[str, float]) -> str:
     return ", ".join(f"{k} = {v:.4g}" for k, v in values.items())
 
 
+def form_tolerance_mm(effect: str) -> float:
+    """The trace difference (mm) a fitted value of ``effect`` admits in its interval: the larger of the effect's own
+    form tolerance (``Effect.form_tolerance_m``: where the paper leaves its equations a choice) and
+    ``IMPLEMENTATION_TOLERANCE_M``."""
+    from ..effects import REGISTRY
+    own = REGISTRY[effect].form_tolerance_m if effect in REGISTRY else 0.0
+    return max(own, IMPLEMENTATION_TOLERANCE_M) * 1e3
+
+
 def scatter_ok(ev: Evidence) -> bool:
     """The repeats scatter no more than ``SCATTER_FACTOR`` x what noise and the specimen explain."""
     scatter, expected = ev.repeat_scatter_mm, ev.expected_scatter_mm
@@ -108,12 +141,27 @@ def scatter_ok(ev: Evidence) -> bool:
 
 
 def examined_entry(ranked: Sequence[CandidateResult], baseline_error_mm: float, scatter_mm: float,
-                   systematic: bool) -> tuple[CandidateResult | None, list[CandidateResult]]:
-    """The entry a diagnosis examines (the parsimonious one of those that explain) and its look-alikes. A bias shared
-    by all tests below the scatter opens the bar: an entry that removes any of it may explain it (judged by what it
-    leaves); a model whose error is above the scatter keeps ``MIN_IMPROVEMENT``."""
-    below = math.isfinite(scatter_mm) and baseline_error_mm <= QUIET_FACTOR * scatter_mm
-    least = 1e-9 if systematic and below else MIN_IMPROVEMENT
+                   bias_p: float) -> tuple[CandidateResult | None, list[CandidateResult]]:
+    """The entry a diagnosis examines (the parsimonious one of those that explain: plausible, removing at least
+    ``MIN_IMPROVEMENT``) and its look-alikes. A bias shared by all tests below the scatter (the model as given within
+    ``QUIET_FACTOR`` x scatter) whose p-value (``bias_p``, :func:`~triplanar.workbench.evidence.systematic_bias`'s
+    ``p_value_all``) is below ``HIDDEN_BIAS_ALPHA`` opens the bar: an entry that removes any of the error may
+    explain it (judged by what it leaves).
+
+    Until 2026-11-28 any bias at ``SYSTEMATIC_ALPHA`` opened it. On the 100 tuning datasets (seeds 1000-1033,
+    2000-2065) that path was taken 8 times, naming entries that removed 2-24 %: library instrument effects below
+    detectability 4 times (s1031 p = 1.8e-8, s2062 8.4e-6, s2050 7.6e-7, s1032 4.8e-4), outside causes 3 times (s2019
+    p = 2.1e-4: a sideways pull taken for rangefinder drift; s2024 2.4e-3, s2004 3.8e-3) and a clean dataset once
+    (s2048, p = 0.0091, 2 %). What the entry removes does not tell them apart (the outside causes' 11-22 % lie among
+    the library effects' 8-24 %; on the 16 clean datasets the best entry removes 0-7 %), nor does the significance of
+    its gain; the bias's own strength partly does: the independent implementation's own difference from the model
+    left a clean dataset a shared bias at p = 0.0091 (the smallest of the 16 clean datasets'), so a bias opens the bar
+    only when it is an order of magnitude stronger than that (:data:`HIDDEN_BIAS_ALPHA`). Of the 8, the clean one and
+    the two outside causes below detectability then become ``none_missing`` (right); the four instrument effects are
+    still named (right); s2019 still is (wrong). The project's own kernel data, where the model is exact, show such
+    biases far stronger (a lateral rangefinder gain of 20 %: p = 5e-18, ``test_workbench_instruments.py``)."""
+    quiet = math.isfinite(scatter_mm) and baseline_error_mm <= QUIET_FACTOR * scatter_mm
+    least = 1e-9 if quiet and bias_p < HIDDEN_BIAS_ALPHA else MIN_IMPROVEMENT
     explaining = [c for c in ranked if c.plausible and c.improvement >= least]
     return parsimonious(explaining) if explaining else (None, [])
 
@@ -197,7 +245,7 @@ def judge(ev: Evidence, best: CandidateResult) -> Judgement:
     ok = scatter_ok(ev)
     periodic = ev.time_domain_after.get("dominant_frequency_hz") is not None
     systematic = ev.systematic_after["systematic"]
-    others = [c for c in ev.ranked if c is not best]
+    others = [c for c in ev.ranked if c.key != best.key]
     runner = others[0] if others else None
     if best.per_test and math.isfinite(expected):
         # per-test parameters explain test-to-test differences: what they leave is judged against what noise
@@ -235,7 +283,7 @@ def _why(ev: Evidence, best: CandidateResult, j: Judgement) -> list[Reason]:
             why.append(Reason(f"leaving {best.cv_error_mm:.2f} mm against a repeat scatter of {j.scatter:.2f} mm",
                               "EXPLAINED_FACTOR", best.cv_error_mm, EXPLAINED_FACTOR * j.scatter))
     top = ev.ranked[0]
-    if best is not top:
+    if best.key != top.key:
         why.append(Reason(f"{label(best)} ({len(best.params)} free parameter(s)) is named over {top.effect} "
                           f"({len(top.params)}), whose {ev.error_word} {top.cv_error_mm:.3f} mm is lower by less than "
                           f"the uncertainty of the difference (one-standard-error rule)", "parsimony.one_standard_error",
@@ -310,7 +358,13 @@ class _Draft:
 
 def _nothing_to_explain(ev: Evidence) -> _Draft | None:
     """The model as given is within the repeats' scatter (and no entry explains a shared bias below it): its verdict
-    (``none_missing``, or ``outside_library`` when the residual has a pattern); else ``None``."""
+    (``none_missing``, or ``outside_library`` when the residual has a pattern); else ``None``.
+
+    A bias common to all tests below the scatter that no entry is examined for (weaker than ``HIDDEN_BIAS_ALPHA``, and
+    none removes ``MIN_IMPROVEMENT``) is said in the reason but is not a pattern: on the tuning part (seeds 1000-1033,
+    2000-2065) such biases came with a clean model (s2048: the independent implementation's own difference, p =
+    0.0091) and with outside causes below detectability (s2004, s2024), where ``none_missing`` is right and
+    ``outside_library`` would be wrong for the clean one."""
     scatter, expected, base = ev.repeat_scatter_mm, ev.expected_scatter_mm, ev.baseline_error_mm
     # a candidate with per-test parameters that brings the error down to what noise and the specimen explain
     # explains the repeats' excess scatter itself: it is judged below even when the error is within that scatter
@@ -321,12 +375,21 @@ def _nothing_to_explain(ev: Evidence) -> _Draft | None:
         return None
     draft = _Draft(unexplained_mm=base)
     periodic = ev.time_domain_after.get("dominant_frequency_hz") is not None
-    if scatter_ok(ev) and not periodic and not ev.systematic_after["systematic"]:
+    unexplained_bias = ev.systematic["systematic"] and ev.best is None
+    if scatter_ok(ev) and not periodic and (unexplained_bias or not ev.systematic_after["systematic"]):
         draft.kind = VerdictKind.NONE_MISSING
         draft.reasons = [Reason(f"the model already matches the data to within the repeats' own scatter (error "
                                 f"{base:.2f} mm, scatter {scatter:.2f} mm), and that scatter is what instrument "
                                 f"noise and the specimen's variability explain ({expected:.2f} mm): nothing is "
                                 f"missing", "QUIET_FACTOR", base, QUIET_FACTOR * scatter)]
+        if unexplained_bias:
+            bias = ev.systematic
+            top = next((c for c in ev.ranked if c.plausible), None)
+            draft.reasons.append(Reason(
+                f"a bias common to all tests below the scatter remains ({bias['feature']}, p = "
+                f"{bias['p_value_all']:.2g}) that no library entry removes {MIN_IMPROVEMENT:.0%} of"
+                + (f" (the most, {label(top)}, {top.improvement:.0%})" if top is not None else "")
+                + ": too small to name a cause", "SYSTEMATIC_ALPHA", bias["p_value_all"], SYSTEMATIC_ALPHA))
     else:
         draft.reasons = [_joined(f"the model matches the data as well as the repeats agree with each other (error "
                                  f"{base:.2f} mm, scatter {scatter:.2f} mm), but something outside the library "

@@ -24,6 +24,7 @@ from ..measurement import MeasuredTest
 from .candidates import Candidate, without_effect
 from .discrepancy import TestDiscrepancy, rms
 from .fit import FitOutcome, FitTask, discrepancies, evaluate_spec, run_fit
+from . import rules
 from .intervals import form_allowance, interval95
 from .parameters import EffectParameters, FitParameter, listed, shared_values, standard_errors
 from .spec import ModelSpec, spec_with_values
@@ -66,6 +67,13 @@ class CandidateResult:
     bias_ratio: float = 1.0      # evidence.bias_ratio of the full fit (the intervals' model-form allowance)
     model_form: dict[str, dict[str, Any]] = field(default_factory=dict)              # alternatives.py; named
     intervals: tuple[str, ...] = ()
+
+    @property
+    def key(self) -> tuple[str, str]:
+        """``(kind, effect)``: what identifies an entry within one diagnosis (a candidate and a refit of the same
+        effect are two entries). Entries are compared by it, never by identity, so that a diagnosis's Evidence read
+        back from a file (:mod:`triplanar.plain_data`) gives the same verdict."""
+        return (self.kind, self.effect)
 
     # -- views of ``joint`` ----------------------------------------------------------------------------------------
     @property
@@ -250,8 +258,7 @@ def assemble(task: CandidateTask, by_label: dict[str, FitOutcome], k: int, n_tes
     ci, status = {}, {}
     for p in cand.shared:
         lo, hi = REGISTRY[cand.effect].parameters[p].lower, REGISTRY[cand.effect].parameters[p].upper
-        allowance = form_allowance(params[p], start[p], base, full.train_error_mm,
-                                   REGISTRY[cand.effect].form_tolerance_m * 1e3)
+        allowance = form_allowance(params[p], start[p], base, full.train_error_mm, rules.form_tolerance_mm(cand.effect))
         ci[p], status[p] = interval95(params[p], sandwich.get(p, math.nan), jack.get(p, 0.0), n_tests,
                                       len(cand.shared), full.train_error_mm, scatter_mm,
                                       (lo, hi), start[p], cand.bounds[p], full.bias_ratio, allowance)

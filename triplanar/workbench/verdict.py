@@ -147,6 +147,8 @@ class Evidence:
     systematic_after: Mapping[str, Any]
     experiments: Sequence[Mapping[str, Any]] = ()
     combination: Combination | None = None
+    #: the trace difference (mm) every interval admits (``rules.IMPLEMENTATION_TOLERANCE_M``; 0: gathered before it)
+    implementation_tolerance_mm: float = 0.0
 
     @property
     def candidates(self) -> list[CandidateResult]:
