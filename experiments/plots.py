@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import re
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from triplanar import plotting
 from triplanar.specimen import reference
 
-if TYPE_CHECKING:
-    from .study import StudyResult
+from .study_result import StudyResult
+
 
 plt = plotting.plt
 COLORS = {"steel tip": "tab:red", "teflon tip": "tab:orange", "tracking tip": "tab:green",

@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 from datetime import date
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -13,9 +13,8 @@ from triplanar.atomic import write_atomic
 from triplanar.outcome import Outcome
 
 from .plots import slug
+from .study_result import StudyResult
 
-if TYPE_CHECKING:
-    from .study import StudyResult
 
 PPO = "PPO"
 TARGET_CONTROLLER = "tracking tip"

@@ -20,7 +20,7 @@ from __future__ import annotations
 import csv
 import json
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 from typing import Callable, Iterable, Sequence
@@ -33,6 +33,7 @@ from agents.trainer import TrainResult, train_seeds
 from triplanar import PAPER_LOADS_N
 from triplanar.atomic import write_atomic
 from triplanar.executor import ExecutorLike, run_tasks
+from .study_result import StudyResult
 from .tables import write_csv
 
 PPO_NAME = "PPO"
@@ -44,29 +45,6 @@ def scripted_controllers() -> list:
     reference for what removing the end friction alone achieves."""
     return [SteelTip(), LowFrictionTip(phi_deg=3.0), TrackingTip(), MomentMatching(),
             LowFrictionTip(phi_deg=0.0, name="frictionless tip")]
-
-
-@dataclass
-class StudyResult:
-    out_dir: Path
-    loads: tuple[float, ...]
-    episodes: list[EpisodeResult]
-    ppo_runs: list[TrainResult]
-    curves: dict[int, dict[str, np.ndarray]] = field(default_factory=dict)
-    timings: dict[str, float] = field(default_factory=dict)
-
-    def errors(self, controller: str) -> np.ndarray:
-        """(seeds, loads) mimicry errors of ``controller``."""
-        rows = [r for r in self.episodes if r.controller == controller]
-        seeds = sorted({r.seed for r in rows})
-        table = np.full((len(seeds), len(self.loads)), np.nan)
-        for r in rows:
-            table[seeds.index(r.seed), self.loads.index(r.load_N)] = r.mimicry_error_mm
-        return table
-
-    @property
-    def controllers(self) -> list[str]:
-        return list(dict.fromkeys(r.controller for r in self.episodes))
 
 
 def read_curve(path: Path) -> dict[str, np.ndarray]:

@@ -7,17 +7,12 @@ hold``. Each claim carries the figure that decides it, so the report can quote i
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
-
 import numpy as np
 
 from .cases import SCALE_FACTORS, SCALED_LOADS_N, Run
 from .metrics import model_vs_model
 from ..outcome import Outcome
-
-if TYPE_CHECKING:
-    from .reproduce import Reproduction
+from .reproduction import Claim, Reproduction
 
 #: A mean horizontal mismatch below this is invisible at the scale of the paper's panels (claims 1, 4).
 VISIBLE_M = 1.0e-3
@@ -33,15 +28,6 @@ IDENTICAL_M = 1.0e-9
 SCALE_FREE_REL = 0.01
 #: "Close to 1 m/s" (claim 9).
 PEAK_SPEED_RANGE_M_S = (0.8, 1.2)
-
-
-@dataclass(frozen=True)
-class Claim:
-    number: int
-    claim: str
-    figure: str
-    verdict: str
-    details: dict = field(default_factory=dict)
 
 
 CLAIMS = {

@@ -15,11 +15,9 @@ import tempfile
 import time
 from collections import defaultdict
 from contextlib import nullcontext
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
-import numpy as np
 
 from ..atomic import write_atomic
 from ..effects import Effect
@@ -30,27 +28,10 @@ from . import claims as C
 from . import figures as Fg
 from . import tables as T
 from .cases import CASE_TITLES, Run, Simulator, reference_runs, scaled_runs
+from .reproduction import Reproduction
 
 FIG6_LOAD_N = 32.5
 DEFAULT_DATA = Path(__file__).resolve().parents[2] / "data" / "lab_traces.csv"
-
-
-@dataclass
-class Reproduction:
-    """Everything computed: inputs, simulations, tables, claims."""
-
-    data_path: Path
-    loads: list[float]
-    tests_by_load: dict[float, list[MeasuredTest]]
-    rest: np.ndarray
-    foundation: Foundation
-    simulator: Simulator
-    runs: list[Run]
-    case_rows: dict[str, list[T.CaseRow]]
-    data_rows: list[T.DataRow]
-    scaled_rows: list[T.ScaledRow]
-    claims: list[C.Claim]
-    seconds: dict[str, float]
 
 
 def default_data_path() -> Path:
