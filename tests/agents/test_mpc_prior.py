@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -88,19 +86,18 @@ def test_toml_of_another_foundation_or_specimen_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_tutorial_identify_then_control(tmp_path):
-    """Fit the laboratory dataset, take the fit as v1's nominal specimen and as the prior of ``mpc`` (its interval
-    of the tip friction bounds the controller's hypotheses), and run ``mpc`` on a bench drawn around the fitted
+@pytest.mark.xdist_group("ray")   # with the other reader of the session's lab_fit (tests/conftest.py)
+def test_tutorial_identify_then_control(lab_fit):
+    """Fit the laboratory dataset (``lab_fit``: ``triplanar fit data/lab_traces.csv --add end_friction``), take the
+    fit as v1's nominal specimen and as the prior of ``mpc`` (its interval of the tip friction bounds the controller's
+    hypotheses), and run ``mpc`` on a bench drawn around the fitted
     specimen with the laboratory's tip, with the fit's prior and with the drawing's. (With the fit's interval not
     passed to the bank, the check of the bank's range fails; the estimates alone, the check before, stayed inside
     it with either prior.)"""
     from agents.heldout import random_benches, run_episode, summarise, with_tip
     from agents.mpc import MPCController
     from triplanar.prior import fitted_intervals
-    subprocess.run([sys.executable, "-m", "triplanar.cli", "fit", str(ROOT / "data" / "lab_traces.csv"), "--add",
-                    "end_friction", "--out", str(tmp_path / "fit"), "--workers", "1", "--no-progress"],
-                   check=True, cwd=ROOT, capture_output=True)
-    fit = tmp_path / "fit" / "fit.json"
+    fit = lab_fit
     specimen, foundation = _drawing()
     fitted = load_prior(fit, specimen, foundation)
     truth = json.loads((ROOT / "data" / "lab_traces.csv.truth.json").read_text())["effects"][0]["parameters"]
