@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import subprocess
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -88,36 +86,42 @@ def test_toml_of_another_foundation_or_specimen_refused(tmp_path):
 
 
 @pytest.mark.slow
-def test_tutorial_identify_then_control(tmp_path):
-    """Fit the laboratory dataset, take the fit as v1's nominal specimen and as the prior of ``mpc`` (its interval
-    of the tip friction bounds the controller's hypotheses), and run ``mpc`` on benches drawn around the fitted
-    specimen with the laboratory's tip, with the fit's prior and with the drawing's."""
+@pytest.mark.xdist_group("ray")   # with the other reader of the session's lab_fit (tests/conftest.py)
+def test_tutorial_identify_then_control(lab_fit):
+    """Fit the laboratory dataset (``lab_fit``: ``triplanar fit data/lab_traces.csv --add end_friction``), take the
+    fit as v1's nominal specimen and as the prior of ``mpc`` (its interval of the tip friction bounds the controller's
+    hypotheses), and run ``mpc`` on a bench drawn around the fitted
+    specimen with the laboratory's tip, with the fit's prior and with the drawing's. (With the fit's interval not
+    passed to the bank, the check of the bank's range fails; the estimates alone, the check before, stayed inside
+    it with either prior.)"""
     from agents.heldout import random_benches, run_episode, summarise, with_tip
     from agents.mpc import MPCController
     from triplanar.prior import fitted_intervals
-    subprocess.run([sys.executable, "-m", "triplanar.cli", "fit", str(ROOT / "data" / "lab_traces.csv"), "--add",
-                    "end_friction", "--out", str(tmp_path / "fit"), "--workers", "1", "--no-progress"],
-                   check=True, cwd=ROOT, capture_output=True)
-    fit = tmp_path / "fit" / "fit.json"
+    fit = lab_fit
     specimen, foundation = _drawing()
     fitted = load_prior(fit, specimen, foundation)
     truth = json.loads((ROOT / "data" / "lab_traces.csv.truth.json").read_text())["effects"][0]["parameters"]
     low, high = fitted_intervals(fit)["tip_friction_deg"]
     assert low <= truth["phi_deg"] <= high and low <= fitted.tip_friction_deg <= high
     env_kwargs = {"nominal_specimen": str(fit)}   # v1's nominal specimen: the fitted one
-    benches = [with_tip(b, truth["phi_deg"]) for b in random_benches(2, 30_030, {"specimen": fitted})]
-    rows, tips = {}, {}
+    # one bench: what is asserted holds for every hypothesis of the bank, not only for a mean over benches (two
+    # benches per prior cost 53 s of CPU, one 20 s)
+    bench = with_tip(random_benches(1, 30_030, {"specimen": fitted})[0], truth["phi_deg"])
+    rows, controllers = {}, {}
     for name, prior in (("fitted prior", str(fit)), ("drawing's prior", specimen)):
-        outcomes, estimates = [], []
-        for i, bench in enumerate(benches):
-            controller = MPCController(prior=prior, bank_size=16, samples=16, iterations=2)
-            outcomes.append(run_episode(controller, bench, env_kwargs=env_kwargs, seed=i, index=i))
-            estimates.append(controller.info["estimate"]["tip_friction_deg"])
-        rows[name], tips[name] = summarise(outcomes), estimates
+        controller = MPCController(prior=prior, bank_size=16, samples=16, iterations=2)
+        rows[name] = summarise([run_episode(controller, bench, env_kwargs=env_kwargs, seed=0, index=0)])
+        controllers[name] = controller
     for row in rows.values():
-        assert row["n_episodes"] == 2 and np.isfinite(row["score"])
-    # the fit's prior keeps every hypothesis of the tip inside the fit's interval; the drawing's does not
-    assert all(low <= t <= high for t in tips["fitted prior"]), tips
+        assert row["n_episodes"] == 1 and np.isfinite(row["score"])
+    # the fit's prior keeps every hypothesis of the tip, and so the estimate, inside the fit's interval, after the
+    # moves and refinements of a whole episode; the drawing's prior draws the tip from v1's whole range
+    fitted_bank = controllers["fitted prior"].bank
+    assert (fitted_bank.low[0], fitted_bank.high[0]) == (low, high)
+    assert np.all((low <= fitted_bank.theta[:, 0]) & (fitted_bank.theta[:, 0] <= high)), fitted_bank.theta[:, 0]
+    assert low <= controllers["fitted prior"].info["estimate"]["tip_friction_deg"] <= high
+    drawing_bank = controllers["drawing's prior"].bank
+    assert drawing_bank.low[0] < low and high < drawing_bank.high[0]
 
 
 def test_v1_takes_a_fit_as_its_nominal_specimen(tmp_path):

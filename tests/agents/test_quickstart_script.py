@@ -20,7 +20,10 @@ DOCUMENTED = ("model.zip", "vecnormalize.pkl", "heldout_episodes.csv", "summary.
 @pytest.mark.parametrize("route", ["adapter", "plain"])
 def test_quickstart_script_trains_and_scores(route: str, tmp_path: Path) -> None:
     assert "examples/train_ppo_v1.py" in (ROOT / "README.md").read_text()
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    # one torch thread: the script sets none, and torch's default (a thread per core) spins on the cores the other
+    # test worker uses (24 s of CPU instead of 12 for the adapter route)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+           "OMP_NUM_THREADS": "1"}
     out = tmp_path / "run"
     done = subprocess.run([sys.executable, str(SCRIPT), "--timesteps", "1", "--eval-benches", "2", "--route", route,
                            "--out", str(out)], cwd=tmp_path, env=env, capture_output=True, text=True)

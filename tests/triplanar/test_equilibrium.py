@@ -249,6 +249,13 @@ def test_simplex_agrees_with_highs_on_random_lps(seed: int) -> None:
 
 # -- the static-equilibrium LP against the reference ------------------------------------------------
 
+def _params(model) -> np.ndarray:
+    """The model's kernel parameters, writable as the library passes them (:mod:`triplanar.statics`): numba compiles
+    a version per array flag, and the read-only ``kernel_params_cached`` would compile the LP once more (15 s of CPU
+    in each test process)."""
+    return model.kernel_params_cached.copy()
+
+
 def _upper(p: np.ndarray) -> float:
     return 5.0 * p[K.P_MASS] * p[K.P_G]
 
@@ -277,7 +284,7 @@ def _compare(y: np.ndarray, p: np.ndarray, extra_f: np.ndarray = ZERO, extra_m: 
 @pytest.mark.parametrize("case, threshold", [("A", 25.58), ("B", 21.88), ("C", 21.88)])
 def test_paper_thresholds_at_rest(case: str, threshold: float) -> None:
     model = paper_model(case, 30.0)
-    got = _compare(model.initial_state(), model.kernel_params_cached)
+    got = _compare(model.initial_state(), _params(model))
     assert got == pytest.approx(threshold, abs=0.005)
     assert statics.sliding_threshold(model) == got
 
@@ -287,9 +294,9 @@ def test_holds_matches_the_reference_over_loads(case: str) -> None:
     for load in np.linspace(5.0, 60.0, 23):
         model = paper_model(case, load)
         y = model.initial_state()
-        expected = reference_holds(y, model.kernel_params_cached, load)
+        expected = reference_holds(y, _params(model), load)
         assert statics.holds(model, y) == expected
-        assert E.holds(y, model.kernel_params_cached, load, ZERO, ZERO) == expected
+        assert E.holds(y, _params(model), load, ZERO, ZERO) == expected
 
 
 def _rotated(q: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
@@ -305,7 +312,7 @@ def _rotated(q: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
 def test_perturbed_poses(case: str) -> None:
     rng = np.random.default_rng({"A": 11, "B": 12, "C": 13}[case])
     model = paper_model(case, 30.0)
-    p = model.kernel_params_cached
+    p = _params(model)
     thresholds = []
     for _ in range(12):
         y = model.initial_state()
@@ -321,7 +328,7 @@ def test_perturbed_poses(case: str) -> None:
 def test_tip_friction_angles(phi_ef: float) -> None:
     model = paper_model("B", 30.0, effects=[make_effect(f"end_friction:phi_deg={phi_ef}")])
     assert model.kernel_params_cached[K.P_TANEF] == pytest.approx(math.tan(math.radians(phi_ef)))
-    _compare(model.initial_state(), model.kernel_params_cached)
+    _compare(model.initial_state(), _params(model))
 
 
 def test_contact_friction_and_plane_tilts() -> None:
@@ -334,7 +341,7 @@ def test_contact_friction_and_plane_tilts() -> None:
             dips = rng.uniform(-3, 3, 2)
             effects.append(make_effect(f"plane_tilt:dip2_deg={dips[0]:.3f},dip3_deg={dips[1]:.3f}"))
         model = paper_model("ABC"[k % 3], 30.0, effects=effects)
-        _compare(model.initial_state(), model.kernel_params_cached)
+        _compare(model.initial_state(), _params(model))
 
 
 def test_edited_parameter_copies() -> None:
@@ -353,7 +360,7 @@ def test_edited_parameter_copies() -> None:
 
 def test_upper_bound_semantics() -> None:
     model = paper_model("A", 30.0)
-    y, p = model.initial_state(), model.kernel_params_cached
+    y, p = model.initial_state(), _params(model)
     assert E.max_thrust(y, p, 10.0, ZERO, ZERO) == math.inf == reference_threshold(y, p, 10.0)
     assert E.max_thrust(y, p, math.inf, ZERO, ZERO) == pytest.approx(25.578, abs=1e-3)  # no bound row
     assert math.isnan(E.max_thrust(y, p, -1.0, ZERO, ZERO))
@@ -379,14 +386,14 @@ def test_external_force_effect(case: str, values: dict) -> None:
     f = np.array([values.get(key, 0.0) for key in ("fx", "fy", "fz")])  # the effect's constant wrench
     m = np.array([values.get(key, 0.0) for key in ("mx", "my", "mz")])
     assert np.abs(f).max() + np.abs(m).max() > 0
-    threshold = _compare(y, model.kernel_params_cached, f, m)
+    threshold = _compare(y, _params(model), f, m)
     base = paper_model(case, 30.0)
     assert threshold != pytest.approx(statics.sliding_threshold(base), rel=1e-6)  # the wrench matters
     assert statics.sliding_threshold(model) == threshold
     for load in (10.0, 20.0, 30.0):
         if math.isfinite(threshold) and abs(load - threshold) <= 1e-6 * threshold:
             continue
-        assert statics.holds(model, y, load) == reference_holds(y, model.kernel_params_cached, load, f, m)
+        assert statics.holds(model, y, load) == reference_holds(y, _params(model), load, f, m)
 
 
 def test_statics_and_equilibrium_do_not_import_scipy() -> None:

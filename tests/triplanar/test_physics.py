@@ -12,7 +12,7 @@ import pytest
 
 from triplanar import (Effect, Foundation, Parameter, Plane, make_effect, paper_model, reference, scale_mass,
                        scale_size, scale_uniform, simulate)
-from triplanar import kernel as K, stepping
+from triplanar import driver, kernel as K, stepping
 from triplanar.outcome import Outcome
 from triplanar.natural_coordinates import ReferenceModel, reference_accelerations
 from triplanar.specimen import GRAVITY, mirrored
@@ -242,6 +242,18 @@ def test_paper_euler_converges_with_first_order() -> None:
     assert all(1.7 < r < 2.3 for r in ratios), (errors, ratios)
 
 
+def _integrate(t0: float, y: np.ndarray, p: np.ndarray, modes: np.ndarray, armed: np.ndarray, h: float,
+               opts: stepping.StepOptions, rec: stepping.Recording):
+    """:func:`triplanar.stepping.integrate` (``modes`` updated in place), through the compiled function the library
+    calls, ``integrate_ws``, which ``make install`` puts in numba's cache: ``integrate`` has no caller in the library,
+    so calling it compiles it again in each test process (20 s of CPU)."""
+    ws = driver.new_workspace()
+    ws[K.W_MODES, :K.N_MODE] = modes
+    out = stepping.integrate_ws(t0, y, p, armed, h, opts, rec, 0, ws)
+    modes[:] = ws[K.W_MODES, :K.N_MODE]
+    return out
+
+
 def _no_recording() -> stepping.Recording:
     return stepping.Recording(False, np.empty(1), np.empty((1, K.N_STATE)), np.empty((1, K.N_STATE)),
                               np.empty((1, K.N_AUX)), np.empty((0, 3)))
@@ -250,7 +262,7 @@ def _no_recording() -> stepping.Recording:
 def _integrate_from(y0: np.ndarray, p: np.ndarray, method: int, h: float, t0: float = 0.05,
                     t1: float = 0.15) -> np.ndarray:
     y = y0.copy()
-    stepping.integrate(t0, y, p.copy(), K.sliding_modes(), np.ones(5, np.bool_), h,
+    _integrate(t0, y, p.copy(), K.sliding_modes(), np.ones(5, np.bool_), h,
                        stepping.StepOptions(method, 1e-12, 1e-14, t1, 10.0, 1e-5, 0.0), _no_recording())
     return y[K.S_R:K.S_R + 3]
 
@@ -359,7 +371,7 @@ def test_fixed_steps_stop_where_a_slip_stops() -> None:
     def stop(method: int, h: float) -> tuple[int, np.ndarray, float]:
         y, p = y0.copy(), p0.copy()
         opts = stepping.StepOptions(method, 1e-11, 1e-14, sliding.t[-1] + 1.0, 10.0, 1e-5, 0.0)
-        status, _, _, _, t = stepping.integrate(sliding.t[-1], y, p, modes0.copy(), np.ones(5, np.bool_), h, opts,
+        status, _, _, _, t = _integrate(sliding.t[-1], y, p, modes0.copy(), np.ones(5, np.bool_), h, opts,
                                                 _no_recording())
         cps = np.empty((3, 3))
         K.contact_points(y, p, cps)
@@ -390,7 +402,7 @@ def test_a_turning_slip_does_not_stall_fixed_steps() -> None:
                              np.empty((1000, K.N_AUX)), np.empty((0, 3)))
     opts = stepping.StepOptions(stepping.METHOD_RK4, 0.0, 0.0, float(d["t_end"]), float(d["x1_target"]),
                                 float(d["slow_speed"]), 0.0)
-    status, _, rows, _, t = stepping.integrate(float(d["t0"]), y, p, d["modes"].copy(), d["armed"].copy(),
+    status, _, rows, _, t = _integrate(float(d["t0"]), y, p, d["modes"].copy(), d["armed"].copy(),
                                                float(d["h"]), opts, rec)
     assert status == Outcome.TIME_LIMIT and t == pytest.approx(float(d["t_end"]), abs=1e-12)
     assert rows <= stepping.MAX_MISSED_STOPS + 5

@@ -120,16 +120,15 @@ def test_ray_address_without_the_ray_executor_is_refused(capsys) -> None:
     assert code == 2 and "--ray-address 127.0.0.1:1: give --executor ray" in capsys.readouterr().err
 
 
-def test_fit_gives_the_same_result_serial_and_on_ray(local_ray, tmp_path) -> None:
+def test_fit_gives_the_same_result_serial_and_on_ray(local_ray, lab_fit, tmp_path) -> None:
+    """The serial fit is the session's (tests/conftest.py ``lab_fit``: the same command with ``--executor serial``)."""
     import json
 
     from triplanar.cli import main
     data = Path(__file__).resolve().parents[2] / "data" / "lab_traces.csv"
-    results = {}
-    for executor in ("serial", "ray"):
-        out = tmp_path / executor
-        assert main(["fit", str(data), "--add", "end_friction", "--no-progress", "--out", str(out),
-                     "--executor", executor]) == 0
-        results[executor] = json.loads((out / "fit.json").read_text())
+    results = {"serial": json.loads(lab_fit.read_text())}
+    assert main(["fit", str(data), "--add", "end_friction", "--no-progress", "--out", str(tmp_path / "ray"),
+                 "--executor", "ray"]) == 0
+    results["ray"] = json.loads((tmp_path / "ray" / "fit.json").read_text())
     assert results["serial"] == results["ray"]
     assert results["ray"]["steps"][-1]["added"] == "end_friction"
