@@ -41,7 +41,8 @@ def diagnosed(truth: str, given: str, seed: int) -> Diagnoser:
     model-form intervals and may lower its confidence, none of which these tests read (as in conftest.py)."""
     tests, made = generate_lab_data(loads=LOADS, repeats=2, effects=[make_effect(truth)], seed=seed)
     assert not made["skipped"]
-    return Diagnoser(folds=2, progress=False, model_form=False).fit(tests, ModelSpec.from_effects([make_effect(given)]))
+    return Diagnoser(folds=2, progress=False, model_form=False, executor="serial").fit(
+        tests, ModelSpec.from_effects([make_effect(given)]))
 
 
 def n_free(c: CandidateResult) -> int:
