@@ -52,7 +52,7 @@ def test_compare_with_the_right_effect_is_close(data, tmp_path, capsys) -> None:
 def test_diagnose_json_report(data, tmp_path, capsys) -> None:
     report_path = tmp_path / "r.json"
     code, out, err = run(capsys, "diagnose", data, "--candidates", "end_friction,rate_friction", "--json", report_path,
-                         "--out", tmp_path / "d", "--no-progress")
+                         "--out", tmp_path / "d", "--no-progress", "--workers", "1")
     assert code == 0, err
     report = json.loads(report_path.read_text())
     assert report["missing_effect"] == "end_friction"
@@ -153,7 +153,7 @@ def test_bad_options_are_refused_with_the_known_names(data, tmp_path, capsys, ar
 @pytest.mark.slow
 def test_diagnose_refits_a_wrong_given_parameter_and_fit_frees_it(data, tmp_path, capsys) -> None:
     code, out, err = run(capsys, "diagnose", data, "--effect", "end_friction:phi_deg=4", "--candidates",
-                         "rate_friction", "--out", tmp_path / "d", "--no-progress")
+                         "rate_friction", "--out", tmp_path / "d", "--no-progress", "--workers", "1")
     assert code == 0, err
     report = json.loads((tmp_path / "d" / "diagnose.json").read_text())
     assert report["verdict"] == "refit_given_effect" and report["missing_effect"] is None

@@ -24,7 +24,9 @@ def test_two_hidden_library_effects_are_both_named_with_their_shares(offset_m: f
     tests, record = generate_lab_data(loads=LOADS, repeats=2, seed=3, effects=[
         make_effect("end_friction:phi_deg=8"), make_effect(f"tip_offset:offset_m={offset_m}")])
     assert not record["skipped"]
-    report = Diagnoser(folds=2, progress=False).fit(tests).report_
+    # no model-form step: it adds the first entry's profile and model-form intervals and may lower its confidence
+    # (high and low both pass), none of which is read here (tests/triplanar/workbench/conftest.py)
+    report = Diagnoser(folds=2, progress=False, model_form=False, executor="serial").fit(tests).report_
     print("\n", report["verdict"], report["confidence"], report["reason"])
     assert report["verdict"] == "library_effects"
     named = [m["effect"] for m in report["missing_effects"]]

@@ -90,7 +90,7 @@ def test_no_hidden_effect_gives_null(default_diagnosis) -> None:
 
 
 def test_effect_outside_the_library_is_not_claimed_with_high_confidence() -> None:
-    report = Diagnoser(folds=FOLDS, progress=False).fit(lab([ForceRipple(amp_N=6.0, freq_hz=6.0)])).report_
+    report = Diagnoser(folds=FOLDS, progress=False, executor="serial").fit(lab([ForceRipple(amp_N=6.0, freq_hz=6.0)])).report_
     show("force ripple (outside the library)", report)
     assert report["baseline_error_mm"] > 2 * report["repeat_scatter_mm"]   # there is something to explain
     assert report["confidence"] != "high"
@@ -99,7 +99,7 @@ def test_effect_outside_the_library_is_not_claimed_with_high_confidence() -> Non
 def test_forward_selection_finds_two_hidden_effects() -> None:
     truth = {"end_friction": {"phi_deg": 8.0}, "tip_offset": {"offset_m": -0.005}}
     effects = [make_effect("end_friction:phi_deg=8"), make_effect("tip_offset:offset_m=-0.005")]
-    sel = ForwardSelection(folds=FOLDS, progress=False).fit(lab(effects))
+    sel = ForwardSelection(folds=FOLDS, progress=False, executor="serial").fit(lab(effects))
     print("\n[two effects]", [(s.added, round(s.error_mm, 3), s.effects) for s in sel.steps_], sel.stop_reason_)
     assert sorted(sel.added_) == sorted(truth)
     final = sel.steps_[-1].effects

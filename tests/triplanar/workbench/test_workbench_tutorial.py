@@ -17,7 +17,7 @@ import pytest
 
 from triplanar import EFFECTS
 
-pytestmark = pytest.mark.slow  # runs the tutorial's fits: ~1-2 min each on a quiet machine
+pytestmark = pytest.mark.slow  # runs the tutorial's fits: 25-30 CPU s each
 
 DOC = Path(__file__).resolve().parents[3] / "docs" / "adding-an-effect.md"
 RIPPLE_SECTION = 9       # the per-test phase; it builds on sections 2-4 (write, try, data)
