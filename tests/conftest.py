@@ -46,19 +46,19 @@ def lab_fit(tmp_path_factory) -> Path:
 # the `slow` ones first.
 # A name here that no longer exists is ignored: the list only orders, it selects nothing.
 LONGEST_FIRST = (
-    "tests/triplanar/workbench/test_workbench_tutorial.py::",
-    "tests/agents/test_mpc_prior.py::test_tutorial_identify_then_control",
-    "tests/triplanar/workbench/test_workbench_refit_parsimony.py::",
     "tests/agents/test_train_resume.py::test_train_killed_and_rerun_finishes_without_touching_its_checkpoints",
-    "tests/triplanar/workbench/test_workbench_user_effect.py::test_forward_selection_finds_the_users_effect",
-    "tests/triplanar/workbench/test_workbench_instruments.py::test_a_lateral_gain_error_below_the_scatter",
-    "tests/triplanar/commands/test_train_cli.py::test_a_killed_v1_run_continues_from_its_checkpoint",
     "tests/agents/test_mpc.py::test_limit_at_nominal_loads_on_the_ideal_bench_beats_in_sample_ppo",
-    "tests/triplanar/workbench/test_workbench_hidden.py::test_hidden_builtin_effect_is_ranked_first_and_fitted[plane",
-    "tests/triplanar/workbench/test_workbench_hidden.py::test_hidden_builtin_effect_is_ranked_first_and_fitted[cont",
+    "tests/agents/test_mpc_prior.py::test_tutorial_identify_then_control",
     "tests/triplanar/commands/test_command_safety.py::test_diagnose_killed_and_rerun_resumes_to_the_same_report",
+    "tests/triplanar/workbench/test_workbench_refit_parsimony.py::",
+    "tests/triplanar/workbench/test_workbench_tutorial.py::",
+    "tests/triplanar/workbench/test_workbench_user_effect.py::test_forward_selection_finds_the_users_effect",
+    "tests/triplanar/commands/test_train_cli.py::test_a_killed_v1_run_continues_from_its_checkpoint",
+    "tests/triplanar/workbench/test_workbench_instruments.py::test_a_lateral_gain_error_below_the_scatter",
     "tests/agents/test_mpc.py::test_estimator_finds_a_known_tip_friction_on_noiseless_data",
     "tests/triplanar/workbench/test_workbench_combinations.py::test_two_hidden_library_effects_are_both_named",
+    "tests/triplanar/workbench/test_workbench_lookalikes.py::",
+    "tests/agents/test_estimator.py::test_estimator_finds_a_known_tip_friction_on_tilted_planes",
 )
 
 
