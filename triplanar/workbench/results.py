@@ -16,6 +16,7 @@ from typing import Any, Mapping, Sequence
 
 from ..measurement import MeasuredTest
 from .diagnose import Diagnoser
+from .candidates import Candidate
 from .discrepancy import TestDiscrepancy
 from .executor import ExecutorLike
 from .fit import EffectFit
@@ -158,7 +159,7 @@ class FitStep:
         return "\n".join(lines)
 
 
-def fit_added(add: Sequence[str], tests: Sequence[MeasuredTest], base: ModelSpec,
+def fit_added(add: Sequence[str | Candidate], tests: Sequence[MeasuredTest], base: ModelSpec,
               start: Mapping[str, Mapping[str, float]] | None = None, executor: ExecutorLike = None,
               per_test: Mapping[str, Sequence[str]] | None = None) -> tuple[list[FitStep], EffectFit | None]:
     """Add the effects ``add`` one at a time, each fit joint with the earlier ones and warm-started at their
@@ -174,7 +175,7 @@ def fit_added(add: Sequence[str], tests: Sequence[MeasuredTest], base: ModelSpec
         if not steps:
             steps.append(FitStep.model_as_given(fit))
         values = fit.params_
-        steps.append(FitStep.from_effect_fit(name, fit))
+        steps.append(FitStep.from_effect_fit(name if isinstance(name, str) else name.effect, fit))
     return steps, fit
 
 
