@@ -6,7 +6,10 @@ that a fit may free by name (``triplanar fit --free NAME``, :func:`triplanar.wor
 a parameter left unset (NaN, its default) leaves the file's number as given, so ``specimen:mass_kg=5.7`` is the
 specimen file with ``mass_kg = 5.7`` written in it and nothing else changed. Each number keeps the file's meaning:
 the mass centre stays relative to CP1 in the body frame (eq. 24), the load point ``P_CL = P1 + A g2 - B g3``
-(eq. 27) relative to CP1, the inertia's diagonal in the body axes.
+(eq. 27) relative to CP1, the inertia's diagonal in the body axes. One exception: ``mass_kg`` scales the inertia
+with it (the drawing's shape with more or less material, as the paper's case E, ``scale_mass``), so that a block
+``k`` times heavier under a force ``F`` moves exactly as the drawn block under ``F / k``; an inertia number freed
+beside it is set after that scaling.
 
 A contact point's horizontal coordinates (``cpN_x1_m``, ``cpN_x3_m``) can be freed; its height is not a free
 number: a contact point lies on its foundation plane (paper section 3), so the height follows the plane
@@ -111,9 +114,12 @@ def with_numbers(specimen: Specimen, foundation: Foundation, values: dict[str, f
     com = np.array(specimen.mass_centre_m)
     inertia = np.array(specimen.inertia_kg_m2)
     changes: dict[str, object] = {}
+    if "mass_kg" in values:       # the drawing's shape with more or less material: the inertia scales with the mass
+        changes["mass_kg"] = values["mass_kg"]
+        inertia *= values["mass_kg"] / specimen.mass_kg
     for name, v in values.items():
         if name == "mass_kg":
-            changes["mass_kg"] = v
+            continue
         elif name.startswith("com_g"):
             com[int(name[5]) - 1] = v
         elif name.startswith("cp"):
@@ -135,17 +141,25 @@ def check_range(name: str, low: float, high: float, specimen: Specimen, foundati
             raise EffectError(f"{name}: a contact point's height is not free: it lies on its plane FP{name[2]} (free "
                               f"{name[:3]}_x1_m or {name[:3]}_x3_m; the height follows the plane)")
         raise EffectError(f"no specimen number {name!r}; freeable numbers: {', '.join(NUMBERS)}")
-    number = NUMBERS[name]
     if not (math.isfinite(low) and math.isfinite(high) and low < high):
         raise EffectError(f"{name}: range {low:g}:{high:g} must be two finite numbers, low < high")
     for end in (low, high):
-        if not number.lower <= end <= number.upper:
-            raise EffectError(f"{name} = {end:g} {number.unit} is outside the physical range [{number.lower:g}, "
-                              f"{number.upper:g}] ({number.doc})")
-        try:
-            with_numbers(specimen, foundation, {name: end}).validate(foundation)
-        except SpecimenError as err:
-            raise EffectError(f"{name} = {end:g} {number.unit} does not describe a physical specimen: {err}") from None
+        problem = refusal(name, end, specimen, foundation)
+        if problem:
+            raise EffectError(problem)
+
+
+def refusal(name: str, value: float, specimen: Specimen, foundation: Foundation) -> str | None:
+    """Why the freeable number ``name`` cannot take ``value`` (``None``: it can)."""
+    number = NUMBERS[name]
+    if not number.lower <= value <= number.upper:
+        return (f"{name} = {value:g} {number.unit} is outside the physical range [{number.lower:g}, "
+                f"{number.upper:g}] ({number.doc})")
+    try:
+        with_numbers(specimen, foundation, {name: value}).validate(foundation)
+    except SpecimenError as err:
+        return f"{name} = {value:g} {number.unit} does not describe a physical specimen: {err}"
+    return None
 
 
 @register

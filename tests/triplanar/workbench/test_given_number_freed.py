@@ -20,6 +20,7 @@ ROOT = Path(__file__).resolve().parents[3]
 END_FRICTION = REGISTRY["end_friction"](phi_deg=8.0)
 
 
+@pytest.mark.slow   # a small dataset and one fit: about 2.5 s
 def test_a_moved_contact_point_is_recovered_within_its_interval():
     # CP3 machined 3 mm forward of its drawing; the kernel's own traces with 0.2 mm noise, 3 loads x 1 test
     truth = 0.003
