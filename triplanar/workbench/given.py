@@ -20,7 +20,7 @@ from ..specimen_numbers import NUMBERS, check_range, given_values, refusal
 from . import rules
 from .candidates import Candidate
 from .executor import ExecutorLike
-from .spec import ModelSpec
+from .spec import EvalTask, ModelSpec, group_by_force
 from .sweep import CandidateResult, CandidateTask
 
 if TYPE_CHECKING:
@@ -156,25 +156,51 @@ class GivenAudit:
         return out
 
 
-def _columns(base: ModelSpec, cand: Candidate, tests: Sequence[MeasuredTest], mapper: Callable,
-             r0: np.ndarray | None = None) -> tuple[np.ndarray, list[tuple[str, float, float, np.ndarray]]]:
-    """The residual at ``cand``'s start and one forward-difference column per free parameter (a step of
-    :data:`~triplanar.workbench.rules.SCREEN_STEP` of its range): ``(r0, [(param, start, (lo, hi), column)])``."""
+def _trials(base: ModelSpec, cand: Candidate, tests: Sequence[MeasuredTest]) -> tuple[
+        list[ModelSpec], list[tuple[str, float, tuple[float, float], float]]]:
+    """The models of a forward-difference Jacobian of ``cand`` at its start (the start first, then one per free
+    parameter moved by :data:`~triplanar.workbench.rules.SCREEN_STEP` of its range) and, per parameter,
+    ``(name, start, (lo, hi), step)`` in natural units."""
     from .fit import Problem
-    problem = Problem(base, [cand], tests, mapper)
+    problem = Problem(base, [cand], tests)
     u0 = problem.start()
-    if r0 is None:
-        r0 = problem.residuals(u0)
-    out = []
+    specs, steps = [problem.spec(problem.natural(u0))], []
     for i, (_, name) in enumerate(problem.names):
         h = rules.SCREEN_STEP if u0[i] + rules.SCREEN_STEP <= 1.0 else -rules.SCREEN_STEP
         u = u0.copy()
         u[i] += h
-        r = problem.residuals(u)
-        span = problem.hi[i] - problem.lo[i]
-        out.append((name, float(problem.lo[i] + u0[i] * span), (float(problem.lo[i]), float(problem.hi[i])),
-                    (r - r0) / (h * span) if len(r) == len(r0) else np.zeros_like(r0)))
-    return r0, out
+        specs.append(problem.spec(problem.natural(u)))
+        span = float(problem.hi[i] - problem.lo[i])
+        steps.append((name, float(problem.lo[i] + u0[i] * span), (float(problem.lo[i]), float(problem.hi[i])),
+                      h * span))
+    return specs, steps
+
+
+def _residuals(specs: Sequence[ModelSpec], tests: Sequence[MeasuredTest], mapper: Callable) -> list[np.ndarray]:
+    """The fit's residual vector of each model (in one ``map`` over every model and load level)."""
+    from .fitbase import safe_evaluate
+    groups = group_by_force(tests)
+    tasks = [EvalTask(spec, f, groups[f], report=False) for spec in specs for f in groups]
+    results = list(mapper(safe_evaluate, tasks))
+    n = len(groups)
+    return [np.concatenate([d.residuals for r in results[k * n:(k + 1) * n] for d in r.discrepancies])
+            for k in range(len(specs))]
+
+
+def _column(r: np.ndarray, r0: np.ndarray, step: float) -> np.ndarray:
+    return (r - r0) / step if len(r) == len(r0) else np.zeros_like(r0)
+
+
+def _columns(base: ModelSpec, cand: Candidate, tests: Sequence[MeasuredTest], mapper: Callable,
+             r0: np.ndarray | None = None) -> tuple[np.ndarray, list[tuple[str, float, tuple[float, float],
+                                                                         np.ndarray]]]:
+    """``cand``'s residual at its start (``r0`` if given) and its Jacobian columns: ``(r0, [(param, start, (lo, hi),
+    column)])``."""
+    specs, steps = _trials(base, cand, tests)
+    found = _residuals(specs if r0 is None else specs[1:], tests, mapper)
+    if r0 is None:
+        r0, found = found[0], found[1:]
+    return r0, [(n, g, b, _column(r, r0, h)) for (n, g, b, h), r in zip(steps, found)]
 
 
 def _signature(label: str, given: float, bounds: tuple[float, float], column: np.ndarray,
@@ -208,22 +234,27 @@ def audit_given(ev: Evidence, tasks: Sequence[CandidateTask], tests: Sequence[Me
     every number screened by its linearised sensitivity at the model diagnosed; those that could remove at least
     ``SCREEN_SHARE`` of the squared discrepancy within the drawing's tolerance (at most ``MAX_AUDITED``, largest
     first) fitted in full (cross-validated, as a candidate); each grouped with the numbers and the leading effects
-    whose signature is the same within the noise."""
+    whose signature is the same within the noise. Nothing is audited when the model already sets numbers through a
+    ``specimen`` effect (``--effect specimen:...``): write them in the specimen file instead."""
     from .executor import executor_scope, run_tasks
     from .sweep import assemble, run_candidate
+    if "specimen" in ev.base.effect_names:
+        return ()           # numbers already set by an effect: the audit would re-give them (write them in the file)
     specimen, foundation = ev.base.specimen, ev.base.foundation
     if specimen is None or foundation is None:
         specimen, foundation = reference()
     every = specimen_candidate(dict.fromkeys(NUMBERS), specimen, foundation)
     leading = [t for t in sorted(tasks, key=lambda t: _rank(ev, t)) if t.kind == "candidate"
                and len(t.candidate.shared) == 1 and not t.candidate.per_test][:rules.SCREEN_EFFECTS]
+    specs, steps = _trials(ev.base, every, tests)
+    for t in leading:       # (their start is the model as given: the numbers' start stands for it)
+        more, [(p, g, b, h)] = _trials(ev.base, t.candidate, tests)
+        specs.append(more[1])
+        steps.append((f"{t.candidate.effect}.{p}", g, b, h))
     with executor_scope(executor, len({t.shear_force_N for t in tests})) as ex:
-        r0, cols = _columns(ev.base, every, tests, ex.map)
-        numbers = [_signature(n, g, b, c, r0) for n, g, b, c in cols]
-        effects = []
-        for t in leading:
-            _, [(p, g, b, c)] = _columns(ev.base, t.candidate, tests, ex.map, r0)
-            effects.append(_signature(f"{t.candidate.effect}.{p}", g, b, c, r0))
+        r0, *found = _residuals(specs, tests, ex.map)     # one map: every model at every load level
+    signatures = [_signature(n, g, b, _column(r, r0, h), r0) for (n, g, b, h), r in zip(steps, found)]
+    numbers, effects = signatures[:len(NUMBERS)], signatures[len(NUMBERS):]
     chosen = sorted((s for s in numbers if s.share >= rules.SCREEN_SHARE), key=lambda s: -s.share)
     chosen = chosen[:rules.MAX_AUDITED]
     fit_tasks = [CandidateTask(ev.user_base, specimen_candidate({s.label: None}, specimen, foundation), tuple(tests),
