@@ -32,6 +32,13 @@ The rules:
   specimen explain. A step is ``high`` when its runner-up leaves at least ``MARGIN`` x its error and it has no
   look-alike.
 
+* Given numbers of the specimen (:func:`_given_numbers`, only when the audit fitted one in full, so a diagnosis
+  without one decides as before): a number that explains is said ("your given X is probably Y [interval]") with the
+  measurement that decides it; it caps the confidence at ``low`` (never raises it, never changes the kind or the
+  named entries) when it is within ``MARGIN`` of the named entry or shares a signature with the entry examined or its
+  look-alikes (reported as a group, e.g. mass and load-cell gain: weigh the block). Its ``SCREEN_*`` constants were
+  set by hand on the kernel's data, not on the calibration set below.
+
 Which data chose the constants. First the project's own kernel traces (datasets made by :mod:`triplanar.labdata`
 with the compiled kernel: the shipped ``data/lab_traces.csv``, the seeded datasets of ``tests/triplanar/workbench/``,
 ``benchmarks/threshold_check.py``, ``benchmarks/instrument_confusion.py``, ``benchmarks/interval_coverage.py``).
