@@ -14,6 +14,7 @@ Importing it also registers the Gymnasium ids (:mod:`triplanar.gym_registration`
 
 from .compiled_cache import announce_compilation
 from .effects import Effect, EffectError, Parameter, REGISTRY as EFFECTS, make_effect, register
+from . import specimen_numbers  # noqa: F401  (registers the `specimen` effect: the given numbers, freeable by name)
 from .measurement import MeasuredTest, MeasurementError, read_measurements, write_measurements
 from .model import Loading, Model, paper_model
 from .result import SimulationResult

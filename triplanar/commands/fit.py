@@ -14,7 +14,9 @@ from .workbench_options import (add_data_arguments, add_start_arguments, add_wor
                                     executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
                                     refuse_overwriting_inputs)
 from ..workbench.compare import Comparison, compare
+from ..workbench.candidates import Candidate
 from ..workbench.fit import EffectFit, safe_evaluate
+from ..workbench.given import parse_free, specimen_candidate
 from ..workbench.results import FitResult, FitStep, fit_added
 from ..workbench.select import ForwardSelection
 from ..workbench.spec import EvalResult, EvalTask, ModelSpec
@@ -31,6 +33,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="effect to add and fit (repeatable; fitted jointly, in the order given); an effect the "
                              "model already has (--effect) is refitted: its parameters are freed, starting at the "
                              "values given")
+    parser.add_argument("--free", action="append", default=[], metavar="NAME[=LOW:HIGH]",
+                        help="a number of the specimen to fit instead of taking it as given (repeatable; fitted "
+                             "jointly, after the --add effects): mass_kg, com_g1_m..com_g3_m, cp1_x1_m, cp1_x3_m, ..., "
+                             "load_point_A_m, load_point_B_m, inertia_g1_kg_m2..; over the drawing's tolerance "
+                             "(mass +-10 %%, lengths +-5 mm, inertia +-15 %%) or LOW:HIGH in SI units")
     add_start_arguments(parser)
     parser.add_argument("--forward", action="store_true",
                         help="forward selection: diagnose, add the named effect, repeat until the error stops falling "
@@ -43,8 +50,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def check_arguments(args: argparse.Namespace) -> None:
     """Refuse what cannot run, before anything is read or fitted."""
-    if not args.add and not args.forward:
-        raise EffectError("nothing to fit: give --add NAME (repeatable) and/or --forward")
+    if not args.add and not args.forward and not args.free:
+        raise EffectError("nothing to fit: give --add NAME (repeatable), --free NAME and/or --forward")
     if args.forward and args.max_effects < 1:
         raise ValueError(f"--max-effects {args.max_effects}: forward selection needs at least 1")
     if len(set(args.add)) != len(args.add):
@@ -53,18 +60,22 @@ def check_arguments(args: argparse.Namespace) -> None:
         ("--out", Path(args.out) / name) for name in ("fit.json", *FIGURES)])
 
 
-def effects_to_add(args: argparse.Namespace) -> tuple[list[str], dict[str, dict[str, float]], dict[str, list[str]]]:
-    """The ``--add`` names, ``--start`` values and ``--per-test`` parameters, checked against each other."""
+def effects_to_add(args: argparse.Namespace) -> tuple[list[str | Candidate], dict[str, dict[str, float]],
+                                                     dict[str, list[str]]]:
+    """The ``--add`` names (and the ``--free`` specimen numbers' candidate after them), ``--start`` values and
+    ``--per-test`` parameters, checked against each other (before anything is read or written)."""
     starts = parse_starts(args.start)
     per_test = parse_per_test(args.per_test)
-    add = check_effect_names(args.add)
+    add: list[str | Candidate] = list(check_effect_names(args.add))
+    if args.free:
+        add.append(specimen_candidate(parse_free(args.free), *load_specimen(args.specimen)))
     missing = sorted(set(per_test) - set(add))
     if missing:
         raise EffectError(f"--per-test {missing[0]}: that effect is not fitted; add it with --add {missing[0]}")
     return add, starts, per_test
 
 
-def fit_steps(args: argparse.Namespace, spec: ModelSpec, tests: list[MeasuredTest], add: list[str],
+def fit_steps(args: argparse.Namespace, spec: ModelSpec, tests: list[MeasuredTest], add: list[str | Candidate],
               starts: dict[str, dict[str, float]],
               per_test: dict[str, list[str]]) -> tuple[FitResult, ModelSpec, EffectFit | None]:
     """The ``--add`` fits, then forward selection from them (``--forward``): the result, the fitted model and
@@ -110,8 +121,8 @@ def plot(result: FitResult, current: ModelSpec, fit: EffectFit | None, tests: li
 def run(args: argparse.Namespace) -> int:
     from ..workbench.report import write_json
     check_arguments(args)
-    spec, tests = model_and_tests(args)
     add, starts, per_test = effects_to_add(args)
+    spec, tests = model_and_tests(args)
     out = out_dir(args)
     result, current, fit = fit_steps(args, spec, tests, add, starts, per_test)
     for path in (out / "fit.json", *([args.json] if args.json else [])):

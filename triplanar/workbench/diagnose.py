@@ -29,6 +29,7 @@ from .evidence import expected_scatter_mm, growth_along_travel, instrument_noise
     time_domain
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
+from .given import audit_given       # (imported here also so that kept Evidence holding a GivenAudit reads back)
 from .spec import ModelSpec, spec_with_values
 from .sweep import CandidateResult, CandidateTask, assemble, load_folds, profile_result, residual_of, run_candidate, \
     spec_of
@@ -66,6 +67,7 @@ class Diagnoser:
             (:mod:`.alternatives`: refits with each further one-parameter physical effect).
 
         friction_scatter_deg: the specimen's repeat-to-repeat friction scatter ``expected_scatter_mm`` assumes (deg).
+        audit: audit the specimen's given numbers beside the effects (:func:`~triplanar.workbench.given.audit_given`).
 
     Fitted attributes (set by ``fit`` only): ``evidence_`` (:class:`~triplanar.workbench.verdict.Evidence`: what
     was gathered), ``decision_`` (:class:`~triplanar.workbench.verdict.Verdict`: what
@@ -81,7 +83,9 @@ class Diagnoser:
                  checkpoint: TaskCheckpoint | None = None, refit_given: bool = True,
                  start: Mapping[str, Mapping[str, float]] | None = None,
                  per_test: Mapping[str, Sequence[str]] | None = None, combine: bool = True,
-                 model_form: bool = True, friction_scatter_deg: float = rules.FRICTION_SCATTER_DEG):
+                 model_form: bool = True, friction_scatter_deg: float = rules.FRICTION_SCATTER_DEG,
+                 audit: bool = True):
+        self.audit = audit
         self.friction_scatter_deg = friction_scatter_deg
         self.combine = combine
         self.model_form = model_form
@@ -128,6 +132,8 @@ class Diagnoser:
         ranked = [assemble(t, by_label, len(folds), len(tests), baseline_error, scatter) for t in tasks]
         ranked.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))
         ev = self._gather(tests, user_base, base, refit, folds, baseline, scatter, ranked)
+        if self.audit:      # the specimen's given numbers beside the effects: screened, the likely ones fitted
+            ev = replace(ev, given_numbers=audit_given(ev, tasks, tests, self.executor, self.progress))
         if ev.best is not None and self.model_form:
             # the examined entry: profile-likelihood intervals beside the curvature ones, and the model-form allowance
             task = next(t for t in tasks if t.key == f"{ev.best.kind}:{ev.best.effect}")
@@ -181,7 +187,7 @@ class Diagnoser:
         no model-form step."""
         return Diagnoser(self.candidates, self.folds, self.executor, False, self.max_nfev, refit_given=False,
                          start=self.start, combine=False, model_form=False,
-                         friction_scatter_deg=self.friction_scatter_deg)
+                         friction_scatter_deg=self.friction_scatter_deg, audit=False)
 
     def _with_start(self, cand: Candidate) -> Candidate:
         """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""

@@ -16,6 +16,7 @@ from typing import Any, Mapping, Sequence
 
 from ..measurement import MeasuredTest
 from .diagnose import Diagnoser
+from .candidates import Candidate
 from .discrepancy import TestDiscrepancy
 from .executor import ExecutorLike
 from .fit import EffectFit
@@ -158,7 +159,7 @@ class FitStep:
         return "\n".join(lines)
 
 
-def fit_added(add: Sequence[str], tests: Sequence[MeasuredTest], base: ModelSpec,
+def fit_added(add: Sequence[str | Candidate], tests: Sequence[MeasuredTest], base: ModelSpec,
               start: Mapping[str, Mapping[str, float]] | None = None, executor: ExecutorLike = None,
               per_test: Mapping[str, Sequence[str]] | None = None) -> tuple[list[FitStep], EffectFit | None]:
     """Add the effects ``add`` one at a time, each fit joint with the earlier ones and warm-started at their
@@ -174,7 +175,7 @@ def fit_added(add: Sequence[str], tests: Sequence[MeasuredTest], base: ModelSpec
         if not steps:
             steps.append(FitStep.model_as_given(fit))
         values = fit.params_
-        steps.append(FitStep.from_effect_fit(name, fit))
+        steps.append(FitStep.from_effect_fit(name if isinstance(name, str) else name.effect, fit))
     return steps, fit
 
 
@@ -285,6 +286,20 @@ def _lookalike_lines(report: Mapping[str, Any]) -> list[str]:
     return lines
 
 
+def _given_number_lines(report: Mapping[str, Any]) -> list[str]:
+    """The given numbers fitted in full by the audit (``given_numbers``), as the candidates are listed."""
+    fitted = [a for a in report.get("given_numbers") or [] if "fitted" in a]
+    if not fitted:
+        return []
+    error = "cv error mm" if report.get("cross_validated", True) else "in-sample mm"
+    lines = ["", f"given numbers of the specimen, screened and fitted ({error}, the given -> the fitted [95% interval]):"]
+    for a in fitted:
+        group = f"   same within the noise as {', '.join(a['group'])}" if a["group"] else ""
+        lines.append(f"  {a['name']:24s} {a['cv_error_mm']:8.3f}   {a['given']:.4g} -> "
+                     f"{format_param(a['name'], a['fitted'], a['ci95'], None)}   screen {a['screen_share']:.0%}{group}")
+    return lines
+
+
 def format_diagnosis(report: Mapping[str, Any]) -> str:
     """``triplanar diagnose``'s printout of a report (``diagnose.json``)."""
     noise = report.get("noise", {})
@@ -307,7 +322,7 @@ def format_diagnosis(report: Mapping[str, Any]) -> str:
             params = ", ".join(format_param(k, v, m["param_ci95"].get(k), None) for k, v in m["params"].items())
             lines.append(f"  {m['effect']:24s} {m['share_of_improvement']:6.0%} of the error   {params}   "
                          f"(confidence {m['confidence']})")
-    lines += _lookalike_lines(report)
+    lines += _lookalike_lines(report) + _given_number_lines(report)
     kind = f" ({report['missing_kind']})" if report.get("missing_kind") else ""
     named = f"missing effect: {verdict}{kind}"
     if report.get("verdict") == "refit_given_effect":

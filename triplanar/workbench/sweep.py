@@ -61,7 +61,7 @@ class CandidateResult:
     seconds: float = 0.0
     nfev: int = 0
     joint: EffectParameters = field(default_factory=dict)
-    kind: str = "candidate"                       # "candidate" (added) or "refit" (a given effect, freed)
+    kind: str = "candidate"     # "candidate" (added), "refit" (a given effect, freed) or "given" (a specimen number)
     given: dict[str, float] = field(default_factory=dict)   # refit: the values the user gave
     held_out_mm: dict[str, float] = field(default_factory=dict, repr=False)   # test_id -> its error when held out
     bias_ratio: float = 1.0      # evidence.bias_ratio of the full fit (the intervals' model-form allowance)
@@ -153,7 +153,7 @@ class CandidateResult:
                 "param_stderr": self.param_stderr,
                 "cv_error_mm": self.cv_error_mm, "improvement": self.improvement, "kind": self.kind,
                 "param_status": self.param_status, "fixed": self.fixed,
-                **({"given": self.given} if self.kind == "refit" else {}),
+                **({"given": self.given} if self.kind in ("refit", "given") else {}),
                 "fit_error_mm": self.fit_error_mm, "plausible": self.plausible, "at_bound": self.at_bound,
                 "cv_error_by_load_mm": {f"{k:g}": v for k, v in self.cv_error_by_load.items()},
                 "fold_params": self.fold_params, "fit_seconds": round(self.seconds, 3), "nfev": self.nfev,
@@ -277,7 +277,7 @@ def assemble(task: CandidateTask, by_label: dict[str, FitOutcome], k: int, n_tes
                 full.values[other.effect][p], full.stderr.get(other.effect, {}).get(p, math.nan),
                 jack_other.get(p, 0.0), n_tests, n_free, full.train_error_mm, scatter_mm,
                 (par.lower, par.upper), math.nan, other.bounds[p], full.bias_ratio)
-    given = dict(cand.start or {}) if task.kind == "refit" else {}
+    given = dict(cand.start or {}) if task.kind in ("refit", "given") else {}
     parameters = {p: replace(recipe[p], value=params[p], start=start[p], stderr=stderr[p],
                              ci95=tuple(ci[p]) if ci[p] is not None else None, status=status[p],
                              at_bound=p in implausible) for p in cand.shared}

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 if TYPE_CHECKING:
     from .discrepancy import TestDiscrepancy
+    from .given import GivenAudit
     from .spec import ModelSpec
     from .sweep import CandidateResult
 
@@ -87,6 +88,8 @@ class Verdict:
     reasons: tuple[Reason, ...]
     unexplained_mm: float
     combination: Mapping[str, Any] | None = None
+    #: look-alike groups with a given number of the specimen: ``{"members": [...], "deciding_measurement": ...}``
+    groups: tuple[Mapping[str, Any], ...] = ()
 
     @property
     def reason(self) -> str:
@@ -149,6 +152,8 @@ class Evidence:
     combination: Combination | None = None
     #: the trace difference (mm) every interval admits (``rules.IMPLEMENTATION_TOLERANCE_M``; 0: gathered before it)
     implementation_tolerance_mm: float = 0.0
+    #: the audit of the specimen's given numbers (:func:`triplanar.workbench.given.audit_given`; empty: not audited)
+    given_numbers: Sequence[GivenAudit] = ()
 
     @property
     def candidates(self) -> list[CandidateResult]:
@@ -210,6 +215,8 @@ def report_json(ev: Evidence, verdict: Verdict, seconds: float) -> dict[str, Any
             "missing_effects": [e.as_json() for e in verdict.effects],
             "missing_kind": missing_kind(verdict),
             "indistinguishable_from": [label(c) for c in ev.lookalikes] if ev.best else [],
+            "lookalike_groups": [dict(g) for g in verdict.groups],
+            "given_numbers": [a.as_json() for a in ev.given_numbers],
             "systematic": {"model_as_given": dict(ev.systematic), "after_best": dict(ev.systematic_after)},
             "combination": None if verdict.combination is None else dict(verdict.combination),
             "deciding_experiments": [dict(e) for e in ev.experiments],

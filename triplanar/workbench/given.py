@@ -1,0 +1,278 @@
+"""The specimen's given numbers as candidates: ``fit --free NAME`` and the audit in ``diagnose``.
+
+A freed number is a parameter of the ``specimen`` effect (:mod:`triplanar.specimen_numbers`), so it is fitted by the
+same machinery that refits a given effect's parameter (:class:`~triplanar.workbench.fit.EffectFit`, its intervals
+and profiles): :func:`specimen_candidate` is its recipe, over the drawing's tolerance unless a range is given.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
+
+import numpy as np
+
+from ..effects import EffectError
+from ..measurement import MeasuredTest
+from ..specimen import Foundation, Specimen, reference
+from ..specimen_numbers import NUMBERS, check_range, given_values, refusal
+from . import rules
+from .candidates import Candidate
+from .executor import ExecutorLike
+from .spec import EvalTask, ModelSpec, group_by_force
+from .sweep import CandidateResult, CandidateTask
+
+if TYPE_CHECKING:
+    from .verdict import Evidence
+
+__all__ = ["GivenAudit", "audit_given", "parse_free", "specimen_candidate"]
+
+
+def parse_free(items: list[str]) -> dict[str, tuple[float, float] | None]:
+    """``--free NAME[=LOW:HIGH]`` (repeatable, SI units) as ``{name: (low, high) or None}``; names checked later."""
+    out: dict[str, tuple[float, float] | None] = {}
+    for item in items:
+        name, eq, rng = (part.strip() for part in item.partition("="))
+        if name in out:
+            raise EffectError(f"--free {name}: given twice")
+        if not eq:
+            out[name] = None
+            continue
+        low, colon, high = rng.partition(":")
+        try:
+            if not colon:
+                raise ValueError
+            out[name] = (float(low), float(high))
+        except ValueError:
+            raise EffectError(f"--free {item!r}: expected NAME or NAME=LOW:HIGH (SI units), e.g. mass_kg=5.0:6.0") \
+                from None
+    return out
+
+
+def specimen_candidate(free: Mapping[str, tuple[float, float] | None], specimen: Specimen | None = None,
+                       foundation: Foundation | None = None) -> Candidate:
+    """The recipe that frees the named numbers of ``specimen`` (default: the reference) from their given values,
+    each over its range (``None``: the drawing's tolerance, :data:`triplanar.specimen_numbers.NUMBERS`). A name no
+    specimen has, or a range the specimen cannot take, is refused naming the number (nothing is fitted)."""
+    if not free:
+        raise EffectError(f"nothing to free; freeable numbers: {', '.join(NUMBERS)}")
+    if specimen is None or foundation is None:
+        specimen, foundation = reference()
+    for name in free:
+        if name not in NUMBERS:
+            check_range(name, 0.0, 1.0, specimen, foundation)      # refuses, listing the freeable numbers
+    given = given_values(specimen)
+    bounds = {}
+    for name, rng in free.items():
+        low, high = rng if rng is not None else _physical(name, given[name], specimen, foundation)
+        check_range(name, low, high, specimen, foundation)
+        if not low <= given[name] <= high:
+            raise EffectError(f"{name}: the range {low:g}:{high:g} does not hold the given value {given[name]:g} "
+                              f"{NUMBERS[name].unit} (a fit starts there)")
+        bounds[name] = (low, high)
+    return Candidate("specimen", tuple(bounds), bounds, {k: given[k] for k in bounds})
+
+
+def _physical(name: str, given: float, specimen: Specimen, foundation: Foundation) -> tuple[float, float]:
+    """The drawing's range of ``name`` about ``given``, each end drawn toward ``given`` (halving the distance, at most
+    10 times) until the specimen passes its own check there (a flat block's inertia +-15 % can break the triangle
+    inequality of its principal moments)."""
+    ends = []
+    for end in NUMBERS[name].drawing_range(given):
+        for _ in range(10):
+            if refusal(name, end, specimen, foundation) is None:
+                break
+            end = given + 0.5 * (end - given)
+        ends.append(end)
+    return ends[0], ends[1]
+
+
+# -- diagnose's audit of the given numbers ---------------------------------------------------------------------------
+
+#: The measurement outside the shear test that decides a given number (the report names it).
+DECIDING_MEASUREMENT = {
+    "mass_kg": "weigh the block (or calibrate the load cell with a reference mass)",
+    "com": "locate the mass centre (balance the block on a knife edge along each axis)",
+    "cp": "measure the contact point's position on the block",
+    "load_point": "measure where the tip touches the aft face",
+    "inertia": "measure the block's inertia (a trifilar pendulum)",
+}
+#: ...and for an instrument or physical effect that looks like one (a group's other members).
+EFFECT_MEASUREMENT = {"load_cell_gain": "calibrate the load cell with a reference mass"}
+
+
+def deciding_measurement(name: str) -> str:
+    """What decides the given number ``name`` outside the shear test."""
+    return next(v for k, v in DECIDING_MEASUREMENT.items() if name.startswith(k))
+
+
+@dataclass(frozen=True)
+class Signature:
+    """How the traces move with one number or effect parameter, linearised at the model as given (``column``: the
+    change of the fit's residual vector per unit of the parameter, natural units) and what it can do about the
+    discrepancy: ``share`` of the squared discrepancy a least-squares step removes within the parameter's range,
+    ``estimate`` where that step lands (the parameter's value)."""
+
+    label: str           # a given number's name, or ``effect.param``
+    given: float
+    column: np.ndarray | None = field(repr=False)   # (not kept in the Evidence: ``None`` there)
+    share: float
+    estimate: float
+
+
+@dataclass(frozen=True)
+class GivenAudit:
+    """One given number in a diagnosis (:func:`audit_given`): its screen, its full cross-validated fit (``None`` when
+    the screen left it out) and the entries whose signature on these data is the same within the noise (``group``)."""
+
+    name: str
+    screen: Signature
+    fitted: CandidateResult | None = None
+    group: tuple[str, ...] = ()
+
+    @property
+    def deciding(self) -> str:
+        """The measurement outside the shear test that decides this number."""
+        return deciding_measurement(self.name)
+
+    def deciding_with(self, twins: Sequence[str]) -> str:
+        """What decides between this number and its look-alikes ``twins`` (the mass's weighing also calibrates the
+        load cell: one measurement decides both)."""
+        if self.name == "mass_kg" and set(twins) <= {"load_cell_gain"}:
+            return self.deciding
+        others = [EFFECT_MEASUREMENT.get(t) or f"a shear test that separates {t}" for t in twins]
+        return f"{self.deciding}, or {', '.join(others)}"
+
+    def as_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"name": self.name, "given": self.screen.given, "screen_share": self.screen.share,
+                               "screen_estimate": self.screen.estimate, "group": list(self.group),
+                               "deciding_measurement": self.deciding}
+        if self.fitted is not None:
+            p = self.fitted.parameters[self.name]
+            out.update(fitted=p.value, ci95=None if p.ci95 is None else list(p.ci95), status=p.status,
+                       cv_error_mm=self.fitted.cv_error_mm, improvement=self.fitted.improvement,
+                       plausible=self.fitted.plausible)
+        return out
+
+
+def _trials(base: ModelSpec, cand: Candidate, tests: Sequence[MeasuredTest]) -> tuple[
+        list[ModelSpec], list[tuple[str, float, tuple[float, float], float]]]:
+    """The models of a forward-difference Jacobian of ``cand`` at its start (the start first, then one per free
+    parameter moved by :data:`~triplanar.workbench.rules.SCREEN_STEP` of its range) and, per parameter,
+    ``(name, start, (lo, hi), step)`` in natural units."""
+    from .fit import Problem
+    problem = Problem(base, [cand], tests)
+    u0 = problem.start()
+    specs, steps = [problem.spec(problem.natural(u0))], []
+    for i, (_, name) in enumerate(problem.names):
+        h = rules.SCREEN_STEP if u0[i] + rules.SCREEN_STEP <= 1.0 else -rules.SCREEN_STEP
+        u = u0.copy()
+        u[i] += h
+        specs.append(problem.spec(problem.natural(u)))
+        span = float(problem.hi[i] - problem.lo[i])
+        steps.append((name, float(problem.lo[i] + u0[i] * span), (float(problem.lo[i]), float(problem.hi[i])),
+                      h * span))
+    return specs, steps
+
+
+def _residuals(specs: Sequence[ModelSpec], tests: Sequence[MeasuredTest], mapper: Callable) -> list[np.ndarray]:
+    """The fit's residual vector of each model (in one ``map`` over every model and load level)."""
+    from .fitbase import safe_evaluate
+    groups = group_by_force(tests)
+    tasks = [EvalTask(spec, f, groups[f], report=False) for spec in specs for f in groups]
+    results = list(mapper(safe_evaluate, tasks))
+    n = len(groups)
+    return [np.concatenate([d.residuals for r in results[k * n:(k + 1) * n] for d in r.discrepancies])
+            for k in range(len(specs))]
+
+
+def _column(r: np.ndarray, r0: np.ndarray, step: float) -> np.ndarray:
+    return (r - r0) / step if len(r) == len(r0) else np.zeros_like(r0)
+
+
+def _columns(base: ModelSpec, cand: Candidate, tests: Sequence[MeasuredTest], mapper: Callable,
+             r0: np.ndarray | None = None) -> tuple[np.ndarray, list[tuple[str, float, tuple[float, float],
+                                                                         np.ndarray]]]:
+    """``cand``'s residual at its start (``r0`` if given) and its Jacobian columns: ``(r0, [(param, start, (lo, hi),
+    column)])``."""
+    specs, steps = _trials(base, cand, tests)
+    found = _residuals(specs if r0 is None else specs[1:], tests, mapper)
+    if r0 is None:
+        r0, found = found[0], found[1:]
+    return r0, [(n, g, b, _column(r, r0, h)) for (n, g, b, h), r in zip(steps, found)]
+
+
+def _signature(label: str, given: float, bounds: tuple[float, float], column: np.ndarray,
+               r0: np.ndarray) -> Signature:
+    """The share of ``|r0|^2`` the best step along ``column`` removes, the step clipped to ``bounds``."""
+    norm = float(column @ column)
+    total = float(r0 @ r0)
+    if norm <= 0 or total <= 0 or not np.all(np.isfinite(column)):
+        return Signature(label, given, column, 0.0, given)
+    step = float(np.clip(-(column @ r0) / norm, bounds[0] - given, bounds[1] - given))
+    left = r0 + step * column
+    return Signature(label, given, column, max(0.0, 1.0 - float(left @ left) / total), given + step)
+
+
+def same_within_noise(a: Signature, b: Signature, r0: np.ndarray, n_tests: int, noise_mm: float) -> bool:
+    """Whether what ``a`` does to explain the discrepancy, ``b`` does too within the noise: the part of ``a``'s
+    least-squares change of the traces that no multiple of ``b``'s column reproduces leaves an RMS error per test
+    below ``noise_mm`` (the traces' own noise floor)."""
+    assert a.column is not None and b.column is not None
+    na, nb = float(a.column @ a.column), float(b.column @ b.column)
+    if na <= 0 or nb <= 0:
+        return False
+    change = a.column * (-(a.column @ r0) / na)
+    rest = change - b.column * ((b.column @ change) / nb)
+    return math.sqrt(float(rest @ rest) / max(n_tests, 1)) <= noise_mm
+
+
+def audit_given(ev: Evidence, tasks: Sequence[CandidateTask], tests: Sequence[MeasuredTest], executor: ExecutorLike,
+                progress: bool = False) -> tuple[GivenAudit, ...]:
+    """The audit of the specimen's given numbers (module doc of :mod:`triplanar.workbench.rules`, ``SCREEN_*``):
+    every number screened by its linearised sensitivity at the model diagnosed; those that could remove at least
+    ``SCREEN_SHARE`` of the squared discrepancy within the drawing's tolerance (at most ``MAX_AUDITED``, largest
+    first) fitted in full (cross-validated, as a candidate); each grouped with the numbers and the leading effects
+    whose signature is the same within the noise. Nothing is audited when the model already sets numbers through a
+    ``specimen`` effect (``--effect specimen:...``): write them in the specimen file instead."""
+    from .executor import executor_scope, run_tasks
+    from .sweep import assemble, run_candidate
+    if "specimen" in ev.base.effect_names:
+        return ()           # numbers already set by an effect: the audit would re-give them (write them in the file)
+    specimen, foundation = ev.base.specimen, ev.base.foundation
+    if specimen is None or foundation is None:
+        specimen, foundation = reference()
+    every = specimen_candidate(dict.fromkeys(NUMBERS), specimen, foundation)
+    leading = [t for t in sorted(tasks, key=lambda t: _rank(ev, t)) if t.kind == "candidate"
+               and len(t.candidate.shared) == 1 and not t.candidate.per_test][:rules.SCREEN_EFFECTS]
+    specs, steps = _trials(ev.base, every, tests)
+    for t in leading:       # (their start is the model as given: the numbers' start stands for it)
+        more, [(p, g, b, h)] = _trials(ev.base, t.candidate, tests)
+        specs.append(more[1])
+        steps.append((f"{t.candidate.effect}.{p}", g, b, h))
+    with executor_scope(executor, len({t.shear_force_N for t in tests})) as ex:
+        r0, *found = _residuals(specs, tests, ex.map)     # one map: every model at every load level
+    signatures = [_signature(n, g, b, _column(r, r0, h), r0) for (n, g, b, h), r in zip(steps, found)]
+    numbers, effects = signatures[:len(NUMBERS)], signatures[len(NUMBERS):]
+    chosen = sorted((s for s in numbers if s.share >= rules.SCREEN_SHARE), key=lambda s: -s.share)
+    chosen = chosen[:rules.MAX_AUDITED]
+    fit_tasks = [CandidateTask(ev.user_base, specimen_candidate({s.label: None}, specimen, foundation), tuple(tests),
+                               tuple(tuple(f) for f in ev.folds), tasks[0].max_nfev if tasks else 30,
+                               tasks[0].refit if tasks else (), kind="given") for s in chosen]
+    outcomes = run_tasks(run_candidate, fit_tasks, executor, progress, desc="audit") if fit_tasks else []
+    # (every task's key is "given:specimen": each is assembled from its own outcomes)
+    fitted = {t.candidate.free[0]: assemble(t, {f"{t.key}/{k}": v for k, v in out.items()}, len(ev.folds), len(tests),
+                                            ev.baseline_error_mm, ev.repeat_scatter_mm)
+              for t, out in zip(fit_tasks, outcomes)}
+    out = []
+    for s in numbers:
+        group = tuple(o.label.split(".")[0] for o in (*effects, *numbers) if o is not s and s.share > 0
+                      and same_within_noise(s, o, r0, len(tests), ev.noise_floor_mm)) if s.label in fitted else ()
+        out.append(GivenAudit(s.label, replace(s, column=None), fitted.get(s.label), group))
+    return tuple(sorted(out, key=lambda a: -a.screen.share))
+
+
+def _rank(ev: Evidence, task: CandidateTask) -> float:
+    found = next((r for r in ev.ranked if r.key == (task.kind, task.candidate.effect)), None)
+    return found.cv_error_mm if found is not None and math.isfinite(found.cv_error_mm) else math.inf
