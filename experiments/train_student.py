@@ -435,7 +435,7 @@ def judge(folder: str | Path, n: int) -> dict[str, Any]:
     errors = np.array([[o.mimicry_error_mm for o in outcomes]])
     success = np.array([[o.success for o in outcomes]])
     stats = row_stats(errors, success, FAILURE_SCORE_MM)
-    stats["failures"] = [(o.index, o.reason) for o in outcomes if not o.success]
+    stats["failures"] = [(o.index, o.reason, o.steps) for o in outcomes if not o.success]   # steps: when it ended
     return stats
 
 
