@@ -54,7 +54,7 @@ def diagnose(folders: list[Path], student: StudentController | None) -> dict:
     for (lo, hi), parts in by_span.items():
         label = np.concatenate(parts["label"])
         row = {"decisions": f"{lo}-{min(hi, 10_000) - 1}", "n": int(len(label)),
-               "label_spread_rms": _rms(label, label.mean(axis=0)),
+               "label_spread_rms": _rms(label, label.mean(axis=0)) if len(label) else float("nan"),
                "ran_vs_label_rms": _rms(np.concatenate(parts["ran"]), label)}
         if student is not None:
             row["student_vs_label_rms"] = _rms(np.concatenate(parts["student"]), label)
