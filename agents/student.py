@@ -10,6 +10,17 @@ network is evaluated here with numpy (no torch at run time: a decision is a few 
     x = (frames of obs, oldest first, padded with the episode's first) ; z = (x - obs_mean) / obs_std
     h = tanh(W_k h + b_k) for each hidden layer ; action = tanh(W_action h + b_action)
     aux = W_aux h + b_aux, then * aux_std + aux_mean  (the student's guess of the unknowns: :attr:`estimate`)
+
+Two optional layout fields (absent in the first students, which load as before):
+
+* ``"kind": "gru"`` (default ``"mlp"``): a recurrent student that reads the whole episode. A gated recurrent unit of
+  ``"gru"`` cells (torch's ``nn.GRU`` equations, gates in the order reset, update, new) carries ``g`` from one
+  decision to the next, from zero at the reset; the hidden layers read ``g`` instead of ``z``:
+  ``r, u = sigmoid(W_ih z + b_ih + W_hh g + b_hh)`` (first two thirds), ``n = tanh(W_in z + b_in + r * (W_hn g +
+  b_hn))``, ``g = (1 - u) * n + u * g``.
+* ``"start"``: actions played, in order, for the episode's first decisions instead of the network's (``mpc``'s
+  designed excitation, :meth:`agents.mpc.MPCController.start_command`: the first decisions' right action depends
+  on what the bench's sensors cannot yet tell, docs/notes/student-experiments.md); the network still reads them.
 """
 
 from __future__ import annotations
@@ -31,6 +42,7 @@ SPEC = "student.json"
 FORMAT = 1
 OBS_SIZE = BENCH_OBSERVATION.size   # the 15 bench observations
 ACTION_SIZE = 2
+KINDS = ("mlp", "gru")
 
 
 class StudentFileError(ValueError):
@@ -42,6 +54,11 @@ def tensor_shapes(spec: dict[str, Any]) -> dict[str, tuple[int, ...]]:
     n_in = int(spec["frames"]) * OBS_SIZE
     shapes: dict[str, tuple[int, ...]] = {"obs_mean": (n_in,), "obs_std": (n_in,)}
     width = n_in
+    if spec.get("kind", "mlp") == "gru":
+        cells = int(spec["gru"])
+        shapes.update({"gru.weight_ih": (3 * cells, n_in), "gru.weight_hh": (3 * cells, cells),
+                       "gru.bias_ih": (3 * cells,), "gru.bias_hh": (3 * cells,)})
+        width = cells
     for k, size in enumerate(spec["hidden"]):
         shapes[f"hidden{k}.weight"], shapes[f"hidden{k}.bias"] = (size, width), (size,)
         width = size
@@ -68,6 +85,18 @@ def check_spec(spec: Any, source: str) -> dict[str, Any]:
     hidden = spec.get("hidden")
     if not (isinstance(hidden, list) and 0 < len(hidden) <= 8 and all(_positive_int(h, 4096) for h in hidden)):
         raise StudentFileError(f"{source}: field 'hidden' must be 1-8 layer sizes of 1-4096, got {hidden!r}")
+    kind = spec.get("kind", "mlp")
+    if kind not in KINDS:
+        raise StudentFileError(f"{source}: field 'kind' must be one of {KINDS}, got {kind!r}")
+    if kind == "gru" and not _positive_int(spec.get("gru"), 4096):
+        raise StudentFileError(f"{source}: field 'gru' must be the number of cells, 1-4096, got {spec.get('gru')!r}")
+    start = spec.get("start", [])
+    if not (isinstance(start, list) and len(start) <= 1000 and all(
+            isinstance(a, list) and len(a) == ACTION_SIZE and all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) and -1.0 <= v <= 1.0 for v in a)
+            for a in start)):
+        raise StudentFileError(f"{source}: field 'start' must be a list of actions [thrust, offset] within -1..1, "
+                               f"got {start!r}")
     aux = spec.get("aux_names")
     if not (isinstance(aux, list) and all(isinstance(a, str) for a in aux)):
         raise StudentFileError(f"{source}: field 'aux_names' must be a list of names, got {aux!r}")
@@ -134,6 +163,12 @@ class StudentController(Controller):
             if self.aux_names else None
         self.frames: deque = deque(maxlen=self.n_frames)
         self.estimate = np.zeros(0)
+        self.start = [np.asarray(a, dtype=np.float32) for a in spec.get("start", [])]
+        self._gru = None
+        if spec.get("kind", "mlp") == "gru":
+            self._gru = tuple(tensors[f"gru.{k}"] for k in ("weight_ih", "bias_ih", "weight_hh", "bias_hh"))
+        self._g = np.zeros(int(spec.get("gru", 0)), dtype=np.float32)
+        self._decisions = 0
 
     @classmethod
     def load(cls, folder: str | Path, name: str = "student") -> StudentController:
@@ -143,6 +178,8 @@ class StudentController(Controller):
     def reset(self, load_N: float, config: Any) -> None:
         self.frames.clear()
         self.estimate = np.zeros(0)
+        self._g = np.zeros_like(self._g)
+        self._decisions = 0
 
     def features(self, obs: np.ndarray) -> np.ndarray:
         """The normalised frame stack after ``obs`` (the stack advanced by one observation)."""
@@ -155,8 +192,29 @@ class StudentController(Controller):
             self.frames.append(obs)
         return (np.concatenate(self.frames) - self._mean) * self._scale
 
+    def _recur(self, z: np.ndarray) -> np.ndarray:
+        """The GRU's state after input ``z`` (module docstring; torch's gate order: reset, update, new)."""
+        w_ih, b_ih, w_hh, b_hh = self._gru
+        gi, gh = w_ih @ z + b_ih, w_hh @ self._g + b_hh
+        n = len(self._g)
+        r = 1.0 / (1.0 + np.exp(-(gi[:n] + gh[:n])))
+        u = 1.0 / (1.0 + np.exp(-(gi[n:2 * n] + gh[n:2 * n])))
+        new = np.tanh(gi[2 * n:] + r * gh[2 * n:])
+        self._g = ((1.0 - u) * new + u * self._g).astype(np.float32)
+        return self._g
+
     def act(self, obs: np.ndarray) -> np.ndarray:
+        action = self.network(obs)
+        self._decisions += 1
+        if self._decisions <= len(self.start):
+            return self.start[self._decisions - 1].copy()
+        return action
+
+    def network(self, obs: np.ndarray) -> np.ndarray:
+        """The network's action after ``obs`` (its state advanced: the frame stack, the GRU's)."""
         h = self.features(obs)
+        if self._gru is not None:
+            h = self._recur(h)
         for weight, bias in self._hidden:
             h = np.tanh(weight @ h + bias)
         if self._aux is not None:

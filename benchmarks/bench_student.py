@@ -65,7 +65,8 @@ def main(argv: list[str] | None = None) -> int:
         decision_times(student, episodes[:1], 1)  # first calls (allocations, caches) are not a bench's steady state
         cpu, wall = decision_times(student, episodes, args.repeats)
     out = {"decisions": int(len(cpu)), "episodes": len(episodes), "repeats": args.repeats,
-           "hidden": student.spec["hidden"], "frames": student.n_frames}
+           "kind": student.spec.get("kind", "mlp"), "gru": student.spec.get("gru"), "hidden": student.spec["hidden"],
+           "frames": student.n_frames}
     for name, ns in (("cpu", cpu), ("wall", wall)):
         out.update({f"{name}_p50_us": float(np.percentile(ns, 50)) / 1e3,
                     f"{name}_p99_us": float(np.percentile(ns, 99)) / 1e3, f"{name}_max_us": float(ns.max()) / 1e3})

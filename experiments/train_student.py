@@ -12,6 +12,11 @@ metadata, JSON), and a resumed run ends bitwise where an uninterrupted one does.
 refused naming them; the shards read are the ones listed when the run started, so a label run adding to the folders
 meanwhile does not change a resumed run's data (train on the new shards with a new ``--out``).
 
+``--kind gru --gru 64`` trains a recurrent student (:mod:`agents.student`) on whole episodes (``--batch``
+episodes a step, each padded to the longest, the padding masked out of the loss). ``--start-periods K`` makes the
+student play ``mpc``'s designed excitation for its first ``K`` decisions (written in its ``start`` field) and drops
+those decisions' labels from the loss (they are not the student's to take).
+
 ``--judge N`` then runs the student on the first ``N`` startable draws of the tuning stream below 1000 (kept from
 labelling for this, :mod:`experiments.distill_labels`) and prints success and score with their intervals.
 """
@@ -30,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from agents.heldout import FAILURE_SCORE_MM, TUNING_SEED, run_episode
-from agents.student import FORMAT, SPEC, WEIGHTS, StudentController, tensor_shapes
+from agents.student import FORMAT, KINDS, SPEC, WEIGHTS, StudentController, tensor_shapes
 from triplanar.atomic import write_atomic
 
 from .distill_labels import TRUTH_NAMES, bench_of_draw, label_shards, load_labels
@@ -54,8 +59,17 @@ class StudentSettings:
     epochs: int = 300
     val_fraction: float = 0.2
     seed: int = 0
+    kind: str = "mlp"           # or "gru": a recurrent student trained on whole episodes (--batch: episodes)
+    gru: int = 64               # the GRU's cells
+    start_periods: int = 0      # mpc's designed excitation for the first K decisions (no labels learnt there)
 
     def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"kind must be one of {KINDS}, got {self.kind!r}")
+        if self.kind == "gru" and (self.gru < 1 or self.aux != "none"):
+            raise ValueError(f"a gru student needs gru >= 1 and aux 'none', got gru {self.gru!r}, aux {self.aux!r}")
+        if self.start_periods < 0:
+            raise ValueError(f"start_periods must be >= 0, got {self.start_periods!r}")
         if self.aux not in ("truth", "none"):
             raise ValueError(f"aux must be 'truth' or 'none', got {self.aux!r}")
         if not 0.0 <= self.val_fraction < 1.0:
@@ -109,6 +123,8 @@ class Dataset:
     aux_names: list
     n_episodes: int
     val_episodes: list
+    bounds: np.ndarray       # (episodes + 1,) the first row of each episode (rows are in episode order)
+    learnt: np.ndarray       # (rows,) bool: the decision's label is learnt (after the start's periods)
 
 
 def _scale(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -123,14 +139,17 @@ def dataset(shards: list[str], settings: StudentSettings) -> Dataset:
     n_episodes = int(data["episode"].max()) + 1
     held = validation_episodes(n_episodes, settings.val_fraction, settings.seed)
     is_val = np.isin(data["episode"], held)
-    train, val = np.flatnonzero(~is_val), np.flatnonzero(is_val)
+    learnt = data["step"] >= settings.start_periods
+    train, val = np.flatnonzero(~is_val & learnt), np.flatnonzero(is_val & learnt)
     obs_mean, obs_std = _scale(data["x"][train])
     aux_names = list(TRUTH_NAMES) if settings.aux == "truth" else []
     aux = data["truth"][:, :len(aux_names)].astype(np.float32)
     aux_mean, aux_std = _scale(aux[train]) if aux_names else (np.zeros(0, np.float32), np.ones(0, np.float32))
     x = ((data["x"] - obs_mean) / obs_std).astype(np.float32)
+    bounds = np.searchsorted(data["episode"], np.arange(n_episodes + 1))
     return Dataset(x, data["y"].astype(np.float32), ((aux - aux_mean) / aux_std).astype(np.float32), train, val,
-                   obs_mean, obs_std, aux_mean, aux_std, aux_names, n_episodes, [int(e) for e in held])
+                   obs_mean, obs_std, aux_mean, aux_std, aux_names, n_episodes, [int(e) for e in held], bounds,
+                   learnt)
 
 
 def build_network(settings: StudentSettings, n_aux: int) -> Any:
@@ -142,6 +161,10 @@ def build_network(settings: StudentSettings, n_aux: int) -> Any:
         def __init__(self) -> None:
             super().__init__()
             width = settings.frames * 15
+            self.gru = None
+            if settings.kind == "gru":
+                self.gru = torch.nn.GRU(width, settings.gru, batch_first=True)
+                width = settings.gru
             layers = []
             for size in settings.hidden:
                 layers.append(torch.nn.Linear(width, size))
@@ -151,6 +174,8 @@ def build_network(settings: StudentSettings, n_aux: int) -> Any:
             self.aux = torch.nn.Linear(width, n_aux) if n_aux else None
 
         def forward(self, x: Any) -> tuple[Any, Any]:
+            if self.gru is not None:   # x: (episodes, steps, inputs), each episode from a zero state
+                x = self.gru(x)[0]
             for layer in self.hidden:
                 x = torch.tanh(layer(x))
             return torch.tanh(self.action(x)), (self.aux(x) if self.aux is not None else None)
@@ -158,9 +183,45 @@ def build_network(settings: StudentSettings, n_aux: int) -> Any:
     return Student()
 
 
+def file_name(torch_name: str) -> str:
+    """A network tensor's name in the student's file (``hidden.0.weight`` -> ``hidden0.weight``,
+    ``gru.weight_ih_l0`` -> ``gru.weight_ih``); :func:`torch_name` inverts it."""
+    return torch_name.replace("hidden.", "hidden").replace("_l0", "")
+
+
+def torch_name(name: str) -> str:
+    if name.startswith("gru."):
+        return name + "_l0"
+    return name.replace("hidden", "hidden.", 1) if name.startswith("hidden") else name
+
+
 def _tensors(net: Any) -> dict[str, np.ndarray]:
-    return {k.replace("hidden.", "hidden"): v.detach().numpy().astype(np.float32).copy()
-            for k, v in net.state_dict().items()}
+    return {file_name(k): v.detach().numpy().astype(np.float32).copy() for k, v in net.state_dict().items()}
+
+
+def episode_batch(data: Dataset, episodes: np.ndarray, rows: set | None = None) -> tuple[Any, Any, Any]:
+    """(x, y, mask) of whole ``episodes``, padded to the longest: mask marks the decisions whose labels count
+    (the episode's rows in ``rows``, default: the learnt ones)."""
+    import torch
+    lengths = data.bounds[episodes + 1] - data.bounds[episodes]
+    x = np.zeros((len(episodes), int(lengths.max()), data.x.shape[1]), np.float32)
+    y = np.zeros((len(episodes), x.shape[1], 2), np.float32)
+    mask = np.zeros(x.shape[:2], np.float32)
+    for i, (e, n) in enumerate(zip(episodes, lengths)):
+        span = np.arange(data.bounds[e], data.bounds[e] + n)
+        x[i, :n], y[i, :n] = data.x[span], data.y[span]
+        mask[i, :n] = data.learnt[span]
+    return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(mask)
+
+
+def episodes_of_rows(data: Dataset, rows: np.ndarray) -> np.ndarray:
+    return np.unique(np.searchsorted(data.bounds, rows, side="right") - 1)
+
+
+def _sequence_mse(net: Any, data: Dataset, episodes: np.ndarray) -> Any:
+    x, y, mask = episode_batch(data, episodes)
+    action, _ = net(x)
+    return (((action - y) ** 2).sum(dim=2) * mask).sum() / (2.0 * mask.sum())
 
 
 def _losses(net: Any, data: Dataset, rows: np.ndarray, settings: StudentSettings) -> tuple[float, float, float]:
@@ -168,6 +229,10 @@ def _losses(net: Any, data: Dataset, rows: np.ndarray, settings: StudentSettings
     import torch
     if not len(rows):
         return math.nan, math.nan, math.nan
+    if settings.kind == "gru":
+        with torch.no_grad():
+            mse = float(_sequence_mse(net, data, episodes_of_rows(data, rows)))
+        return mse, math.sqrt(mse), math.nan
     with torch.no_grad():
         action, aux = net(torch.from_numpy(data.x[rows]))
         action_mse = float(((action - torch.from_numpy(data.y[rows])) ** 2).mean())
@@ -179,6 +244,8 @@ def _losses(net: Any, data: Dataset, rows: np.ndarray, settings: StudentSettings
 def _epoch(net: Any, optimizer: Any, data: Dataset, settings: StudentSettings, epoch: int) -> float:
     """One pass over the training rows in a seeded order; the mean training loss."""
     import torch
+    if settings.kind == "gru":
+        return _sequence_epoch(net, optimizer, data, settings, epoch)
     order = data.train[np.random.default_rng([settings.seed, epoch]).permutation(len(data.train))]
     total = 0.0
     for start in range(0, len(order), settings.batch):
@@ -191,6 +258,20 @@ def _epoch(net: Any, optimizer: Any, data: Dataset, settings: StudentSettings, e
         loss.backward()
         optimizer.step()
         total += loss.item() * len(rows)
+    return total / len(order)
+
+
+def _sequence_epoch(net: Any, optimizer: Any, data: Dataset, settings: StudentSettings, epoch: int) -> float:
+    """One pass over the training episodes in a seeded order, ``batch`` whole episodes a step."""
+    train = episodes_of_rows(data, data.train)
+    order = train[np.random.default_rng([settings.seed, epoch]).permutation(len(train))]
+    total = 0.0
+    for start in range(0, len(order), settings.batch):
+        loss = _sequence_mse(net, data, order[start:start + settings.batch])
+        optimizer.zero_grad()
+        loss.backward()
+        optimizer.step()
+        total += loss.item() * len(order[start:start + settings.batch])
     return total / len(order)
 
 
@@ -215,8 +296,7 @@ def load_checkpoint(path: Path, net: Any, optimizer: Any) -> tuple[dict[str, np.
     with safe_open(str(path), framework="numpy") as f:
         meta = json.loads(f.metadata()["meta"])
         tensors = {k: f.get_tensor(k) for k in f.keys()}
-    net.load_state_dict({k[4:].replace("hidden", "hidden.", 1) if k.startswith("net.hidden") else k[4:]:
-                         torch.from_numpy(v) for k, v in tensors.items() if k.startswith("net.")})
+    net.load_state_dict({torch_name(k[4:]): torch.from_numpy(v) for k, v in tensors.items() if k.startswith("net.")})
     state = optimizer.state_dict()
     for index in range(len(state["param_groups"][0]["params"])):
         keys = [k for k in tensors if k.startswith(f"adam.{index}.")]
@@ -228,7 +308,8 @@ def load_checkpoint(path: Path, net: Any, optimizer: Any) -> tuple[dict[str, np.
 
 
 def _refuse_other_settings(meta: dict[str, Any], settings: StudentSettings, out: Path) -> None:
-    stored, now = meta["settings"], settings.record()
+    defaults = StudentSettings().record()   # a field added since the run started: its default
+    stored, now = {**defaults, **meta["settings"]}, settings.record()
     differ = [f"{k} (stored {stored.get(k)!r}, now {now.get(k)!r})" for k in sorted(set(stored) | set(now))
               if stored.get(k) != now.get(k)]
     if differ:
@@ -245,6 +326,10 @@ def write_student(out: Path, weights: dict[str, np.ndarray], data: Dataset, sett
         tensors.update(aux_mean=data.aux_mean, aux_std=data.aux_std)
     spec = {"format": FORMAT, "frames": settings.frames, "hidden": [int(h) for h in settings.hidden],
             "aux_names": data.aux_names, "env_id": "TriPlanarShear-v1", "env_kwargs": record.pop("env_kwargs")}
+    if settings.kind == "gru":
+        spec.update(kind="gru", gru=int(settings.gru))
+    if settings.start_periods:
+        spec["start"] = mpc_start(settings.start_periods, spec["env_kwargs"])
     expected = tensor_shapes(spec)
     tensors = {k: np.ascontiguousarray(tensors[k], dtype=np.float32) for k in expected}
     blob = save(tensors)
@@ -304,6 +389,15 @@ def train(folders: list[str | Path], out: str | Path, settings: StudentSettings,
     return write_student(out, best, data, settings, record)
 
 
+def mpc_start(periods: int, env_kwargs: dict[str, Any]) -> list[list[float]]:
+    """``mpc``'s designed excitation (its default settings) for the first ``periods`` decisions on the env."""
+    from agents.mpc import MPCController
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+    config = TriPlanarShearV1Env(**env_kwargs).config
+    expert = MPCController()
+    return [[float(v) for v in expert.start_command(p, config)] for p in range(1, periods + 1)]
+
+
 def _rms_of_the_mean(data: Dataset) -> float:
     """The validation action RMS error of the constant guess (the training rows' mean action): what the student's
     own figure is to be read against."""
@@ -341,7 +435,7 @@ def judge(folder: str | Path, n: int) -> dict[str, Any]:
     errors = np.array([[o.mimicry_error_mm for o in outcomes]])
     success = np.array([[o.success for o in outcomes]])
     stats = row_stats(errors, success, FAILURE_SCORE_MM)
-    stats["failures"] = [(o.index, o.reason) for o in outcomes if not o.success]
+    stats["failures"] = [(o.index, o.reason, o.steps) for o in outcomes if not o.success]   # steps: when it ended
     return stats
 
 
