@@ -38,7 +38,7 @@ from .fitbase import FitOutcome
 from .spec import ModelSpec
 
 if TYPE_CHECKING:
-    from .sweep import CandidateResult, CandidateTask
+    from .candidate_result import CandidateResult, CandidateTask
 
 #: Least-squares evaluations of an alternative's joint fit (after its grid scan).
 ALTERNATIVE_NFEV = 10

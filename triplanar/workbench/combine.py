@@ -21,7 +21,7 @@ verdict on it is :func:`~triplanar.workbench.rules.decide`'s.
 from __future__ import annotations
 
 from dataclasses import replace
-from typing import TYPE_CHECKING, Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Protocol, Sequence
 
 from ..effects import REGISTRY
 from ..measurement import MeasuredTest
@@ -35,8 +35,22 @@ from .sweep import residual_of, spec_of
 from .verdict import Combination, Evidence
 
 if TYPE_CHECKING:
-    from .diagnose import Diagnoser
-    from .sweep import CandidateResult
+    from .candidate_result import CandidateResult
+    from .spec import ModelSpec
+
+
+class Diagnoser(Protocol):
+    """What forward selection needs of a diagnoser (:class:`~triplanar.workbench.diagnose.Diagnoser` is one): its
+    candidate list, and a diagnoser for a further round whose ``fit`` leaves that round's evidence in ``evidence_``.
+    A protocol, so that the diagnoser, which calls :func:`combine`, and this module do not import each other."""
+
+    candidates: Any
+    evidence_: Evidence
+
+    def next_round(self) -> Diagnoser: ...
+
+    def fit(self, tests: Sequence[MeasuredTest], base: ModelSpec | None = None,
+            refit: Mapping[str, Mapping[str, float]] | None = None) -> Diagnoser: ...
 
 
 def _step(result: CandidateResult, runner: CandidateResult | None, before_mm: float, baseline_mm: float,

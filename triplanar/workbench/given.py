@@ -8,8 +8,8 @@ and profiles): :func:`specimen_candidate` is its recipe, over the drawing's tole
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Any, Callable, Mapping, Sequence
+from dataclasses import replace
+from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -21,7 +21,8 @@ from . import rules
 from .candidates import Candidate
 from .executor import ExecutorLike
 from .spec import EvalTask, ModelSpec, group_by_force
-from .sweep import CandidateResult, CandidateTask
+from .candidate_result import CandidateTask
+from .given_audit import GivenAudit, Signature
 
 if TYPE_CHECKING:
     from .verdict import Evidence
@@ -89,72 +90,6 @@ def _physical(name: str, given: float, specimen: Specimen, foundation: Foundatio
 
 
 # -- diagnose's audit of the given numbers ---------------------------------------------------------------------------
-
-#: The measurement outside the shear test that decides a given number (the report names it).
-DECIDING_MEASUREMENT = {
-    "mass_kg": "weigh the block (or calibrate the load cell with a reference mass)",
-    "com": "locate the mass centre (balance the block on a knife edge along each axis)",
-    "cp": "measure the contact point's position on the block",
-    "load_point": "measure where the tip touches the aft face",
-    "inertia": "measure the block's inertia (a trifilar pendulum)",
-}
-#: ...and for an instrument or physical effect that looks like one (a group's other members).
-EFFECT_MEASUREMENT = {"load_cell_gain": "calibrate the load cell with a reference mass"}
-
-
-def deciding_measurement(name: str) -> str:
-    """What decides the given number ``name`` outside the shear test."""
-    return next(v for k, v in DECIDING_MEASUREMENT.items() if name.startswith(k))
-
-
-@dataclass(frozen=True)
-class Signature:
-    """How the traces move with one number or effect parameter, linearised at the model as given (``column``: the
-    change of the fit's residual vector per unit of the parameter, natural units) and what it can do about the
-    discrepancy: ``share`` of the squared discrepancy a least-squares step removes within the parameter's range,
-    ``estimate`` where that step lands (the parameter's value)."""
-
-    label: str           # a given number's name, or ``effect.param``
-    given: float
-    column: np.ndarray | None = field(repr=False)   # (not kept in the Evidence: ``None`` there)
-    share: float
-    estimate: float
-
-
-@dataclass(frozen=True)
-class GivenAudit:
-    """One given number in a diagnosis (:func:`audit_given`): its screen, its full cross-validated fit (``None`` when
-    the screen left it out) and the entries whose signature on these data is the same within the noise (``group``)."""
-
-    name: str
-    screen: Signature
-    fitted: CandidateResult | None = None
-    group: tuple[str, ...] = ()
-
-    @property
-    def deciding(self) -> str:
-        """The measurement outside the shear test that decides this number."""
-        return deciding_measurement(self.name)
-
-    def deciding_with(self, twins: Sequence[str]) -> str:
-        """What decides between this number and its look-alikes ``twins`` (the mass's weighing also calibrates the
-        load cell: one measurement decides both)."""
-        if self.name == "mass_kg" and set(twins) <= {"load_cell_gain"}:
-            return self.deciding
-        others = [EFFECT_MEASUREMENT.get(t) or f"a shear test that separates {t}" for t in twins]
-        return f"{self.deciding}, or {', '.join(others)}"
-
-    def as_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"name": self.name, "given": self.screen.given, "screen_share": self.screen.share,
-                               "screen_estimate": self.screen.estimate, "group": list(self.group),
-                               "deciding_measurement": self.deciding}
-        if self.fitted is not None:
-            p = self.fitted.parameters[self.name]
-            out.update(fitted=p.value, ci95=None if p.ci95 is None else list(p.ci95), status=p.status,
-                       cv_error_mm=self.fitted.cv_error_mm, improvement=self.fitted.improvement,
-                       plausible=self.fitted.plausible)
-        return out
-
 
 def _trials(base: ModelSpec, cand: Candidate, tests: Sequence[MeasuredTest]) -> tuple[
         list[ModelSpec], list[tuple[str, float, tuple[float, float], float]]]:

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 if TYPE_CHECKING:
-    from .diagnose import CandidateResult
+    from .candidate_result import CandidateResult
 
 
 def difference_se(a: CandidateResult, b: CandidateResult) -> tuple[float, float]:

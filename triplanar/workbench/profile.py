@@ -26,15 +26,31 @@ diagnose computes it for the named entries only, ``fit`` for its fit.
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Callable, Sequence
+from typing import Callable, Protocol, Sequence
 
 import numpy as np
 from scipy.optimize import brentq, least_squares
 
 from .fitbase import DIFF_STEP
 
-if TYPE_CHECKING:
-    from .fit import Problem
+
+
+class Problem(Protocol):
+    """What a profile reads of a fit's problem (:class:`~triplanar.workbench.fit.Problem` is one): the scaled box of
+    its parameters (``lo``, ``hi``, ``n``, ``natural``, ``scaled``) and its residual function of the scaled vector.
+    A protocol, so that the fit, which computes profiles, and this module do not import each other."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+
+    @property
+    def n(self) -> int: ...
+
+    def natural(self, u: np.ndarray) -> np.ndarray: ...
+
+    def scaled(self, x: Sequence[float]) -> np.ndarray: ...
+
+    def residuals(self, u: np.ndarray) -> np.ndarray: ...
 
 #: Refit evaluations allowed at each trial value of a parameter (the other parameters, warm-started).
 PROFILE_NFEV = 8

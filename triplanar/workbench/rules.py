@@ -73,7 +73,7 @@ from .parsimony import difference_se, parsimonious
 from .verdict import Evidence, NamedEffect, Reason, Verdict, VerdictKind, label
 
 if TYPE_CHECKING:
-    from .sweep import CandidateResult
+    from .candidate_result import CandidateResult
 
 #: An entry explains when it removes at least this fraction of the model's error on held-out loads.
 MIN_IMPROVEMENT = 0.3

@@ -16,9 +16,9 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 if TYPE_CHECKING:
     from .discrepancy import TestDiscrepancy
-    from .given import GivenAudit
+    from .given_audit import GivenAudit
     from .spec import ModelSpec
-    from .sweep import CandidateResult
+    from .candidate_result import CandidateResult
 
 
 class VerdictKind(str, Enum):
