@@ -29,7 +29,7 @@ lint: $(STAMP)
 # runs the `long` ones (study-scale training and evaluation, a 30-seed coverage rate, the Ray cluster) and the fuzz
 # tests (hypothesis's own `hypothesis` marker) with 1,000 inputs each. .ci/run runs both.
 test: install
-	$(PY) -m pytest -q -n auto --dist loadgroup --durations=15 -m "not long"
+	$(PY) -m pytest -q -n auto --dist loadgroup --durations=20 -m "not long"
 
 test-slow: install
 	$(PY) -m pytest -q -n auto --dist loadgroup --durations=15 -m "long or hypothesis" --hypothesis-profile=thorough
