@@ -10,7 +10,7 @@ import os
 import signal
 import time
 
-from triplanar.executor import pool_scope
+from triplanar.executor import _alive, pool_scope   # _alive: a zombie (killed, not yet reaped) is not alive
 
 
 def _handlers(_: int) -> tuple[object, object]:
@@ -20,14 +20,6 @@ def _handlers(_: int) -> tuple[object, object]:
 def _pid_then_sleep(seconds: float) -> int:
     time.sleep(seconds)
     return os.getpid()
-
-
-def _alive(pid: int) -> bool:
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
 def test_workers_ignore_ctrl_c_and_die_on_sigterm_although_the_pool_scope_handles_it() -> None:
