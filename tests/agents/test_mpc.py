@@ -11,6 +11,7 @@ from agents.heldout import nominal_benches, run_episode
 from agents.limit import LimitController
 from envs.prediction import predict, snapshot
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+from triplanar import PAPER_LOADS_N
 from triplanar import kernel as K
 
 IDEAL = {"stage_bandwidth_hz": math.inf, "thrust_bandwidth_hz": math.inf, "latency_s": 0.0}
@@ -48,14 +49,27 @@ def test_prediction_leaves_the_env_alone():
         assert np.array_equal(getattr(before, name), getattr(after, name)), name
 
 
-@pytest.mark.slow
-def test_limit_at_nominal_loads_on_the_ideal_bench_beats_in_sample_ppo():
-    """The in-sample PPO with exact states reaches 0.50 mm at the paper's 12 loads; the limit (the same knowledge
-    plus the model) must not be worse."""
+def limit_mean_error_mm(loads) -> float:
+    """``limit``'s mean mimicry error (mm) with exact states on the ideal bench at ``loads``; every episode must
+    succeed."""
     outcomes = [run_episode(LimitController(), bench, env_kwargs={"observation_mode": "state", **IDEAL},
-                            bench_set="nominal") for bench in nominal_benches()]
+                            bench_set="nominal") for bench in nominal_benches(loads)]
     assert all(o.success for o in outcomes), [o.reason for o in outcomes]
-    mean = float(np.mean([o.mimicry_error_mm for o in outcomes]))
+    return float(np.mean([o.mimicry_error_mm for o in outcomes]))
+
+
+@pytest.mark.slow
+def test_limit_at_the_lowest_middle_and_highest_nominal_load_beats_in_sample_ppo():
+    """The in-sample PPO with exact states reaches 0.50 mm at the paper's 12 loads; the limit (the same knowledge
+    plus the model) must not be worse at the ends of the range and at its middle (measured: 0.124, 0.349 and 0.140
+    mm, mean 0.204; the 12 loads, mean 0.181 mm, are the ``long`` test below)."""
+    mean = limit_mean_error_mm((27.8, 40.0, 55.6))
+    assert mean <= 0.50, mean
+
+
+@pytest.mark.long
+def test_limit_at_the_papers_twelve_loads_beats_in_sample_ppo():
+    mean = limit_mean_error_mm(PAPER_LOADS_N)
     assert mean <= 0.50, mean
 
 

@@ -56,11 +56,11 @@ def curve_steps(path: Path) -> list[int]:
 def test_train_killed_and_rerun_finishes_without_touching_its_checkpoints(tmp_path) -> None:
     config = tmp_path / "ppo.yaml"
     config.write_text(yaml.safe_dump(tiny_config()))
-    args = ("train", "--config", str(config), "--out", str(tmp_path / "runs"), "--timesteps", "4096")
+    args = ("train", "--config", str(config), "--out", str(tmp_path / "runs"), "--timesteps", "2048")
     run = tmp_path / "runs" / "seed_0"
     first = cli(*args)
     deadline = time.time() + 900
-    while not (run / "checkpoints" / "ppo_vecnormalize_2048_steps.npz").exists():
+    while not (run / "checkpoints" / "ppo_vecnormalize_1024_steps.npz").exists():
         assert first.poll() is None, first.communicate()
         assert time.time() < deadline
         time.sleep(0.2)
@@ -71,19 +71,19 @@ def test_train_killed_and_rerun_finishes_without_touching_its_checkpoints(tmp_pa
     second = cli(*args)
     out, err = second.communicate(timeout=900)
     assert second.returncode == 0, err
-    assert json.loads((run / "done.json").read_text())["timesteps"] == 4096
+    assert json.loads((run / "done.json").read_text())["timesteps"] == 2048
     assert (run / "final_model.zip").exists() and (run / "vecnormalize.pkl").exists()
     for name, data in saved.items():  # the checkpoints the first run wrote are as they were
         assert (run / "checkpoints" / name).read_bytes() == data, name
     assert not list(run.rglob(".*partial*"))
     steps = curve_steps(run / "learning_curve.csv")
-    assert steps == sorted(set(steps)) and steps[-1] == 4096  # no duplicate row after kill and resume
+    assert steps == sorted(set(steps)) and steps[-1] == 2048  # no duplicate row after kill and resume
     # the study without training (`study --skip-train`, whose flag the tests below run) uses the finished run; at two
     # loads, not the study's twelve: the twelve cost 40 s of CPU and read the run no differently
     from experiments.study import run_study
     study = run_study(tmp_path / "study", ppo_dir=tmp_path / "runs", seeds=(0,), config=config, train=False,
                       loads=(27.8, 55.6), log=lambda _: None)
-    assert [r.timesteps for r in study.ppo_runs] == [4096] and study.ppo_runs[0].model_path == run / "final_model.zip"
+    assert [r.timesteps for r in study.ppo_runs] == [2048] and study.ppo_runs[0].model_path == run / "final_model.zip"
     assert (tmp_path / "study" / "summary.json").exists()
 
 

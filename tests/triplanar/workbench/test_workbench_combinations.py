@@ -18,7 +18,9 @@ pytestmark = pytest.mark.slow  # a diagnosis and a second round: a few seconds e
 LOADS = (32.5, 40.0, 47.5, 55.6)
 
 
-@pytest.mark.parametrize("offset_m", [0.004, -0.003])
+# the tip offset to either side; the other side in `make test-slow` (the forward selection of test_workbench_hidden.py
+# finds a negative offset beside end friction in `make test`)
+@pytest.mark.parametrize("offset_m", [0.004, pytest.param(-0.003, marks=pytest.mark.long)])
 def test_two_hidden_library_effects_are_both_named_with_their_shares(offset_m: float) -> None:
     truth = {"end_friction": {"phi_deg": 8.0}, "tip_offset": {"offset_m": offset_m}}
     tests, record = generate_lab_data(loads=LOADS, repeats=2, seed=3, effects=[

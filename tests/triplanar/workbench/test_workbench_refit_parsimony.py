@@ -5,9 +5,11 @@ candidate and the refits): the data are made with the model as given but one of 
 
 * end friction given 6 deg, truth 8: the refit is named, its interval holds 8;
 * cohesion given 0.15 N per contact, truth 0.35 (the 3-parameter ``contact_friction`` is cohesion's look-alike):
-  over seeds 1-5 no candidate with more free parameters than the refit is named, the refit is preferred whenever
-  such a candidate is within the fold-to-fold uncertainty of the difference, and the refit's interval holds 0.35.
-  That the refit itself is the verdict in every seed does not hold (a strict xfail with the numbers).
+  no candidate with more free parameters than the refit is named, the refit is preferred whenever such a candidate
+  is within the fold-to-fold uncertainty of the difference, and the refit's interval holds 0.35: on seeds 1 and 2
+  in ``make test`` (each puts a more flexible candidate within that uncertainty: contact_friction, plane_tilt), on
+  seeds 3-5 too in ``make test-slow`` (``long``). That the refit itself is the verdict in every seed does not hold
+  (a strict xfail with the numbers, ``long``: it reads all five).
 
 Run with ``-s`` to print the numbers.
 """
@@ -32,6 +34,7 @@ pytestmark = [pytest.mark.slow, pytest.mark.xdist_group("refit_parsimony")]
 
 LOADS = (27.8, 35.0, 45.0, 55.6)
 COHESION_SEEDS = (1, 2, 3, 4, 5)
+EXERCISING_SEEDS = (1, 2)      # the seeds that put a more flexible candidate within the uncertainty (module doc)
 
 
 @functools.lru_cache(maxsize=None)
@@ -86,9 +89,11 @@ def test_a_wrong_given_end_friction_is_refitted_not_replaced() -> None:
         print(f"    within the uncertainty: {c.effect}, the refit worse by {mean:+.3f} +- {se:.3f} mm^2")
 
 
-def test_a_wrong_given_cohesion_is_not_replaced_by_its_three_parameter_look_alike() -> None:
+def not_replaced_by_a_look_alike(seeds: tuple[int, ...]) -> int:
+    """Assert the cohesion refit is not replaced on each of ``seeds``; return how many put a more flexible
+    candidate within the uncertainty of the difference."""
     exercised = 0
-    for seed in COHESION_SEEDS:
+    for seed in seeds:
         diag = diagnosed("cohesion:c_N=0.35", "cohesion:c_N=0.15", seed)
         show(f"cohesion given 0.15, truth 0.35, seed {seed}", diag)
         (refit,) = diag.refits_
@@ -103,9 +108,20 @@ def test_a_wrong_given_cohesion_is_not_replaced_by_its_three_parameter_look_alik
                   f"{mean:+.3f} +- {se:.3f} mm^2")
             assert diag.best_ is not c
         exercised += bool(close)
+    return exercised
+
+
+def test_a_wrong_given_cohesion_is_not_replaced_by_its_three_parameter_look_alike() -> None:
+    exercised = not_replaced_by_a_look_alike(EXERCISING_SEEDS)
     assert exercised >= 1, "no seed put a more flexible candidate within the uncertainty of the refit"
 
 
+@pytest.mark.long
+def test_a_wrong_given_cohesion_is_not_replaced_on_the_other_seeds() -> None:
+    not_replaced_by_a_look_alike(tuple(s for s in COHESION_SEEDS if s not in EXERCISING_SEEDS))
+
+
+@pytest.mark.long
 @pytest.mark.xfail(strict=True, reason=(
     "measured on seeds 1-5 (4 loads x 2 repeats): the refit of cohesion is the verdict in seeds 3 and 4 only; "
     "seed 1: the refit is named (contact_friction a look-alike, 0.910 vs 0.905 mm) but the verdict is "
