@@ -28,6 +28,12 @@ lint: $(STAMP)
 # `make test` runs every test but those marked `long`, and the fuzz tests with 100 inputs each; `make test-slow`
 # runs the `long` ones (study-scale training and evaluation, a 30-seed coverage rate, the Ray cluster) and the fuzz
 # tests (hypothesis's own `hypothesis` marker) with 1,000 inputs each. .ci/run runs both.
+# Python's bytecode cache stays on for the tests even where the environment turns it off (PYTHONDONTWRITEBYTECODE=1,
+# as on this machine): the suite starts some forty interpreters (the commands' subprocess tests, the import checks)
+# and two xdist workers, and without the cache each compiles the project's modules and rewrites the test modules'
+# asserts again (0.7 CPU s per interpreter for the project's imports, about 7 s per worker for collection).
+test test-slow: export PYTHONDONTWRITEBYTECODE =
+
 test: install
 	$(PY) -m pytest -q -n auto --dist loadgroup --durations=20 -m "not long"
 
