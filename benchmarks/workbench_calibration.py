@@ -8,9 +8,9 @@ names: a smoothed Coulomb law near zero slip speed, the sampling clock's jitter,
 given an effect with a wrong value; ``refit_given_effect``), ``pair`` (two library effects; ``library_effects``
 naming both), ``none_missing`` (the model is the truth) and ``outside_library`` (a cause the library does not hold,
 ``benchmarks/calibration_plugins.py``). Each dataset comes from its stated seed (:data:`PARTS`): the TUNING part has
-seeds 1000-1033 and 2000-2065 (the held-out part of the first report: looked at, so tuning data since), the HELD-OUT
-part 3000-3065 (``--part``; ``--first-seed N`` numbers a part's datasets from N instead, for new seeds); choose rules
-on the tuning part only. ::
+seeds 1000-1033, 2000-2065 and 3000-3065 (the held-out parts of the first two reports: looked at, so tuning data
+since), the HELD-OUT part 4000-4065 (``--part``; ``--first-seed N`` numbers a part's datasets from N instead, for new
+seeds); choose rules on the tuning part only. ::
 
     PYTHONPATH=. python benchmarks/workbench_calibration.py generate --part tuning [--out /work/calib]
     PYTHONPATH=. python benchmarks/workbench_calibration.py run --part tuning [--out /work/calib]
@@ -55,8 +55,9 @@ PAPER_LOADS = (30.3, 32.5, 35.0, 37.5, 40.0, 42.5, 45.0, 47.5, 49.6, 51.6, 55.6)
 LOADS_NOTE = ("27.8 N is left out: with the smoothed law a block below its threshold creeps instead of holding, and "
               "the stiffer truths (end friction 12 deg, cohesion) put their threshold near it")
 #: The parts, each a list of seed ranges ``(first seed, mix)``; a range's datasets are numbered first seed + index.
-#: Seeds 2000-2065 were the held-out part reported on 2026-11-28 (``docs/notes/``): looked at, they tune since.
-PARTS = {"tuning": ((1000, "small"), (2000, "full")), "held-out": ((3000, "full"),)}
+#: Seeds 2000-2065 and 3000-3065 were the held-out parts of the two reports of 2026-11-28 (``docs/notes/``): looked at,
+#: they tune since.
+PARTS = {"tuning": ((1000, "small"), (2000, "full"), (3000, "full")), "held-out": ((4000, "full"),)}
 
 
 def _u(rng: np.random.Generator, lo: float, hi: float, signed: bool = False) -> float:
