@@ -99,8 +99,12 @@ def decode(data: Any, arrays: dict[str, np.ndarray]) -> Any:
     if "$dataclass" in data:
         cls = _dataclass(data["$dataclass"])
         names = {f.name for f in dataclasses.fields(cls) if f.init}
+        # a field the class gained after the file was written reads as its default (kept results stay readable);
+        # a field the class does not have, or a missing one without a default, is refused
+        required = {f.name for f in dataclasses.fields(cls) if f.init and f.default is dataclasses.MISSING
+                    and f.default_factory is dataclasses.MISSING}
         given = data.get("fields")
-        if not isinstance(given, dict) or set(given) != names:
+        if not isinstance(given, dict) or not required <= set(given) <= names:
             raise PlainDataError(f"{data['$dataclass']}: the fields do not match the class's")
         return cls(**{k: decode(v, arrays) for k, v in given.items()})
     raise PlainDataError(f"unexpected entry {str(data)[:80]!r}")

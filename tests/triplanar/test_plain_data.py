@@ -83,3 +83,15 @@ def test_planted_pickles_in_a_task_checkpoint_never_run(tmp_path) -> None:
     torn = partial / f"{checkpoint.key(abs, 2)}.npz"
     torn.write_bytes(torn.read_bytes()[:100])   # a torn write: the task runs again
     assert run_tasks(abs, tasks, "serial", checkpoint=checkpoint) == [1, 2, 3]
+
+
+def test_a_field_added_since_the_file_was_written_reads_as_its_default() -> None:
+    """Kept results (the calibration's kept evidence) stay readable when their class gains a field with a default; a
+    field the class does not have, or a missing one without a default, is still refused."""
+    structure, arrays = _through_file(outcome())
+    fields = structure["fields"]
+    older = {**structure, "fields": {k: v for k, v in fields.items() if k != "bias_ratio"}}   # bias_ratio has a default
+    assert plain_data.decode(older, arrays).bias_ratio == FitOutcome.__dataclass_fields__["bias_ratio"].default
+    for broken in ({k: v for k, v in fields.items() if k != "label"}, {**fields, "no_such_field": 1}):
+        with pytest.raises(plain_data.PlainDataError, match="the fields do not match"):
+            plain_data.decode({**structure, "fields": broken}, arrays)
