@@ -174,8 +174,8 @@ def _pair(tests: Sequence[MeasuredTest], i: int, j: int, rest: np.ndarray) -> tu
     return result, float(norm.isf(ALPHA / 12)) * slope_se * travel * MM
 
 
-BLIND = ("a load-cell gain, a time offset, and an offset or drift shared by the three points (a translation) keep "
-         "every distance: rigidity cannot see them")
+BLIND = ("a load-cell gain, a time offset, or an offset or drift shared by the three points (a translation keeps "
+         "every distance)")
 
 
 def _sentence(kind: str, broken: Sequence[PairRigidity], detectable: float) -> str:
@@ -184,8 +184,8 @@ def _sentence(kind: str, broken: Sequence[PairRigidity], detectable: float) -> s
                 f"not show; a test needs {MIN_SAMPLES} samples with the coordinates of a pair)")
     if kind == "specimen_or_load":
         return (f"the block stays rigid within the noise (no distance between contact points changes by more than "
-                f"{detectable:.2f} mm): what is missing is not a gain, offset or drift of one position channel, but "
-                f"in the specimen, the load or the instruments rigidity cannot see ({BLIND})")
+                f"{detectable:.2f} mm): what is missing is not a gain, offset or drift of one position channel; it is "
+                f"in the specimen or the load, or an instrument error rigidity cannot see: {BLIND}")
     if kind == "instrument":
         sizes = ", ".join(f"{p.pair} {p.change_mm:+.2f} mm" for p in broken)
         return (f"the block is rigid, but its measured contact points are not: distances change along the path "
