@@ -12,6 +12,7 @@ from the dataset's seed. Expected kind: ``instrument`` for ``rangefinder_gain`` 
 effects rigidity cannot see (load-cell gain, time offset, an offset or drift shared by the three points). ::
 
     PYTHONPATH=. python benchmarks/rigidity_rates.py --first-seed 1034 --count 66 [--out /tmp/rigidity-rates]
+    PYTHONPATH=. python benchmarks/rigidity_rates.py --null 200     # false alarms where the block is rigid
 
 Results are kept per dataset in ``OUT/<label>-s<seed>.json`` (a rerun resumes) and the table is printed by
 expected kind. The constants of the test were looked at on seeds 1000-1033 only (the module doc).
@@ -118,12 +119,35 @@ def table(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def null_check(draws: int) -> None:
+    """The test's false alarms where the block is rigid by construction: the kernel's noise-free traces (the paper's
+    12 loads x 4 repeats, case B and case A), Gaussian noise of 0.2 and 1 mm added ``draws`` times each."""
+    from triplanar import make_effect
+    from triplanar.labdata import generate_lab_data
+    rng = np.random.default_rng(0)
+    for specs in ((), ("end_friction:phi_deg=8",)):
+        tests, _ = generate_lab_data(repeats=4, noise_m=0.0, seed=7, effects=[make_effect(s) for s in specs])
+        for sigma in (2e-4, 1e-3):
+            stats, alarms = [], 0
+            for _ in range(draws):
+                r = rigidity([MeasuredTest(t.test_id, t.shear_force_N, t.positions + rng.normal(0, sigma, t.positions.shape),
+                                           t.t_s) for t in tests])
+                stats.append(r.statistic)
+                alarms += r.kind not in ("specimen_or_load", "undecided")
+            print(f"  {'case A' if specs else 'case B'}, {len(tests)} tests, noise {sigma * 1e3:g} mm: false alarms "
+                  f"{alarms}/{draws}; statistic < 0.05 in {np.mean(np.array(stats) < 0.05):.1%} (nominal 5 %)")
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--first-seed", type=int, default=1034)
     parser.add_argument("--count", type=int, default=66)
     parser.add_argument("--out", type=Path, default=Path("/tmp/rigidity-rates"))
+    parser.add_argument("--null", type=int, metavar="DRAWS", help="instead: the false alarms on rigid traces")
     args = parser.parse_args(argv)
+    if args.null:
+        null_check(args.null)
+        return 0
     if args.first_seed >= 3000 or args.first_seed + args.count > 3000:
         parser.error("seeds 3000 and above are the calibration set's held-out part: not for this benchmark")
     jobs = datasets("tuning", args.first_seed)[:args.count]
