@@ -5,7 +5,7 @@ Each dataset is one of the calibration set's (``benchmarks/workbench_calibration
 natural-coordinates laboratory, its noise 0.2-1 mm, clock jitter, smoothed Coulomb law), made in memory, and the
 rigidity test is run on it as it is and on three copies with one position channel spoiled (what the library's
 instrument effects, shared by the three points, never do; the table splits them by how far the spoil moves the
-channel at most: by 1 mm or more, or less): a gain on one point's x1 or x3 displacement
+channel at most: under 1 mm, 1-2 mm, 2 mm or more): a gain on one point's x1 or x3 displacement
 (1 +- 2-5 %), an offset on one channel (+-0.5-1.5 mm), a drift on one channel (+-2-6 mm/s, the calibration set's range for rangefinder_drift); channel and size drawn
 from the dataset's seed. Expected kind: ``instrument`` for ``rangefinder_gain`` and the spoiled gain and drift,
 ``instrument_or_drawing`` for the spoiled offset, ``specimen_or_load`` for everything else, including the instrument
@@ -96,25 +96,40 @@ def _judged(tests: list[MeasuredTest]) -> dict:
             "largest_change_mm": max((abs(p.change_mm) for p in r.pairs if math.isfinite(p.change_mm)), default=None)}
 
 
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson interval of a rate k / n."""
+    centre, half = (k + z * z / 2) / (n + z * z), z * math.sqrt(k * (n - k) / n + z * z / 4) / (n + z * z)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
 def table(records: list[dict]) -> str:
     groups: dict[str, list[dict]] = {}
     for rec in records:
         for row in rec["rows"]:
             if row["case"].startswith("one channel"):
-                key = row["case"] + (" (moves its channel >= 1 mm)" if row["channel_change_mm"] >= 1.0
-                                     else " (moves its channel < 1 mm)")
+                moved = row["channel_change_mm"]
+                key = row["case"] + (": moves its channel < 1 mm" if moved < 1.0 else
+                                     ": 1-2 mm" if moved < 2.0 else ": 2 mm or more")
             elif row["case"] == "rangefinder_gain":
                 key = row["case"]
             else:
                 key = "instrument effects rigidity cannot see" if row["blind"] else "specimen, load, outside, clean"
             groups.setdefault(key, []).append(row)
-    lines = ["| case | expected | datasets | right | kinds found |", "|---|---|---|---|---|"]
-    for key, rows in sorted(groups.items()):
+    lines = ["| case | expected | datasets | right [95 % interval] | instrument (either kind) | kinds found |",
+             "|---|---|---|---|---|---|"]
+    order = ["specimen", "instrument effects", "rangefinder_gain", "one channel gain", "one channel drift",
+             "one channel offset"]
+    bins = ["< 1", "1-2", "2 mm"]
+    for key, rows in sorted(groups.items(), key=lambda kv: (next(i for i, o in enumerate(order) if kv[0].startswith(o)),
+                                                            next((i for i, b in enumerate(bins) if b in kv[0]), 0))):
         right = sum(r["kind"] == r["expected"] for r in rows)
+        said = sum(r["kind"].startswith("instrument") for r in rows)
         kinds = {}
         for r in rows:
             kinds[r["kind"]] = kinds.get(r["kind"], 0) + 1
-        lines.append(f"| {key} | {rows[0]['expected']} | {len(rows)} | {right}/{len(rows)} ({right / len(rows):.0%}) | "
+        lines.append(f"| {key} | {rows[0]['expected']} | {len(rows)} | {right}/{len(rows)} ({right / len(rows):.0%}, "
+                     f"[{wilson(right, len(rows))[0]:.0%}, {wilson(right, len(rows))[1]:.0%}]) | "
+                     f"{said}/{len(rows)} | "
                      + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items())) + " |")
     return "\n".join(lines)
 
