@@ -96,3 +96,18 @@ def test_missing_vertical_coordinates_and_short_tests_are_handled():
     assert rigidity(short).kind == "undecided"
     with pytest.raises(ValueError, match="rest"):
         rigidity(tests, rest=np.zeros((2, 3)))
+
+
+def test_diagnose_reports_rigidity_beside_an_unchanged_verdict():
+    from dataclasses import replace
+
+    from triplanar.workbench import Diagnoser
+    from triplanar.workbench import rules
+    from triplanar.workbench.results import DiagnosisResult
+    diag = Diagnoser(["end_friction", "rangefinder_gain"], folds=2, progress=False, model_form=False, audit=False,
+                     combine=False, executor="serial").fit(_lab("rangefinder_gain:gain_x1=1.2"))
+    field = diag.report_["rigidity"]
+    assert field["kind"] == "instrument" and "CP1-CP3" in field["broken"] and field["threshold"] == ALPHA
+    assert "rigidity (instrument): " in DiagnosisResult.of(diag).report()
+    # evidence only: the verdict's rules make the same verdict without it
+    assert rules.decide(replace(diag.evidence_, rigidity=None)) == diag.decision_
