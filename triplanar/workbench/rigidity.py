@@ -1,14 +1,15 @@
 """Instrument or specimen? The rigid block's three contact points keep their mutual distances.
 
 The specimen is one rigid block resting on the foundation at three contact points (Galic, Glaser & Goodman 2008,
-section 3.1: the paper's three-point contact, whose coordinates P1, P2, P3 are its generalised coordinates; the
-natural-coordinates form keeps ``|P2 - P1|``, ``|P3 - P1|``, ``|P3 - P2|`` constant as constraints). Whatever force
+section 3.1: the coordinates of P1, P2, P3 are the system's generalised coordinates; section 3.2, eq. 7: the rigid
+body constraints ``|P2 - P1| = L12``, ``|P3 - P1| = L13``, ``|P3 - P2| = L23``, "the distance between contact points is
+constant during sliding"; :mod:`triplanar.natural_coordinates` keeps the same three as constraints). Whatever force
 acts on the block (friction, a tip, a tilted plane, a force outside the library) moves it as a rigid body, so the
 three distances ``|CPi - CPj|`` along a measured path stay those of the block at rest, up to the rangefinders'
 noise. A position channel that misreads breaks that: a gain or a drift on one channel makes a distance change that
 grows with travel, an offset on one channel (or contact points that are not where the drawing puts them) a
-constant difference from the drawing's distances. :func:`rigidity` tests both, for each pair of points, before any
-candidate is fitted.
+constant difference from the drawing's distances. :func:`rigidity` tests both, for each pair of points, without
+fitting any model.
 
 The test. For each test and each pair, the distance ``D_k`` over the samples whose six coordinates are all measured
 (x2 may be missing: docs/measurement-format.md; a sample without it is left out of that pair, a test with fewer than
@@ -19,13 +20,14 @@ into ``s`` and ``D``, and that shared noise alone biases ``b`` (CP1-CP2 against 
 distances themselves: the residual of the lines, pooled over the tests of the pair (exact under rigidity; third
 differences of ``D``, tried first, came out a few per cent low and doubled the false alarms at p < 0.01 on the
 kernel's noise-free traces with Gaussian noise added, 200 draws x 48 tests); the mean lengthening it causes
-(``sigma^2 / L``) is taken off ``a``; with
-independent noise each ``b / se(b)`` and each ``(a - L) / se(a)`` (``L`` the drawing's distance) is a standard normal
+(``sigma^2 / L``) is taken off ``a``; with independent noise each ``b / se(b)`` and each ``(a - L) / se(a)`` (``L`` the drawing's distance) is a standard normal
 score under rigidity. Over the tests, Stouffer's sum (a change of one sign in every test) and the sum of squares
 (chi-square with as many degrees of freedom as tests: a change that differs between tests) give a p-value, the
 smaller of the two doubled; the statistic is the smallest p-value over the 3 pairs x 2 patterns, times 6
-(Bonferroni), compared with :data:`ALPHA`. Under rigidity it falls below ``ALPHA`` in at most a fraction ``ALPHA``
-of datasets, whatever the number of tests, samples or noise level: the threshold is not tuned.
+(Bonferroni), compared with :data:`ALPHA`. Under rigidity and independent Gaussian noise it falls below ``ALPHA`` in
+about a fraction ``ALPHA`` of datasets or fewer, whatever the number of tests, samples or noise level: the threshold is
+not tuned. Noise correlated in time (a real rangefinder's filter) would make it too eager; then the residual's
+autocorrelation should be allowed for (not done: the project's generators draw independent noise).
 
 What rigidity sees and what it cannot (each said in the result's sentence):
 
@@ -63,7 +65,7 @@ from ..measurement import MeasuredTest
 
 #: Family-wise significance level of the rigidity test (3 pairs x 2 patterns, Bonferroni).
 ALPHA = 1e-3
-#: Samples a test needs in a pair (third differences and a line need a few; 8 leaves 5 for the noise estimate).
+#: Samples a test needs in a pair (a line and its residual: 8 leave 6 degrees of freedom for the noise).
 MIN_SAMPLES = 8
 #: ``undecided`` when the smallest change the data could show (at ALPHA, over the typical travel) exceeds this: the
 #: library's instrument effects as the calibration set draws them (gain 10-25 %, offset 1-2.5 mm, drift 2-6 mm/s)
