@@ -30,6 +30,7 @@ from .evidence import expected_scatter_mm, growth_along_travel, instrument_noise
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
 from .given import audit_given       # (imported here also so that kept Evidence holding a GivenAudit reads back)
+from .rigidity import rigidity
 from .spec import ModelSpec, spec_with_values
 from .sweep import CandidateResult, CandidateTask, assemble, load_folds, profile_result, residual_of, run_candidate, \
     spec_of
@@ -132,6 +133,8 @@ class Diagnoser:
         ranked = [assemble(t, by_label, len(folds), len(tests), baseline_error, scatter) for t in tasks]
         ranked.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))
         ev = self._gather(tests, user_base, base, refit, folds, baseline, scatter, ranked)
+        # instrument or specimen, from the rigid block (evidence for the user: the verdict's rules do not read it)
+        ev = replace(ev, rigidity=rigidity(tests, user_base.rest_positions))
         if self.audit:      # the specimen's given numbers beside the effects: screened, the likely ones fitted
             ev = replace(ev, given_numbers=audit_given(ev, tasks, tests, self.executor, self.progress))
         if ev.best is not None and self.model_form:

@@ -323,6 +323,8 @@ def format_diagnosis(report: Mapping[str, Any]) -> str:
             lines.append(f"  {m['effect']:24s} {m['share_of_improvement']:6.0%} of the error   {params}   "
                          f"(confidence {m['confidence']})")
     lines += _lookalike_lines(report) + _given_number_lines(report)
+    if report.get("rigidity"):
+        lines += ["", f"rigidity ({report['rigidity']['kind']}): {report['rigidity']['sentence']}"]
     kind = f" ({report['missing_kind']})" if report.get("missing_kind") else ""
     named = f"missing effect: {verdict}{kind}"
     if report.get("verdict") == "refit_given_effect":

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 if TYPE_CHECKING:
     from .discrepancy import TestDiscrepancy
     from .given_audit import GivenAudit
+    from .rigidity import RigidityResult
     from .spec import ModelSpec
     from .candidate_result import CandidateResult
 
@@ -154,6 +155,9 @@ class Evidence:
     implementation_tolerance_mm: float = 0.0
     #: the audit of the specimen's given numbers (:func:`triplanar.workbench.given.audit_given`; empty: not audited)
     given_numbers: Sequence[GivenAudit] = ()
+    #: the rigid-block test of the measured contact points (:func:`triplanar.workbench.rigidity.rigidity`; ``None``:
+    #: gathered before it); evidence for the user only: no rule of the verdict reads it
+    rigidity: RigidityResult | None = None
 
     @property
     def candidates(self) -> list[CandidateResult]:
@@ -217,6 +221,7 @@ def report_json(ev: Evidence, verdict: Verdict, seconds: float) -> dict[str, Any
             "indistinguishable_from": [label(c) for c in ev.lookalikes] if ev.best else [],
             "lookalike_groups": [dict(g) for g in verdict.groups],
             "given_numbers": [a.as_json() for a in ev.given_numbers],
+            "rigidity": None if ev.rigidity is None else ev.rigidity.as_json(),
             "systematic": {"model_as_given": dict(ev.systematic), "after_best": dict(ev.systematic_after)},
             "combination": None if verdict.combination is None else dict(verdict.combination),
             "deciding_experiments": [dict(e) for e in ev.experiments],
