@@ -1,7 +1,8 @@
 """Compile every numba kernel into numba's cache ahead of use: ``python -m triplanar.warmup`` (``make install``).
 
 Runs what a user's first commands run, small: traces (the static-equilibrium LP, the sliding threshold of a rising
-actuator force, the start modes, DOPRI5; RK4 and Euler share its compiled code), a block at rest, the decoded
+actuator force, the start modes, DOPRI5; RK4 and Euler share its compiled code), a trace resampled by travel (the
+cubic Hermite interpolant), a block at rest, the decoded
 block state, the contact and load points a rendering draws, and, when Gymnasium is installed, one episode start
 and step of each env (v0, v1, and both batched versions, v1's in both observation modes) and the model-based
 controllers' prediction from a copy of v1's state (:mod:`envs.prediction`). The environments are imported only
@@ -28,6 +29,7 @@ def warm_physics() -> None:
 
     result = simulate(paper_model("A", 30.0))  # holds, start_motion, integrate_ws, the kernel
     assert result.status is Outcome.TRAVEL, result.message
+    result.resample_by_travel(np.array([0.01]))  # the interpolant (triplanar.interpolate) the workbench resamples with
     simulate(paper_model("A", 35.0, effects=[make_effect("actuator_rise:tau_s=0.05")]))  # the sliding threshold
     model = paper_model("A", 1.0)
     simulate(model)  # held: the right-hand side at rest

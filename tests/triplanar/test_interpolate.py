@@ -87,3 +87,33 @@ def test_linear_interpolates_between_rows_and_holds_or_marks_the_ends() -> None:
     beyond = linear(np.array([2.0, 4.0]), x, y, right=np.nan)
     assert beyond[0] == 2.0 and np.isnan(beyond[1])
     assert linear(1.5, x, y) == 3.0
+
+
+def _array_form(t, y, dy, tq, derivative):
+    """The interpolant as NumPy array operations (what the compiled loop replaced): its reference, to the bit."""
+    i = np.clip(np.searchsorted(t, tq, side="right") - 1, 0, len(t) - 2)
+    shape = (-1,) + (1,) * (y.ndim - 1)
+    h = (t[i + 1] - t[i]).reshape(shape)
+    u = (tq - t[i]).reshape(shape) / h
+    u2, u3 = u**2, u**3
+    h00, h10, h01, h11 = 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
+    pos = h00 * y[i] + h10 * h * dy[i] + h01 * y[i + 1] + h11 * h * dy[i + 1]
+    dh00, dh10, dh01, dh11 = 6 * u2 - 6 * u, 3 * u2 - 4 * u + 1, -6 * u2 + 6 * u, 3 * u2 - 2 * u
+    vel = (dh00 * y[i] + dh10 * h * dy[i] + dh01 * y[i + 1] + dh11 * h * dy[i + 1]) / h
+    return pos, vel
+
+
+@pytest.mark.parametrize("shape", [(), (3, 3), (4,)])
+def test_the_compiled_interpolant_is_the_array_form_to_the_bit(shape) -> None:
+    rng = np.random.default_rng(7)
+    for n in (2, 3, 17, 60):
+        t = np.sort(rng.random(n))
+        if n > 3:
+            t[2] = t[1]                        # an event row: a repeated time inside the span
+        y = rng.standard_normal((n, *shape)) * 10.0 ** rng.integers(-6, 3)
+        dy = rng.standard_normal((n, *shape))
+        tq = np.clip(rng.random(300) * 1.4 - 0.2, t[0], t[-1])
+        pos, vel = CubicHermite(t, y, dy).evaluate(tq, derivative=True)
+        ref_pos, ref_vel = _array_form(t, y, dy, tq, True)
+        assert np.array_equal(pos, ref_pos, equal_nan=True) and np.array_equal(vel, ref_vel, equal_nan=True)
+        assert pos.shape == (len(tq), *shape)
