@@ -34,10 +34,11 @@ class Event(NamedTuple):
 def rotation_matrices(quaternions: np.ndarray) -> np.ndarray:
     """(n, 4) unit quaternions (w, x, y, z) to (n, 3, 3) rotation matrices (columns g1, g2, g3)."""
     w, x, y, z = (quaternions[:, i] for i in range(4))
-    return np.stack([
-        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)], axis=-1),
-        np.stack([2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)], axis=-1),
-        np.stack([2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)], axis=-1)], axis=1)
+    out = np.empty((len(quaternions), 3, 3))   # (filled in place: nested np.stack cost more than the arithmetic)
+    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
+    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
+    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
+    return out
 
 
 @dataclass(frozen=True)
@@ -102,8 +103,13 @@ class SimulationResult:
     @cached_property
     def contact_velocities(self) -> np.ndarray:
         arms = self.contact_points - self.mass_centre[:, None, :]
-        omega = self.y[:, K.S_W:K.S_W + 3]
-        return self.y[:, None, K.S_V:K.S_V + 3] + np.cross(omega[:, None, :], arms)
+        w = self.y[:, None, K.S_W:K.S_W + 3]
+        # omega x arm, written out: np.cross's operations in its order (so the same bits) without its shape handling
+        turn = np.empty_like(arms)
+        turn[..., 0] = w[..., 1] * arms[..., 2] - w[..., 2] * arms[..., 1]
+        turn[..., 1] = w[..., 2] * arms[..., 0] - w[..., 0] * arms[..., 2]
+        turn[..., 2] = w[..., 0] * arms[..., 1] - w[..., 1] * arms[..., 0]
+        return self.y[:, None, K.S_V:K.S_V + 3] + turn
 
     @property
     def normal_reactions(self) -> np.ndarray:
