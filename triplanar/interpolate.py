@@ -71,6 +71,22 @@ class CubicHermite:
             return pos[0], (vel[0] if vel is not None else None)
         return pos, vel
 
+    def inverse(self, target: np.ndarray, start: np.ndarray, iterations: int = 3) -> np.ndarray:
+        """Times at which a scalar interpolant (``values`` of shape ``(n,)``, increasing where it is inverted) takes
+        the values ``target``: Newton's method on the cubic from ``start``, ``iterations`` steps, each clamped to
+        the span (a slope below 1e-9 counts as 1e-9). One compiled loop: the same steps as evaluating the value and
+        slope and updating ``t`` with NumPy, to the bit."""
+        target = np.ascontiguousarray(target, dtype=float)
+        out = np.array(start, dtype=float)
+        if len(self.t) == 1:          # a single row: every step lands on it
+            for _ in range(iterations):
+                pos, vel = self.evaluate(out, derivative=True)
+                out = np.clip(out - (pos - target) / np.maximum(vel, 1e-9), self.t[0], self.t[-1])
+            return out
+        _hermite_inverse(self.t, np.ascontiguousarray(self.values.reshape(len(self.t))),
+                         np.ascontiguousarray(self.slopes.reshape(len(self.t))), target, iterations, out)
+        return out
+
     def _evaluate(self, tq: np.ndarray, derivative: bool) -> tuple[np.ndarray, np.ndarray | None]:
         t, y, dy = self.t, self.values, self.slopes
         if len(t) == 1:
@@ -102,3 +118,27 @@ def _hermite(t, y, dy, tq, derivative, pos, vel):  # pragma: no cover (compiled)
             dh00, dh10, dh01, dh11 = 6 * u2 - 6 * u, 3 * u2 - 4 * u + 1, -6 * u2 + 6 * u, 3 * u2 - 2 * u
             for j in range(y.shape[1]):
                 vel[k, j] = (dh00 * y[i, j] + dh10 * h * dy[i, j] + dh01 * y[i + 1, j] + dh11 * h * dy[i + 1, j]) / h
+
+
+@njit(cache=True, error_model="numpy")
+def _hermite_inverse(t, y, dy, target, iterations, out):  # pragma: no cover (compiled)
+    """Newton's method on a scalar cubic Hermite interpolant, in place on ``out`` (:meth:`CubicHermite.inverse`):
+    :func:`_hermite`'s value and slope, then ``t - (value - target) / max(slope, 1e-9)`` clamped to the span, with
+    NumPy's ``maximum`` and ``clip`` semantics (a NaN propagates)."""
+    last, lo, hi = t.shape[0] - 2, t[0], t[-1]
+    for k in range(out.shape[0]):
+        tk = out[k]
+        for _ in range(iterations):
+            tq = tk if tk != tk else min(max(tk, lo), hi)          # (evaluate's clamp; np.clip keeps a NaN)
+            i = min(max(np.searchsorted(t, tq, side="right") - 1, 0), last)
+            h = t[i + 1] - t[i]
+            u = (tq - t[i]) / h
+            u2, u3 = u ** 2.0, u ** 3.0
+            pos = (2 * u3 - 3 * u2 + 1) * y[i] + (u3 - 2 * u2 + u) * h * dy[i] + (-2 * u3 + 3 * u2) * y[i + 1] \
+                + (u3 - u2) * h * dy[i + 1]
+            vel = ((6 * u2 - 6 * u) * y[i] + (3 * u2 - 4 * u + 1) * h * dy[i] + (-6 * u2 + 6 * u) * y[i + 1]
+                   + (3 * u2 - 2 * u) * h * dy[i + 1]) / h
+            slope = vel if (vel != vel or vel >= 1e-9) else 1e-9      # np.maximum(vel, 1e-9)
+            step = tk - (pos - target[k]) / slope
+            tk = step if step != step else min(max(step, lo), hi)    # np.clip(..., lo, hi)
+        out[k] = tk

@@ -210,11 +210,8 @@ class SimulationResult:
         s = self.travel
         if travel.size and (travel.min() < 0 or travel.max() > s[-1] + 1e-12):
             raise ValueError(f"travel must lie within [0, {s[-1]:.6g}] m, the simulated range")
-        t = linear(travel, s, self.t)      # the start of the Newton refinement on the cubic
-        for _ in range(3):
-            pos, vel = self._travel_path.evaluate(t, derivative=True)
-            t = np.clip(t - (pos - travel) / np.maximum(vel, 1e-9), self.t[0], self.t[-1])
-        return t
+        start = linear(travel, s, self.t)      # the start of the Newton refinement on the cubic
+        return self._travel_path.inverse(np.atleast_1d(travel), np.atleast_1d(start), 3).reshape(np.shape(travel))
 
     def resample_by_travel(self, travel: np.ndarray) -> np.ndarray:
         """(m, 3, 3) contact-point positions where CP1 has travelled ``travel`` (m)."""

@@ -117,3 +117,26 @@ def test_the_compiled_interpolant_is_the_array_form_to_the_bit(shape) -> None:
         ref_pos, ref_vel = _array_form(t, y, dy, tq, True)
         assert np.array_equal(pos, ref_pos, equal_nan=True) and np.array_equal(vel, ref_vel, equal_nan=True)
         assert pos.shape == (len(tq), *shape)
+
+
+def _newton_array_form(spline: CubicHermite, target, start, iterations=3):
+    """Newton's method with NumPy, as ``SimulationResult.time_at_travel`` did before the compiled loop."""
+    t = np.asarray(start, dtype=float)
+    for _ in range(iterations):
+        pos, vel = spline.evaluate(t, derivative=True)
+        t = np.clip(t - (pos - target) / np.maximum(vel, 1e-9), spline.t[0], spline.t[-1])
+    return t
+
+
+def test_the_compiled_inverse_is_the_array_form_newton_to_the_bit() -> None:
+    rng = np.random.default_rng(11)
+    for n in (1, 2, 5, 40):
+        t = np.sort(rng.random(n))
+        slopes = rng.random(n) + 0.01
+        values = np.cumsum(slopes) * 0.01 + rng.normal(0, 1e-4, n)       # increasing, not exactly
+        spline = CubicHermite(t, values, slopes)
+        target = rng.uniform(values.min() - 0.01, values.max() + 0.01, 200)
+        start = rng.uniform(t[0] - 0.1, t[-1] + 0.1, 200)                 # starts outside the span too
+        got = spline.inverse(target, start)
+        assert np.array_equal(got, _newton_array_form(spline, target, start), equal_nan=True), n
+    assert np.isnan(spline.inverse(np.array([np.nan]), np.array([0.5]))[0])       # a NaN propagates as with NumPy
