@@ -7,7 +7,8 @@ ends the episode at zero) and the smallest distance of a contact point from cros
 (``left_plane`` at zero).
 
 ``PYTHONPATH=. python -m experiments.post_start_diagnosis --student DIR --benches 11 41 43 [--labels L ...]``
-prints JSON; with ``--labels`` each decision's frame stack also gets its distance (normalised as the student
+prints JSON; ``--handover K ...`` adds the outcome when the student drives up to decision K and ``limit`` from it
+on (the last decision from which ``limit`` still saves the bench); with ``--labels`` each decision's frame stack also gets its distance (normalised as the student
 normalises) to the nearest labelled decision of the folders.
 """
 
@@ -47,9 +48,9 @@ def margins(env: Any) -> tuple[float, float]:
     return float(least_normal), 1e3 * float(min(gaps)) if gaps else float("nan")
 
 
-def replay(student: StudentController, bench: Any, seed: int, limit_drives_after: int | None) -> dict[str, Any]:
-    """One episode: the student drives (``limit_drives_after`` None) or plays its start and ``limit`` drives from
-    decision ``limit_drives_after``; ``limit`` labels every decision either way."""
+def replay(student: Any, bench: Any, seed: int, limit_drives_after: int | None) -> dict[str, Any]:
+    """One episode: the student (or any controller, ``mpc``) drives (``limit_drives_after`` None) or plays its start
+    and ``limit`` drives from decision ``limit_drives_after``; ``limit`` labels every decision either way."""
     env = TriPlanarShearV1Env(**student.env_kwargs)
     obs, info = env.reset(seed=seed, options={"bench": bench})
     teacher = LimitController()
@@ -89,7 +90,8 @@ def nearest_label(student: StudentController, labelled: np.ndarray, decisions: l
     return [float(np.sqrt(((labelled - h) ** 2).sum(axis=1)).min()) for h in here]
 
 
-def diagnose(folder: str, benches: list[int], labels: list[str] | None) -> dict[str, Any]:
+def diagnose(folder: str, benches: list[int], labels: list[str] | None, handovers: list[int] = (),
+             with_mpc: bool = False) -> dict[str, Any]:
     student = StudentController.load(folder)
     draws = judge_draws(max(benches) + 1, student.env_kwargs)
     labelled = labelled_stacks(student, labels) if labels else None
@@ -99,11 +101,19 @@ def diagnose(folder: str, benches: list[int], labels: list[str] | None) -> dict[
         assert bench_of_draw(TUNING_SEED, draw, student.env_kwargs) is not None
         runs = {"student": replay(student, bench, index, None),
                 "limit_after_start": replay(student, bench, index, len(student.start))}
+        for k in handovers:   # the student drives up to decision k, limit from it on
+            run = replay(student, bench, index, k)
+            runs[f"limit_from_{k}"] = {key: run[key] for key in ("reason", "steps", "success", "mimicry_error_mm")}
+        if with_mpc:   # mpc, which sees only the bench, drives from its own start
+            from agents.mpc import MPCController
+            runs["mpc"] = replay(MPCController(), bench, index, None)
+            for d in runs["mpc"]["decisions"]:
+                d.pop("obs")
         if labelled is not None:
-            for run in runs.values():
+            for run in (runs["student"], runs["limit_after_start"]):
                 for d, gap in zip(run["decisions"], nearest_label(student, labelled, run["decisions"])):
                     d["nearest_label"] = round(gap, 3)
-        for run in runs.values():
+        for run in (runs["student"], runs["limit_after_start"]):
             for d in run["decisions"]:
                 d.pop("obs")
         found[str(index)] = {"draw": draw, **runs}
@@ -116,8 +126,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--student", required=True, help="a student folder (experiments.train_student)")
     parser.add_argument("--benches", type=int, nargs="+", required=True, help="judge benches' indices")
     parser.add_argument("--labels", nargs="*", help="label folders for the nearest-label distance")
+    parser.add_argument("--handover", type=int, nargs="*", default=[], metavar="K", help="also: the student "
+                        "drives up to decision K and limit from it on (the outcome only)")
+    parser.add_argument("--mpc", action="store_true", help="also: mpc drives (its actions beside limit's)")
     args = parser.parse_args(argv)
-    print(json.dumps(diagnose(args.student, args.benches, args.labels), indent=1))
+    print(json.dumps(diagnose(args.student, args.benches, args.labels, args.handover, args.mpc), indent=1))
     return 0
 
 
