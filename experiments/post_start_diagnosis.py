@@ -51,7 +51,7 @@ def margins(env: Any) -> tuple[float, float]:
 def replay(student: Any, bench: Any, seed: int, limit_drives_after: int | None) -> dict[str, Any]:
     """One episode: the student (or any controller, ``mpc``) drives (``limit_drives_after`` None) or plays its start
     and ``limit`` drives from decision ``limit_drives_after``; ``limit`` labels every decision either way."""
-    env = TriPlanarShearV1Env(**student.env_kwargs)
+    env = TriPlanarShearV1Env(**getattr(student, "env_kwargs", {}))
     obs, info = env.reset(seed=seed, options={"bench": bench})
     teacher = LimitController()
     teacher.bind(env)

@@ -452,12 +452,12 @@ def judge_draws(n: int, env_kwargs: dict[str, Any]) -> list[tuple[int, Any]]:
     return found
 
 
-def judge(folder: str | Path, n: int) -> dict[str, Any]:
-    """The student of ``folder`` on :func:`judge_draws`' benches (noise seed: the bench's index, as
-    ``triplanar evaluate`` seeds a learned controller): :func:`experiments.stats.row_stats` and each episode."""
+def judge(folder: str | Path, n: int, skip: int = 0) -> dict[str, Any]:
+    """The student of ``folder`` on :func:`judge_draws`' benches from the ``skip``-th (noise seed: the bench's index,
+    as ``triplanar evaluate`` seeds a learned controller): :func:`experiments.stats.row_stats` and each episode."""
     student = StudentController.load(folder)
     outcomes = [run_episode(student, bench, env_kwargs=student.env_kwargs, seed=i, bench_set="tuning", index=i)
-                for i, (_, bench) in enumerate(judge_draws(n, student.env_kwargs))]
+                for i, (_, bench) in enumerate(judge_draws(n, student.env_kwargs)) if i >= skip]
     errors = np.array([[o.mimicry_error_mm for o in outcomes]])
     success = np.array([[o.success for o in outcomes]])
     stats = row_stats(errors, success, FAILURE_SCORE_MM)
@@ -479,6 +479,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--checkpoint-every", type=int, default=10, help="epochs between checkpoints")
     parser.add_argument("--judge", type=int, default=0, metavar="N", help="then run the student on the first N "
                         f"startable tuning draws below {JUDGE_DRAWS} (never labelled) and print its statistics")
+    parser.add_argument("--judge-skip", type=int, default=0, metavar="M", help="judge only from the M-th of those "
+                        "draws (--judge 200 --judge-skip 100: the second 100, kept for reporting a choice made on "
+                        "the first)")
     return parser.parse_args(argv)
 
 
@@ -495,7 +498,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{t['best_epoch']} (validation action RMS {best[3]:.4f}; the mean action's "
                   f"{t['val_action_rms_of_the_mean']:.4f})")
         if args.judge:
-            print(json.dumps(judge(args.out, args.judge), indent=1))
+            print(json.dumps(judge(args.out, args.judge, args.judge_skip), indent=1))
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
