@@ -48,12 +48,13 @@ def margins(env: Any) -> tuple[float, float]:
     return float(least_normal), 1e3 * float(min(gaps)) if gaps else float("nan")
 
 
-def replay(student: Any, bench: Any, seed: int, limit_drives_after: int | None) -> dict[str, Any]:
+def replay(student: Any, bench: Any, seed: int, limit_drives_after: int | None,
+           limit_settings: dict[str, float] | None = None) -> dict[str, Any]:
     """One episode: the student (or any controller, ``mpc``) drives (``limit_drives_after`` None) or plays its start
     and ``limit`` drives from decision ``limit_drives_after``; ``limit`` labels every decision either way."""
     env = TriPlanarShearV1Env(**getattr(student, "env_kwargs", {}))
     obs, info = env.reset(seed=seed, options={"bench": bench})
-    teacher = LimitController()
+    teacher = LimitController(**(limit_settings or {}))
     teacher.bind(env)
     teacher.reset(bench.load_N, env.config)
     student.reset(bench.load_N, env.config)
@@ -91,7 +92,7 @@ def nearest_label(student: StudentController, labelled: np.ndarray, decisions: l
 
 
 def diagnose(folder: str, benches: list[int], labels: list[str] | None, handovers: list[int] = (),
-             with_mpc: bool = False) -> dict[str, Any]:
+             with_mpc: bool = False, limit_settings: dict[str, float] | None = None) -> dict[str, Any]:
     student = StudentController.load(folder)
     draws = judge_draws(max(benches) + 1, student.env_kwargs)
     labelled = labelled_stacks(student, labels) if labels else None
@@ -99,14 +100,14 @@ def diagnose(folder: str, benches: list[int], labels: list[str] | None, handover
     for index in benches:
         draw, bench = draws[index]
         assert bench_of_draw(TUNING_SEED, draw, student.env_kwargs) is not None
-        runs = {"student": replay(student, bench, index, None),
-                "limit_after_start": replay(student, bench, index, len(student.start))}
+        runs = {"student": replay(student, bench, index, None, limit_settings),
+                "limit_after_start": replay(student, bench, index, len(student.start), limit_settings)}
         for k in handovers:   # the student drives up to decision k, limit from it on
-            run = replay(student, bench, index, k)
+            run = replay(student, bench, index, k, limit_settings)
             runs[f"limit_from_{k}"] = {key: run[key] for key in ("reason", "steps", "success", "mimicry_error_mm")}
         if with_mpc:   # mpc, which sees only the bench, drives from its own start
             from agents.mpc import MPCController
-            runs["mpc"] = replay(MPCController(), bench, index, None)
+            runs["mpc"] = replay(MPCController(), bench, index, None, limit_settings)
             for d in runs["mpc"]["decisions"]:
                 d.pop("obs")
         if labelled is not None:
@@ -129,8 +130,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--handover", type=int, nargs="*", default=[], metavar="K", help="also: the student "
                         "drives up to decision K and limit from it on (the outcome only)")
     parser.add_argument("--mpc", action="store_true", help="also: mpc drives (its actions beside limit's)")
+    parser.add_argument("--limit", action="append", default=[], metavar="FIELD=VALUE",
+                        help="a LimitController setting (repeatable), e.g. plane_margin_m=0.0005")
     args = parser.parse_args(argv)
-    print(json.dumps(diagnose(args.student, args.benches, args.labels, args.handover, args.mpc), indent=1))
+    try:
+        settings = {k: float(v) for k, v in (item.split("=", 1) for item in args.limit)}
+    except ValueError:
+        parser.error(f"--limit takes FIELD=NUMBER, got {args.limit}")
+    from dataclasses import fields
+    known = {f.name for f in fields(LimitController)}
+    if set(settings) - known:
+        parser.error(f"--limit: no LimitController field {sorted(set(settings) - known)}; fields: {sorted(known)}")
+    print(json.dumps(diagnose(args.student, args.benches, args.labels, args.handover, args.mpc, settings),
+                     indent=1))
     return 0
 
 
