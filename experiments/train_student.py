@@ -15,7 +15,8 @@ meanwhile does not change a resumed run's data (train on the new shards with a n
 ``--kind gru --gru 64`` trains a recurrent student (:mod:`agents.student`) on whole episodes (``--batch``
 episodes a step, each padded to the longest, the padding masked out of the loss). ``--start-periods K`` makes the
 student play ``mpc``'s designed excitation for its first ``K`` decisions (written in its ``start`` field) and drops
-those decisions' labels from the loss (they are not the student's to take).
+those decisions' labels from the loss (they are not the student's to take). ``--post-start-weight W`` counts the
+``--post-start-span`` decisions after the start ``W`` times in the loss (where the start students failed).
 
 ``--judge N`` then runs the student on the first ``N`` startable draws of the tuning stream below 1000 (kept from
 labelling for this, :mod:`experiments.distill_labels`) and prints success and score with their intervals.
@@ -62,6 +63,8 @@ class StudentSettings:
     kind: str = "mlp"           # or "gru": a recurrent student trained on whole episodes (--batch: episodes)
     gru: int = 64               # the GRU's cells
     start_periods: int = 0      # mpc's designed excitation for the first K decisions (no labels learnt there)
+    post_start_weight: float = 1.0   # the loss weight of the decisions just after the start (the rest: 1)
+    post_start_span: int = 8         # how many decisions after the start carry post_start_weight
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -70,6 +73,9 @@ class StudentSettings:
             raise ValueError(f"a gru student needs gru >= 1 and aux 'none', got gru {self.gru!r}, aux {self.aux!r}")
         if self.start_periods < 0:
             raise ValueError(f"start_periods must be >= 0, got {self.start_periods!r}")
+        if not self.post_start_weight > 0 or self.post_start_span < 0:
+            raise ValueError(f"post_start_weight must be > 0 and post_start_span >= 0, got "
+                             f"{self.post_start_weight!r}, {self.post_start_span!r}")
         if self.aux not in ("truth", "none"):
             raise ValueError(f"aux must be 'truth' or 'none', got {self.aux!r}")
         if not 0.0 <= self.val_fraction < 1.0:
@@ -125,6 +131,7 @@ class Dataset:
     val_episodes: list
     bounds: np.ndarray       # (episodes + 1,) the first row of each episode (rows are in episode order)
     learnt: np.ndarray       # (rows,) bool: the decision's label is learnt (after the start's periods)
+    weight: np.ndarray       # (rows,) float32: the label's weight in the loss (0 where not learnt)
 
 
 def _scale(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -149,7 +156,15 @@ def dataset(shards: list[str], settings: StudentSettings) -> Dataset:
     bounds = np.searchsorted(data["episode"], np.arange(n_episodes + 1))
     return Dataset(x, data["y"].astype(np.float32), ((aux - aux_mean) / aux_std).astype(np.float32), train, val,
                    obs_mean, obs_std, aux_mean, aux_std, aux_names, n_episodes, [int(e) for e in held], bounds,
-                   learnt)
+                   learnt, loss_weights(data["step"], settings))
+
+
+def loss_weights(step: np.ndarray, settings: StudentSettings) -> np.ndarray:
+    """Each decision's weight in the loss: 0 during the start (not learnt), ``post_start_weight`` for the
+    ``post_start_span`` decisions after it (where the students failed: docs/notes/student-experiments.md), 1 later."""
+    weight = np.where(step >= settings.start_periods, 1.0, 0.0)
+    after = (step >= settings.start_periods) & (step < settings.start_periods + settings.post_start_span)
+    return np.where(after, settings.post_start_weight, weight).astype(np.float32)
 
 
 def build_network(settings: StudentSettings, n_aux: int) -> Any:
@@ -210,7 +225,7 @@ def episode_batch(data: Dataset, episodes: np.ndarray, rows: set | None = None) 
     for i, (e, n) in enumerate(zip(episodes, lengths)):
         span = np.arange(data.bounds[e], data.bounds[e] + n)
         x[i, :n], y[i, :n] = data.x[span], data.y[span]
-        mask[i, :n] = data.learnt[span]
+        mask[i, :n] = data.weight[span]
     return torch.from_numpy(x), torch.from_numpy(y), torch.from_numpy(mask)
 
 
@@ -237,8 +252,16 @@ def _losses(net: Any, data: Dataset, rows: np.ndarray, settings: StudentSettings
         action, aux = net(torch.from_numpy(data.x[rows]))
         action_mse = float(((action - torch.from_numpy(data.y[rows])) ** 2).mean())
         aux_mse = float(((aux - torch.from_numpy(data.aux[rows])) ** 2).mean()) if aux is not None else math.nan
-    loss = action_mse + (settings.aux_weight * aux_mse if aux is not None else 0.0)
+        fit = action_mse if settings.post_start_weight == 1.0 else float(_weighted_mse(action, data, rows))
+    loss = fit + (settings.aux_weight * aux_mse if aux is not None else 0.0)
     return loss, math.sqrt(action_mse), math.sqrt(aux_mse)
+
+
+def _weighted_mse(action: Any, data: Dataset, rows: np.ndarray) -> Any:
+    """The action's squared error on ``rows``, weighted by :func:`loss_weights` (the weights' mean is the unit)."""
+    import torch
+    weight = torch.from_numpy(data.weight[rows])
+    return (((action - torch.from_numpy(data.y[rows])) ** 2).mean(dim=1) * weight).sum() / weight.sum()
 
 
 def _epoch(net: Any, optimizer: Any, data: Dataset, settings: StudentSettings, epoch: int) -> float:
@@ -251,7 +274,10 @@ def _epoch(net: Any, optimizer: Any, data: Dataset, settings: StudentSettings, e
     for start in range(0, len(order), settings.batch):
         rows = order[start:start + settings.batch]
         action, aux = net(torch.from_numpy(data.x[rows]))
-        loss = ((action - torch.from_numpy(data.y[rows])) ** 2).mean()
+        if settings.post_start_weight == 1.0:   # (unweighted as before: earlier runs resume bitwise)
+            loss = ((action - torch.from_numpy(data.y[rows])) ** 2).mean()
+        else:
+            loss = _weighted_mse(action, data, rows)
         if aux is not None:
             loss = loss + settings.aux_weight * ((aux - torch.from_numpy(data.aux[rows])) ** 2).mean()
         optimizer.zero_grad()
@@ -426,12 +452,12 @@ def judge_draws(n: int, env_kwargs: dict[str, Any]) -> list[tuple[int, Any]]:
     return found
 
 
-def judge(folder: str | Path, n: int) -> dict[str, Any]:
-    """The student of ``folder`` on :func:`judge_draws`' benches (noise seed: the bench's index, as
-    ``triplanar evaluate`` seeds a learned controller): :func:`experiments.stats.row_stats` and each episode."""
+def judge(folder: str | Path, n: int, skip: int = 0) -> dict[str, Any]:
+    """The student of ``folder`` on :func:`judge_draws`' benches from the ``skip``-th (noise seed: the bench's index,
+    as ``triplanar evaluate`` seeds a learned controller): :func:`experiments.stats.row_stats` and each episode."""
     student = StudentController.load(folder)
     outcomes = [run_episode(student, bench, env_kwargs=student.env_kwargs, seed=i, bench_set="tuning", index=i)
-                for i, (_, bench) in enumerate(judge_draws(n, student.env_kwargs))]
+                for i, (_, bench) in enumerate(judge_draws(n, student.env_kwargs)) if i >= skip]
     errors = np.array([[o.mimicry_error_mm for o in outcomes]])
     success = np.array([[o.success for o in outcomes]])
     stats = row_stats(errors, success, FAILURE_SCORE_MM)
@@ -453,6 +479,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--checkpoint-every", type=int, default=10, help="epochs between checkpoints")
     parser.add_argument("--judge", type=int, default=0, metavar="N", help="then run the student on the first N "
                         f"startable tuning draws below {JUDGE_DRAWS} (never labelled) and print its statistics")
+    parser.add_argument("--judge-skip", type=int, default=0, metavar="M", help="judge only from the M-th of those "
+                        "draws (--judge 200 --judge-skip 100: the second 100, kept for reporting a choice made on "
+                        "the first)")
     return parser.parse_args(argv)
 
 
@@ -469,7 +498,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{t['best_epoch']} (validation action RMS {best[3]:.4f}; the mean action's "
                   f"{t['val_action_rms_of_the_mean']:.4f})")
         if args.judge:
-            print(json.dumps(judge(args.out, args.judge), indent=1))
+            print(json.dumps(judge(args.out, args.judge, args.judge_skip), indent=1))
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
