@@ -99,12 +99,18 @@ def compare(before: dict[str, np.ndarray], after: dict[str, np.ndarray]) -> bool
     return same
 
 
-def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+def save_or_compare(description: str, kind: str) -> argparse.Namespace:
+    """The command line of a fingerprint (this one, ``workbench_fingerprint.py``): ``--save FILE`` or ``--compare
+    FILE``, a ``kind`` file."""
+    parser = argparse.ArgumentParser(description=description)
     group = parser.add_mutually_exclusive_group(required=True)
-    group.add_argument("--save", help="write the fingerprint to this .npz file")
-    group.add_argument("--compare", help="compare with the fingerprint in this .npz file")
-    args = parser.parse_args()
+    group.add_argument("--save", help=f"write the fingerprint to this {kind} file")
+    group.add_argument("--compare", help=f"compare with the fingerprint in this {kind} file")
+    return parser.parse_args()
+
+
+def main() -> int:
+    args = save_or_compare(__doc__.splitlines()[0], ".npz")
     current = record()
     if args.save:
         np.savez(args.save, **current)

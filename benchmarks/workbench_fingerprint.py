@@ -14,7 +14,6 @@ traces and the environments' rollouts.
 
 from __future__ import annotations
 
-import argparse
 import json
 import sys
 import time
@@ -62,11 +61,8 @@ def differences(before: Any, after: Any, path: str = "") -> list[str]:
 
 
 def main() -> int:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    group = parser.add_mutually_exclusive_group(required=True)
-    group.add_argument("--save", help="write the reports to this JSON file")
-    group.add_argument("--compare", help="compare with the reports in this JSON file")
-    args = parser.parse_args()
+    from fingerprint import save_or_compare      # (benchmarks/ is on the path when a script of it runs)
+    args = save_or_compare(__doc__.splitlines()[0], "JSON")
     started = time.process_time()
     current = record()
     print(f"five diagnoses: {time.process_time() - started:.1f} CPU s")
