@@ -76,16 +76,17 @@ class CubicHermite:
         the values ``target``: Newton's method on the cubic from ``start``, ``iterations`` steps, each clamped to
         the span (a slope below 1e-9 counts as 1e-9). One compiled loop: the same steps as evaluating the value and
         slope and updating ``t`` with NumPy, to the bit."""
-        target = np.ascontiguousarray(target, dtype=float)
-        out = np.array(start, dtype=float)
+        shape = np.shape(start)
+        target = np.ascontiguousarray(np.broadcast_to(np.asarray(target, dtype=float), shape)).ravel()
+        out = np.array(start, dtype=float).ravel()
         if len(self.t) == 1:          # a single row: every step lands on it
             for _ in range(iterations):
                 pos, vel = self.evaluate(out, derivative=True)
                 out = np.clip(out - (pos - target) / np.maximum(vel, 1e-9), self.t[0], self.t[-1])
-            return out
+            return out.reshape(shape)
         _hermite_inverse(self.t, np.ascontiguousarray(self.values.reshape(len(self.t))),
                          np.ascontiguousarray(self.slopes.reshape(len(self.t))), target, iterations, out)
-        return out
+        return out.reshape(shape)
 
     def _evaluate(self, tq: np.ndarray, derivative: bool) -> tuple[np.ndarray, np.ndarray | None]:
         t, y, dy = self.t, self.values, self.slopes

@@ -211,7 +211,8 @@ class SimulationResult:
         if travel.size and (travel.min() < 0 or travel.max() > s[-1] + 1e-12):
             raise ValueError(f"travel must lie within [0, {s[-1]:.6g}] m, the simulated range")
         start = linear(travel, s, self.t)      # the start of the Newton refinement on the cubic
-        return self._travel_path.inverse(np.atleast_1d(travel), np.atleast_1d(start), 3).reshape(np.shape(travel))
+        t = self._travel_path.inverse(travel, start, 3)
+        return t[()] if travel.ndim == 0 else t
 
     def resample_by_travel(self, travel: np.ndarray) -> np.ndarray:
         """(m, 3, 3) contact-point positions where CP1 has travelled ``travel`` (m)."""

@@ -140,3 +140,5 @@ def test_the_compiled_inverse_is_the_array_form_newton_to_the_bit() -> None:
         got = spline.inverse(target, start)
         assert np.array_equal(got, _newton_array_form(spline, target, start), equal_nan=True), n
     assert np.isnan(spline.inverse(np.array([np.nan]), np.array([0.5]))[0])       # a NaN propagates as with NumPy
+    grid = spline.inverse(target[:6].reshape(2, 3), start[:6].reshape(2, 3))          # any shape, kept
+    assert grid.shape == (2, 3) and np.array_equal(grid.ravel(), got[:6])
