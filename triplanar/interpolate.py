@@ -84,8 +84,8 @@ class CubicHermite:
                 pos, vel = self.evaluate(out, derivative=True)
                 out = np.clip(out - (pos - target) / np.maximum(vel, 1e-9), self.t[0], self.t[-1])
             return out.reshape(shape)
-        _hermite_inverse(self.t, np.ascontiguousarray(self.values.reshape(len(self.t))),
-                         np.ascontiguousarray(self.slopes.reshape(len(self.t))), target, iterations, out)
+        _hermite_inverse(self.t, np.ascontiguousarray(self.values.reshape(len(self.t), 1)),
+                         np.ascontiguousarray(self.slopes.reshape(len(self.t), 1)), target, iterations, out)
         return out.reshape(shape)
 
     def _evaluate(self, tq: np.ndarray, derivative: bool) -> tuple[np.ndarray, np.ndarray | None]:
@@ -100,46 +100,52 @@ class CubicHermite:
         return pos.reshape((len(tq),) + rest), (vel.reshape((len(tq),) + rest) if derivative else None)
 
 
+@njit(cache=True, inline="always", error_model="numpy")
+def _basis(t, tq, last):  # pragma: no cover (compiled)
+    """The interval ``i`` holding ``tq`` (within the span), its length ``h`` and the cubic Hermite basis there, for
+    the value ``(h00, h10, h01, h11)`` and for the slope ``(dh00, dh10, dh01, dh11)``."""
+    i = min(max(np.searchsorted(t, tq, side="right") - 1, 0), last)
+    h = t[i + 1] - t[i]
+    u = (tq - t[i]) / h
+    u2, u3 = u ** 2.0, u ** 3.0
+    return (i, h, (2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2),
+            (6 * u2 - 6 * u, 3 * u2 - 4 * u + 1, -6 * u2 + 6 * u, 3 * u2 - 2 * u))
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def _combine(w, y, dy, i, j, h):  # pragma: no cover (compiled)
+    """Column ``j`` of rows ``i`` and ``i + 1`` weighed by the basis ``w`` (each term's products left to right)."""
+    return w[0] * y[i, j] + w[1] * h * dy[i, j] + w[2] * y[i + 1, j] + w[3] * h * dy[i + 1, j]
+
+
 @njit(cache=True, error_model="numpy")
 def _hermite(t, y, dy, tq, derivative, pos, vel):  # pragma: no cover (compiled)
-    """The cubic Hermite basis at each query, row by row (compiled: the workbench interpolates thousands of short
-    runs, where NumPy's per-call overhead was most of the cost). The same operations in the same order as the array
-    form it replaced (``u ** 2`` and ``u ** 3`` as powers, each term's products left to right), so the values are
-    the same to the last bit (tests/triplanar/test_interpolate.py)."""
+    """The cubic Hermite interpolant at each query, row by row (compiled: the workbench interpolates thousands of
+    short runs, where NumPy's per-call overhead was most of the cost). The same operations in the same order as the
+    array form it replaced (``u ** 2`` and ``u ** 3`` as powers, each term's products left to right), so the values
+    are the same to the last bit (tests/triplanar/test_interpolate.py)."""
     last = t.shape[0] - 2
     for k in range(tq.shape[0]):
-        i = min(max(np.searchsorted(t, tq[k], side="right") - 1, 0), last)
-        h = t[i + 1] - t[i]
-        u = (tq[k] - t[i]) / h
-        u2, u3 = u ** 2.0, u ** 3.0
-        h00, h10, h01, h11 = 2 * u3 - 3 * u2 + 1, u3 - 2 * u2 + u, -2 * u3 + 3 * u2, u3 - u2
+        i, h, w, dw = _basis(t, tq[k], last)
         for j in range(y.shape[1]):
-            pos[k, j] = h00 * y[i, j] + h10 * h * dy[i, j] + h01 * y[i + 1, j] + h11 * h * dy[i + 1, j]
-        if derivative:
-            dh00, dh10, dh01, dh11 = 6 * u2 - 6 * u, 3 * u2 - 4 * u + 1, -6 * u2 + 6 * u, 3 * u2 - 2 * u
-            for j in range(y.shape[1]):
-                vel[k, j] = (dh00 * y[i, j] + dh10 * h * dy[i, j] + dh01 * y[i + 1, j] + dh11 * h * dy[i + 1, j]) / h
+            pos[k, j] = _combine(w, y, dy, i, j, h)
+            if derivative:
+                vel[k, j] = _combine(dw, y, dy, i, j, h) / h
 
 
 @njit(cache=True, error_model="numpy")
 def _hermite_inverse(t, y, dy, target, iterations, out):  # pragma: no cover (compiled)
-    """Newton's method on a scalar cubic Hermite interpolant, in place on ``out`` (:meth:`CubicHermite.inverse`):
-    :func:`_hermite`'s value and slope, then ``t - (value - target) / max(slope, 1e-9)`` clamped to the span, with
-    NumPy's ``maximum`` and ``clip`` semantics (a NaN propagates)."""
+    """Newton's method on a scalar cubic Hermite interpolant (``y``, ``dy``: one column), in place on ``out``
+    (:meth:`CubicHermite.inverse`): the value and slope as :func:`_hermite` makes them, then ``t - (value - target) /
+    max(slope, 1e-9)`` clamped to the span, with NumPy's ``maximum`` and ``clip`` semantics (a NaN propagates)."""
     last, lo, hi = t.shape[0] - 2, t[0], t[-1]
     for k in range(out.shape[0]):
         tk = out[k]
         for _ in range(iterations):
             tq = tk if tk != tk else min(max(tk, lo), hi)          # (evaluate's clamp; np.clip keeps a NaN)
-            i = min(max(np.searchsorted(t, tq, side="right") - 1, 0), last)
-            h = t[i + 1] - t[i]
-            u = (tq - t[i]) / h
-            u2, u3 = u ** 2.0, u ** 3.0
-            pos = (2 * u3 - 3 * u2 + 1) * y[i] + (u3 - 2 * u2 + u) * h * dy[i] + (-2 * u3 + 3 * u2) * y[i + 1] \
-                + (u3 - u2) * h * dy[i + 1]
-            vel = ((6 * u2 - 6 * u) * y[i] + (3 * u2 - 4 * u + 1) * h * dy[i] + (-6 * u2 + 6 * u) * y[i + 1]
-                   + (3 * u2 - 2 * u) * h * dy[i + 1]) / h
+            i, h, w, dw = _basis(t, tq, last)
+            vel = _combine(dw, y, dy, i, 0, h) / h
             slope = vel if (vel != vel or vel >= 1e-9) else 1e-9      # np.maximum(vel, 1e-9)
-            step = tk - (pos - target[k]) / slope
+            step = tk - (_combine(w, y, dy, i, 0, h) - target[k]) / slope
             tk = step if step != step else min(max(step, lo), hi)    # np.clip(..., lo, hi)
         out[k] = tk

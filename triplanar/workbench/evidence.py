@@ -33,6 +33,7 @@ from ..interpolate import linear
 from ..measurement import MeasuredTest
 from ..outcome import Outcome
 from .discrepancy import INTEGRATOR_FLOOR_MM, MM, TestDiscrepancy, rms
+from .pooling import pooled_p
 # the detectors' thresholds are constants of the verdict's rules, kept together with them
 from .rules import HINT_ALPHA, MOSTLY_IN_TIME, PEAK_FACTOR, SYSTEMATIC_ALPHA
 
@@ -289,7 +290,6 @@ def systematic_bias(found: Sequence[TestDiscrepancy], alpha: float = SYSTEMATIC_
     changes with load) give a feature's p-value (the smaller, doubled); the data show a systematic error when the
     smallest feature p-value, times the number of features, is below ``alpha``. With n tests per level a shared
     bias is seen at about ``scatter / sqrt(n_tests)``, not at the scatter of one test."""
-    from scipy.stats import chi2, norm
     scores = {} if within_integrator_tolerance(found) else _level_scores(found)
     names = sorted(scores)
     best: dict[str, Any] = {"systematic": False, "p_value": 1.0, "feature": None, "z": 0.0, "mean": None,
@@ -299,7 +299,7 @@ def systematic_bias(found: Sequence[TestDiscrepancy], alpha: float = SYSTEMATIC_
         if len(zs) < 2:
             continue
         z = float(np.sum(zs) / math.sqrt(len(zs)))
-        p = min(1.0, 2 * min(2 * float(norm.sf(abs(z))), float(chi2.sf(float(np.sum(np.square(zs))), len(zs)))))
+        p = pooled_p(np.asarray(zs, dtype=float))
         if p < best["p_value"] or best["feature"] is None:
             best = {"systematic": False, "p_value": p, "feature": name, "z": z,
                     "mean": float(np.mean(means)), "standard_error": float(math.sqrt(np.sum(np.square(ses)))

@@ -62,6 +62,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ..measurement import MeasuredTest
+from .pooling import pooled_p
 
 #: Family-wise significance level of the rigidity test (3 pairs x 2 patterns, Bonferroni).
 ALPHA = 1e-3
@@ -122,15 +123,6 @@ class RigidityResult:
                 "n_tests": self.n_tests, "pairs": [p.as_json() for p in self.pairs], "sentence": self.sentence}
 
 
-def _pooled_p(z: np.ndarray) -> float:
-    """Two-sided p-value of standard normal scores ``z``: Stouffer or chi-square, the smaller doubled."""
-    from scipy.stats import chi2, norm
-    if not len(z):
-        return 1.0
-    stouffer = 2 * float(norm.sf(abs(float(np.sum(z))) / math.sqrt(len(z))))
-    return min(1.0, 2 * min(stouffer, float(chi2.sf(float(np.sum(z ** 2)), len(z)))))
-
-
 def _residual_sd(runs: list[tuple[np.ndarray, np.ndarray]]) -> float:
     """Noise standard deviation of the distances: the residual of each test's line, pooled (N - 2 T degrees of
     freedom). Exact under rigidity; a change that is not a line in travel only inflates it (a weaker test)."""
@@ -183,8 +175,8 @@ def _pair(tests: Sequence[MeasuredTest], i: int, j: int, rest: np.ndarray) -> tu
     offset = float(np.average(offsets, weights=offset_w))
     offset_se = 1.0 / math.sqrt(float(np.sum(offset_w)))
     result = PairRigidity(name, length * MM, len(runs), sum(len(s) for s, _ in runs), sigma * MM,
-                          slope * travel * MM, slope_se * travel * MM, _pooled_p(np.array(z_slope)),
-                          offset * MM, offset_se * MM, _pooled_p(np.array(z_offset)))
+                          slope * travel * MM, slope_se * travel * MM, pooled_p(np.array(z_slope)),
+                          offset * MM, offset_se * MM, pooled_p(np.array(z_offset)))
     # the change a pooled test would just see: its z at ALPHA / 6, two-sided
     return result, float(norm.isf(ALPHA / 12)) * slope_se * travel * MM
 
