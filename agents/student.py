@@ -190,7 +190,11 @@ class StudentController(Controller):
             self.frames.extend([obs] * self.n_frames)
         else:
             self.frames.append(obs)
-        return (np.concatenate(self.frames) - self._mean) * self._scale
+        return self.normalised(np.concatenate(self.frames))
+
+    def normalised(self, stacks: np.ndarray) -> np.ndarray:
+        """Frame stacks (one per row, or one) normalised as the network reads them: ``(x - obs_mean) / obs_std``."""
+        return (stacks - self._mean) * self._scale
 
     def _recur(self, z: np.ndarray) -> np.ndarray:
         """The GRU's state after input ``z`` (module docstring; torch's gate order: reset, update, new)."""

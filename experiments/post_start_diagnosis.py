@@ -82,7 +82,7 @@ def stacks(student: StudentController, decisions: list[dict]) -> np.ndarray:
 
 def labelled_stacks(student: StudentController, folders: list[str]) -> np.ndarray:
     """The labelled frame stacks of ``folders``, normalised as the student normalises."""
-    return (load_labels(folders, student.n_frames)["x"] - student._mean) * student._scale
+    return student.normalised(load_labels(folders, student.n_frames)["x"])
 
 
 def nearest_label(student: StudentController, labelled: np.ndarray, decisions: list[dict]) -> list[float]:
