@@ -130,8 +130,12 @@ class Dataset:
     n_episodes: int
     val_episodes: list
     bounds: np.ndarray       # (episodes + 1,) the first row of each episode (rows are in episode order)
-    learnt: np.ndarray       # (rows,) bool: the decision's label is learnt (after the start's periods)
     weight: np.ndarray       # (rows,) float32: the label's weight in the loss (0 where not learnt)
+
+    @property
+    def learnt(self) -> np.ndarray:
+        """(rows,) bool: the decision's label is learnt (after the start's periods)."""
+        return self.weight > 0
 
 
 def _scale(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -156,7 +160,7 @@ def dataset(shards: list[str], settings: StudentSettings) -> Dataset:
     bounds = np.searchsorted(data["episode"], np.arange(n_episodes + 1))
     return Dataset(x, data["y"].astype(np.float32), ((aux - aux_mean) / aux_std).astype(np.float32), train, val,
                    obs_mean, obs_std, aux_mean, aux_std, aux_names, n_episodes, [int(e) for e in held], bounds,
-                   learnt, loss_weights(data["step"], settings))
+                   loss_weights(data["step"], settings))
 
 
 def loss_weights(step: np.ndarray, settings: StudentSettings) -> np.ndarray:
@@ -214,9 +218,9 @@ def _tensors(net: Any) -> dict[str, np.ndarray]:
     return {file_name(k): v.detach().numpy().astype(np.float32).copy() for k, v in net.state_dict().items()}
 
 
-def episode_batch(data: Dataset, episodes: np.ndarray, rows: set | None = None) -> tuple[Any, Any, Any]:
-    """(x, y, mask) of whole ``episodes``, padded to the longest: mask marks the decisions whose labels count
-    (the episode's rows in ``rows``, default: the learnt ones)."""
+def episode_batch(data: Dataset, episodes: np.ndarray) -> tuple[Any, Any, Any]:
+    """(x, y, mask) of whole ``episodes``, padded to the longest: mask holds each decision's weight in the loss
+    (:func:`loss_weights`: 0 for the start's decisions and the padding)."""
     import torch
     lengths = data.bounds[episodes + 1] - data.bounds[episodes]
     x = np.zeros((len(episodes), int(lengths.max()), data.x.shape[1]), np.float32)
