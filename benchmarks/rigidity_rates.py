@@ -37,6 +37,8 @@ for _p in (str(ROOT), str(HERE)):
 
 from workbench_calibration import datasets, one_test, settings
 
+from experiments.stats import wilson
+
 from triplanar.atomic import write_atomic
 from triplanar.measurement import MeasuredTest
 from triplanar.specimen import reference
@@ -94,12 +96,6 @@ def _judged(tests: list[MeasuredTest]) -> dict:
     r = rigidity(tests)
     return {"kind": r.kind, "statistic": r.statistic, "detectable_mm": r.detectable_mm, "broken": list(r.broken),
             "largest_change_mm": max((abs(p.change_mm) for p in r.pairs if math.isfinite(p.change_mm)), default=None)}
-
-
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    """95 % Wilson interval of a rate k / n."""
-    centre, half = (k + z * z / 2) / (n + z * z), z * math.sqrt(k * (n - k) / n + z * z / 4) / (n + z * z)
-    return max(0.0, centre - half), min(1.0, centre + half)
 
 
 def table(records: list[dict]) -> str:
