@@ -496,6 +496,7 @@ def _row(label: str, seed: int, truth: dict, ev, verdict, seconds: float, n_test
             "missing_effects": [{k: m.get(k) for k in ("effect", "kind", "params", "param_ci95",
                                                         "param_model_ci95")} for m in report["missing_effects"]],
             "refits": report["refits"], "confidence": report["confidence"], "reason": report["reason"],
+            "lookalike_groups": report["lookalike_groups"],
             "evidence": _evidence(ev, verdict), "best_entry": _best_entry(ev.best), "n_tests": n_tests,
             "seconds": round(seconds, 1), "generation_seconds": truth.get("seconds"),
             "detectability": None if detect is None else {k: v for k, v in detect.items() if k != "settings"}}
@@ -615,15 +616,25 @@ def group(r: dict[str, Any]) -> str:
     return r["kind"]
 
 
-def _right(r: dict[str, Any], expected: str, effects: set[str]) -> bool:
-    named = {m["effect"] for m in r["missing_effects"]}
+def _right(r: dict[str, Any], expected: str, effects: set[str], groups: bool = False) -> bool:
+    """Whether the verdict is ``expected`` naming ``effects``; with ``groups``, a named entry also stands for the
+    members of its look-alike group (the verdict said "one of these": ``lookalike_groups``, source ``effects``)."""
+    named = [{m["effect"]} for m in r["missing_effects"]]
+    if groups:
+        for g in r.get("lookalike_groups") or []:
+            if g.get("source") == "effects":
+                members = {m.removesuffix(" (refit)") for m in g["members"]}
+                named = [n | members if n & members else n for n in named]
+    def covers(want: set[str]) -> bool:        # each wanted effect named (or in a named group), nothing else named
+        return (len(named) == len(want) and all(any(e in n for n in named) for e in want)
+                and all(n & want for n in named))
     verdict = r["verdict"]
     if expected == "library_effect":
-        return verdict == "library_effect" and r["missing_effect"] in effects
+        return verdict == "library_effect" and any(e in n for n in named for e in effects)
     if expected == "refit_given_effect":
-        return verdict == "refit_given_effect" and named == {e["name"] for e in r["given"]}
+        return verdict == "refit_given_effect" and covers({e["name"] for e in r["given"]})
     if expected == "library_effects":
-        return verdict == "library_effects" and named == effects
+        return verdict == "library_effects" and covers(effects)
     return verdict == expected
 
 
@@ -634,16 +645,16 @@ def score(r: dict[str, Any]) -> dict[str, Any]:
     truth = {e["name"]: e["parameters"] for e in r["truth"]}
     named = {m["effect"]: m for m in r["missing_effects"]}
     kind = r["kind"]
-    right = _right(r, r["expected"], set(truth))
     det = r.get("detectability")
-    if det and not right:
-        right = _right(r, det["expected_verdict"], set(det["expected_effects"]))
+    right, in_group = (_right(r, r["expected"], set(truth), g)
+                       or bool(det and _right(r, det["expected_verdict"], set(det["expected_effects"]), g))
+                       for g in (False, True))
     # the value: from the verdict's named entries, else from the best entry when it is the truth's effect
     entries = named or ({r["best_entry"]["effect"]: r["best_entry"]} if r.get("best_entry") else {})
     covers = [_covers(entries[n], truth[n]) for n in truth if n in entries]
     covers = [c for c in covers if c is not None]
     value = None if kind in ("none_missing", "outside_library") or not covers else all(covers)
-    return {"right": right, "value_ok": value,
+    return {"right": right, "right_in_group": in_group, "value_ok": value,
             "high_wrong": r["confidence"] == "high" and (not right or value is False),
             "rule": which_rule(r) if not right else (_interval_miss(entries, truth) if value is False else "")}
 
@@ -721,8 +732,9 @@ def _pattern(ev: dict[str, Any]) -> str:
 
 def table(rows: list[dict[str, Any]]) -> list[str]:
     """The table by kind (markdown), then one line per dataset."""
-    lines = ["| kind | datasets | right verdict | truth in the named 95 % interval | high / low / none | high on a wrong "
-             "answer (verdict or interval) | seeds |", "|---|---|---|---|---|---|---|"]
+    lines = ["| kind | datasets | right verdict | right, or the truth in a named look-alike group | truth in the named "
+             "95 % interval | high / low / none | high on a wrong answer (verdict or interval) | seeds |",
+             "|---|---|---|---|---|---|---|---|"]
     for kind in GROUPS:
         mine = [r for r in rows if group(r) == kind]
         if not mine:
@@ -731,11 +743,13 @@ def table(rows: list[dict[str, Any]]) -> list[str]:
         values = [x["value_ok"] for x in s if x["value_ok"] is not None]
         conf = [sum(r["confidence"] == c for r in mine) for c in ("high", "low", "none")]
         lines.append(f"| {kind} | {len(mine)} | {sum(x['right'] for x in s)}/{len(mine)} | "
+                     f"{sum(x['right_in_group'] for x in s)}/{len(mine)} | "
                      + (f"{sum(values)}/{len(values)}" if values else "-")
                      + f" | {conf[0]} / {conf[1]} / {conf[2]} | {sum(x['high_wrong'] for x in s)} | "
                      f"{', '.join(str(r['seed']) for r in mine)} |")
     s = [score(r) for r in rows]
     lines.append(f"| all | {len(rows)} | {sum(x['right'] for x in s)}/{len(rows)} | "
+                 f"{sum(x['right_in_group'] for x in s)}/{len(rows)} | "
                  f"{sum(x['value_ok'] is True for x in s)}/{sum(x['value_ok'] is not None for x in s)} | | "
                  f"{sum(x['high_wrong'] for x in s)} | |")
     lines += ["", "The rules' numbers by kind (min-max over the datasets; the constant each is compared with): baseline / "
@@ -754,7 +768,7 @@ def table(rows: list[dict[str, Any]]) -> list[str]:
         named = ", ".join(f"{m['effect']}" for m in r["missing_effects"]) or r["missing_effect"] or "-"
         det = r.get("detectability")
         lines.append(f"- s{r['seed']} {r['label']}: {r['verdict']} ({named}, {r['confidence']})"
-                     f"{'' if x['right'] else ' WRONG'}"
+                     f"{'' if x['right'] else ' in its look-alike group' if x['right_in_group'] else ' WRONG'}"
                      + ("" if not det else f" [D {det['ratio']:.2f}" + "".join(
                          f", {k} {v:.2f}" for k, v in det["components"].items()) + "]")
                      + (f" STALE ({r['stale']})" if r.get("stale") else "")

@@ -4,7 +4,8 @@ A diagnosis whose best explaining entry leaves a pattern (more than the scatter,
 looking at two library effects at once (end friction and a tip offset, say): each alone bends the paths part of the
 way. This module continues such a diagnosis as cross-validated forward selection: the best entry is kept (its
 parameters refitted jointly with every later addition, as :class:`~triplanar.workbench.select.ForwardSelection`
-does), the remaining candidates are diagnosed against the model with it, and so on; the rules of
+does), the remaining candidates are diagnosed against the model with it, and so on (once a second entry has joined,
+the first is re-examined given the second: :func:`_first_reexamined`); the rules of
 :mod:`~triplanar.workbench.rules` say when to look further (:func:`~triplanar.workbench.rules.combination_continues`)
 and which entry joins (:func:`~triplanar.workbench.rules.step_accepted`).
 
@@ -29,7 +30,7 @@ from . import rules
 from .candidates import resolve, without_effect
 from .evidence import growth_along_travel, systematic_bias, time_domain
 from .intervals import form_allowance
-from .parsimony import parsimonious
+from .parsimony import lookalikes_of, parsimonious
 from .spec import spec_with_values
 from .sweep import residual_of, spec_of
 from .verdict import Combination, Evidence
@@ -94,7 +95,11 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
         steps.append(_step(best, rest[0] if rest else None, results[-1].cv_error_mm, ev.baseline_error_mm, look))
         results.append(best)
         baselines.append(nxt.evidence_.baseline_error_mm)
-        added = {k: dict(v) for k, v in best.all_values.items()}
+        if len(results) == 2 and first.kind == "candidate":
+            swapped = _first_reexamined(diag, ev, tests, base, best)
+            if swapped is not None:
+                steps, results, baselines = swapped
+        added = {k: dict(v) for k, v in results[-1].all_values.items()}
     final = results[-1]
     for i, step in enumerate(steps):
         name = step["effect"]
@@ -117,6 +122,38 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
     return Combination(tuple(steps), final.cv_error_mm, td.get("dominant_frequency_hz") is not None,
                        bool(systematic_bias(after)["systematic"]) if after is not None else False, spec, after, td,
                        growth_along_travel(after) if after is not None else ev.growth_after, gain, gain_se)
+
+
+def _first_reexamined(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest], base: ModelSpec,
+                      pair: CandidateResult) -> tuple[list[dict[str, Any]], list[CandidateResult], list[float]] | None:
+    """Stepwise selection's backward look (Efroymson's stepwise regression): with a pair [A, B] found, the first
+    entry A is re-examined given the second: the candidates are ranked against the model with B alone, and when
+    another entry C beats the pair (:func:`~triplanar.workbench.rules.swap_accepted`), the combination is [B, C],
+    B's step from the single round. Returns ``(steps, results, baselines)`` of [B, C], or None to keep [A, B].
+
+    Why: forward selection keeps its first entry for good, and the best single entry of a pair's data can be a
+    stand-in for both (a time offset for a tip offset with an actuator's rise): on the calibration set's tuning part
+    that named the stand-in with the right second entry (s3022)."""
+    a = ev.best
+    assert a is not None
+    second = pair.effect if pair.effect != a.effect else None
+    single = next((c for c in ev.ranked if c.effect == second and c.kind == "candidate" and c.plausible), None)
+    if single is None:
+        return None
+    nxt = diag.next_round().fit(tests, base, refit={second: dict(pair.all_values[second])})
+    plausible = [c for c in nxt.evidence_.ranked if c.plausible]
+    if not plausible:
+        return None
+    best, look = parsimonious(plausible)
+    if best.effect == a.effect or not rules.swap_accepted(best, pair) or not rules.step_accepted(best, single):
+        return None
+    others = [c for c in ev.ranked if c.key != single.key]
+    rest = [c for c in nxt.evidence_.ranked if c.key != best.key]
+    steps = [_step(single, others[0] if others else None, ev.baseline_error_mm, ev.baseline_error_mm,
+                   lookalikes_of(single, ev.ranked)),
+             _step(best, rest[0] if rest else None, single.cv_error_mm, ev.baseline_error_mm, look)]
+    steps[1]["replaces"] = a.effect
+    return steps, [single, best], [ev.baseline_error_mm, nxt.evidence_.baseline_error_mm]
 
 
 def _own_allowance(entry: CandidateResult, baseline_mm: float) -> dict[str, float]:

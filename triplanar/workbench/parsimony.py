@@ -44,8 +44,14 @@ def parsimonious(entries: Sequence[CandidateResult]) -> tuple[CandidateResult, l
     chosen = min(close, key=lambda c: (len(c.params) + len(c.per_test), c.cv_error_mm))
     look = [c for c in close if c.key != chosen.key]
     if chosen.key != top.key:      # the look-alikes of the chosen one: within its own standard error
-        look = [c for c in entries if c.key != chosen.key and _within(chosen, c)]
+        look = lookalikes_of(chosen, entries)
     return chosen, look
+
+
+def lookalikes_of(entry: CandidateResult, entries: Sequence[CandidateResult]) -> list[CandidateResult]:
+    """The entries (other than ``entry``) whose held-out error differs from ``entry``'s by at most one standard
+    error of the difference: those the data cannot tell from it."""
+    return [c for c in entries if c.key != entry.key and _within(entry, c)]
 
 
 def _within(a: CandidateResult, b: CandidateResult) -> bool:

@@ -26,11 +26,17 @@ The rules:
 * Combinations: whenever the entry examined leaves a pattern (the verdict would be ``outside_library``), entries
   are added to it one at a time (:mod:`~triplanar.workbench.combine`); a further entry joins when it removes at
   least ``MIN_FALL`` of the current cross-validated error and beats the current model by more than the uncertainty
-  of the difference (held-out squared errors over the tests), at most ``MAX_EFFECTS`` in all. Two or more are named
+  of the difference (held-out squared errors over the tests), at most ``MAX_EFFECTS`` in all; once a second entry
+  has joined, the first is re-examined given the second and replaced when another beats the pair by more than the
+  uncertainty of the difference (:func:`swap_accepted`, stepwise selection's backward look). Two or more are named
   (``library_effects``) when together they leave at most ``EXPLAINED_FACTOR`` x scatter with nothing periodic, beat
   the best single entry by more than the uncertainty of the difference, and the scatter is what noise and the
   specimen explain. A step is ``high`` when its runner-up leaves at least ``MARGIN`` x its error and it has no
   look-alike.
+
+* Look-alike groups (:func:`_effect_groups`): a named entry the data cannot tell from others (within one standard
+  error of the difference) is reported with them as a group (``Verdict.groups``, the report's ``lookalike_groups``)
+  and the shear test that decides.
 
 * Given numbers of the specimen (:func:`_given_numbers`, only when the audit fitted one in full, so a diagnosis
   without one decides as before): a number that explains is said ("your given X is probably Y [interval]") with the
@@ -380,7 +386,7 @@ class _Draft:
     unexplained_mm: float = math.nan
     combination: dict[str, Any] | None = None
     judged_entry: bool = False          # the verdict rests on the examined entry (it was judged, not bypassed)
-    groups: list[dict[str, Any]] = field(default_factory=list)     # look-alike groups with a given number
+    groups: list[dict[str, Any]] = field(default_factory=list)     # look-alike groups (effects, given numbers)
 
 
 def _nothing_to_explain(ev: Evidence) -> _Draft | None:
@@ -499,6 +505,16 @@ def step_accepted(new: CandidateResult, current: CandidateResult) -> bool:
     return not (math.isfinite(gain) and math.isfinite(se)) or gain > se
 
 
+def swap_accepted(new: CandidateResult, current: CandidateResult) -> bool:
+    """A pair re-examined (:mod:`~triplanar.workbench.combine`) takes a new first entry when the new pair's
+    cross-validated error is lower and its gain is larger than the uncertainty of the gain (the same test as a step's
+    and a combination's over the single entry)."""
+    if not (math.isfinite(new.cv_error_mm) and new.cv_error_mm < current.cv_error_mm):
+        return False
+    gain, se = beats(new, current)
+    return math.isfinite(gain) and math.isfinite(se) and gain > se
+
+
 def _step_confidence(step: Mapping[str, Any]) -> str:
     runner = step["runner_up_cv_error_mm"]
     separated = runner is None or not math.isfinite(runner) or runner >= MARGIN * step["cv_error_mm"]
@@ -544,6 +560,30 @@ def _combined(ev: Evidence, draft: _Draft) -> _Draft:
     return draft
 
 
+def _effect_groups(ev: Evidence, draft: _Draft) -> _Draft:
+    """The named entries' look-alike groups: a named entry whose held-out error the data cannot tell from other
+    entries' (within one standard error of the difference, :func:`~triplanar.workbench.parsimony.parsimonious`) is
+    named with them as a group, never alone with ``high`` (the confidence rules already make it ``low``), with the
+    shear test that decides where :mod:`~triplanar.workbench.experiment` computed one. A laboratory then reads "one of
+    these; this test decides" instead of a winner among twins (on the calibration's tuning part: rate friction
+    named for cohesion, s3017; a load-cell gain for contact friction, s2020)."""
+    if draft.kind is VerdictKind.LIBRARY_EFFECTS and draft.combination is not None:
+        twins = [(s["effect"], list(s["indistinguishable_from"])) for s in draft.combination["steps"]]
+    elif draft.kind in (VerdictKind.LIBRARY_EFFECT, VerdictKind.REFIT_GIVEN_EFFECT) and ev.best is not None:
+        twins = [(label(ev.best), [label(c) for c in ev.lookalikes])]
+    else:
+        return draft
+    for named, others in twins:
+        if not others:
+            continue
+        deciding = [e["sentence"] for e in ev.experiments
+                    if {named, *others} >= set(e["between"])]
+        draft.groups.append({"members": [named, *others], "source": "effects",
+                             "deciding_measurement": "; ".join(deciding) if deciding else
+                             "no deciding shear test was computed for this group"})
+    return draft
+
+
 def _format_value(name: str, value: float, ci: Sequence[float] | None) -> str:
     """``name = value [low, high]`` (the one interval format of every command's output)."""
     return f"{name} = {value:.4g}" + (f" [{ci[0]:.4g}, {ci[1]:.4g}]" if ci is not None else "")
@@ -573,7 +613,7 @@ def _given_numbers(ev: Evidence, draft: _Draft) -> _Draft:
         if twins:
             members = [*twins, f"the given {a.name}"]
             deciding = a.deciding_with(twins)
-            draft.groups.append({"members": [*twins, a.name], "deciding_measurement": deciding})
+            draft.groups.append({"members": [*twins, a.name], "source": "given", "deciding_measurement": deciding})
             draft.reasons.append(Reason(f"{' and '.join(members)} change the traces alike on these data (their "
                                         f"sensitivities agree within the noise, {ev.noise_floor_mm:.2f} mm): no shear "
                                         f"test tells them apart; to decide: {deciding}", "given.same_within_noise",
@@ -601,6 +641,7 @@ def decide(ev: Evidence) -> Verdict:
                                  (e.get("best") or {}).get("difference_mm")) for e in ev.experiments]
     if ev.combination is not None:
         draft = _combined(ev, draft)
+    draft = _effect_groups(ev, draft)
     if any(a.fitted is not None for a in ev.given_numbers):
         draft = _given_numbers(ev, draft)
     return Verdict(draft.kind, tuple(draft.effects), draft.missing_effect, draft.confidence, tuple(draft.reasons),

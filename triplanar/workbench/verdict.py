@@ -89,7 +89,8 @@ class Verdict:
     reasons: tuple[Reason, ...]
     unexplained_mm: float
     combination: Mapping[str, Any] | None = None
-    #: look-alike groups with a given number of the specimen: ``{"members": [...], "deciding_measurement": ...}``
+    #: look-alike groups, ``{"members": [...], "source": "effects" | "given", "deciding_measurement": ...}``: a named
+    #: entry with the entries the data cannot tell from it, or with a given number of the specimen
     groups: tuple[Mapping[str, Any], ...] = ()
 
     @property

@@ -56,3 +56,21 @@ def test_a_combination_stops_when_the_candidate_list_is_used_up() -> None:
     diag = Diagnoser(["end_friction"], folds=2, progress=False, executor="serial", model_form=False).fit(tests)
     assert diag.verdict_ == "outside_library" and diag.missing_effect_ == "end_friction", diag.reason_
     assert [s["effect"] for s in diag.combination_["steps"]] == ["end_friction"]
+
+
+def test_a_pair_whose_best_single_entry_stands_in_for_both_is_re_examined() -> None:
+    """A tip offset with an actuator's rise: a time offset alone fits better than either (the calibration's s3022), and
+    forward selection kept it beside the tip offset. Re-examined given the tip offset, the actuator's rise replaces it
+    (stepwise selection's backward look, ``combine._first_reexamined``)."""
+    truth = {"tip_offset": {"offset_m": -0.004}, "actuator_rise": {"tau_s": 0.05}}
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=3, effects=[
+        make_effect("tip_offset:offset_m=-0.004"), make_effect("actuator_rise:tau_s=0.05")])
+    report = Diagnoser(["time_offset", "actuator_rise", "tip_offset", "end_friction"], folds=2, progress=False,
+                       model_form=False, executor="serial").fit(tests).report_
+    assert report["verdict"] == "library_effects", report["reason"]
+    steps = report["combination"]["steps"]
+    assert [(s["effect"], s.get("replaces")) for s in steps] == [("tip_offset", None), ("actuator_rise", "time_offset")]
+    for m in report["missing_effects"]:
+        for param, value in truth[m["effect"]].items():
+            low, high = m["param_ci95"][param]
+            assert low <= value <= high, (m["effect"], m["params"], m["param_ci95"])

@@ -36,3 +36,7 @@ def test_cohesion_and_contact_friction_are_reported_indistinguishable_with_a_dec
     assert best["difference_mm"] == max(r["difference_mm"] for r in exp["rows"] if r["difference_mm"] is not None)
     assert f"test at {best['load_N']:g} N" in printed and "indistinguishable from the named entry" in printed
     assert (out / "deciding.png").stat().st_size > 0
+    # the verdict names the group, with the shear test that decides (issue: not a winner among twins)
+    (group,) = [g for g in report["lookalike_groups"] if g["source"] == "effects"]
+    assert group["members"] == [named, *report["indistinguishable_from"]]
+    assert exp["sentence"] in group["deciding_measurement"]
