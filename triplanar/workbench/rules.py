@@ -70,6 +70,15 @@ verdict is right in 94 (60 of 62 in-library datasets whose cause shows, 16 of 16
 Reported on the held-out part, seeds 3000-3065 (66 datasets, run once with these rules; ``docs/workbench.md``): 40
 of 43 in-library verdicts right (93 %: below the 95 % target), 10 of 10 clean ones ``none_missing``, never ``high``
 on a wrong answer. Those seeds tune from then on; the next held-out part is seeds 4000-4065.
+
+Then, on the 166 tuning datasets (seeds 1000-1033, 2000-2065, 3000-3065; the 36 that try a combination
+re-diagnosed, the rest re-decided on their kept evidence: ``run --part tuning --out /work/calib4b``), a pair's first
+entry is re-examined given the second (:func:`swap_accepted`; no constant of its own): s3022 (a time offset standing
+in for an actuator's rise beside the right tip offset) became right, no other verdict changed; 101 of 105 in-library
+verdicts right (before: 100), 103 of 105 counting a truth inside a named look-alike group (:func:`_effect_groups`,
+new: s2020's contact friction beside the named load-cell gain, s3017's cohesion beside rate friction). Still wrong
+in-library: s2063 (a rangefinder offset removing 29.9 %, under ``MIN_IMPROVEMENT``) and s3052 (the after-best
+shared-bias test; no level separates it from the outside causes that test catches). No constant changed.
 """
 
 from __future__ import annotations
