@@ -57,7 +57,8 @@ LOADS_NOTE = ("27.8 N is left out: with the smoothed law a block below its thres
 #: The parts, each a list of seed ranges ``(first seed, mix)``; a range's datasets are numbered first seed + index.
 #: Seeds 2000-2065 and 3000-3065 were the held-out parts of the two reports of 2026-11-28 (``docs/notes/``): looked at,
 #: they tune since.
-PARTS = {"tuning": ((1000, "small"), (2000, "full"), (3000, "full")), "held-out": ((4000, "full"),)}
+PARTS = {"tuning": ((1000, "small"), (2000, "full"), (3000, "full")), "held-out": ((4000, "full"),),
+         "beyond": ((6000, "beyond"),)}
 
 
 def _u(rng: np.random.Generator, lo: float, hi: float, signed: bool = False) -> float:
@@ -141,12 +142,41 @@ LABELS: dict[str, tuple] = {
     "outside_travel_hardening": ("outside_library", lambda r: {"truth": [], "given": [], "outside": [
         ("outside_travel_hardening", {"b_N_m": _u(r, 60.0, 120.0)})]}),
 }
+
+def _given(name: str, lo: float, hi: float, relative: bool = False) -> tuple:
+    """A number of the specimen off its drawing: the truth is the ``specimen`` effect with the number changed by
+    ``lo``-``hi`` either way (a fraction of the drawn value when ``relative``); the model is given the drawing."""
+    def draw(rng: np.random.Generator) -> dict[str, list]:
+        from triplanar.specimen_numbers import given_values
+        drawn = given_values(reference()[0])[name]
+        change = _u(rng, lo, hi, True)
+        return {"truth": [("specimen", {name: drawn * (1 + change) if relative else drawn + change})], "given": [],
+                "outside": []}
+    return ("given_number", draw)
+
+
+#: Causes beyond the library's effects (issue: every given number open to question, instruments told from the
+#: specimen): numbers of the specimen off the drawing, two instrument errors at once, a logger clock running fast.
+#: Their own mix ("beyond"), so that the small and full mixes (and their seeds' datasets) stay as they were.
+BEYOND_LABELS: dict[str, tuple] = {
+    "given_mass": _given("mass_kg", 0.05, 0.09, relative=True),
+    "given_cp2_x1": _given("cp2_x1_m", 0.002, 0.004),
+    "given_cp3_x3": _given("cp3_x3_m", 0.002, 0.004),
+    "given_mass_centre": _given("com_g1_m", 0.002, 0.004),
+    "pair_load_cell_gain_rangefinder_gain": ("pair", lambda r: {"truth": [
+        ("load_cell_gain", {"gain": 1.0 + _u(r, 0.06, 0.12, True)}),
+        ("rangefinder_gain", {"gain_x1": 1.0 + _u(r, 0.1, 0.25, True)})], "given": [], "outside": []}),
+    "outside_clock_rate": ("outside_library", lambda r: {"truth": [], "given": [], "outside": [],
+                                                         "clock_rate": 1.0 + _u(r, 0.02, 0.05, True)}),
+}
+LABELS.update(BEYOND_LABELS)
 #: datasets per label in each mix (the clean kind gets more: its target is a rate over the clean datasets):
-#: "small" 34 datasets, "full" 66
-REPLICATES = {"small": {"none_missing": 3}, "full": {"none_missing": 5}}
-DEFAULT_REPLICATES = {"small": 1, "full": 2}
+#: "small" 34 datasets, "full" 66, "beyond" 18 (its own labels only)
+REPLICATES = {"small": {"none_missing": 3}, "full": {"none_missing": 5}, "beyond": {}}
+DEFAULT_REPLICATES = {"small": 1, "full": 2, "beyond": 3}
 EXPECTED = {"effect": "library_effect", "refit": "refit_given_effect", "pair": "library_effects",
-            "none_missing": "none_missing", "outside_library": "outside_library"}
+            "none_missing": "none_missing", "outside_library": "outside_library",
+            "given_number": "given_number"}     # not a verdict kind: the audit names the number (score)
 GROUPS = (*EXPECTED, "below detectability")
 
 
@@ -161,9 +191,10 @@ def _seed_range(mix: str, first_seed: int) -> list[tuple[str, int]]:
     """``(label, seed)`` of a range of ``mix`` (seed = ``first_seed`` + index), the kinds taken in turn (so that the
     first datasets of a range already hold every kind: a run cut short still covers them)."""
     queues: dict[str, list[str]] = {kind: [] for kind in EXPECTED}
-    counts = {label: REPLICATES[mix].get(kind, DEFAULT_REPLICATES[mix]) for label, (kind, _) in LABELS.items()}
+    labels = {k: v for k, v in LABELS.items() if (k in BEYOND_LABELS) == (mix == "beyond")}
+    counts = {label: REPLICATES[mix].get(kind, DEFAULT_REPLICATES[mix]) for label, (kind, _) in labels.items()}
     for round_ in range(max(counts.values())):
-        for label, (kind, _) in LABELS.items():
+        for label, (kind, _) in labels.items():
             if counts[label] > round_:
                 queues[kind].append(label)
     order = []
@@ -182,7 +213,7 @@ def settings(label: str, seed: int) -> dict[str, Any]:
     if len(set(repeats)) == 1:
         repeats[int(rng.integers(len(repeats)))] = 5 - repeats[0]       # unequal repeats, always
     return {"label": label, "kind": kind, "expected_verdict": EXPECTED[kind], "seed": seed,
-            **{k: [[n, p] for n, p in v] for k, v in effects.items()},
+            **{k: [[n, p] for n, p in v] if k in ("truth", "given", "outside") else v for k, v in effects.items()},
             "loads_N": loads, "repeats": repeats,
             "noise_m": _u(rng, 2e-4, 1e-3), "friction_scatter_deg": _u(rng, 0.1, 0.3),
             "clock_jitter_s": _u(rng, 5e-5, 5e-4), "coulomb_smoothing_m_s": _u(rng, 1e-3, 3e-3),
@@ -271,7 +302,11 @@ def one_test(job: tuple[dict, float, int]) -> tuple[dict, Any]:
     from triplanar.labdata import foundation_plan_box
     from triplanar.measurement import MeasuredTest
     cfg, force, repeat = job
-    spec, _ = reference()
+    spec, foundation = reference()
+    for name, p in cfg["truth"]:
+        if name == "specimen":          # a number off its drawing: the true block is not the drawn one
+            from triplanar.specimen_numbers import with_numbers
+            spec = with_numbers(spec, foundation, p)
     rng = np.random.default_rng(np.random.SeedSequence([cfg["seed"], int(round(force * 1000)), repeat]))
     nominal, with_tip = _nominal_angles(cfg["truth"])
     angles = np.clip(nominal + rng.normal(0.0, cfg["friction_scatter_deg"], len(nominal)), 0.0, 44.0)
@@ -307,6 +342,7 @@ def one_test(job: tuple[dict, float, int]) -> tuple[dict, Any]:
     keep &= np.cumprod(box.contains(clean).all(axis=1)).astype(bool)
     t_s, clean = t_s[keep], clean[keep]
     recorded_t, recorded = _read(cfg["truth"], t_s, clean, np.asarray(spec.contact_points_m))
+    recorded_t = recorded_t * cfg.get("clock_rate", 1.0)     # a logger clock running fast (> 1) or slow
     noisy = recorded + rng.normal(0.0, cfg["noise_m"], clean.shape)
     record.update(n_samples=int(len(t_s)), duration_s=float(t_s[-1]))
     return record, MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=recorded_t)
@@ -496,7 +532,7 @@ def _row(label: str, seed: int, truth: dict, ev, verdict, seconds: float, n_test
             "missing_effects": [{k: m.get(k) for k in ("effect", "kind", "params", "param_ci95",
                                                         "param_model_ci95")} for m in report["missing_effects"]],
             "refits": report["refits"], "confidence": report["confidence"], "reason": report["reason"],
-            "lookalike_groups": report["lookalike_groups"],
+            "lookalike_groups": report["lookalike_groups"], "given_numbers": report["given_numbers"],
             "evidence": _evidence(ev, verdict), "best_entry": _best_entry(ev.best), "n_tests": n_tests,
             "seconds": round(seconds, 1), "generation_seconds": truth.get("seconds"),
             "detectability": None if detect is None else {k: v for k, v in detect.items() if k != "settings"}}
@@ -629,6 +665,11 @@ def _right(r: dict[str, Any], expected: str, effects: set[str], groups: bool = F
         return (len(named) == len(want) and all(any(e in n for n in named) for e in want)
                 and all(n & want for n in named))
     verdict = r["verdict"]
+    if expected == "given_number":      # the audit says "your given NAME is probably ..." (or groups it)
+        wanted = {k for e in r["truth"] if e["name"] == "specimen" for k in e["parameters"]}
+        said = {a for a in wanted if f"your given {a} =" in r["reason"]}
+        grouped = {m for g in (r.get("lookalike_groups") or []) for m in g["members"]} if groups else set()
+        return bool(wanted) and wanted <= said | grouped
     if expected == "library_effect":
         return verdict == "library_effect" and any(e in n for n in named for e in effects)
     if expected == "refit_given_effect":
@@ -653,6 +694,10 @@ def score(r: dict[str, Any]) -> dict[str, Any]:
     entries = named or ({r["best_entry"]["effect"]: r["best_entry"]} if r.get("best_entry") else {})
     covers = [_covers(entries[n], truth[n]) for n in truth if n in entries]
     covers = [c for c in covers if c is not None]
+    if kind == "given_number":          # the audit's interval for the number
+        audited = {a["name"]: a for a in r.get("given_numbers") or [] if a.get("ci95")}
+        covers = [audited[k]["ci95"][0] <= v <= audited[k]["ci95"][1] for k, v in truth["specimen"].items()
+                  if k in audited]
     value = None if kind in ("none_missing", "outside_library") or not covers else all(covers)
     return {"right": right, "right_in_group": in_group, "value_ok": value,
             "high_wrong": r["confidence"] == "high" and (not right or value is False),

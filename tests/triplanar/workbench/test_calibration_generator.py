@@ -43,3 +43,26 @@ def test_a_dataset_is_a_function_of_its_seed_and_reads_back(tmp_path: Path) -> N
     assert len(back) == 1 and back[0].test_id == "F55.6N-r1" and back[0].shear_force_N == 55.6
     np.testing.assert_allclose(back[0].positions, test.positions, rtol=0, atol=1e-12)
     assert json.loads(truth_path.read_text())["settings"]["seed"] == 1011
+
+
+def test_the_beyond_part_moves_the_true_block_and_the_clock_and_leaves_the_other_parts_as_they_were() -> None:
+    """Issue 33's kinds (a number off its drawing, a fast logger clock) have their own mix: the held-out part's
+    first datasets are the labels they were before those kinds existed (its seeds' truths were written then)."""
+    assert calib.datasets("held-out")[:6] == [("end_friction", 4000), ("refit_end_friction_4", 4001),
+                                              ("pair_end_friction_tip_offset", 4002), ("clean_case_b", 4003),
+                                              ("outside_viscous_drag", 4004), ("rate_friction", 4005)]
+    beyond = calib.datasets("beyond")
+    assert {label for label, _ in beyond} == set(calib.BEYOND_LABELS)
+    assert not {label for label, _ in calib.datasets("tuning")} & set(calib.BEYOND_LABELS)
+    cfg = _small("given_cp2_x1", 6005)
+    (name, moved), = cfg["truth"]
+    drawn = calib.one_test(({**cfg, "truth": []}, 55.6, 1))[1].positions[0]
+    record, test = calib.one_test((cfg, 55.6, 1))
+    assert name == "specimen" and record["status"] == "travel"
+    shift = moved["cp2_x1_m"] - calib.reference()[0].contact_points_m[1][0]
+    assert 0.002 <= abs(shift) <= 0.004
+    # the rangefinders see the true block: CP2 starts where the true pad is (within the noise), not the drawn one
+    assert abs((test.positions[0, 1, 0] - drawn[1, 0]) - shift) < 5 * cfg["noise_m"] + 2e-4
+    clock = _small("outside_clock_rate", 6001)
+    _, fast = calib.one_test((clock, 55.6, 1))
+    assert np.allclose(np.diff(fast.t_s), 0.005 * clock["clock_rate"])
