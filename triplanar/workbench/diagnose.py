@@ -133,7 +133,7 @@ class Diagnoser:
         ranked = [assemble(t, by_label, len(folds), len(tests), baseline_error, scatter) for t in tasks]
         ranked.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))
         ev = self._gather(tests, user_base, base, refit, folds, baseline, scatter, ranked)
-        # instrument or specimen, from the rigid block (evidence for the user: the verdict's rules do not read it)
+        # instrument or specimen, from the rigid block (one rule reads it: no high for physics on an instrument fault)
         ev = replace(ev, rigidity=rigidity(tests, user_base.rest_positions))
         if self.audit:      # the specimen's given numbers beside the effects: screened, the likely ones fitted
             ev = replace(ev, given_numbers=audit_given(ev, tasks, tests, self.executor, self.progress))

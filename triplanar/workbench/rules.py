@@ -34,6 +34,9 @@ The rules:
   specimen explain. A step is ``high`` when its runner-up leaves at least ``MARGIN`` x its error and it has no
   look-alike.
 
+* An instrument seen by the rigid block (:func:`_instrument_cap`): physics alone is never named ``high`` when the
+  contact points' mutual distances change along the travel.
+
 * Look-alike groups (:func:`_effect_groups`): a named entry the data cannot tell from others (within one standard
   error of the difference) is reported with them as a group (``Verdict.groups``, the report's ``lookalike_groups``)
   and the shear test that decides.
@@ -642,6 +645,26 @@ def _given_numbers(ev: Evidence, draft: _Draft) -> _Draft:
     return draft
 
 
+def _instrument_cap(ev: Evidence, draft: _Draft) -> _Draft:
+    """No ``high`` for physics alone when the rigid block's contact points say an instrument is off
+    (:mod:`~triplanar.workbench.rigidity`: their mutual distances change along the travel, which no force on the block
+    can do): the named entries then act on the block only, and an instrument explanation was not ruled out. On the
+    calibration's tuning part this changed no verdict (the test said ``instrument`` in 2 of the 102 datasets diagnosed
+    with it, both a rangefinder gain named as one); it is the rule that keeps a physical cause from being named with
+    confidence for an instrument fault the rigidity test sees."""
+    rig = ev.rigidity
+    if rig is None or rig.kind != "instrument" or draft.confidence != "high":
+        return draft
+    from ..effects import REGISTRY
+    if any(REGISTRY[e.effect].acts_on == "instrument" for e in draft.effects if e.effect in REGISTRY):
+        return draft
+    draft.reasons.append(Reason(f"confidence low: {rig.sentence}", "rigidity.instrument", rig.statistic,
+                                rig.threshold))
+    draft.confidence = "low"
+    draft.effects = [_capped(e) for e in draft.effects]
+    return draft
+
+
 def _capped(e: NamedEffect) -> NamedEffect:
     return replace(e, confidence="low", report={**e.report, "confidence": "low"} if "confidence" in e.report
                    else e.report)
@@ -658,5 +681,6 @@ def decide(ev: Evidence) -> Verdict:
     draft = _effect_groups(ev, draft)
     if any(a.fitted is not None for a in ev.given_numbers):
         draft = _given_numbers(ev, draft)
+    draft = _instrument_cap(ev, draft)
     return Verdict(draft.kind, tuple(draft.effects), draft.missing_effect, draft.confidence, tuple(draft.reasons),
                    draft.unexplained_mm, draft.combination, tuple(draft.groups))

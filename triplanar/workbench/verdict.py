@@ -157,7 +157,7 @@ class Evidence:
     #: the audit of the specimen's given numbers (:func:`triplanar.workbench.given.audit_given`; empty: not audited)
     given_numbers: Sequence[GivenAudit] = ()
     #: the rigid-block test of the measured contact points (:func:`triplanar.workbench.rigidity.rigidity`; ``None``:
-    #: gathered before it); evidence for the user only: no rule of the verdict reads it
+    #: gathered before it); the rules read it only to keep physics alone from ``high`` on an instrument fault
     rigidity: RigidityResult | None = None
 
     @property

@@ -98,7 +98,7 @@ def test_missing_vertical_coordinates_and_short_tests_are_handled():
         rigidity(tests, rest=np.zeros((2, 3)))
 
 
-def test_diagnose_reports_rigidity_beside_an_unchanged_verdict():
+def test_diagnose_reports_rigidity_and_physics_is_not_named_high_on_an_instrument_fault():
     from dataclasses import replace
 
     from triplanar.workbench import Diagnoser
@@ -109,5 +109,13 @@ def test_diagnose_reports_rigidity_beside_an_unchanged_verdict():
     field = diag.report_["rigidity"]
     assert field["kind"] == "instrument" and "CP1-CP3" in field["broken"] and field["threshold"] == ALPHA
     assert "rigidity (instrument): " in DiagnosisResult.of(diag).report()
-    # evidence only: the verdict's rules make the same verdict without it
+    # an instrument effect named: the rules make the same verdict without the rigidity test
     assert rules.decide(replace(diag.evidence_, rigidity=None)) == diag.decision_
+    # physics named with confidence high on a block whose contact points' distances change: capped at low
+    physics = Diagnoser(["end_friction", "time_offset"], folds=2, progress=False, model_form=False, audit=False,
+                        combine=False, executor="serial").fit(_lab("end_friction:phi_deg=8"))
+    assert physics.decision_.confidence == "high" and physics.evidence_.rigidity.kind != "instrument"
+    capped = rules.decide(replace(physics.evidence_, rigidity=diag.evidence_.rigidity))
+    assert capped.kind == physics.decision_.kind and capped.effects[0].effect == "end_friction"
+    assert capped.confidence == "low" and all(e.confidence == "low" for e in capped.effects)
+    assert any(r.rule == "rigidity.instrument" for r in capped.reasons)
