@@ -149,11 +149,14 @@ def _given(name: str, lo: float, hi: float, relative: bool = False) -> tuple:
     """A number of the specimen off its drawing: the truth is the ``specimen`` effect with the number changed by
     ``lo``-``hi`` either way (a fraction of the drawn value when ``relative``); the model is given the drawing."""
     def draw(rng: np.random.Generator) -> dict[str, list]:
-        from triplanar.specimen_numbers import given_values
-        drawn = given_values(reference()[0])[name]
+        from triplanar.specimen_numbers import given_values, refusal
+        specimen, foundation = reference()
+        drawn = given_values(specimen)[name]
         change = _u(rng, lo, hi, True)
-        return {"truth": [("specimen", {name: drawn * (1 + change) if relative else drawn + change})], "given": [],
-                "outside": []}
+        value = drawn * (1 + change) if relative else drawn + change
+        if refusal(name, value, specimen, foundation):      # e.g. a pad moved under another plane: the other way
+            value = drawn * (1 - change) if relative else drawn - change
+        return {"truth": [("specimen", {name: value})], "given": [], "outside": []}
     return ("given_number", draw)
 
 

@@ -156,10 +156,28 @@ def refusal(name: str, value: float, specimen: Specimen, foundation: Foundation)
         return (f"{name} = {value:g} {number.unit} is outside the physical range [{number.lower:g}, "
                 f"{number.upper:g}] ({number.doc})")
     try:
-        with_numbers(specimen, foundation, {name: value}).validate(foundation)
+        changed = with_numbers(specimen, foundation, {name: value})
+        changed.validate(foundation)
     except SpecimenError as err:
         return f"{name} = {value:g} {number.unit} does not describe a physical specimen: {err}"
+    if name.startswith("cp"):
+        crossing = _crossing_at_rest(changed, foundation)
+        if crossing:
+            return f"{name} = {value:g} {number.unit} puts the block off its planes: {crossing}"
     return None
+
+
+def _crossing_at_rest(specimen: Specimen, foundation: Foundation) -> str | None:
+    """Why the block seated on ``foundation`` cannot rest with each contact point on its own plane (``None``: it can).
+    The reference's CP2 and CP3 rest on the lines where their planes meet FP1 (paper section 3), so a pad moved a
+    millimetre the wrong way lies under FP1; the specimen's own check (a static one) does not see that, the kernel's
+    start does (a run ends at t = 0 with ``left_plane``), so the start is asked: a run of 0.1 mm at the paper's
+    highest load."""
+    from .model import paper_model
+    from .outcome import Outcome
+    from .simulate import simulate
+    result = simulate(paper_model("B", 55.6, specimen, foundation), travel_m=1e-4, t_max_s=0.05)
+    return result.message if result.status is Outcome.LEFT_PLANE and result.t[-1] == 0.0 else None
 
 
 @register

@@ -54,6 +54,15 @@ def test_a_range_where_the_specimen_fails_its_check_is_refused_naming_the_number
         specimen_candidate({"cp3_x1_m": (0.0, 0.3)})
 
 
+def test_a_pad_moved_under_another_plane_is_refused_and_the_default_range_stops_short_of_it():
+    """The drawing's CP2 rests on the line where FP2 meets FP1: 3 mm aft it would lie under FP1 (found on the
+    independent calibration's data, where such a block was drawn and could not start in the kernel)."""
+    with pytest.raises(EffectError, match=r"cp2_x1_m = -0.003 m puts the block off its planes: CP2 starts under FP1"):
+        specimen_candidate({"cp2_x1_m": (-0.003, 0.003)})
+    (free,) = specimen_candidate({"cp2_x1_m": None}).recipe
+    assert -0.001 < free.min < 0.0 and free.max == pytest.approx(0.005)     # the drawing's +-5 mm, cut on one side
+
+
 @pytest.mark.parametrize("free", ["bogus_kg", "mass_kg=-2:6", "cp1_x2_m"])
 def test_the_cli_refuses_a_bad_free_and_writes_nothing(tmp_path, capsys, free):
     out = tmp_path / "out"
