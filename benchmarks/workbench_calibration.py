@@ -8,7 +8,7 @@ names: a smoothed Coulomb law near zero slip speed, the sampling clock's jitter,
 given an effect with a wrong value; ``refit_given_effect``), ``pair`` (two library effects; ``library_effects``
 naming both), ``none_missing`` (the model is the truth) and ``outside_library`` (a cause the library does not hold,
 ``benchmarks/calibration_plugins.py``), and the BEYOND part's kinds (issue 33: ``given_number``, a specimen number off
-its drawing, the audit expected to name it; two instrument gains; a logger clock running fast). Each dataset comes
+its drawing, the audit expected to name it; two instrument gains; a logger clock running fast or slow). Each dataset comes
 from its stated seed (:data:`PARTS`): the TUNING part has seeds 1000-1033, 2000-2065, 3000-3065 and 4000-4065 (the
 held-out parts of the first three reports: looked at, so tuning data since), the HELD-OUT part 7000-7065, the BEYOND
 part 6000-6017 (``--part``; ``--first-seed N`` numbers a part's datasets from N instead, for new seeds); choose rules
@@ -145,6 +145,7 @@ LABELS: dict[str, tuple] = {
         ("outside_travel_hardening", {"b_N_m": _u(r, 60.0, 120.0)})]}),
 }
 
+
 def _given(name: str, lo: float, hi: float, relative: bool = False) -> tuple:
     """A number of the specimen off its drawing: the truth is the ``specimen`` effect with the number changed by
     ``lo``-``hi`` either way (a fraction of the drawn value when ``relative``); the model is given the drawing."""
@@ -161,7 +162,8 @@ def _given(name: str, lo: float, hi: float, relative: bool = False) -> tuple:
 
 
 #: Causes beyond the library's effects (issue: every given number open to question, instruments told from the
-#: specimen): numbers of the specimen off the drawing, two instrument errors at once, a logger clock running fast.
+#: specimen): numbers of the specimen off the drawing, two instrument errors at once, a logger clock running fast or
+#: slow.
 #: Their own mix ("beyond"), so that the small and full mixes (and their seeds' datasets) stay as they were.
 BEYOND_LABELS: dict[str, tuple] = {
     "given_mass": _given("mass_kg", 0.05, 0.09, relative=True),

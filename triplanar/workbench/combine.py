@@ -136,7 +136,7 @@ def _first_reexamined(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTes
     that named the stand-in with the right second entry (s3022)."""
     a = ev.best
     assert a is not None
-    second = pair.effect if pair.effect != a.effect else None
+    second = pair.effect
     single = next((c for c in ev.ranked if c.effect == second and c.kind == "candidate" and c.plausible), None)
     if single is None:
         return None
