@@ -70,36 +70,17 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
     first = ev.best
     assert first is not None
     base = ev.user_base
-    added: dict[str, dict[str, float]] = {}
     if first.kind == "refit":      # the refitted given effect stays at its refitted values from here on
         base = spec_with_values(replace(base, effects=without_effect(base.effects, first.effect)), first.effect,
                                 first.params)
-    else:
-        added[first.effect] = dict(first.all_values[first.effect])
-    others = [c for c in ev.ranked if c.key != first.key]
-    steps = [_step(first, others[0] if others else None, ev.baseline_error_mm, ev.baseline_error_mm, ev.lookalikes)]
-    results = [first]
-    baselines = [ev.baseline_error_mm]          # each round's baseline (the entries so far), for _own_allowance
-    while rules.combination_continues(results[-1].cv_error_mm, ev.repeat_scatter_mm, len(steps)):
-        if not resolve(diag.candidates, exclude=(*base.effect_names, *added), specimen=base.specimen):
-            break                              # every candidate is in already (a short candidate list)
-        nxt = diag.next_round().fit(tests, base, refit=added or None)
-        # the best plausible entry by cross-validated error (the round's own examined entry judges improvement
-        # against its baseline, the in-sample fit of the entries so far; here it is judged against their
-        # cross-validated error)
-        plausible = [c for c in nxt.evidence_.ranked if c.plausible]
-        best, look = parsimonious(plausible) if plausible else (None, [])
-        if best is None or not rules.step_accepted(best, results[-1]):
-            break
-        rest = [c for c in nxt.evidence_.ranked if c.key != best.key]
-        steps.append(_step(best, rest[0] if rest else None, results[-1].cv_error_mm, ev.baseline_error_mm, look))
-        results.append(best)
-        baselines.append(nxt.evidence_.baseline_error_mm)
-        if len(results) == 2 and first.kind == "candidate":
-            swapped = _first_reexamined(diag, ev, tests, base, best)
-            if swapped is not None:
-                steps, results, baselines = swapped
-        added = {k: dict(v) for k, v in results[-1].all_values.items()}
+    steps, results, baselines = _forward(diag, ev, tests, base, first, ev.lookalikes)
+    runner = _close_runner_up(ev, first)
+    if runner is not None and len(results) >= 2:
+        alt_steps, alt_results, alt_baselines = _forward(diag, ev, tests, base, runner,
+                                                         lookalikes_of(runner, ev.ranked))
+        if len(alt_results) >= 2 and rules.swap_accepted(alt_results[-1], results[-1]):
+            steps, results, baselines = alt_steps, alt_results, alt_baselines
+            steps[0]["instead_of"] = first.effect
     final = results[-1]
     for i, step in enumerate(steps):
         name = step["effect"]
@@ -124,8 +105,56 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
                        growth_along_travel(after) if after is not None else ev.growth_after, gain, gain_se)
 
 
+Selection = tuple[list[dict[str, Any]], list["CandidateResult"], list[float]]
+
+
+def _forward(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest], base: ModelSpec, first: CandidateResult,
+             look: Sequence[CandidateResult]) -> Selection:
+    """Forward selection from the single entry ``first`` (``look``: its look-alikes): ``(steps, results, each round's
+    baseline)``, the rounds' entries in order (a pair's first re-examined once the second joins)."""
+    added = {} if first.kind == "refit" else {first.effect: dict(first.all_values[first.effect])}
+    others = [c for c in ev.ranked if c.key != first.key]
+    steps = [_step(first, others[0] if others else None, ev.baseline_error_mm, ev.baseline_error_mm, look)]
+    results = [first]
+    baselines = [ev.baseline_error_mm]          # each round's baseline (the entries so far), for _own_allowance
+    while rules.combination_continues(results[-1].cv_error_mm, ev.repeat_scatter_mm, len(steps)):
+        if not resolve(diag.candidates, exclude=(*base.effect_names, *added), specimen=base.specimen):
+            break                              # every candidate is in already (a short candidate list)
+        nxt = diag.next_round().fit(tests, base, refit=added or None)
+        # the best plausible entry by cross-validated error (the round's own examined entry judges improvement
+        # against its baseline, the in-sample fit of the entries so far; here it is judged against their
+        # cross-validated error)
+        plausible = [c for c in nxt.evidence_.ranked if c.plausible]
+        best, look_best = parsimonious(plausible) if plausible else (None, [])
+        if best is None or not rules.step_accepted(best, results[-1]):
+            break
+        rest = [c for c in nxt.evidence_.ranked if c.key != best.key]
+        steps.append(_step(best, rest[0] if rest else None, results[-1].cv_error_mm, ev.baseline_error_mm,
+                           look_best))
+        results.append(best)
+        baselines.append(nxt.evidence_.baseline_error_mm)
+        if len(results) == 2 and first.kind == "candidate":
+            swapped = _first_reexamined(diag, ev, tests, base, first, best)
+            if swapped is not None:
+                steps, results, baselines = swapped
+        added = {k: dict(v) for k, v in results[-1].all_values.items()}
+    return steps, results, baselines
+
+
+def _close_runner_up(ev: Evidence, first: CandidateResult) -> CandidateResult | None:
+    """The best other plausible single entry when it comes within ``MARGIN`` of ``first``
+    (:func:`~triplanar.workbench.rules.restart_from`): forward selection is then also run from it, and the better
+    combination kept. Why: the first step decides the path, and when it was not decisive the path from the close
+    runner-up may be the pair (on the calibration set: rate friction first, 1.14 x below the actuator's rise, for a
+    tip offset with an actuator's rise; a time offset for a load-cell gain with a rangefinder gain)."""
+    if first.kind != "candidate":
+        return None
+    others = [c for c in ev.ranked if c.key != first.key and c.plausible and c.kind == "candidate" and not c.per_test]
+    return others[0] if others and rules.restart_from(first, others[0]) else None
+
+
 def _first_reexamined(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest], base: ModelSpec,
-                      pair: CandidateResult) -> tuple[list[dict[str, Any]], list[CandidateResult], list[float]] | None:
+                      a: CandidateResult, pair: CandidateResult) -> Selection | None:
     """Stepwise selection's backward look (Efroymson's stepwise regression): with a pair [A, B] found, the first
     entry A is re-examined given the second: the candidates are ranked against the model with B alone, and when
     another entry C beats the pair (:func:`~triplanar.workbench.rules.swap_accepted`), the combination is [B, C],
@@ -134,8 +163,6 @@ def _first_reexamined(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTes
     Why: forward selection keeps its first entry for good, and the best single entry of a pair's data can be a
     stand-in for both (a time offset for a tip offset with an actuator's rise): on the calibration set's tuning part
     that named the stand-in with the right second entry (s3022)."""
-    a = ev.best
-    assert a is not None
     second = pair.effect
     single = next((c for c in ev.ranked if c.effect == second and c.kind == "candidate" and c.plausible), None)
     if single is None:

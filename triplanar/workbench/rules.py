@@ -28,11 +28,13 @@ The rules:
   least ``MIN_FALL`` of the current cross-validated error and beats the current model by more than the uncertainty
   of the difference (held-out squared errors over the tests), at most ``MAX_EFFECTS`` in all; once a second entry
   has joined, the first is re-examined given the second and replaced when another beats the pair by more than the
-  uncertainty of the difference (:func:`swap_accepted`, stepwise selection's backward look). Two or more are named
-  (``library_effects``) when together they leave at most ``EXPLAINED_FACTOR`` x scatter with nothing periodic, beat
-  the best single entry by more than the uncertainty of the difference, and the scatter is what noise and the
-  specimen explain. A step is ``high`` when its runner-up leaves at least ``MARGIN`` x its error and it has no
-  look-alike.
+  uncertainty of the difference (:func:`swap_accepted`, stepwise selection's backward look); and when the best
+  other single entry comes within ``MARGIN`` of the first (:func:`restart_from`), forward selection is run from it
+  too and its combination kept when it beats the first's by more than the uncertainty of the difference. Two or
+  more are named (``library_effects``) when together they leave at most ``EXPLAINED_FACTOR`` x scatter with nothing
+  periodic, beat the best single entry by more than the uncertainty of the difference, and the scatter is what
+  noise and the specimen explain. A step is ``high`` when its runner-up leaves at least ``MARGIN`` x its error and
+  it has no look-alike.
 
 * An instrument seen by the rigid block (:func:`_instrument_cap`): physics alone is never named ``high`` when the
   contact points' mutual distances change along the travel.
@@ -530,6 +532,12 @@ def swap_accepted(new: CandidateResult, current: CandidateResult) -> bool:
         return False
     gain, se = beats(new, current)
     return math.isfinite(gain) and math.isfinite(se) and gain > se
+
+
+def restart_from(first: CandidateResult, runner: CandidateResult) -> bool:
+    """Whether forward selection is also run from the runner-up single entry: it comes within ``MARGIN`` of the
+    first (the first step would not be ``high``), so the first choice did not decide the path."""
+    return math.isfinite(runner.cv_error_mm) and runner.cv_error_mm < MARGIN * first.cv_error_mm
 
 
 def _step_confidence(step: Mapping[str, Any]) -> str:

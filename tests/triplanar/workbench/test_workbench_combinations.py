@@ -74,3 +74,22 @@ def test_a_pair_whose_best_single_entry_stands_in_for_both_is_re_examined() -> N
         for param, value in truth[m["effect"]].items():
             low, high = m["param_ci95"][param]
             assert low <= value <= high, (m["effect"], m["params"], m["param_ci95"])
+
+
+def test_forward_selection_also_runs_from_a_close_runner_up() -> None:
+    """A tip offset with an actuator's rise (the calibration's s4051): rate friction is the best plausible single
+    entry, the actuator's rise within 1.25 x of it; forward selection from rate friction ends on three entries, from
+    the actuator's rise on the pair, which is kept (``combine._close_runner_up``)."""
+    truth = {"tip_offset": {"offset_m": -0.005}, "actuator_rise": {"tau_s": 0.06}}
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=2, effects=[
+        make_effect("tip_offset:offset_m=-0.005"), make_effect("actuator_rise:tau_s=0.06")])
+    report = Diagnoser(["time_offset", "actuator_rise", "tip_offset", "rate_friction"], folds=2, progress=False,
+                       model_form=False, executor="serial").fit(tests).report_
+    assert report["verdict"] == "library_effects", report["reason"]
+    steps = report["combination"]["steps"]
+    assert [(s["effect"], s.get("instead_of")) for s in steps] == [("actuator_rise", "rate_friction"),
+                                                                   ("tip_offset", None)]
+    for m in report["missing_effects"]:
+        for param, value in truth[m["effect"]].items():
+            low, high = m["param_ci95"][param]
+            assert low <= value <= high, (m["effect"], m["params"], m["param_ci95"])
