@@ -1,0 +1,461 @@
+"""A cause outside the library, located: where an extra force acts on the block and what it follows.
+
+When no library entry explains the data (``outside_library``), the residual still says what the physics lacks. The
+block moves under the paper's equations of motion (Galic, Glaser & Goodman 2008, section 3: the rigid block's
+Newton-Euler equations with the contact reactions, eq. 21-28); an extra force ``f(t) d`` acting at a point ``P`` of the
+block enters them as the force ``f d`` at the mass centre ``G`` and the moment ``(P - G) x f d`` about it, the way a
+user effect's ``wrench`` does (:meth:`triplanar.effects.Effect.wrench`, ``docs/adding-an-effect.md``). To first order
+in its size, the change it makes to the traces is therefore a linear combination of six *generalised* responses per
+time profile ``f``: a force along e1, e2, e3 at G and a moment about e1, e2, e3, each following ``f``.
+
+:func:`locate` measures those responses on the measured path (the model simulated with each generalised force added
+at a small size, a finite-difference column of the fit's residual vector per response, as the audit of the given
+numbers does: :mod:`triplanar.workbench.given`), builds from them the column of every term of a physically shaped
+library (:data:`POINTS` x three directions x :data:`PROFILES`, a profile that is periodic in time entering as its sine
+and cosine at the residual's dominant frequency), and regresses the model's residual on each term alone: the term
+whose fitted size best predicts the residual of load levels it was not fitted on (the diagnosis's cross-validation
+folds) is the one located; terms whose held-out error is within two paired standard errors of it are its look-alikes
+(the data cannot tell them apart). Its size carries a 95 % interval from the spread over the tests (a sandwich
+estimate clustered by test: a test's residual is smooth along its path, so its samples are not independent), and the
+model is simulated once more with the located force at its size, for the share of the residual it really removes.
+
+Evidence only: no rule of the verdict reads it (:mod:`triplanar.workbench.rules`). The model it starts from is the
+one diagnosed (``Evidence.base``), not a library entry named with low confidence: an outside verdict says none
+explains, and a stand-in would share the residual with the force.
+
+What it cannot say: a force proportional to a contact's normal force (the state a user effect sees has no reactions),
+and two extra forces at once (one term is chosen).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Sequence
+
+import numpy as np
+
+from ..effects import Effect
+from ..kernel import S_R
+from ..measurement import MeasuredTest
+from .discrepancy import discrepancy_group, group_by_force
+from .evidence import dominant_frequency
+from .executor import ExecutorLike, run_tasks
+from .spec import ModelSpec, simulate_for, unread_tests
+
+if TYPE_CHECKING:
+    from .verdict import Evidence
+
+#: What a term's size follows, its unit (per newton of force), and the size of the probe that measures its response
+#: (about half a newton on the calibration's paths: a few millimetres of trace, linear, far above the integrator).
+PROFILES: dict[str, tuple[str, float]] = {
+    "constant": ("N", 0.5),
+    "travel": ("N/m", 10.0),
+    "slip speed": ("N s/m", 1.0),
+    "slip speed squared": ("N s^2/m^2", 2.0),
+    "time (sine)": ("N", 0.5),
+    "time (cosine)": ("N", 0.5),
+}
+#: Where a term's force may act: the mass centre, the tip (the load point P_L) and the contact points.
+POINTS = ("mass centre", "tip", "CP1", "CP2", "CP3")
+AXES = ("e1", "e2", "e3")
+#: The moment probe's arm (m): a moment probe is the force probe's size times this.
+ARM_M = 0.1
+#: Look-alikes: held-out error within this many paired standard errors of the located term's.
+LOOKALIKE_SE = 2.0
+
+
+class _Probe(Effect):
+    """An extra force ``size * f(t, state)`` along ``force`` at the point ``arm`` (body frame, from the mass centre)
+    plus a moment ``size * f`` along ``moment`` (world axes). Not registered: never a candidate of a diagnosis."""
+
+    name = "located_force"
+    parameters = {}
+
+    def __init__(self, profile: str, force: Sequence[float], moment: Sequence[float], arm: Sequence[float],
+                 x0_m: float, frequency_hz: float = 0.0, phase_rad: float = 0.0):
+        self.profile = profile
+        self.force, self.moment, self.arm = (np.asarray(v, dtype=float) for v in (force, moment, arm))
+        self.x0_m, self.frequency_hz, self.phase_rad = float(x0_m), float(frequency_hz), float(phase_rad)
+        self.values = {"profile": float(list(PROFILES).index(profile)), "x0_m": self.x0_m,
+                       "frequency_hz": self.frequency_hz, "phase_rad": self.phase_rad,
+                       **{f"{n}{i}": float(v) for n, vec in (("f", self.force), ("m", self.moment), ("a", self.arm))
+                          for i, v in enumerate(vec)}}
+
+    def _follows(self, t: float, state: Any) -> float:
+        p = self.profile
+        if p == "constant":
+            return 1.0
+        if p == "travel":
+            return max(0.0, float(state.position[0]) - self.x0_m)
+        if p.startswith("time"):
+            angle = 2 * math.pi * self.frequency_hz * t + self.phase_rad
+            return math.sin(angle) if p == "time (sine)" else math.cos(angle)
+        speed = float(np.sqrt(state.velocity @ state.velocity))
+        return speed if p == "slip speed" else speed * speed
+
+    def wrench(self, t: float, state: Any) -> tuple[np.ndarray, np.ndarray]:
+        f = self._follows(t, state)
+        force = self.force * f
+        moment = self.moment * f
+        if self.arm.any():
+            moment = moment + state.moment_of(force, state.position + state.rotation @ self.arm)
+        return force, moment
+
+
+# -- the responses: one finite-difference column of the residual per generalised force and profile --------------------
+
+@dataclass(frozen=True)
+class _ProbeTask:
+    """One simulation: ``spec`` at ``force_N`` against ``tests`` with a probe (``None``: the model alone)."""
+
+    spec: ModelSpec
+    force_N: float
+    tests: tuple[MeasuredTest, ...]
+    profile: str | None = None
+    force: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    moment: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    frequency_hz: float = 0.0
+    phase_rad: float = 0.0
+
+
+def _run_probe(task: _ProbeTask) -> list[np.ndarray]:
+    """The fit's residual vector of each test of ``task`` (the model with the probe, if any)."""
+    model = task.spec.build(task.force_N)
+    if task.profile is not None:
+        x0 = float(model.initial_state()[S_R])
+        model = model.with_effects([_Probe(task.profile, task.force, task.moment, task.arm, x0, task.frequency_hz,
+                                           task.phase_rad)])
+    tests = unread_tests(task.spec, task.tests)
+    result = simulate_for(model, tests)
+    return [d.residuals for d in discrepancy_group(tests, result, False)]
+
+
+def _rest_geometry(spec: ModelSpec, force_N: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    """The block at rest: its rotation (body to world) and each of :data:`POINTS` relative to the mass centre
+    (world axes)."""
+    model = spec.build(force_N)
+    state = model.block_state(0.0, model.initial_state())
+    points = {"mass centre": state.position, "tip": state.load_point,
+              **{f"CP{i + 1}": state.contact_points[i] for i in range(3)}}
+    return state.rotation, {k: np.asarray(v, dtype=float) - state.position for k, v in points.items()}
+
+
+@dataclass(frozen=True)
+class _Responses:
+    """The residual of the model (``r0``, one array per test, the tests in ``order``) and its response to each
+    generalised force (``columns[(k, profile)]``, k 0-2 a force along e1-e3 at the mass centre per newton, 3-5 a
+    moment about e1-e3 per newton metre, per unit of the profile)."""
+
+    order: tuple[int, ...]
+    forces: np.ndarray
+    r0: tuple[np.ndarray, ...]
+    columns: dict[tuple[int, str], tuple[np.ndarray, ...]]
+    frequency_hz: float | None
+    probes: int
+
+
+def _probe_task(spec: ModelSpec, force_N: float, tests: tuple[MeasuredTest, ...], k: int, profile: str,
+                frequency_hz: float) -> _ProbeTask:
+    size = PROFILES[profile][1]
+    unit = tuple(float(i == k % 3) for i in range(3))
+    vec = tuple(size * (ARM_M if k >= 3 else 1.0) * u for u in unit)
+    zero = (0.0, 0.0, 0.0)
+    return _ProbeTask(spec, force_N, tests, profile, zero if k >= 3 else vec, vec if k >= 3 else zero,
+                      frequency_hz=frequency_hz)
+
+
+def _responses(spec: ModelSpec, tests: Sequence[MeasuredTest], executor: ExecutorLike,
+               frequency_hz: float | None) -> _Responses:
+    groups = group_by_force(tests)
+    index = {id(t): i for i, t in enumerate(tests)}
+    order = tuple(index[id(t)] for g in groups.values() for t in g)
+    profiles = [p for p in PROFILES if frequency_hz is not None or not p.startswith("time")]
+    keys = [(k, p) for p in profiles for k in range(6)]
+    tasks = [_ProbeTask(spec, f, g) for f, g in groups.items()]
+    tasks += [_probe_task(spec, f, g, k, p, frequency_hz or 0.0) for k, p in keys for f, g in groups.items()]
+    found = run_tasks(_run_probe, tasks, executor, False)
+    n = len(groups)
+    per = [tuple(r for block in found[j * n:(j + 1) * n] for r in block) for j in range(len(keys) + 1)]
+    r0 = per[0]
+    columns = {}
+    for (k, p), rs in zip(keys, per[1:]):
+        size = PROFILES[p][1] * (ARM_M if k >= 3 else 1.0)
+        columns[(k, p)] = tuple((r - b) / size if len(r) == len(b) else np.zeros_like(b) for r, b in zip(rs, r0))
+    forces = np.array([float(tests[i].shear_force_N) for i in order])
+    return _Responses(order, forces, r0, columns, frequency_hz, len(tasks))
+
+
+# -- the term library and the regression ------------------------------------------------------------------------------
+
+#: What each term follows: the profiles whose responses make its columns, and the unit of its size.
+FOLLOWS: dict[str, tuple[tuple[str, ...], str]] = {
+    "constant": (("constant",), "N"),
+    "load": (("constant",), "N/N"),          # a fraction of the commanded force F_T: the constant response times F_T
+    "travel": (("travel",), "N/m"),
+    "slip speed": (("slip speed",), "N s/m"),
+    "slip speed squared": (("slip speed squared",), "N s^2/m^2"),
+    "time": (("time (sine)", "time (cosine)"), "N"),
+}
+
+
+def _term_columns(resp: _Responses, arm: np.ndarray, axis: int, follows: str) -> list[tuple[np.ndarray, ...]]:
+    """The columns (one per profile of ``follows``; per test) of a unit force along ``axis`` at ``arm`` from the
+    mass centre: the force's response plus its moment's, ``arm x e`` (module doc)."""
+    e = np.eye(3)[axis]
+    lever = np.cross(arm, e)
+    out = []
+    for profile in FOLLOWS[follows][0]:
+        cols = []
+        for t in range(len(resp.r0)):
+            c = resp.columns[(axis, profile)][t] + sum(lever[j] * resp.columns[(3 + j, profile)][t] for j in range(3))
+            cols.append(c * resp.forces[t] if follows == "load" else c)
+        out.append(tuple(cols))
+    return out
+
+
+def _stack(cols: list[tuple[np.ndarray, ...]], tests: Sequence[int]) -> np.ndarray:
+    return np.column_stack([np.concatenate([c[t] for t in tests]) for c in cols])
+
+
+@dataclass(frozen=True)
+class _Fit:
+    """One term regressed: its coefficients, their covariance, the held-out squared error per test."""
+
+    theta: np.ndarray
+    cov: np.ndarray
+    held_out: np.ndarray
+    share: float
+
+
+def _regress(resp: _Responses, cols: list[tuple[np.ndarray, ...]], folds: Sequence[Sequence[int]]) -> _Fit:
+    """The coefficients that cancel the residual best (``r0 + X theta`` least squares), with a covariance clustered
+    by test, and each test's squared residual when its fold (test positions in ``resp``) was left out of the fit."""
+    n = len(resp.r0)
+    every = list(range(n))
+    X, r = _stack(cols, every), np.concatenate(resp.r0)
+    theta = -np.linalg.lstsq(X, r, rcond=None)[0]
+    A_inv = np.linalg.pinv(X.T @ X)
+    meat = np.zeros((X.shape[1], X.shape[1]))
+    for t in every:
+        g = _stack(cols, [t]).T @ (resp.r0[t] + _stack(cols, [t]) @ theta)
+        meat += np.outer(g, g)
+    m = X.shape[1]
+    cov = A_inv @ meat @ A_inv * (n / max(n - m, 1))
+    held = np.array([float(r0 @ r0) for r0 in resp.r0])
+    for fold in folds:
+        out = list(fold)
+        train = [t for t in every if t not in out]
+        if not out or not train:
+            continue
+        th = -np.linalg.lstsq(_stack(cols, train), np.concatenate([resp.r0[t] for t in train]), rcond=None)[0]
+        for t in out:
+            left = resp.r0[t] + _stack(cols, [t]) @ th
+            held[t] = float(left @ left)
+    after = r + X @ theta
+    return _Fit(theta, cov, held, max(0.0, 1.0 - float(after @ after) / float(r @ r)) if r @ r > 0 else 0.0)
+
+
+# -- the result -------------------------------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class LocatedTerm:
+    """One term of the library as fitted: a force at ``point`` along ``direction`` (``+e1`` ... ``-e3``; for a
+    periodic one, the axis it oscillates along) following ``follows`` (:data:`FOLLOWS`), of ``size`` (its unit
+    ``unit``; a periodic one's amplitude, at ``frequency_hz`` and ``phase_rad`` in ``sin(2 pi f t + phase)``) with
+    its 95 % interval, the share of the residual its linearised fit removes in sample, and its held-out error
+    (mm, the diagnosis's load folds)."""
+
+    point: str
+    direction: str
+    follows: str
+    size: float
+    ci95: tuple[float, float]
+    unit: str
+    share_linear: float
+    cv_error_mm: float
+    frequency_hz: float | None = None
+    phase_rad: float | None = None
+
+    @property
+    def label(self) -> str:
+        what = f"time (periodic, {self.frequency_hz:.1f} Hz)" if self.follows == "time" else self.follows
+        return f"{self.point} along {self.direction} following {what}"
+
+    def as_json(self) -> dict[str, Any]:
+        return {"point": self.point, "direction": self.direction, "follows": self.follows, "size": self.size,
+                "ci95": list(self.ci95), "unit": self.unit, "share_linear": self.share_linear,
+                "cv_error_mm": self.cv_error_mm, "frequency_hz": self.frequency_hz, "phase_rad": self.phase_rad}
+
+
+@dataclass(frozen=True)
+class LocatedResult:
+    """What :func:`locate` found: the ``term`` located (``None`` when no term predicts held-out loads better than
+    the model alone), its look-alikes (terms the data cannot tell from it, by label), the model's error before and
+    with the located force at its size (simulated, mm) and the share of the residual's square it removes, how many
+    terms were tried and simulations run, and one ``sentence`` for the user."""
+
+    term: LocatedTerm | None
+    lookalikes: tuple[str, ...]
+    error_mm: float
+    error_after_mm: float
+    share_removed: float
+    n_terms: int
+    n_simulations: int
+    n_tests: int
+    sentence: str
+
+    def as_json(self) -> dict[str, Any]:
+        def finite(v: float) -> float | None:
+            return v if math.isfinite(v) else None
+        return {"term": None if self.term is None else self.term.as_json(), "lookalikes": list(self.lookalikes),
+                "error_mm": finite(self.error_mm), "error_after_mm": finite(self.error_after_mm),
+                "share_removed": finite(self.share_removed), "n_terms": self.n_terms,
+                "n_simulations": self.n_simulations, "n_tests": self.n_tests, "sentence": self.sentence}
+
+
+def _likeness(term: LocatedTerm) -> str:
+    """What a located force is like, for the sentence (the calibration's outside causes and their kin)."""
+    against = term.direction == "-e1"
+    if term.follows == "time":
+        return "like a ripple of the actuator's force" if term.direction.endswith("e1") else "like a vibration"
+    if term.direction.endswith("e2"):
+        return "like a lift or an extra weight"
+    if term.direction.endswith("e3"):
+        return "like a sideways pull (a cable, a hose)" if term.follows in ("constant", "load") else \
+            "like a sideways drag"
+    return {("slip speed", True): "like a viscous drag (an oil film, a damper)",
+            ("slip speed squared", True): "like a quadratic drag (a turbulent film, a brush seal)",
+            ("travel", True): "like friction rising with the distance slid (debris, wear)",
+            ("constant", True): "like extra friction or a cohesion",
+            ("load", True): "like a load-cell error or friction proportional to the load"}.get(
+        (term.follows, against), "like an extra push")
+
+
+def _sentence(term: LocatedTerm | None, lookalikes: Sequence[str], share: float) -> str:
+    if term is None:
+        return ("no single extra force in the library of terms predicts the held-out loads better than the model "
+                "alone: the cause may be in the instruments, or more than one force")
+    grows = {"constant": "of constant size", "load": "in proportion to the load", "travel": "that grows with travel",
+             "slip speed": "that grows with slip speed",
+             "slip speed squared": "that grows with the square of slip speed"}.get(
+        term.follows, f"that oscillates at {term.frequency_hz or math.nan:.1f} Hz")
+    lo, hi = term.ci95
+    text = (f"an extra force at the {term.point} along {term.direction} {grows}: {_likeness(term)} "
+            f"({term.size:.3g} {term.unit} [{lo:.3g}, {hi:.3g}]); with it the model's error falls by "
+            f"{100 * share:.0f} % of its square")
+    if lookalikes:
+        text += f"; the data cannot tell it from a force at {', '.join(lookalikes)}"
+    return text
+
+
+def _frequency(baseline: Sequence[Any] | None) -> float | None:
+    """The residual's peak frequency (median over the timed tests; :func:`~.evidence.dominant_frequency`), where
+    the periodic terms are tried; ``None``: no spectrum."""
+    if not baseline:
+        return None
+    peaks = [f for f, _ in (dominant_frequency(d) for d in baseline if d.lag_mm is not None) if math.isfinite(f)]
+    return float(np.median(peaks)) if peaks else None
+
+
+def _fold_positions(resp: _Responses, folds: Sequence[Sequence[float]] | None) -> list[list[int]]:
+    """The folds as test positions in ``resp``: by load level as given, else (one level) one test each."""
+    if folds and len(folds) > 1:
+        return [[t for t, f in enumerate(resp.forces) if any(abs(f - float(g)) < 1e-9 for g in fold)]
+                for fold in folds]
+    return [[t] for t in range(len(resp.r0))]
+
+
+def _fitted_term(point: str, axis: int, follows: str, fit: _Fit, cv_mm: float, frequency: float | None,
+                 n_tests: int) -> LocatedTerm:
+    """A term's coefficients as a force with a sign, its interval (Student's t over the tests) and, for a periodic
+    one, its amplitude and phase."""
+    from scipy.stats import t as student_t
+    q = float(student_t.ppf(0.975, max(n_tests - len(fit.theta), 1)))
+    unit = FOLLOWS[follows][1]
+    if follows == "time":
+        a, b = fit.theta                   # a sin + b cos = A sin(. + phase)
+        amp = math.hypot(a, b)
+        g = np.array([a, b]) / amp if amp > 0 else np.zeros(2)
+        se = math.sqrt(max(float(g @ fit.cov @ g), 0.0))
+        return LocatedTerm(point, f"+{AXES[axis]}", follows, amp, (max(0.0, amp - q * se), amp + q * se), unit,
+                           fit.share, cv_mm, frequency, math.atan2(b, a))
+    size = float(fit.theta[0])
+    se = math.sqrt(max(float(fit.cov[0, 0]), 0.0))
+    sign = 1.0 if size >= 0 else -1.0
+    lo, hi = sorted((sign * (size - q * se), sign * (size + q * se)))
+    return LocatedTerm(point, f"{'+' if sign > 0 else '-'}{AXES[axis]}", follows, abs(size), (lo, hi), unit,
+                       fit.share, cv_mm)
+
+
+def _check_task(spec: ModelSpec, force_N: float, tests: tuple[MeasuredTest, ...], term: LocatedTerm,
+                rotation: np.ndarray, arm: np.ndarray) -> _ProbeTask:
+    """The model with the located force at its size (for the share it really removes)."""
+    axis = AXES.index(term.direction[1:])
+    sign = -1.0 if term.direction.startswith("-") else 1.0
+    size = term.size * sign * (force_N if term.follows == "load" else 1.0)
+    profile = {"load": "constant", "time": "time (sine)"}.get(term.follows, term.follows)
+    force = tuple(float(size * (i == axis)) for i in range(3))
+    return _ProbeTask(spec, force_N, tests, profile, force, (0.0, 0.0, 0.0), tuple(float(v) for v in rotation.T @ arm),
+                      term.frequency_hz or 0.0, term.phase_rad or 0.0)
+
+
+def _search(resp: _Responses, arms: dict[str, np.ndarray], folds: list[list[int]]) -> list[tuple[
+        LocatedTerm, np.ndarray]]:
+    """Every term of the library regressed alone: ``(term, held-out squared error per test)``, best first."""
+    follows = [f for f in FOLLOWS if f != "time" or resp.frequency_hz is not None]
+    n = len(resp.r0)
+    out = []
+    for point in POINTS:
+        for axis in range(3):
+            for what in follows:
+                fit = _regress(resp, _term_columns(resp, arms[point], axis, what), folds)
+                cv = math.sqrt(float(np.mean(fit.held_out)))
+                out.append((_fitted_term(point, axis, what, fit, cv, resp.frequency_hz, n), fit.held_out))
+    out.sort(key=lambda e: e[0].cv_error_mm)
+    return out
+
+
+def _within(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether held-out errors ``a`` are not worse than ``b`` by more than :data:`LOOKALIKE_SE` paired standard
+    errors (over the tests)."""
+    d = a - b
+    se = float(np.std(d, ddof=1) / math.sqrt(len(d))) if len(d) > 1 else 0.0
+    return float(np.mean(d)) <= LOOKALIKE_SE * se
+
+
+def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
+           folds: Sequence[Sequence[float]] | None = None, executor: ExecutorLike = None,
+           baseline: Sequence[Any] | None = None) -> LocatedResult:
+    """Locate the one extra force on the block that best explains the residual of ``spec`` (default: case B) on
+    ``tests`` (module doc). ``folds``: load levels held out together (default, or one level: each test alone);
+    ``baseline``: the model's per-test discrepancies if already known (for the periodic terms' frequency)."""
+    tests = list(tests)
+    if not tests:
+        raise ValueError("locate needs at least one measured test")
+    spec = spec or ModelSpec()
+    if baseline is None:
+        from .fit import discrepancies, evaluate_spec
+        baseline = discrepancies(evaluate_spec(spec, tests))
+    resp = _responses(spec, tests, executor, _frequency(baseline))
+    rotation, arms = _rest_geometry(spec, float(resp.forces[0]))
+    found = _search(resp, arms, _fold_positions(resp, folds))
+    nothing = np.array([float(r @ r) for r in resp.r0])
+    error = math.sqrt(float(np.mean(nothing)))
+    best, held = found[0]
+    if _within(nothing, held):          # the model alone predicts the held-out loads as well
+        return LocatedResult(None, (), error, error, 0.0, len(found), resp.probes, len(tests), _sentence(None, (), 0))
+    lookalikes = tuple(t.label for t, h in found[1:] if _within(h, held))
+    groups = group_by_force(tests)
+    checks = run_tasks(_run_probe, [_check_task(spec, f, g, best, rotation, arms[best.point])
+                                    for f, g in groups.items()], executor, False)
+    after = np.array([float(r @ r) for block in checks for r in block])
+    share = 1.0 - float(after.sum()) / float(nothing.sum()) if nothing.sum() > 0 else 0.0
+    return LocatedResult(best, lookalikes, error, math.sqrt(float(np.mean(after))), share, len(found),
+                         resp.probes + len(groups), len(tests), _sentence(best, lookalikes, share))
+
+
+def locate_evidence(ev: Evidence, tests: Sequence[MeasuredTest], executor: ExecutorLike = None) -> LocatedResult:
+    """:func:`locate` on what a diagnosis gathered: the model diagnosed, its folds and its baseline."""
+    return locate(tests, ev.base, ev.folds, executor, ev.baseline)
