@@ -25,7 +25,7 @@ ROOT = Path(__file__).resolve().parents[1]
 if str(ROOT) not in sys.path:
     sys.path.insert(0, str(ROOT))
 
-from triplanar.workbench.locate import LocatedTerm  # noqa: E402
+from triplanar.workbench.locate import LocatedTerm
 
 #: What each outside cause is, as a term: the point, the directions counted right (a periodic force's sign is its
 #: phase), what it follows (the sign of the lateral pull is read from its parameter).
@@ -34,6 +34,16 @@ TRUTH = {"outside_viscous_drag": ("mass centre", ("-e1",), "slip speed"),
          "outside_thrust_ripple": ("mass centre", ("+e1", "-e1"), "time"),
          "outside_travel_hardening": ("mass centre", ("-e1",), "travel"),
          "outside_lateral_pull": ("mass centre", None, "constant")}
+
+
+#: The truth's parameter that is the located term's size (same unit: each cause acts at the mass centre).
+SIZE = {"outside_viscous_drag": "c_N_s_m", "outside_quadratic_drag": "k_N_s2_m2", "outside_thrust_ripple":
+        "amplitude_N", "outside_travel_hardening": "b_N_m", "outside_lateral_pull": "force_N"}
+
+
+def true_size(truth: dict) -> float:
+    name, params = truth["outside_library"][0]["name"], truth["outside_library"][0]["parameters"]
+    return abs(float(params[SIZE[name]]))
 
 
 def truth_of(truth: dict) -> tuple[str, tuple[str, ...], str]:
@@ -107,9 +117,14 @@ def main() -> None:
             after = resource.getrusage(resource.RUSAGE_SELF)
             cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
             right = judge(found.term, found.lookalikes, truth_of(truth))
-            rows.append({"name": path.stem, "verdict": verdict, "found": found, "cpu": cpu, **right})
+            size = true_size(truth)
+            covers = bool(right["where"] and right["follows"] and found.term.ci95[0] <= size <= found.term.ci95[1])
+            rows.append({"name": path.stem, "verdict": verdict, "found": found, "cpu": cpu, "covers": covers,
+                         **right})
             term = found.term.label if found.term else "none"
-            print(f"{path.stem:34s} {verdict:16s} {term:60s} where {'Y' if right['where'] else 'n'} "
+            if found.term is not None:
+                term += f" {found.term.size:.3g} [{found.term.ci95[0]:.3g}, {found.term.ci95[1]:.3g}] (true {size:.3g})"
+            print(f"{path.stem:34s} {verdict:16s} {term:92s} where {'Y' if right['where'] else 'n'} "
                   f"(group {'Y' if right['where_group'] else 'n'}, {len(found.lookalikes)} alike) follows "
                   f"{'Y' if right['follows'] else 'n'}  removes {100 * found.share_removed:5.1f} %  "
                   f"{cpu:5.1f} CPU s", flush=True)
@@ -118,16 +133,18 @@ def main() -> None:
 
 def _summary(rows: list[dict]) -> None:
     print()
-    print("| kind | datasets | point and direction right | ... or among the look-alikes | follows right |")
-    print("|---|---|---|---|---|")
+    print("| kind | datasets | point and direction right | ... or among the look-alikes | follows right "
+          "| size's interval holds the truth |")
+    print("|---|---|---|---|---|---|")
     kinds = sorted({r["name"].rsplit("-s", 1)[0] for r in rows})
-    for kind in [*kinds, "all"]:
-        sel = [r for r in rows if kind == "all" or r["name"].rsplit("-s", 1)[0] == kind]
+    for kind in [*kinds, "all", "diagnosed outside_library"]:
+        sel = [r for r in rows if kind == "all" or r["name"].rsplit("-s", 1)[0] == kind
+               or (kind.startswith("diagnosed") and r["verdict"] == "outside_library")]
         cells = []
-        for key in ("where", "where_group", "follows"):
+        for key in ("where", "where_group", "follows", "covers"):
             k = sum(r[key] for r in sel)
             lo, hi = wilson(k, len(sel))
-            cells.append(f"{k}/{len(sel)}" + (f" [{lo:.2f}, {hi:.2f}]" if kind == "all" else ""))
+            cells.append(f"{k}/{len(sel)}" + (f" [{lo:.2f}, {hi:.2f}]" if kind in ("all", "diagnosed outside_library") and sel else ""))
         print(f"| {kind} | {len(sel)} | " + " | ".join(cells) + " |")
     cpu = sorted(r["cpu"] for r in rows)
     if cpu:

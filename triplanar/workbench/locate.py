@@ -39,7 +39,6 @@ from ..effects import Effect
 from ..kernel import S_R
 from ..measurement import MeasuredTest
 from .discrepancy import discrepancy_group, group_by_force
-from .evidence import dominant_frequency
 from .executor import ExecutorLike, run_tasks
 from .spec import ModelSpec, simulate_for, unread_tests
 
@@ -61,6 +60,10 @@ POINTS = ("mass centre", "tip", "CP1", "CP2", "CP3")
 AXES = ("e1", "e2", "e3")
 #: The moment probe's arm (m): a moment probe is the force probe's size times this.
 ARM_M = 0.1
+#: The frequencies (Hz) scanned for a force periodic in time: from about one period over a test (a slower one is a
+#: trend, which the smooth profiles take) to where the block's inertia leaves a few newtons' ripple below a
+#: rangefinder's noise (amplitude A / (m (2 pi f)^2): 5 N on 5.4 kg at 20 Hz is 0.06 mm).
+SCAN_HZ = np.arange(3.0, 20.01, 1.5)
 #: Look-alikes: held-out error within this many paired standard errors of the located term's.
 LOOKALIKE_SE = 2.0
 
@@ -166,25 +169,66 @@ def _probe_task(spec: ModelSpec, force_N: float, tests: tuple[MeasuredTest, ...]
                       frequency_hz=frequency_hz)
 
 
-def _responses(spec: ModelSpec, tests: Sequence[MeasuredTest], executor: ExecutorLike,
-               frequency_hz: float | None) -> _Responses:
+def _per_test(found: list[list[np.ndarray]], n_groups: int, count: int) -> list[tuple[np.ndarray, ...]]:
+    """``count`` runs of every load group (in that order) as one residual per test each."""
+    return [tuple(r for block in found[j * n_groups:(j + 1) * n_groups] for r in block) for j in range(count)]
+
+
+def _column(rs: tuple[np.ndarray, ...], r0: tuple[np.ndarray, ...], size: float) -> tuple[np.ndarray, ...]:
+    return tuple((r - b) / size if len(r) == len(b) else np.zeros_like(b) for r, b in zip(rs, r0))
+
+
+def _scan_frequency(r0: tuple[np.ndarray, ...], scan: list[tuple[np.ndarray, ...]]) -> float | None:
+    """The frequency at which a force along e1 oscillating in time (its sine and cosine responses, ``scan``: two per
+    frequency of :data:`SCAN_HZ`) takes most of the residual, refined between the grid's points by a parabola
+    through the best and its neighbours; ``None`` if none takes any."""
+    r = np.concatenate(r0)
+    left = []
+    for i in range(len(SCAN_HZ)):
+        X = np.column_stack([np.concatenate(scan[2 * i]), np.concatenate(scan[2 * i + 1])])
+        theta = np.linalg.lstsq(X, r, rcond=None)[0]
+        e = r - X @ theta
+        left.append(float(e @ e))
+    k = int(np.argmin(left))
+    if not left[k] < float(r @ r):
+        return None
+    if 0 < k < len(SCAN_HZ) - 1:
+        a, b, c = left[k - 1], left[k], left[k + 1]
+        curve = a - 2 * b + c
+        if curve > 0:
+            step = float(SCAN_HZ[1] - SCAN_HZ[0])
+            return float(SCAN_HZ[k] + step * 0.5 * (a - c) / curve)
+    return float(SCAN_HZ[k])
+
+
+def _responses(spec: ModelSpec, tests: Sequence[MeasuredTest], executor: ExecutorLike) -> _Responses:
+    """The model's residual and its responses (two rounds of simulations: the smooth profiles with the frequency
+    scan, then the periodic responses at the frequency found)."""
     groups = group_by_force(tests)
     index = {id(t): i for i, t in enumerate(tests)}
     order = tuple(index[id(t)] for g in groups.values() for t in g)
-    profiles = [p for p in PROFILES if frequency_hz is not None or not p.startswith("time")]
-    keys = [(k, p) for p in profiles for k in range(6)]
+    smooth = [(k, p) for p in PROFILES if not p.startswith("time") for k in range(6)]
+    scan = [(0, p, f) for f in SCAN_HZ for p in ("time (sine)", "time (cosine)")]
     tasks = [_ProbeTask(spec, f, g) for f, g in groups.items()]
-    tasks += [_probe_task(spec, f, g, k, p, frequency_hz or 0.0) for k, p in keys for f, g in groups.items()]
-    found = run_tasks(_run_probe, tasks, executor, False)
+    tasks += [_probe_task(spec, f, g, k, p, 0.0) for k, p in smooth for f, g in groups.items()]
+    tasks += [_probe_task(spec, f, g, k, p, hz) for k, p, hz in scan for f, g in groups.items()]
     n = len(groups)
-    per = [tuple(r for block in found[j * n:(j + 1) * n] for r in block) for j in range(len(keys) + 1)]
+    per = _per_test(run_tasks(_run_probe, tasks, executor, False), n, 1 + len(smooth) + len(scan))
     r0 = per[0]
-    columns = {}
-    for (k, p), rs in zip(keys, per[1:]):
-        size = PROFILES[p][1] * (ARM_M if k >= 3 else 1.0)
-        columns[(k, p)] = tuple((r - b) / size if len(r) == len(b) else np.zeros_like(b) for r, b in zip(rs, r0))
+    columns = {(k, p): _column(rs, r0, PROFILES[p][1] * (ARM_M if k >= 3 else 1.0))
+               for (k, p), rs in zip(smooth, per[1:])}
+    frequency = _scan_frequency(r0, [_column(rs, r0, PROFILES[p][1]) for (_, p, _), rs in
+                                     zip(scan, per[1 + len(smooth):])])
+    simulations = len(tasks)
+    if frequency is not None:
+        periodic = [(k, p) for p in ("time (sine)", "time (cosine)") for k in range(6)]
+        more = [_probe_task(spec, f, g, k, p, frequency) for k, p in periodic for f, g in groups.items()]
+        found = _per_test(run_tasks(_run_probe, more, executor, False), n, len(periodic))
+        columns.update({(k, p): _column(rs, r0, PROFILES[p][1] * (ARM_M if k >= 3 else 1.0))
+                        for (k, p), rs in zip(periodic, found)})
+        simulations += len(more)
     forces = np.array([float(tests[i].shear_force_N) for i in order])
-    return _Responses(order, forces, r0, columns, frequency_hz, len(tasks))
+    return _Responses(order, forces, r0, columns, frequency, simulations)
 
 
 # -- the term library and the regression ------------------------------------------------------------------------------
@@ -350,15 +394,6 @@ def _sentence(term: LocatedTerm | None, lookalikes: Sequence[str], share: float)
     return text
 
 
-def _frequency(baseline: Sequence[Any] | None) -> float | None:
-    """The residual's peak frequency (median over the timed tests; :func:`~.evidence.dominant_frequency`), where
-    the periodic terms are tried; ``None``: no spectrum."""
-    if not baseline:
-        return None
-    peaks = [f for f, _ in (dominant_frequency(d) for d in baseline if d.lag_mm is not None) if math.isfinite(f)]
-    return float(np.median(peaks)) if peaks else None
-
-
 def _fold_positions(resp: _Responses, folds: Sequence[Sequence[float]] | None) -> list[list[int]]:
     """The folds as test positions in ``resp``: by load level as given, else (one level) one test each."""
     if folds and len(folds) > 1:
@@ -426,19 +461,14 @@ def _within(a: np.ndarray, b: np.ndarray) -> bool:
 
 
 def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
-           folds: Sequence[Sequence[float]] | None = None, executor: ExecutorLike = None,
-           baseline: Sequence[Any] | None = None) -> LocatedResult:
+           folds: Sequence[Sequence[float]] | None = None, executor: ExecutorLike = None) -> LocatedResult:
     """Locate the one extra force on the block that best explains the residual of ``spec`` (default: case B) on
-    ``tests`` (module doc). ``folds``: load levels held out together (default, or one level: each test alone);
-    ``baseline``: the model's per-test discrepancies if already known (for the periodic terms' frequency)."""
+    ``tests`` (module doc). ``folds``: load levels held out together (default, or one level: each test alone)."""
     tests = list(tests)
     if not tests:
         raise ValueError("locate needs at least one measured test")
     spec = spec or ModelSpec()
-    if baseline is None:
-        from .fit import discrepancies, evaluate_spec
-        baseline = discrepancies(evaluate_spec(spec, tests))
-    resp = _responses(spec, tests, executor, _frequency(baseline))
+    resp = _responses(spec, tests, executor)
     rotation, arms = _rest_geometry(spec, float(resp.forces[0]))
     found = _search(resp, arms, _fold_positions(resp, folds))
     nothing = np.array([float(r @ r) for r in resp.r0])
@@ -452,10 +482,15 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
                                     for f, g in groups.items()], executor, False)
     after = np.array([float(r @ r) for block in checks for r in block])
     share = 1.0 - float(after.sum()) / float(nothing.sum()) if nothing.sum() > 0 else 0.0
+    if not share > 0:          # the linearisation misled: at its fitted size the force does not help
+        return LocatedResult(None, (), error, math.sqrt(float(np.mean(after))), share, len(found),
+                             resp.probes + len(groups), len(tests),
+                             f"no extra force located: the best term of the library (a force at the {best.label}) "
+                             f"does not lower the model's error when simulated at its fitted size")
     return LocatedResult(best, lookalikes, error, math.sqrt(float(np.mean(after))), share, len(found),
                          resp.probes + len(groups), len(tests), _sentence(best, lookalikes, share))
 
 
 def locate_evidence(ev: Evidence, tests: Sequence[MeasuredTest], executor: ExecutorLike = None) -> LocatedResult:
     """:func:`locate` on what a diagnosis gathered: the model diagnosed, its folds and its baseline."""
-    return locate(tests, ev.base, ev.folds, executor, ev.baseline)
+    return locate(tests, ev.base, ev.folds, executor)
