@@ -30,7 +30,7 @@ and two extra forces at once (one term is chosen).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
@@ -55,6 +55,10 @@ PROFILES: dict[str, tuple[str, float]] = {
     "time (sine)": ("N", 0.5),
     "time (cosine)": ("N", 0.5),
 }
+#: The profiles measured through the six generalised forces, and those measured for each point alone (a slip speed
+#: is the point's own: a block that turns slides faster at one contact than at another).
+GENERALISED = ("constant", "travel")
+POINTWISE = ("slip speed", "slip speed squared")
 #: Where a term's force may act: the mass centre, the tip (the load point P_L) and the contact points.
 POINTS = ("mass centre", "tip", "CP1", "CP2", "CP3")
 AXES = ("e1", "e2", "e3")
@@ -64,6 +68,9 @@ ARM_M = 0.1
 #: trend, which the smooth profiles take) to where the block's inertia leaves a few newtons' ripple below a
 #: rangefinder's noise (amplitude A / (m (2 pi f)^2): 5 N on 5.4 kg at 20 Hz is 0.06 mm).
 SCAN_HZ = np.arange(3.0, 20.01, 1.5)
+#: Secant steps of the located term's size on the simulated model, and the relative change at which they stop.
+REFINE_STEPS = 3
+REFINE_TOLERANCE = 0.02
 #: Look-alikes: held-out error within this many paired standard errors of the located term's.
 LOOKALIKE_SE = 2.0
 
@@ -94,7 +101,11 @@ class _Probe(Effect):
         if p.startswith("time"):
             angle = 2 * math.pi * self.frequency_hz * t + self.phase_rad
             return math.sin(angle) if p == "time (sine)" else math.cos(angle)
-        speed = float(np.sqrt(state.velocity @ state.velocity))
+        v = state.velocity
+        if self.arm.any():          # the speed of the point the force acts at: v + omega x arm
+            a, w = state.rotation @ self.arm, state.omega
+            v = v + np.array([w[1] * a[2] - w[2] * a[1], w[2] * a[0] - w[0] * a[2], w[0] * a[1] - w[1] * a[0]])
+        speed = float(np.sqrt(v @ v))
         return speed if p == "slip speed" else speed * speed
 
     def wrench(self, t: float, state: Any) -> tuple[np.ndarray, np.ndarray]:
@@ -201,24 +212,32 @@ def _scan_frequency(r0: tuple[np.ndarray, ...], scan: list[tuple[np.ndarray, ...
     return float(SCAN_HZ[k])
 
 
-def _responses(spec: ModelSpec, tests: Sequence[MeasuredTest], executor: ExecutorLike) -> _Responses:
+def _responses(spec: ModelSpec, tests: Sequence[MeasuredTest], executor: ExecutorLike,
+               body_arms: dict[str, tuple[float, float, float]]) -> _Responses:
     """The model's residual and its responses (two rounds of simulations: the smooth profiles with the frequency
-    scan, then the periodic responses at the frequency found)."""
+    scan, then the periodic responses at the frequency found). A force following slip speed follows the speed of
+    the point it acts at, so its response is measured for each point of ``body_arms`` (body frame) and axis alone
+    (``columns[(point, axis, profile)]``); the others through the six generalised forces."""
     groups = group_by_force(tests)
     index = {id(t): i for i, t in enumerate(tests)}
     order = tuple(index[id(t)] for g in groups.values() for t in g)
-    smooth = [(k, p) for p in PROFILES if not p.startswith("time") for k in range(6)]
+    smooth = [(k, p) for p in GENERALISED for k in range(6)]
+    direct = [(point, axis, p) for p in POINTWISE for point in POINTS for axis in range(3)]
     scan = [(0, p, f) for f in SCAN_HZ for p in ("time (sine)", "time (cosine)")]
     tasks = [_ProbeTask(spec, f, g) for f, g in groups.items()]
     tasks += [_probe_task(spec, f, g, k, p, 0.0) for k, p in smooth for f, g in groups.items()]
+    tasks += [replace(_probe_task(spec, f, g, axis, p, 0.0), arm=body_arms[point]) for point, axis, p in direct
+              for f, g in groups.items()]
     tasks += [_probe_task(spec, f, g, k, p, hz) for k, p, hz in scan for f, g in groups.items()]
     n = len(groups)
-    per = _per_test(run_tasks(_run_probe, tasks, executor, False), n, 1 + len(smooth) + len(scan))
+    per = _per_test(run_tasks(_run_probe, tasks, executor, False), n, 1 + len(smooth) + len(direct) + len(scan))
     r0 = per[0]
-    columns = {(k, p): _column(rs, r0, PROFILES[p][1] * (ARM_M if k >= 3 else 1.0))
-               for (k, p), rs in zip(smooth, per[1:])}
+    columns: dict[tuple, tuple[np.ndarray, ...]] = {
+        (k, p): _column(rs, r0, PROFILES[p][1] * (ARM_M if k >= 3 else 1.0)) for (k, p), rs in zip(smooth, per[1:])}
+    columns.update({key: _column(rs, r0, PROFILES[key[2]][1])
+                    for key, rs in zip(direct, per[1 + len(smooth):])})
     frequency = _scan_frequency(r0, [_column(rs, r0, PROFILES[p][1]) for (_, p, _), rs in
-                                     zip(scan, per[1 + len(smooth):])])
+                                     zip(scan, per[1 + len(smooth) + len(direct):])])
     simulations = len(tasks)
     if frequency is not None:
         periodic = [(k, p) for p in ("time (sine)", "time (cosine)") for k in range(6)]
@@ -244,13 +263,18 @@ FOLLOWS: dict[str, tuple[tuple[str, ...], str]] = {
 }
 
 
-def _term_columns(resp: _Responses, arm: np.ndarray, axis: int, follows: str) -> list[tuple[np.ndarray, ...]]:
-    """The columns (one per profile of ``follows``; per test) of a unit force along ``axis`` at ``arm`` from the
-    mass centre: the force's response plus its moment's, ``arm x e`` (module doc)."""
+def _term_columns(resp: _Responses, point: str, arm: np.ndarray, axis: int, follows: str) -> list[
+        tuple[np.ndarray, ...]]:
+    """The columns (one per profile of ``follows``; per test) of a unit force along ``axis`` at ``point``, ``arm``
+    from the mass centre: measured alone (:data:`POINTWISE`), or the force's response plus its moment's, ``arm x e``
+    (module doc)."""
     e = np.eye(3)[axis]
     lever = np.cross(arm, e)
     out = []
     for profile in FOLLOWS[follows][0]:
+        if profile in POINTWISE:
+            out.append(resp.columns[(point, axis, profile)])
+            continue
         cols = []
         for t in range(len(resp.r0)):
             c = resp.columns[(axis, profile)][t] + sum(lever[j] * resp.columns[(3 + j, profile)][t] for j in range(3))
@@ -445,7 +469,7 @@ def _search(resp: _Responses, arms: dict[str, np.ndarray], folds: list[list[int]
     for point in POINTS:
         for axis in range(3):
             for what in follows:
-                fit = _regress(resp, _term_columns(resp, arms[point], axis, what), folds)
+                fit = _regress(resp, _term_columns(resp, point, arms[point], axis, what), folds)
                 cv = math.sqrt(float(np.mean(fit.held_out)))
                 out.append((_fitted_term(point, axis, what, fit, cv, resp.frequency_hz, n), fit.held_out))
     out.sort(key=lambda e: e[0].cv_error_mm)
@@ -468,8 +492,8 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
     if not tests:
         raise ValueError("locate needs at least one measured test")
     spec = spec or ModelSpec()
-    resp = _responses(spec, tests, executor)
-    rotation, arms = _rest_geometry(spec, float(resp.forces[0]))
+    rotation, arms = _rest_geometry(spec, float(tests[0].shear_force_N))
+    resp = _responses(spec, tests, executor, {k: tuple(float(x) for x in rotation.T @ a) for k, a in arms.items()})
     found = _search(resp, arms, _fold_positions(resp, folds))
     nothing = np.array([float(r @ r) for r in resp.r0])
     error = math.sqrt(float(np.mean(nothing)))
@@ -477,18 +501,54 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
     if _within(nothing, held):          # the model alone predicts the held-out loads as well
         return LocatedResult(None, (), error, error, 0.0, len(found), resp.probes, len(tests), _sentence(None, (), 0))
     lookalikes = tuple(t.label for t, h in found[1:] if _within(h, held))
-    groups = group_by_force(tests)
-    checks = run_tasks(_run_probe, [_check_task(spec, f, g, best, rotation, arms[best.point])
-                                    for f, g in groups.items()], executor, False)
-    after = np.array([float(r @ r) for block in checks for r in block])
+    best, after, simulations = _refine(best, spec, tests, rotation, arms[best.point], resp.r0, executor)
     share = 1.0 - float(after.sum()) / float(nothing.sum()) if nothing.sum() > 0 else 0.0
+    simulations += resp.probes
     if not share > 0:          # the linearisation misled: at its fitted size the force does not help
-        return LocatedResult(None, (), error, math.sqrt(float(np.mean(after))), share, len(found),
-                             resp.probes + len(groups), len(tests),
-                             f"no extra force located: the best term of the library (a force at the {best.label}) "
-                             f"does not lower the model's error when simulated at its fitted size")
-    return LocatedResult(best, lookalikes, error, math.sqrt(float(np.mean(after))), share, len(found),
-                         resp.probes + len(groups), len(tests), _sentence(best, lookalikes, share))
+        return LocatedResult(None, (), error, math.sqrt(float(np.mean(after))), share, len(found), simulations,
+                             len(tests), f"no extra force located: the best term of the library (a force at the "
+                             f"{best.label}) does not lower the model's error when simulated at its fitted size")
+    return LocatedResult(best, lookalikes, error, math.sqrt(float(np.mean(after))), share, len(found), simulations,
+                         len(tests), _sentence(best, lookalikes, share))
+
+
+def _refine(term: LocatedTerm, spec: ModelSpec, tests: Sequence[MeasuredTest], rotation: np.ndarray,
+            arm: np.ndarray, r0: tuple[np.ndarray, ...], executor: ExecutorLike) -> tuple[LocatedTerm, np.ndarray,
+                                                                                           int]:
+    """The located term's size where the model simulated with it fits best (the linearised size, then up to
+    :data:`REFINE_STEPS` secant steps: a drag slows the block, which changes the drag, so the response is not linear
+    at the sizes found), with its interval from the last secant's column; and each test's squared residual there
+    and the simulations run. A periodic term keeps its phase (its amplitude is refined)."""
+    from scipy.stats import t as student_t
+    groups = group_by_force(tests)
+
+    def residual(size: float) -> list[np.ndarray]:
+        trial = replace(term, size=size)
+        found = run_tasks(_run_probe, [_check_task(spec, f, g, trial, rotation, arm) for f, g in groups.items()],
+                          executor, False)
+        return [r for block in found for r in block]
+
+    points = [(0.0, list(r0)), (term.size, residual(term.size))]
+    for _ in range(REFINE_STEPS):
+        (s_a, r_a), (s_b, r_b) = points[-2], points[-1]
+        column = (np.concatenate(r_b) - np.concatenate(r_a)) / (s_b - s_a)
+        if not float(column @ column) > 0:
+            break
+        size = s_b - float(column @ np.concatenate(r_b)) / float(column @ column)
+        if size <= 0 or abs(size - s_b) <= REFINE_TOLERANCE * s_b:
+            break
+        points.append((size, residual(size)))
+    best_size, best_r = min(points[1:], key=lambda p: float(np.concatenate(p[1]) @ np.concatenate(p[1])))
+    (s_a, r_a), (s_b, r_b) = points[-2], points[-1]
+    column = (np.concatenate(r_b) - np.concatenate(r_a)) / (s_b - s_a)
+    lengths = np.cumsum([0] + [len(r) for r in r0])
+    cc = float(column @ column)
+    scores = [float(column[a:b] @ e) for (a, b), e in zip(zip(lengths[:-1], lengths[1:]), best_r)]
+    n = len(r0)
+    se = math.sqrt(sum(g * g for g in scores) * n / max(n - 1, 1)) / cc if cc > 0 else math.inf
+    q = float(student_t.ppf(0.975, max(n - 1, 1)))
+    refined = replace(term, size=best_size, ci95=(max(0.0, best_size - q * se), best_size + q * se))
+    return refined, np.array([float(r @ r) for r in best_r]), (len(points) - 1) * len(groups)
 
 
 def locate_evidence(ev: Evidence, tests: Sequence[MeasuredTest], executor: ExecutorLike = None) -> LocatedResult:
