@@ -30,7 +30,7 @@ from .evidence import expected_scatter_mm, growth_along_travel, instrument_noise
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
 from .given import audit_given       # (imported here also so that kept Evidence holding a GivenAudit reads back)
-from .locate import locate_evidence  # (and a LocatedResult)
+from .locate import locate           # (imported here also so that kept Evidence holding a LocatedResult reads back)
 from .rigidity import rigidity
 from .spec import ModelSpec, spec_with_values
 from .sweep import CandidateResult, CandidateTask, assemble, load_folds, profile_result, residual_of, run_candidate, \
@@ -153,7 +153,7 @@ class Diagnoser:
         self.decision_ = rules.decide(ev)
         if self.locate and self.decision_.kind is VerdictKind.OUTSIDE_LIBRARY:
             # where an extra force would act, and what it follows (evidence for the user: no rule reads it)
-            ev = replace(ev, located=locate_evidence(ev, tests, self.executor))
+            ev = replace(ev, located=locate(tests, ev.base, ev.folds, self.executor))
         self.evidence_ = ev
         self.seconds_ = time.perf_counter() - began
         return self

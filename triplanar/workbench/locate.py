@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -41,9 +41,6 @@ from ..measurement import MeasuredTest
 from .discrepancy import discrepancy_group, group_by_force
 from .executor import ExecutorLike, run_tasks
 from .spec import ModelSpec, simulate_for, unread_tests
-
-if TYPE_CHECKING:
-    from .verdict import Evidence
 
 #: What a term's size follows, its unit (per newton of force), and the size of the probe that measures its response
 #: (about half a newton on the calibration's paths: a few millimetres of trace, linear, far above the integrator).
@@ -550,7 +547,3 @@ def _refine(term: LocatedTerm, spec: ModelSpec, tests: Sequence[MeasuredTest], r
     refined = replace(term, size=best_size, ci95=(max(0.0, best_size - q * se), best_size + q * se))
     return refined, np.array([float(r @ r) for r in best_r]), (len(points) - 1) * len(groups)
 
-
-def locate_evidence(ev: Evidence, tests: Sequence[MeasuredTest], executor: ExecutorLike = None) -> LocatedResult:
-    """:func:`locate` on what a diagnosis gathered: the model diagnosed, its folds and its baseline."""
-    return locate(tests, ev.base, ev.folds, executor)
