@@ -9,7 +9,9 @@ Each ``DATA_DIR`` holds ``outside_*-s<seed>.csv`` with ``.truth.json`` beside it
 is the one the dataset's diagnosis starts from (the given effects; case B), the folds those of ``diagnose`` (3, by
 load level). ``--results``: the calibration's kept diagnoses (``results/<label>-s<seed>.json``), for the verdict
 column. Prints one row per dataset (kind, located form, right or not, CPU s) and the rates with their Wilson 95 %
-intervals: direction and point right (strictly, and with the look-alikes), what it follows right.
+intervals: direction and point right (the point: the true one, or one where the force has the same moment about the
+vertical, ``LocatedTerm.same_moment``; and with the look-alikes), what it follows right, the size's interval holding the
+true value.
 """
 
 from __future__ import annotations
@@ -65,7 +67,7 @@ def judge(term: LocatedTerm | None, lookalikes: tuple[str, ...], truth: tuple[st
     point, directions, follows = truth
     if term is None:
         return {"where": False, "where_group": False, "follows": False}
-    where = term.point == point and term.direction in directions
+    where = (term.point == point or point in term.same_moment) and term.direction in directions
     group = where or any(p == point and d in directions for p, d, _ in map(_parse_label, lookalikes))
     return {"where": where, "where_group": group, "follows": term.follows == follows}
 
@@ -133,7 +135,7 @@ def main() -> None:
 
 def _summary(rows: list[dict]) -> None:
     print()
-    print("| kind | datasets | point and direction right | ... or among the look-alikes | follows right "
+    print("| kind | datasets | point (or one with the same moment about the vertical) and direction right | ... or among the look-alikes | follows right "
           "| size's interval holds the truth |")
     print("|---|---|---|---|---|---|")
     kinds = sorted({r["name"].rsplit("-s", 1)[0] for r in rows})

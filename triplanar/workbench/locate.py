@@ -11,13 +11,18 @@ time profile ``f``: a force along e1, e2, e3 at G and a moment about e1, e2, e3,
 :func:`locate` measures those responses on the measured path (the model simulated with each generalised force added
 at a small size, a finite-difference column of the fit's residual vector per response, as the audit of the given
 numbers does: :mod:`triplanar.workbench.given`), builds from them the column of every term of a physically shaped
-library (:data:`POINTS` x three directions x :data:`PROFILES`, a profile that is periodic in time entering as its sine
-and cosine at the residual's dominant frequency), and regresses the model's residual on each term alone: the term
-whose fitted size best predicts the residual of load levels it was not fitted on (the diagnosis's cross-validation
-folds) is the one located; terms whose held-out error is within two paired standard errors of it are its look-alikes
-(the data cannot tell them apart). Its size carries a 95 % interval from the spread over the tests (a sandwich
-estimate clustered by test: a test's residual is smooth along its path, so its samples are not independent), and the
-model is simulated once more with the located force at its size, for the share of the residual it really removes.
+library (:data:`POINTS` x three directions x :data:`FOLLOWS`: constant, in proportion to the load, travel, slip speed,
+its square, and periodic in time as a sine and a cosine at the frequency where a scan of :data:`SCAN_HZ` finds the
+residual's oscillation; a force following slip speed follows its own point's, so those responses are measured for each
+point alone), and regresses the model's residual on each term alone: the term whose fitted size best predicts the
+residual of load levels it was not fitted on (the diagnosis's cross-validation folds) is the one located; terms whose
+held-out error is within two paired standard errors of it are its look-alikes (the data cannot tell them apart), and
+the points where the same force has the same moment about the vertical are named with its own (a force along e1 at the
+tip and at the mass centre differ only by a moment about a horizontal axis, which the contacts' reactions take up).
+Its size is then refined on the model simulated with it (secant steps: a drag slows the block, which changes the drag,
+so the response is not linear at the sizes found), with a 95 % interval from the spread over the tests (clustered by
+test: a test's residual is smooth along its path, so its samples are not independent), and the share of the residual
+the simulated force removes is reported; a term that removes none is not reported.
 
 Evidence only: no rule of the verdict reads it (:mod:`triplanar.workbench.rules`). The model it starts from is the
 one diagnosed (``Evidence.base``), not a library entry named with low confidence: an outside verdict says none
@@ -68,6 +73,9 @@ SCAN_HZ = np.arange(3.0, 20.01, 1.5)
 #: Secant steps of the located term's size on the simulated model, and the relative change at which they stop.
 REFINE_STEPS = 3
 REFINE_TOLERANCE = 0.02
+#: Points whose arms about the vertical differ by less than this (m) are reported together: a tenth of the contact
+#: points' spacing (0.14-0.24 m on the reference block), chosen from the geometry, not from data.
+SAME_MOMENT_M = 0.02
 #: Look-alikes: held-out error within this many paired standard errors of the located term's.
 LOOKALIKE_SE = 2.0
 
@@ -342,6 +350,10 @@ class LocatedTerm:
     cv_error_mm: float
     frequency_hz: float | None = None
     phase_rad: float | None = None
+    #: the other points of :data:`POINTS` where the same force has the same moment about the vertical (within
+    #: :data:`SAME_MOMENT_M` of arm): the block's motion tells them apart only by a moment about a horizontal axis,
+    #: which the contact reactions take up
+    same_moment: tuple[str, ...] = ()
 
     @property
     def label(self) -> str:
@@ -351,7 +363,8 @@ class LocatedTerm:
     def as_json(self) -> dict[str, Any]:
         return {"point": self.point, "direction": self.direction, "follows": self.follows, "size": self.size,
                 "ci95": list(self.ci95), "unit": self.unit, "share_linear": self.share_linear,
-                "cv_error_mm": self.cv_error_mm, "frequency_hz": self.frequency_hz, "phase_rad": self.phase_rad}
+                "cv_error_mm": self.cv_error_mm, "frequency_hz": self.frequency_hz, "phase_rad": self.phase_rad,
+                "same_moment": list(self.same_moment)}
 
 
 @dataclass(frozen=True)
@@ -407,7 +420,9 @@ def _sentence(term: LocatedTerm | None, lookalikes: Sequence[str], share: float)
              "slip speed squared": "that grows with the square of slip speed"}.get(
         term.follows, f"that oscillates at {term.frequency_hz or math.nan:.1f} Hz")
     lo, hi = term.ci95
-    text = (f"an extra force at the {term.point} along {term.direction} {grows}: {_likeness(term)} "
+    where = f"the {term.point}" + (f" (or the {' or the '.join(term.same_moment)}: the same moment about the "
+                                   f"vertical)" if term.same_moment else "")
+    text = (f"an extra force at {where} along {term.direction} {grows}: {_likeness(term)} "
             f"({term.size:.3g} {term.unit} [{lo:.3g}, {hi:.3g}]); with it the model's error falls by "
             f"{100 * share:.0f} % of its square")
     if lookalikes:
@@ -499,6 +514,7 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
         return LocatedResult(None, (), error, error, 0.0, len(found), resp.probes, len(tests), _sentence(None, (), 0))
     lookalikes = tuple(t.label for t, h in found[1:] if _within(h, held))
     best, after, simulations = _refine(best, spec, tests, rotation, arms[best.point], resp.r0, executor)
+    best = replace(best, same_moment=_same_moment(best, arms))
     share = 1.0 - float(after.sum()) / float(nothing.sum()) if nothing.sum() > 0 else 0.0
     simulations += resp.probes
     if not share > 0:          # the linearisation misled: at its fitted size the force does not help
@@ -507,6 +523,14 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
                              f"{best.label}) does not lower the model's error when simulated at its fitted size")
     return LocatedResult(best, lookalikes, error, math.sqrt(float(np.mean(after))), share, len(found), simulations,
                          len(tests), _sentence(best, lookalikes, share))
+
+
+def _same_moment(term: LocatedTerm, arms: dict[str, np.ndarray]) -> tuple[str, ...]:
+    """The other points where a force along the term's axis has the same moment about the vertical (e2) within
+    :data:`SAME_MOMENT_M` of arm (a vertical force: every point)."""
+    e = np.eye(3)[AXES.index(term.direction[1:])]
+    yaw = {p: float(np.cross(a, e)[1]) for p, a in arms.items()}
+    return tuple(p for p in POINTS if p != term.point and abs(yaw[p] - yaw[term.point]) < SAME_MOMENT_M)
 
 
 def _refine(term: LocatedTerm, spec: ModelSpec, tests: Sequence[MeasuredTest], rotation: np.ndarray,
