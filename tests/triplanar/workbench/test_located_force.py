@@ -97,3 +97,21 @@ def test_nothing_is_located_when_a_library_effect_explains() -> None:
 def test_locate_refuses_no_tests() -> None:
     with pytest.raises(ValueError, match="at least one measured test"):
         locate([])
+
+
+def test_the_probes_lean_callback_is_its_wrench() -> None:
+    """The probes' callback reads the kernel state directly; it gives what the effect's ``wrench`` gives through the
+    general path (the block's kinematics decoded into a BlockState)."""
+    from triplanar.kernel import S_V, S_W
+    from triplanar.workbench.locate import PROFILES, _Probe
+    model = ModelSpec().build(40.0)
+    y = model.initial_state()
+    y[S_V:S_V + 3] = (0.3, 0.01, -0.02)
+    y[S_W:S_W + 3] = (0.02, 0.5, 0.1)
+    for profile in PROFILES:
+        probe = _Probe(profile, (0.5, 0.1, -0.3), (0.01, 0.02, 0.0), (0.1, -0.02, 0.1), -0.05, 7.0, 0.3)
+        general = model.with_effects([probe]).user_wrench(0.05, y)
+        lean = probe.wrench_at(0.05, y)
+        for a, b in zip(general, lean):
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-15, err_msg=profile)
+        assert np.abs(general[1]).max() > 0
