@@ -75,7 +75,13 @@ ARM_M = 0.1
 #: The frequencies (Hz) scanned for a force periodic in time: from about one period over a test (a slower one is a
 #: trend, which the smooth profiles take) to where the block's inertia leaves a few newtons' ripple below a
 #: rangefinder's noise (amplitude A / (m (2 pi f)^2): 5 N on 5.4 kg at 20 Hz is 0.06 mm).
-SCAN_HZ = np.arange(3.0, 20.01, 1.5)
+SCAN_HZ = np.arange(3.0, 20.001, 0.1)
+#: The generalised forces a periodic term is built from: those in the horizontal plane (along e1, e3, about e2), which
+#: move the block along its path; a vertical one, and the moments a point's height adds, are left out.
+PERIODIC_GENERALISED = (0, 2, 4)
+#: How many terms following slip speed at a point other than the mass centre are measured alone (the best as
+#: approximated from the mass centre's speed first).
+POINTWISE_SCREENED = 6
 #: Secant steps of the located term's size on the simulated model, and the relative change at which they stop.
 REFINE_STEPS = 3
 REFINE_TOLERANCE = 0.02
@@ -188,9 +194,13 @@ def _run_probe(task: _ProbeTask) -> list[np.ndarray]:
         model = _ProbedModel(**{f.name: getattr(model, f.name) for f in fields(model)}, probe=probe)
         model = model.with_effects([probe])
     tests = unread_tests(task.spec, task.tests)
+    return [d.residuals for d in discrepancy_group(tests, _simulate(model, tests), False)]
+
+
+def _simulate(model: Model, tests: Sequence[MeasuredTest]) -> Any:
+    """``model`` run past the longest measured travel of ``tests``, at :data:`PROBE_OPTIONS`."""
     longest = max(float(np.max(travel(t.positions, model.seated_contact_points))) for t in tests)
-    result = simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **PROBE_OPTIONS)
-    return [d.residuals for d in discrepancy_group(tests, result, False)]
+    return simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **PROBE_OPTIONS)
 
 
 def _rest_geometry(spec: ModelSpec, force_N: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -203,7 +213,7 @@ def _rest_geometry(spec: ModelSpec, force_N: float) -> tuple[np.ndarray, dict[st
     return state.rotation, {k: np.asarray(v, dtype=float) - state.position for k, v in points.items()}
 
 
-@dataclass(frozen=True)
+@dataclass
 class _Responses:
     """The residual of the model (``r0``, one array per test, the tests in ``order``) and its response to each
     generalised force (``columns[(k, profile)]``, k 0-2 a force along e1-e3 at the mass centre per newton, 3-5 a
@@ -236,65 +246,93 @@ def _column(rs: tuple[np.ndarray, ...], r0: tuple[np.ndarray, ...], size: float)
     return tuple((r - b) / size if len(r) == len(b) else np.zeros_like(b) for r, b in zip(rs, r0))
 
 
-def _scan_frequency(r0: tuple[np.ndarray, ...], scan: list[tuple[np.ndarray, ...]]) -> float | None:
-    """The frequency at which a force along e1 oscillating in time (its sine and cosine responses, ``scan``: two per
-    frequency of :data:`SCAN_HZ`) takes most of the residual, refined between the grid's points by a parabola
-    through the best and its neighbours; ``None`` if none takes any."""
-    r = np.concatenate(r0)
-    left = []
-    for i in range(len(SCAN_HZ)):
-        X = np.column_stack([np.concatenate(scan[2 * i]), np.concatenate(scan[2 * i + 1])])
-        theta = np.linalg.lstsq(X, r, rcond=None)[0]
-        e = r - X @ theta
-        left.append(float(e @ e))
-    k = int(np.argmin(left))
-    if not left[k] < float(r @ r):
+def _scan_frequency(baseline: Sequence[Any]) -> float | None:
+    """The frequency (:data:`SCAN_HZ`) at which the model's travel lag oscillates most in the timed tests: each
+    test's lag fitted by a quadratic in time of its own plus one sine and cosine shared by all (a force oscillating
+    in time along the path moves the block by ``A / (m (2 pi f)^2)`` whatever the load, in phase with the actuator's
+    start), the frequency whose shared pair takes most of what the quadratics leave. ``None``: no test has times."""
+    timed = [(d.t_s, d.lag_mm) for d in baseline if d.lag_mm is not None and len(d.lag_mm) >= 6]
+    if not timed:
         return None
-    if 0 < k < len(SCAN_HZ) - 1:
-        a, b, c = left[k - 1], left[k], left[k + 1]
-        curve = a - 2 * b + c
-        if curve > 0:
-            step = float(SCAN_HZ[1] - SCAN_HZ[0])
-            return float(SCAN_HZ[k] + step * 0.5 * (a - c) / curve)
-    return float(SCAN_HZ[k])
+    blocks = []
+    for t, lag in timed:
+        ok = np.isfinite(lag)
+        t, lag = t[ok], lag[ok]
+        nuisance = np.column_stack([np.ones_like(t), t])
+        q, _ = np.linalg.qr(nuisance)
+        blocks.append((t, lag - q @ (q.T @ lag), q))
+    best, best_hz = -1.0, None
+    for hz in SCAN_HZ:
+        X, y = [], []
+        for t, left, q in blocks:
+            wave = np.column_stack([np.sin(2 * np.pi * hz * t), np.cos(2 * np.pi * hz * t)])
+            X.append(wave - q @ (q.T @ wave))
+            y.append(left)
+        X, y = np.vstack(X), np.concatenate(y)
+        theta = np.linalg.lstsq(X, y, rcond=None)[0]
+        taken = float(y @ y) - float((y - X @ theta) @ (y - X @ theta))
+        if taken > best:
+            best, best_hz = taken, float(hz)
+    return best_hz
+
+
+def _run_model(task: _ProbeTask) -> list[Any]:
+    """The model's discrepancy from each test of ``task`` (its residual, and its travel lag in time)."""
+    model = task.spec.build(task.force_N)
+    tests = unread_tests(task.spec, task.tests)
+    return discrepancy_group(tests, _simulate(model, tests), False)
 
 
 def _responses(spec: ModelSpec, tests: Sequence[MeasuredTest], executor: ExecutorLike,
                body_arms: dict[str, tuple[float, float, float]]) -> _Responses:
-    """The model's residual and its responses (two rounds of simulations: the smooth profiles with the frequency
-    scan, then the periodic responses at the frequency found). A force following slip speed follows the speed of
-    the point it acts at, so its response is measured for each point of ``body_arms`` (body frame) and axis alone
-    (``columns[(point, axis, profile)]``); the others through the six generalised forces."""
+    """The model's residual and its responses to the generalised forces (constant and following travel), to a force
+    at the mass centre following its slip speed or its square, and to the in-plane generalised forces (along e1,
+    e3, about e2) oscillating at the frequency :func:`_scan_frequency` finds. A force following slip speed follows
+    its own point's: those at the other points are measured on demand (:func:`_add_pointwise`)."""
     groups = group_by_force(tests)
     index = {id(t): i for i, t in enumerate(tests)}
     order = tuple(index[id(t)] for g in groups.values() for t in g)
-    smooth = [(k, p) for p in GENERALISED for k in range(6)]
-    direct = [(point, axis, p) for p in POINTWISE for point in POINTS for axis in range(3)]
-    scan = [(0, p, f) for f in SCAN_HZ for p in ("time (sine)", "time (cosine)")]
-    tasks = [_ProbeTask(spec, f, g) for f, g in groups.items()]
-    tasks += [_probe_task(spec, f, g, k, p, 0.0) for k, p in smooth for f, g in groups.items()]
-    tasks += [replace(_probe_task(spec, f, g, axis, p, 0.0), arm=body_arms[point]) for point, axis, p in direct
-              for f, g in groups.items()]
-    tasks += [_probe_task(spec, f, g, k, p, hz) for k, p, hz in scan for f, g in groups.items()]
-    n = len(groups)
-    per = _per_test(run_tasks(_run_probe, tasks, executor, False), n, 1 + len(smooth) + len(direct) + len(scan))
-    r0 = per[0]
-    columns: dict[tuple, tuple[np.ndarray, ...]] = {
-        (k, p): _column(rs, r0, PROFILES[p][1] * (ARM_M if k >= 3 else 1.0)) for (k, p), rs in zip(smooth, per[1:])}
-    columns.update({key: _column(rs, r0, PROFILES[key[2]][1])
-                    for key, rs in zip(direct, per[1 + len(smooth):])})
-    frequency = _scan_frequency(r0, [_column(rs, r0, PROFILES[p][1]) for (_, p, _), rs in
-                                     zip(scan, per[1 + len(smooth) + len(direct):])])
-    simulations = len(tasks)
+    baseline = [d for block in run_tasks(_run_model, [_ProbeTask(spec, f, g) for f, g in groups.items()], executor,
+                                         False) for d in block]
+    r0 = tuple(d.residuals for d in baseline)
+    frequency = _scan_frequency(baseline)
+    keys = [(k, p) for p in (*GENERALISED, *POINTWISE) for k in range(6)]
     if frequency is not None:
-        periodic = [(k, p) for p in ("time (sine)", "time (cosine)") for k in range(6)]
-        more = [_probe_task(spec, f, g, k, p, frequency) for k, p in periodic for f, g in groups.items()]
-        found = _per_test(run_tasks(_run_probe, more, executor, False), n, len(periodic))
-        columns.update({(k, p): _column(rs, r0, PROFILES[p][1] * (ARM_M if k >= 3 else 1.0))
-                        for (k, p), rs in zip(periodic, found)})
-        simulations += len(more)
-    forces = np.array([float(tests[i].shear_force_N) for i in order])
-    return _Responses(order, forces, r0, columns, frequency, simulations)
+        keys += [(k, p) for p in ("time (sine)", "time (cosine)") for k in PERIODIC_GENERALISED]
+    resp = _Responses(order, np.array([float(tests[i].shear_force_N) for i in order]), r0, {}, frequency,
+                      len(groups))
+    _measure(resp, keys, spec, groups, executor, body_arms)
+    return resp
+
+
+def _measure(resp: _Responses, keys: Sequence[tuple], spec: ModelSpec, groups: dict, executor: ExecutorLike,
+             body_arms: dict[str, tuple[float, float, float]]) -> None:
+    """Simulate the probes ``keys`` (``(k, profile)``: a generalised force; ``(point, axis, profile)``: a force at a
+    point) at every load and add their columns to ``resp``."""
+    def task(key: tuple, f: float, g: tuple) -> _ProbeTask:
+        if len(key) == 2:
+            return _probe_task(spec, f, g, key[0], key[1], resp.frequency_hz or 0.0)
+        return replace(_probe_task(spec, f, g, key[1], key[2], 0.0), arm=body_arms[key[0]])
+
+    tasks = [task(key, f, g) for key in keys for f, g in groups.items()]
+    per = _per_test(run_tasks(_run_probe, tasks, executor, False), len(groups), len(keys))
+    for key, rs in zip(keys, per):
+        moment = len(key) == 2 and key[0] >= 3
+        resp.columns[key] = _column(rs, resp.r0, PROFILES[key[-1]][1] * (ARM_M if moment else 1.0))
+    resp.probes += len(tasks)
+
+
+def _add_pointwise(resp: _Responses, found: list[tuple[LocatedTerm, np.ndarray]], spec: ModelSpec, groups: dict,
+                   executor: ExecutorLike, body_arms: dict[str, tuple[float, float, float]]) -> None:
+    """Measure alone the :data:`POINTWISE_SCREENED` best terms following slip speed at a point other than the mass
+    centre (``found``: ranked with their columns approximated from the mass centre's speed)."""
+    keys: list[tuple[str, int, str]] = []
+    for term, _ in found:
+        key = (term.point, AXES.index(term.direction[1:]), term.follows)
+        if term.follows in POINTWISE and term.point != "mass centre" and key not in keys:
+            keys.append(key)
+    if keys:
+        _measure(resp, keys[:POINTWISE_SCREENED], spec, groups, executor, body_arms)
 
 
 # -- the term library and the regression ------------------------------------------------------------------------------
@@ -313,18 +351,19 @@ FOLLOWS: dict[str, tuple[tuple[str, ...], str]] = {
 def _term_columns(resp: _Responses, point: str, arm: np.ndarray, axis: int, follows: str) -> list[
         tuple[np.ndarray, ...]]:
     """The columns (one per profile of ``follows``; per test) of a unit force along ``axis`` at ``point``, ``arm``
-    from the mass centre: measured alone (:data:`POINTWISE`), or the force's response plus its moment's, ``arm x e``
-    (module doc)."""
+    from the mass centre: measured alone if it was, else the force's response plus its moment's, ``arm x e`` (module
+    doc; for a profile of :data:`POINTWISE`, an approximation: the mass centre's speed for the point's)."""
     e = np.eye(3)[axis]
     lever = np.cross(arm, e)
     out = []
     for profile in FOLLOWS[follows][0]:
-        if profile in POINTWISE:
+        if (point, axis, profile) in resp.columns:
             out.append(resp.columns[(point, axis, profile)])
             continue
         cols = []
         for t in range(len(resp.r0)):
-            c = resp.columns[(axis, profile)][t] + sum(lever[j] * resp.columns[(3 + j, profile)][t] for j in range(3))
+            c = resp.columns[(axis, profile)][t] + sum(lever[j] * resp.columns[(3 + j, profile)][t] for j in range(3)
+                                                       if (3 + j, profile) in resp.columns)
             cols.append(c * resp.forces[t] if follows == "load" else c)
         out.append(tuple(cols))
     return out
@@ -514,15 +553,22 @@ def _check_task(spec: ModelSpec, force_N: float, tests: tuple[MeasuredTest, ...]
                       term.frequency_hz or 0.0, term.phase_rad or 0.0)
 
 
-def _search(resp: _Responses, arms: dict[str, np.ndarray], folds: list[list[int]]) -> list[tuple[
+def _search(resp: _Responses, arms: dict[str, np.ndarray], folds: list[list[int]], screen: bool) -> list[tuple[
         LocatedTerm, np.ndarray]]:
-    """Every term of the library regressed alone: ``(term, held-out squared error per test)``, best first."""
+    """Every term of the library regressed alone: ``(term, held-out squared error per test)``, best first. A term
+    following slip speed at a point other than the mass centre is in only when measured alone, or when ``screen``
+    (then approximated, :func:`_term_columns`)."""
     follows = [f for f in FOLLOWS if f != "time" or resp.frequency_hz is not None]
     n = len(resp.r0)
     out = []
     for point in POINTS:
         for axis in range(3):
             for what in follows:
+                if what == "time" and axis == 1:
+                    continue        # not in the library (a vertical oscillation: PERIODIC_GENERALISED)
+                if what in POINTWISE and point != "mass centre" and not screen \
+                        and (point, axis, what) not in resp.columns:
+                    continue        # screened out
                 fit = _regress(resp, _term_columns(resp, point, arms[point], axis, what), folds)
                 cv = math.sqrt(float(np.mean(fit.held_out)))
                 out.append((_fitted_term(point, axis, what, fit, cv, resp.frequency_hz, n), fit.held_out))
@@ -547,16 +593,21 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
         raise ValueError("locate needs at least one measured test")
     spec = spec or ModelSpec()
     rotation, arms = _rest_geometry(spec, float(tests[0].shear_force_N))
-    resp = _responses(spec, tests, executor, {k: tuple(float(x) for x in rotation.T @ a) for k, a in arms.items()})
-    found = _search(resp, arms, _fold_positions(resp, folds))
+    body_arms = {k: tuple(float(x) for x in rotation.T @ a) for k, a in arms.items()}
+    resp = _responses(spec, tests, executor, body_arms)
+    folds_at = _fold_positions(resp, folds)
+    _add_pointwise(resp, _search(resp, arms, folds_at, True), spec, group_by_force(tests), executor, body_arms)
+    found = _search(resp, arms, folds_at, False)
     nothing = np.array([float(r @ r) for r in resp.r0])
     error = math.sqrt(float(np.mean(nothing)))
     best, held = found[0]
     if _within(nothing, held):          # the model alone predicts the held-out loads as well
         return LocatedResult(None, (), error, error, 0.0, len(found), resp.probes, len(tests), _sentence(None, (), 0))
-    lookalikes = tuple(t.label for t, h in found[1:] if _within(h, held))
+    alike = [t for t, h in found[1:] if _within(h, held)]
     best, after, simulations = _refine(best, spec, tests, rotation, arms[best.point], resp.r0, executor)
     best = replace(best, same_moment=_same_moment(best, arms))
+    lookalikes = tuple(t.label for t in alike if not (t.point in best.same_moment and t.direction == best.direction
+                                                       and t.follows == best.follows))
     share = 1.0 - float(after.sum()) / float(nothing.sum()) if nothing.sum() > 0 else 0.0
     simulations += resp.probes
     if not share > 0:          # the linearisation misled: at its fitted size the force does not help
@@ -569,7 +620,9 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
 
 def _same_moment(term: LocatedTerm, arms: dict[str, np.ndarray]) -> tuple[str, ...]:
     """The other points where a force along the term's axis has the same moment about the vertical (e2) within
-    :data:`SAME_MOMENT_M` of arm (a vertical force: every point)."""
+    :data:`SAME_MOMENT_M` of arm (none for a vertical force: where it acts decides which contact it loads)."""
+    if term.direction.endswith("e2"):
+        return ()
     e = np.eye(3)[AXES.index(term.direction[1:])]
     yaw = {p: float(np.cross(a, e)[1]) for p, a in arms.items()}
     return tuple(p for p in POINTS if p != term.point and abs(yaw[p] - yaw[term.point]) < SAME_MOMENT_M)
