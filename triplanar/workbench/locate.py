@@ -183,23 +183,28 @@ class _ProbeTask:
     arm: tuple[float, float, float] = (0.0, 0.0, 0.0)
     frequency_hz: float = 0.0
     phase_rad: float = 0.0
+    #: the model's mass centre x1 and contact points at rest at this force (computed once a load, not once a run)
+    x0_m: float = math.nan
+    rest: np.ndarray | None = None
 
 
 def _run_probe(task: _ProbeTask) -> list[np.ndarray]:
     """The fit's residual vector of each test of ``task`` (the model with the probe, if any)."""
     model = task.spec.build(task.force_N)
     if task.profile is not None:
-        probe = _Probe(task.profile, task.force, task.moment, task.arm, float(model.initial_state()[S_R]),
-                       task.frequency_hz, task.phase_rad)
+        x0 = task.x0_m if math.isfinite(task.x0_m) else float(model.initial_state()[S_R])
+        probe = _Probe(task.profile, task.force, task.moment, task.arm, x0, task.frequency_hz, task.phase_rad)
         model = _ProbedModel(**{f.name: getattr(model, f.name) for f in fields(model)}, probe=probe)
         model = model.with_effects([probe])
     tests = unread_tests(task.spec, task.tests)
-    return [d.residuals for d in discrepancy_group(tests, _simulate(model, tests), False)]
+    return [d.residuals for d in discrepancy_group(tests, _simulate(model, tests, task.rest), False)]
 
 
-def _simulate(model: Model, tests: Sequence[MeasuredTest]) -> Any:
-    """``model`` run past the longest measured travel of ``tests``, at :data:`PROBE_OPTIONS`."""
-    longest = max(float(np.max(travel(t.positions, model.seated_contact_points))) for t in tests)
+def _simulate(model: Model, tests: Sequence[MeasuredTest], rest: np.ndarray | None = None) -> Any:
+    """``model`` run past the longest measured travel of ``tests`` (from ``rest``, default the model's seated contact
+    points), at :data:`PROBE_OPTIONS`."""
+    rest = model.seated_contact_points if rest is None else rest
+    longest = max(float(np.max(travel(t.positions, rest))) for t in tests)
     return simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **PROBE_OPTIONS)
 
 
@@ -225,6 +230,12 @@ class _Responses:
     columns: dict[tuple[int, str], tuple[np.ndarray, ...]]
     frequency_hz: float | None
     probes: int
+    geometry: dict[float, tuple[float, np.ndarray]]
+
+    def placed(self, task: _ProbeTask) -> _ProbeTask:
+        """``task`` with its load's rest geometry filled in."""
+        x0, rest = self.geometry[task.force_N]
+        return replace(task, x0_m=x0, rest=rest)
 
 
 def _probe_task(spec: ModelSpec, force_N: float, tests: tuple[MeasuredTest, ...], k: int, profile: str,
@@ -299,8 +310,12 @@ def _responses(spec: ModelSpec, tests: Sequence[MeasuredTest], executor: Executo
     keys = [(k, p) for p in (*GENERALISED, *POINTWISE) for k in range(6)]
     if frequency is not None:
         keys += [(k, p) for p in ("time (sine)", "time (cosine)") for k in PERIODIC_GENERALISED]
+    geometry = {}
+    for f in groups:
+        model = spec.build(f)
+        geometry[f] = (float(model.initial_state()[S_R]), model.seated_contact_points)
     resp = _Responses(order, np.array([float(tests[i].shear_force_N) for i in order]), r0, {}, frequency,
-                      len(groups))
+                      len(groups), geometry)
     _measure(resp, keys, spec, groups, executor, body_arms)
     return resp
 
@@ -314,7 +329,7 @@ def _measure(resp: _Responses, keys: Sequence[tuple], spec: ModelSpec, groups: d
             return _probe_task(spec, f, g, key[0], key[1], resp.frequency_hz or 0.0)
         return replace(_probe_task(spec, f, g, key[1], key[2], 0.0), arm=body_arms[key[0]])
 
-    tasks = [task(key, f, g) for key in keys for f, g in groups.items()]
+    tasks = [resp.placed(task(key, f, g)) for key in keys for f, g in groups.items()]
     per = _per_test(run_tasks(_run_probe, tasks, executor, False), len(groups), len(keys))
     for key, rs in zip(keys, per):
         moment = len(key) == 2 and key[0] >= 3
@@ -604,7 +619,7 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
     if _within(nothing, held):          # the model alone predicts the held-out loads as well
         return LocatedResult(None, (), error, error, 0.0, len(found), resp.probes, len(tests), _sentence(None, (), 0))
     alike = [t for t, h in found[1:] if _within(h, held)]
-    best, after, simulations = _refine(best, spec, tests, rotation, arms[best.point], resp.r0, executor)
+    best, after, simulations = _refine(best, spec, tests, rotation, arms[best.point], resp, executor)
     best = replace(best, same_moment=_same_moment(best, arms))
     lookalikes = tuple(t.label for t in alike if not (t.point in best.same_moment and t.direction == best.direction
                                                        and t.follows == best.follows))
@@ -629,8 +644,7 @@ def _same_moment(term: LocatedTerm, arms: dict[str, np.ndarray]) -> tuple[str, .
 
 
 def _refine(term: LocatedTerm, spec: ModelSpec, tests: Sequence[MeasuredTest], rotation: np.ndarray,
-            arm: np.ndarray, r0: tuple[np.ndarray, ...], executor: ExecutorLike) -> tuple[LocatedTerm, np.ndarray,
-                                                                                           int]:
+            arm: np.ndarray, resp: _Responses, executor: ExecutorLike) -> tuple[LocatedTerm, np.ndarray, int]:
     """The located term's size where the model simulated with it fits best (the linearised size, then up to
     :data:`REFINE_STEPS` secant steps: a drag slows the block, which changes the drag, so the response is not linear
     at the sizes found), with its interval from the last secant's column; and each test's squared residual there
@@ -640,10 +654,11 @@ def _refine(term: LocatedTerm, spec: ModelSpec, tests: Sequence[MeasuredTest], r
 
     def residual(size: float) -> list[np.ndarray]:
         trial = replace(term, size=size)
-        found = run_tasks(_run_probe, [_check_task(spec, f, g, trial, rotation, arm) for f, g in groups.items()],
-                          executor, False)
+        found = run_tasks(_run_probe, [resp.placed(_check_task(spec, f, g, trial, rotation, arm))
+                                       for f, g in groups.items()], executor, False)
         return [r for block in found for r in block]
 
+    r0 = resp.r0
     points = [(0.0, list(r0)), (term.size, residual(term.size))]
     for _ in range(REFINE_STEPS):
         (s_a, r_a), (s_b, r_b) = points[-2], points[-1]
