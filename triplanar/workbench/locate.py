@@ -1,20 +1,21 @@
 """A cause outside the library, located: where an extra force acts on the block and what it follows.
 
-When no library entry explains the data (``outside_library``), the residual still says what the physics lacks. The
-block moves under the paper's equations of motion (Galic, Glaser & Goodman 2008, section 3: the rigid block's
-Newton-Euler equations with the contact reactions, eq. 21-28); an extra force ``f(t) d`` acting at a point ``P`` of the
-block enters them as the force ``f d`` at the mass centre ``G`` and the moment ``(P - G) x f d`` about it, the way a
-user effect's ``wrench`` does (:meth:`triplanar.effects.Effect.wrench`, ``docs/adding-an-effect.md``). To first order
-in its size, the change it makes to the traces is therefore a linear combination of six *generalised* responses per
-time profile ``f``: a force along e1, e2, e3 at G and a moment about e1, e2, e3, each following ``f``.
+When no library entry explains the data (``outside_library``), the residual still says what the physics lacks. An
+extra force ``f(t) d`` acting at a point ``P`` of the block enters the paper's equations of motion (Galic, Glaser &
+Goodman 2008, section 3.5, Lagrange's equations) through its generalised forces, ``Q_j = f d . dP/dq_j`` (section 3.3,
+eq. 14-15), which for the rigid block are those of the force ``f d`` at the mass centre ``G`` and the moment
+``(P - G) x f d`` about it: what a user effect's ``wrench`` returns (:meth:`triplanar.effects.Effect.wrench`,
+``docs/adding-an-effect.md``). To first order in its size, the change it makes to the traces is therefore a linear
+combination of six *generalised* responses per time profile ``f``: a force along e1, e2, e3 at G and a moment about
+e1, e2, e3, each following ``f``.
 
 :func:`locate` measures those responses on the measured path (the model simulated with each generalised force added
 at a small size, a finite-difference column of the fit's residual vector per response, as the audit of the given
 numbers does: :mod:`triplanar.workbench.given`), builds from them the column of every term of a physically shaped
 library (:data:`POINTS` x three directions x :data:`FOLLOWS`: constant, in proportion to the load, travel, slip speed,
-its square, and periodic in time as a sine and a cosine at the frequency where a scan of :data:`SCAN_HZ` finds the
-residual's oscillation; a force following slip speed follows its own point's, so those responses are measured for each
-point alone), and regresses the model's residual on each term alone: the term whose fitted size best predicts the
+its square, and periodic in time, in the horizontal plane, as a sine and a cosine at the frequency where the model's
+travel lag oscillates most (:func:`_scan_frequency`); a force following slip speed follows its own point's, so the
+best of those are measured for their point alone), and regresses the model's residual on each term alone: the term whose fitted size best predicts the
 residual of load levels it was not fitted on (the diagnosis's cross-validation folds) is the one located; terms whose
 held-out error is within two paired standard errors of it are its look-alikes (the data cannot tell them apart), and
 the points where the same force has the same moment about the vertical are named with its own (a force along e1 at the
@@ -29,7 +30,8 @@ one diagnosed (``Evidence.base``), not a library entry named with low confidence
 explains, and a stand-in would share the residual with the force.
 
 What it cannot say: a force proportional to a contact's normal force (the state a user effect sees has no reactions),
-and two extra forces at once (one term is chosen).
+two extra forces at once (one term is chosen), a vertical oscillation, and a periodic force without the file's times.
+Its constants were chosen on the calibration's tuning seeds 1004-3049; the rates on others are in docs/workbench.md.
 """
 
 from __future__ import annotations
@@ -50,7 +52,7 @@ from .discrepancy import discrepancy_group, group_by_force
 from .executor import ExecutorLike, run_tasks
 from .spec import SIM_OPTIONS, TRAVEL_MARGIN_M, ModelSpec, unread_tests
 
-#: What a term's size follows, its unit (per newton of force), and the size of the probe that measures its response
+#: The time profiles of a probe, the unit of a force's size that follows each, and the probe's size
 #: (about half a newton on the calibration's paths: a few millimetres of trace, linear, far above the integrator).
 PROFILES: dict[str, tuple[str, float]] = {
     "constant": ("N", 0.5),
@@ -60,8 +62,9 @@ PROFILES: dict[str, tuple[str, float]] = {
     "time (sine)": ("N", 0.5),
     "time (cosine)": ("N", 0.5),
 }
-#: The profiles measured through the six generalised forces, and those measured for each point alone (a slip speed
-#: is the point's own: a block that turns slides faster at one contact than at another).
+#: The profiles measured through the six generalised forces (exact for any point), and those whose term at a point
+#: other than the mass centre is then approximated so (the mass centre's speed for the point's: a block that turns
+#: slides faster at one contact than at another) and measured alone for the best :data:`POINTWISE_SCREENED`.
 GENERALISED = ("constant", "travel")
 POINTWISE = ("slip speed", "slip speed squared")
 #: The probes' simulations (the model alone included): the workbench's, with tolerances ten times looser, which moves a
