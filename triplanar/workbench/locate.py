@@ -23,7 +23,8 @@ tip and at the mass centre differ only by a moment about a horizontal axis, whic
 Its size is then refined on the model simulated with it (secant steps: a drag slows the block, which changes the drag,
 so the response is not linear at the sizes found), with a 95 % interval from the spread over the tests (clustered by
 test: a test's residual is smooth along its path, so its samples are not independent), and the share of the residual
-the simulated force removes is reported; a term that removes none is not reported.
+the simulated force removes is reported; a term that removes none is not reported. The interval is widened as the
+workbench's are where the force leaves more than the repeats' scatter (:mod:`triplanar.workbench.intervals`).
 
 Evidence only: no rule of the verdict reads it (:mod:`triplanar.workbench.rules`). The model it starts from is the
 one diagnosed (``Evidence.base``), not a library entry named with low confidence: an outside verdict says none
@@ -48,8 +49,9 @@ from ..measurement import MeasuredTest
 from ..model import Model
 from ..paths import travel
 from ..simulate import simulate
-from .discrepancy import discrepancy_group, group_by_force
+from .discrepancy import discrepancy_group, group_by_force, repeat_scatter_mm
 from .executor import ExecutorLike, run_tasks
+from .intervals import standard_error
 from .spec import SIM_OPTIONS, TRAVEL_MARGIN_M, ModelSpec, unread_tests
 
 #: The time profiles of a probe, the unit of a force's size that follows each, and the probe's size
@@ -622,7 +624,8 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
     if _within(nothing, held):          # the model alone predicts the held-out loads as well
         return LocatedResult(None, (), error, error, 0.0, len(found), resp.probes, len(tests), _sentence(None, (), 0))
     alike = [t for t, h in found[1:] if _within(h, held)]
-    best, after, simulations = _refine(best, spec, tests, rotation, arms[best.point], resp, executor)
+    best, after, simulations = _refine(best, spec, tests, rotation, arms[best.point], resp, executor,
+                                       repeat_scatter_mm(tests, spec.rest_positions))
     best = replace(best, same_moment=_same_moment(best, arms))
     lookalikes = tuple(t.label for t in alike if not (t.point in best.same_moment and t.direction == best.direction
                                                        and t.follows == best.follows))
@@ -647,11 +650,13 @@ def _same_moment(term: LocatedTerm, arms: dict[str, np.ndarray]) -> tuple[str, .
 
 
 def _refine(term: LocatedTerm, spec: ModelSpec, tests: Sequence[MeasuredTest], rotation: np.ndarray,
-            arm: np.ndarray, resp: _Responses, executor: ExecutorLike) -> tuple[LocatedTerm, np.ndarray, int]:
+            arm: np.ndarray, resp: _Responses, executor: ExecutorLike, scatter_mm: float) -> tuple[
+                LocatedTerm, np.ndarray, int]:
     """The located term's size where the model simulated with it fits best (the linearised size, then up to
     :data:`REFINE_STEPS` secant steps: a drag slows the block, which changes the drag, so the response is not linear
-    at the sizes found), with its interval from the last secant's column; and each test's squared residual there
-    and the simulations run. A periodic term keeps its phase (its amplitude is refined)."""
+    at the sizes found), with its interval from the last secant's column (clustered by test, times the workbench's
+    model-form factor, :func:`~triplanar.workbench.intervals.standard_error`: the error the force leaves over the
+    repeats' scatter ``scatter_mm``); and each test's squared residual there and the simulations run. A periodic term keeps its phase (its amplitude is refined)."""
     from scipy.stats import t as student_t
     groups = group_by_force(tests)
 
@@ -680,6 +685,9 @@ def _refine(term: LocatedTerm, spec: ModelSpec, tests: Sequence[MeasuredTest], r
     scores = [float(column[a:b] @ e) for (a, b), e in zip(zip(lengths[:-1], lengths[1:]), best_r)]
     n = len(r0)
     se = math.sqrt(sum(g * g for g in scores) * n / max(n - 1, 1)) / cc if cc > 0 else math.inf
+    if math.isfinite(se):       # the workbench's intervals' model-form factor: what the force leaves beyond the scatter
+        after_mm = math.sqrt(float(np.mean([float(r @ r) for r in best_r])))
+        se = standard_error(se, math.nan, after_mm, scatter_mm)
     q = float(student_t.ppf(0.975, max(n - 1, 1)))
     refined = replace(term, size=best_size, ci95=(max(0.0, best_size - q * se), best_size + q * se))
     return refined, np.array([float(r @ r) for r in best_r]), (len(points) - 1) * len(groups)
