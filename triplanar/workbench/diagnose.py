@@ -30,6 +30,7 @@ from .evidence import expected_scatter_mm, growth_along_travel, instrument_noise
 from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
 from .given import audit_given       # (imported here also so that kept Evidence holding a GivenAudit reads back)
+from .locate import locate           # (imported here also so that kept Evidence holding a LocatedResult reads back)
 from .rigidity import rigidity
 from .spec import ModelSpec, spec_with_values
 from .sweep import CandidateResult, CandidateTask, assemble, load_folds, profile_result, residual_of, run_candidate, \
@@ -69,6 +70,8 @@ class Diagnoser:
 
         friction_scatter_deg: the specimen's repeat-to-repeat friction scatter ``expected_scatter_mm`` assumes (deg).
         audit: audit the specimen's given numbers beside the effects (:func:`~triplanar.workbench.given.audit_given`).
+        locate: when the verdict is ``outside_library``, locate the cause as one extra force on the block
+            (:func:`~triplanar.workbench.locate.locate`: its point, direction and what it follows; evidence only).
 
     Fitted attributes (set by ``fit`` only): ``evidence_`` (:class:`~triplanar.workbench.verdict.Evidence`: what
     was gathered), ``decision_`` (:class:`~triplanar.workbench.verdict.Verdict`: what
@@ -85,8 +88,9 @@ class Diagnoser:
                  start: Mapping[str, Mapping[str, float]] | None = None,
                  per_test: Mapping[str, Sequence[str]] | None = None, combine: bool = True,
                  model_form: bool = True, friction_scatter_deg: float = rules.FRICTION_SCATTER_DEG,
-                 audit: bool = True):
+                 audit: bool = True, locate: bool = True):
         self.audit = audit
+        self.locate = locate
         self.friction_scatter_deg = friction_scatter_deg
         self.combine = combine
         self.model_form = model_form
@@ -146,8 +150,11 @@ class Diagnoser:
         if self.combine and rules.tries_combination(ev):
             from .combine import combine
             ev = replace(ev, combination=combine(self, ev, tests))
-        self.evidence_ = ev
         self.decision_ = rules.decide(ev)
+        if self.locate and self.decision_.kind is VerdictKind.OUTSIDE_LIBRARY:
+            # where an extra force would act, and what it follows (evidence for the user: no rule reads it)
+            ev = replace(ev, located=locate(tests, ev.base, ev.folds, self.executor))
+        self.evidence_ = ev
         self.seconds_ = time.perf_counter() - began
         return self
 
@@ -190,7 +197,7 @@ class Diagnoser:
         no model-form step."""
         return Diagnoser(self.candidates, self.folds, self.executor, False, self.max_nfev, refit_given=False,
                          start=self.start, combine=False, model_form=False,
-                         friction_scatter_deg=self.friction_scatter_deg, audit=False)
+                         friction_scatter_deg=self.friction_scatter_deg, audit=False, locate=False)
 
     def _with_start(self, cand: Candidate) -> Candidate:
         """``cand`` starting from the user's ``start`` values (its grid scan, if any, includes them)."""

@@ -325,6 +325,8 @@ def format_diagnosis(report: Mapping[str, Any]) -> str:
     lines += _lookalike_lines(report) + _given_number_lines(report)
     if report.get("rigidity"):
         lines += ["", f"rigidity ({report['rigidity']['kind']}): {report['rigidity']['sentence']}"]
+    if report.get("located"):
+        lines += ["", f"located outside the library: {report['located']['sentence']}"]
     kind = f" ({report['missing_kind']})" if report.get("missing_kind") else ""
     named = f"missing effect: {verdict}{kind}"
     if report.get("verdict") == "refit_given_effect":

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 if TYPE_CHECKING:
     from .discrepancy import TestDiscrepancy
     from .given_audit import GivenAudit
+    from .locate import LocatedResult
     from .rigidity import RigidityResult
     from .spec import ModelSpec
     from .candidate_result import CandidateResult
@@ -159,6 +160,9 @@ class Evidence:
     #: the rigid-block test of the measured contact points (:func:`triplanar.workbench.rigidity.rigidity`; ``None``:
     #: gathered before it); the rules read it only to keep physics alone from ``high`` on an instrument fault
     rigidity: RigidityResult | None = None
+    #: the cause outside the library located as one extra force (:func:`triplanar.workbench.locate.locate`; ``None``:
+    #: the verdict is not ``outside_library``, or gathered before it); evidence for the user only: no rule reads it
+    located: LocatedResult | None = None
 
     @property
     def candidates(self) -> list[CandidateResult]:
@@ -223,6 +227,7 @@ def report_json(ev: Evidence, verdict: Verdict, seconds: float) -> dict[str, Any
             "lookalike_groups": [dict(g) for g in verdict.groups],
             "given_numbers": [a.as_json() for a in ev.given_numbers],
             "rigidity": None if ev.rigidity is None else ev.rigidity.as_json(),
+            "located": None if ev.located is None else ev.located.as_json(),
             "systematic": {"model_as_given": dict(ev.systematic), "after_best": dict(ev.systematic_after)},
             "combination": None if verdict.combination is None else dict(verdict.combination),
             "deciding_experiments": [dict(e) for e in ev.experiments],

@@ -1,0 +1,117 @@
+"""A cause outside the library located: a user's plugin force at a known contact, along a known direction, is found
+there by :func:`triplanar.workbench.locate.locate`; diagnose attaches it as evidence only when its verdict is
+``outside_library``, and the verdict is the same without it."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from triplanar import EFFECTS, plain_data
+from triplanar.effects import Effect, Parameter
+from triplanar.labdata import generate_lab_data
+from triplanar.workbench import ModelSpec
+from triplanar.workbench.locate import LocatedResult, locate
+
+
+class DragAtCP3(Effect):
+    """The user's plugin: a viscous film under CP3, ``-c |v_CP3|`` along -e1 at CP3 (docs/adding-an-effect.md)."""
+
+    name = "user_drag_at_cp3"
+    parameters = {"c_N_s_m": Parameter(0.0, 0.0, 50.0, "N s/m", "drag per unit slip speed of CP3")}
+
+    def wrench(self, t, state):
+        force = np.array([-self["c_N_s_m"] * float(np.linalg.norm(state.contact_velocities[2])), 0.0, 0.0])
+        return force, state.moment_of(force, state.contact_points[2])
+
+
+class SidePull(Effect):
+    """A constant sideways pull at the mass centre (a cable of the instrumentation)."""
+
+    name = "user_side_pull"
+    parameters = {"force_N": Parameter(0.0, -10.0, 10.0, "N", "force along e3")}
+
+    def wrench(self, t, state):
+        return np.array([0.0, 0.0, self["force_N"]]), np.zeros(3)
+
+
+@pytest.fixture
+def plugins():
+    before = dict(EFFECTS)
+    EFFECTS.update({DragAtCP3.name: DragAtCP3, SidePull.name: SidePull})
+    yield
+    EFFECTS.clear()
+    EFFECTS.update(before)
+
+
+LOADS = (32.5, 40.0, 47.5, 55.6)
+
+
+@pytest.mark.slow      # a Python-callback effect in every simulation: a few CPU s
+def test_a_drag_at_cp3_is_located_at_cp3_along_minus_e1_following_slip_speed(plugins) -> None:
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=8, effects=[DragAtCP3(c_N_s_m=8.0)], noise_m=3e-4)
+    found = locate(tests, ModelSpec(), folds=[[32.5, 47.5], [40.0, 55.6]], executor="serial")
+    term = found.term
+    assert term is not None, found.sentence
+    assert (term.point, term.direction, term.follows) == ("CP3", "-e1", "slip speed"), found.sentence
+    assert term.ci95[0] <= 8.0 <= term.ci95[1], term
+    assert found.share_removed > 0.8 and found.error_after_mm < found.error_mm
+    assert "at the CP3 along -e1 that grows with slip speed: like a viscous drag" in found.sentence
+    # kept results stay plain data
+    assert isinstance(found.as_json()["term"]["ci95"], list)
+
+
+@pytest.mark.slow      # a diagnosis and a location: about 5 CPU s
+def test_diagnose_locates_an_outside_cause_beside_an_unchanged_verdict(plugins, tmp_path) -> None:
+    from triplanar.workbench import Diagnoser, rules
+    from triplanar.workbench.results import DiagnosisResult
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=11, effects=[SidePull(force_N=1.5)], noise_m=3e-4)
+    del EFFECTS[SidePull.name]          # outside the library now: neither a candidate nor an alternative
+    diag = Diagnoser(["end_friction"], folds=2, progress=False, model_form=False, audit=False, combine=False,
+                     executor="serial").fit(tests)
+    assert diag.verdict_ == "outside_library", diag.reason_
+    field = diag.report_["located"]
+    assert field["term"]["point"] == "mass centre" and field["term"]["direction"] == "+e3", field["sentence"]
+    assert "located outside the library: an extra force at the mass centre along +e3" in \
+        DiagnosisResult.of(diag).report()
+    # evidence only: the verdict's rules make the same verdict without it
+    assert rules.decide(replace(diag.evidence_, located=None)) == diag.decision_
+    # and a kept Evidence holding it reads back
+    plain_data.save(tmp_path / "ev.npz", diag.evidence_)
+    assert isinstance(plain_data.load(tmp_path / "ev.npz").located, LocatedResult)
+
+
+@pytest.mark.slow      # a diagnosis: about 3 CPU s
+def test_nothing_is_located_when_a_library_effect_explains() -> None:
+    from triplanar import make_effect
+    from triplanar.workbench import Diagnoser
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=12, effects=[make_effect("end_friction:phi_deg=8")])
+    diag = Diagnoser(["end_friction"], folds=2, progress=False, model_form=False, audit=False, combine=False,
+                     executor="serial").fit(tests)
+    assert diag.verdict_ == "library_effect" and diag.evidence_.located is None
+    assert diag.report_["located"] is None
+
+
+def test_locate_refuses_no_tests() -> None:
+    with pytest.raises(ValueError, match="at least one measured test"):
+        locate([])
+
+
+def test_the_probes_lean_callback_is_its_wrench() -> None:
+    """The probes' callback reads the kernel state directly; it gives what the effect's ``wrench`` gives through the
+    general path (the block's kinematics decoded into a BlockState)."""
+    from triplanar.kernel import S_V, S_W
+    from triplanar.workbench.locate import PROFILES, _Probe
+    model = ModelSpec().build(40.0)
+    y = model.initial_state()
+    y[S_V:S_V + 3] = (0.3, 0.01, -0.02)
+    y[S_W:S_W + 3] = (0.02, 0.5, 0.1)
+    for profile in PROFILES:
+        probe = _Probe(profile, (0.5, 0.1, -0.3), (0.01, 0.02, 0.0), (0.1, -0.02, 0.1), -0.05, 7.0, 0.3)
+        general = model.with_effects([probe]).user_wrench(0.05, y)
+        lean = probe.wrench_at(0.05, y)
+        for a, b in zip(general, lean):
+            np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-15, err_msg=profile)
+        assert np.abs(general[1]).max() > 0
