@@ -58,38 +58,35 @@ def test_a_combination_stops_when_the_candidate_list_is_used_up() -> None:
     assert [s["effect"] for s in diag.combination_["steps"]] == ["end_friction"]
 
 
+def _pair_report(truth: dict[str, dict[str, float]], seed: int, candidates: list[str]) -> dict:
+    """The report of a diagnosis (2 folds, no model-form step) of the generator's data with ``truth`` hidden."""
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=seed, effects=[
+        make_effect(f"{name}:" + ",".join(f"{k}={v}" for k, v in params.items())) for name, params in truth.items()])
+    report = Diagnoser(candidates, folds=2, progress=False, model_form=False, executor="serial").fit(tests).report_
+    assert report["verdict"] == "library_effects", report["reason"]
+    for m in report["missing_effects"]:
+        for param, value in truth[m["effect"]].items():
+            low, high = m["param_ci95"][param]
+            assert low <= value <= high, (m["effect"], m["params"], m["param_ci95"])
+    return report
+
+
 def test_a_pair_whose_best_single_entry_stands_in_for_both_is_re_examined() -> None:
     """A tip offset with an actuator's rise: a time offset alone fits better than either (the calibration's s3022), and
     forward selection kept it beside the tip offset. Re-examined given the tip offset, the actuator's rise replaces it
     (stepwise selection's backward look, ``combine._first_reexamined``)."""
-    truth = {"tip_offset": {"offset_m": -0.004}, "actuator_rise": {"tau_s": 0.05}}
-    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=3, effects=[
-        make_effect("tip_offset:offset_m=-0.004"), make_effect("actuator_rise:tau_s=0.05")])
-    report = Diagnoser(["time_offset", "actuator_rise", "tip_offset", "end_friction"], folds=2, progress=False,
-                       model_form=False, executor="serial").fit(tests).report_
-    assert report["verdict"] == "library_effects", report["reason"]
+    report = _pair_report({"tip_offset": {"offset_m": -0.004}, "actuator_rise": {"tau_s": 0.05}}, 3,
+                          ["time_offset", "actuator_rise", "tip_offset", "end_friction"])
     steps = report["combination"]["steps"]
     assert [(s["effect"], s.get("replaces")) for s in steps] == [("tip_offset", None), ("actuator_rise", "time_offset")]
-    for m in report["missing_effects"]:
-        for param, value in truth[m["effect"]].items():
-            low, high = m["param_ci95"][param]
-            assert low <= value <= high, (m["effect"], m["params"], m["param_ci95"])
 
 
 def test_forward_selection_also_runs_from_a_close_runner_up() -> None:
-    """A tip offset with an actuator's rise (the calibration's s4051): rate friction is the best plausible single
-    entry, the actuator's rise within 1.25 x of it; forward selection from rate friction ends on three entries, from
-    the actuator's rise on the pair, which is kept (``combine._close_runner_up``)."""
-    truth = {"tip_offset": {"offset_m": -0.005}, "actuator_rise": {"tau_s": 0.06}}
-    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=2, effects=[
-        make_effect("tip_offset:offset_m=-0.005"), make_effect("actuator_rise:tau_s=0.06")])
-    report = Diagnoser(["time_offset", "actuator_rise", "tip_offset", "rate_friction"], folds=2, progress=False,
-                       model_form=False, executor="serial").fit(tests).report_
-    assert report["verdict"] == "library_effects", report["reason"]
+    """A tip offset with an actuator's rise (as the calibration's s4051): rate friction is the best plausible single
+    entry, the actuator's rise within 1.25 x of it; forward selection runs from both, and the pair found from the
+    actuator's rise beats the other path's combination and is kept (``combine._close_runner_up``)."""
+    report = _pair_report({"tip_offset": {"offset_m": -0.005}, "actuator_rise": {"tau_s": 0.06}}, 2,
+                          ["time_offset", "actuator_rise", "tip_offset", "rate_friction"])
     steps = report["combination"]["steps"]
     assert [(s["effect"], s.get("instead_of")) for s in steps] == [("actuator_rise", "rate_friction"),
                                                                    ("tip_offset", None)]
-    for m in report["missing_effects"]:
-        for param, value in truth[m["effect"]].items():
-            low, high = m["param_ci95"][param]
-            assert low <= value <= high, (m["effect"], m["params"], m["param_ci95"])
