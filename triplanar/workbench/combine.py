@@ -54,8 +54,11 @@ class Diagnoser(Protocol):
             refit: Mapping[str, Mapping[str, float]] | None = None) -> Diagnoser: ...
 
 
-def _step(result: CandidateResult, runner: CandidateResult | None, before_mm: float, baseline_mm: float,
+def _step(result: CandidateResult, ranked: Sequence[CandidateResult], before_mm: float, baseline_mm: float,
           look: Sequence[CandidateResult]) -> dict[str, Any]:
+    """A step of the combination: ``result`` chosen in a round that ranked ``ranked`` (its runner-up: the best other
+    entry there), taking the cross-validated error from ``before_mm``."""
+    runner = next((c for c in ranked if c.key != result.key), None)
     return {"effect": result.effect, "kind": result.kind, "cv_error_mm": result.cv_error_mm,
             "share_of_improvement": (before_mm - result.cv_error_mm) / baseline_mm if baseline_mm > 0 else 0.0,
             "runner_up": None if runner is None else runner.effect,
@@ -113,24 +116,17 @@ def _forward(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest], base:
     """Forward selection from the single entry ``first`` (``look``: its look-alikes): ``(steps, results, each round's
     baseline)``, the rounds' entries in order (a pair's first re-examined once the second joins)."""
     added = {} if first.kind == "refit" else {first.effect: dict(first.all_values[first.effect])}
-    others = [c for c in ev.ranked if c.key != first.key]
-    steps = [_step(first, others[0] if others else None, ev.baseline_error_mm, ev.baseline_error_mm, look)]
+    steps = [_step(first, ev.ranked, ev.baseline_error_mm, ev.baseline_error_mm, look)]
     results = [first]
     baselines = [ev.baseline_error_mm]          # each round's baseline (the entries so far), for _own_allowance
     while rules.combination_continues(results[-1].cv_error_mm, ev.repeat_scatter_mm, len(steps)):
         if not resolve(diag.candidates, exclude=(*base.effect_names, *added), specimen=base.specimen):
             break                              # every candidate is in already (a short candidate list)
         nxt = diag.next_round().fit(tests, base, refit=added or None)
-        # the best plausible entry by cross-validated error (the round's own examined entry judges improvement
-        # against its baseline, the in-sample fit of the entries so far; here it is judged against their
-        # cross-validated error)
-        plausible = [c for c in nxt.evidence_.ranked if c.plausible]
-        best, look_best = parsimonious(plausible) if plausible else (None, [])
+        best, look_best = _round_choice(nxt.evidence_.ranked)
         if best is None or not rules.step_accepted(best, results[-1]):
             break
-        rest = [c for c in nxt.evidence_.ranked if c.key != best.key]
-        steps.append(_step(best, rest[0] if rest else None, results[-1].cv_error_mm, ev.baseline_error_mm,
-                           look_best))
+        steps.append(_step(best, nxt.evidence_.ranked, results[-1].cv_error_mm, ev.baseline_error_mm, look_best))
         results.append(best)
         baselines.append(nxt.evidence_.baseline_error_mm)
         if len(results) == 2 and first.kind == "candidate":
@@ -141,12 +137,20 @@ def _forward(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest], base:
     return steps, results, baselines
 
 
+def _round_choice(ranked: Sequence[CandidateResult]) -> tuple[CandidateResult | None, list[CandidateResult]]:
+    """A round's entry and its look-alikes: the one-standard-error rule over its plausible entries (the round's own
+    examined entry judges improvement against its baseline, the in-sample fit of the entries so far; here an entry is
+    judged against their cross-validated error)."""
+    plausible = [c for c in ranked if c.plausible]
+    return parsimonious(plausible) if plausible else (None, [])
+
+
 def _close_runner_up(ev: Evidence, first: CandidateResult) -> CandidateResult | None:
     """The best other plausible single entry when it comes within ``MARGIN`` of ``first``
     (:func:`~triplanar.workbench.rules.restart_from`): forward selection is then also run from it, and the better
     combination kept. Why: the first step decides the path, and when it was not decisive the path from the close
-    runner-up may be the pair (on the calibration set: rate friction first, 1.14 x below the actuator's rise, for a
-    tip offset with an actuator's rise; a time offset for a load-cell gain with a rangefinder gain)."""
+    runner-up may be the pair (on the calibration set: rate friction first, the actuator's rise within 1.14 x, for a
+    tip offset with an actuator's rise, s4051)."""
     if first.kind != "candidate":
         return None
     others = [c for c in ev.ranked if c.key != first.key and c.plausible and c.kind == "candidate" and not c.per_test]
@@ -168,17 +172,12 @@ def _first_reexamined(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTes
     if single is None:
         return None
     nxt = diag.next_round().fit(tests, base, refit={second: dict(pair.all_values[second])})
-    plausible = [c for c in nxt.evidence_.ranked if c.plausible]
-    if not plausible:
+    best, look = _round_choice(nxt.evidence_.ranked)
+    if best is None or best.effect == a.effect or not rules.swap_accepted(best, pair) \
+            or not rules.step_accepted(best, single):
         return None
-    best, look = parsimonious(plausible)
-    if best.effect == a.effect or not rules.swap_accepted(best, pair) or not rules.step_accepted(best, single):
-        return None
-    others = [c for c in ev.ranked if c.key != single.key]
-    rest = [c for c in nxt.evidence_.ranked if c.key != best.key]
-    steps = [_step(single, others[0] if others else None, ev.baseline_error_mm, ev.baseline_error_mm,
-                   lookalikes_of(single, ev.ranked)),
-             _step(best, rest[0] if rest else None, single.cv_error_mm, ev.baseline_error_mm, look)]
+    steps = [_step(single, ev.ranked, ev.baseline_error_mm, ev.baseline_error_mm, lookalikes_of(single, ev.ranked)),
+             _step(best, nxt.evidence_.ranked, single.cv_error_mm, ev.baseline_error_mm, look)]
     steps[1]["replaces"] = a.effect
     return steps, [single, best], [ev.baseline_error_mm, nxt.evidence_.baseline_error_mm]
 

@@ -47,12 +47,10 @@ from ..effects import Effect
 from ..kernel import S_Q, S_R, S_V, S_W
 from ..measurement import MeasuredTest
 from ..model import Model
-from ..paths import travel
-from ..simulate import simulate
 from .discrepancy import discrepancy_group, group_by_force, repeat_scatter_mm
 from .executor import ExecutorLike, run_tasks
 from .intervals import standard_error
-from .spec import SIM_OPTIONS, TRAVEL_MARGIN_M, ModelSpec, unread_tests
+from .spec import SIM_OPTIONS, ModelSpec, simulate_for, unread_tests
 
 #: The time profiles of a probe, the unit of a force's size that follows each, and the probe's size
 #: (about half a newton on the calibration's paths: a few millimetres of trace, linear, far above the integrator).
@@ -202,15 +200,8 @@ def _run_probe(task: _ProbeTask) -> list[np.ndarray]:
         model = _ProbedModel(**{f.name: getattr(model, f.name) for f in fields(model)}, probe=probe)
         model = model.with_effects([probe])
     tests = unread_tests(task.spec, task.tests)
-    return [d.residuals for d in discrepancy_group(tests, _simulate(model, tests, task.rest), False)]
-
-
-def _simulate(model: Model, tests: Sequence[MeasuredTest], rest: np.ndarray | None = None) -> Any:
-    """``model`` run past the longest measured travel of ``tests`` (from ``rest``, default the model's seated contact
-    points), at :data:`PROBE_OPTIONS`."""
-    rest = model.seated_contact_points if rest is None else rest
-    longest = max(float(np.max(travel(t.positions, rest))) for t in tests)
-    return simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **PROBE_OPTIONS)
+    result = simulate_for(model, tests, task.rest, PROBE_OPTIONS)
+    return [d.residuals for d in discrepancy_group(tests, result, False)]
 
 
 def _rest_geometry(spec: ModelSpec, force_N: float) -> tuple[np.ndarray, dict[str, np.ndarray]]:
@@ -296,7 +287,7 @@ def _run_model(task: _ProbeTask) -> list[Any]:
     """The model's discrepancy from each test of ``task`` (its residual, and its travel lag in time)."""
     model = task.spec.build(task.force_N)
     tests = unread_tests(task.spec, task.tests)
-    return discrepancy_group(tests, _simulate(model, tests), False)
+    return discrepancy_group(tests, simulate_for(model, tests, options=PROBE_OPTIONS), False)
 
 
 def _responses(spec: ModelSpec, tests: Sequence[MeasuredTest], executor: ExecutorLike,
@@ -413,7 +404,8 @@ def _regress(resp: _Responses, cols: list[tuple[np.ndarray, ...]], folds: Sequen
     A_inv = np.linalg.pinv(X.T @ X)
     meat = np.zeros((X.shape[1], X.shape[1]))
     for t in every:
-        g = _stack(cols, [t]).T @ (resp.r0[t] + _stack(cols, [t]) @ theta)
+        X_t = _stack(cols, [t])
+        g = X_t.T @ (resp.r0[t] + X_t @ theta)
         meat += np.outer(g, g)
     m = X.shape[1]
     cov = A_inv @ meat @ A_inv * (n / max(n - m, 1))

@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 from functools import lru_cache
-from typing import Iterable, Mapping, Sequence
+from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
@@ -144,11 +144,14 @@ class EvalResult:
     result: SimulationResult | None = field(default=None, repr=False)
 
 
-def simulate_for(model: Model, tests: Sequence[MeasuredTest]) -> SimulationResult:
-    """Simulate ``model`` far enough to cover the longest measured travel of ``tests``."""
-    rest = model.seated_contact_points          # the origin the comparison measures travel from
+def simulate_for(model: Model, tests: Sequence[MeasuredTest], rest: np.ndarray | None = None,
+                 options: Mapping[str, Any] = SIM_OPTIONS) -> SimulationResult:
+    """Simulate ``model`` (with ``options``, default :data:`SIM_OPTIONS`) far enough to cover the longest measured
+    travel of ``tests``, measured from ``rest`` (default: the model's seated contact points, the origin the
+    comparison measures travel from; a caller that has it already passes it)."""
+    rest = model.seated_contact_points if rest is None else rest
     longest = max(float(np.max(travel(t.positions, rest))) for t in tests) if tests else 0.08
-    return simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **SIM_OPTIONS)
+    return simulate(model, travel_m=max(longest, 0.0) + TRAVEL_MARGIN_M, **options)
 
 
 def evaluate(task: EvalTask) -> EvalResult:
