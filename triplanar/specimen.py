@@ -83,6 +83,10 @@ class Foundation:
                 raise SpecimenError(f"foundation.planes[{i}].dip_deg", f"must lie in [0, 90), got {p.dip_deg}", source)
 
 
+#: how many passed specimens a foundation remembers (:meth:`Specimen.validate`)
+_PASSED_KEPT = 256
+
+
 @dataclass(frozen=True)
 class Specimen:
     """The top block, as the paper's model needs it.
@@ -149,8 +153,22 @@ class Specimen:
         passed = self.__dict__.get("_validated_with")
         if passed is not None and passed[0] is foundation and passed[1] == plane_tolerance_m:
             return
-        self._validate(foundation, source, plane_tolerance_m)
-        self.__dict__["_validated_with"] = (foundation, plane_tolerance_m)  # (frozen: as cached_property does)
+        # A fit of a friction angle makes a new specimen for every value it tries: the same block by every other
+        # number, so the foundation remembers the values it has passed (what the check reads, nothing else).
+        key = (self._checked_values(), plane_tolerance_m)
+        passed_values = foundation.__dict__.setdefault("_passed_specimens", {})  # (frozen: as cached_property does)
+        if key not in passed_values:
+            self._validate(foundation, source, plane_tolerance_m)
+            if len(passed_values) >= _PASSED_KEPT:
+                passed_values.clear()
+            passed_values[key] = True
+        self.__dict__["_validated_with"] = (foundation, plane_tolerance_m)
+
+    def _checked_values(self) -> tuple:
+        """Every number :meth:`_validate` reads, as a hashable value (arrays by their bytes and shape)."""
+        arrays = tuple((a.shape, a.tobytes()) for a in (self.contact_points_m, self.mass_centre_m, self.inertia_kg_m2))
+        return arrays + (self.mass_kg, self.load_point_A_m, self.load_point_B_m, self.friction_deg,
+                         self.tip_friction_deg)
 
     def _validate(self, foundation: Foundation, source: str | None, plane_tolerance_m: float) -> None:
         self._check_finite(source)

@@ -30,6 +30,8 @@ def warm_physics() -> None:
     result = simulate(paper_model("A", 30.0))  # holds, start_motion, integrate_ws, the kernel
     assert result.status is Outcome.TRAVEL, result.message
     result.resample_by_travel(np.array([0.01]))  # the interpolant (triplanar.interpolate) the workbench resamples with
+    from .workbench.discrepancy import discrepancy  # its compiled per-test terms (triplanar.workbench.discrepancy_kernel)
+    discrepancy(result.to_measured("warm-up"), result)
     simulate(paper_model("A", 35.0, effects=[make_effect("actuator_rise:tau_s=0.05")]))  # the sliding threshold
     model = paper_model("A", 1.0)
     simulate(model)  # held: the right-hand side at rest

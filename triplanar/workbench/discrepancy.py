@@ -23,6 +23,9 @@ the fits minimise (summed over tests, so every test weighs the same whatever its
 A model run that ends before the measured travel (held, arrested, left a plane, lifted off) is compared
 as far as it went: its last position stands in for the rest of the measured path, so the error is large
 and finite, and the run's ``status`` is kept with the numbers.
+
+The per-sample arithmetic of one test (differences, residuals, the sums) is compiled
+(:mod:`triplanar.workbench.discrepancy_kernel`), bit for bit what numpy computes.
 """
 
 from __future__ import annotations
@@ -38,11 +41,12 @@ from ..measurement import MeasuredTest
 from ..paths import lateral_dilation, model_at_travel, ran as _ran, rotation_deg, travel as path_travel
 from ..result import SimulationResult
 from ..outcome import Outcome
+from .discrepancy_kernel import MM, per_test_terms
 
 #: a test's ``status`` when no model run could be made (:class:`NoRun`); any other is an :class:`Outcome`'s label
 NO_RUN = "invalid"
 
-MM = 1e3
+_NO_LAG = np.zeros(0)       # (the compiled terms take an array either way)
 #: What a perfect model leaves on noise-free data: the integrator's tolerance seen through the comparison (mm). The
 #: exact model of every library effect (tilted planes included) left at most 1.3e-5 mm on the stand-in laboratory's
 #: noise-free traces (``tests/triplanar/workbench/test_travel_origin.py``); this is about 8 x that.
@@ -172,14 +176,6 @@ def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.nd
              model_travel: np.ndarray | None = None, summary: bool = True) -> TestDiscrepancy:
     """One test's discrepancy. ``summary`` False (a fit's evaluations, which need only ``error_mm`` and
     ``residuals``): the end-of-travel dilation and rotation errors, the max and vertical figures are NaN."""
-    n = len(travel)
-    measured = test.horizontal                                  # (n, 3, 2)
-    model = model3[:, :, ::2]
-    d = (measured - model) * MM
-    dist = np.hypot(d[..., 0], d[..., 1])                      # (n, 3)
-    dv = (test.positions[:, :, 1] - model3[:, :, 1]) * MM      # (n, 3) vertical, NaN where not measured
-    has_v = np.isfinite(dv)
-    dv = np.where(has_v, dv, 0.0)
     s_end = float(travel[end])
     if summary:      # (one rest for both: the differences of dilation and turn are those of positions)
         dilation = lateral_dilation(test.positions[end], rest) - lateral_dilation(model3[end], rest)
@@ -187,31 +183,24 @@ def _compare(test: MeasuredTest, result: SimulationResult | NoRun, travel: np.nd
     else:
         dilation, rotation = np.full(3, math.nan), math.nan
     coverage = 1.0 if s_end <= 0 else min(1.0, reach / s_end)
-    groups = 3
     lag = None
     if test.t_s is not None:
-        groups = 4
         if model_travel is None:
             model_travel = model_travel_at_time(result, test.t_s)
         lag = (model_travel - travel) * MM
-    sq = (float(np.sum(dist**2)) + float(np.sum(dv**2))) / n + (float(np.sum(lag**2)) / n if lag is not None else 0.0)
-    error = math.sqrt(sq / groups)
-    scale = 1.0 / math.sqrt(n * groups)
-    parts = [d.reshape(n, 6) * scale, dv * scale]
-    if lag is not None:
-        parts.append(lag[:, None] * scale)
-    residuals = np.concatenate([p.ravel() for p in parts])
+    d, dist, dv, residuals, error, mean, lag_rms = per_test_terms(
+        np.ascontiguousarray(test.positions, dtype=float), np.ascontiguousarray(model3, dtype=float),
+        _NO_LAG if lag is None else lag, lag is not None)
     if summary:
-        counts = has_v.sum(axis=0)
+        counts = np.isfinite((test.positions[:, :, 1] - model3[:, :, 1]) * MM).sum(axis=0)
         vertical = np.where(counts > 0, np.sqrt(np.sum(dv**2, axis=0) / np.maximum(counts, 1)), math.nan)
         largest = dist.max(axis=0)
     else:
         vertical = largest = np.full(3, math.nan)
     return TestDiscrepancy(
         test_id=test.test_id, force_N=float(test.shear_force_N), status=str(result.status), message=result.message,
-        mean_mm=dist.mean(axis=0), max_mm=largest, dilation_error_mm=dilation * MM,
-        rotation_error_deg=float(rotation), arrival_error_s=arrival,
-        lag_rms_mm=float(np.sqrt(np.mean(lag**2))) if lag is not None else math.nan,
+        mean_mm=mean, max_mm=largest, dilation_error_mm=dilation * MM,
+        rotation_error_deg=float(rotation), arrival_error_s=arrival, lag_rms_mm=lag_rms,
         coverage=coverage, error_mm=error, travel_m=travel, lateral_mm=d[..., 1], residuals=residuals,
         vertical_rms_mm=vertical, lag_mm=lag, t_s=test.t_s)
 
