@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from functools import cached_property
 from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from . import kernel as K
 from .interpolate import CubicHermite, distinct_times, linear
@@ -31,14 +33,36 @@ class Event(NamedTuple):
         return event_name(self.event) if self.event >= 0 else self.outcome.label
 
 
-def rotation_matrices(quaternions: np.ndarray) -> np.ndarray:
-    """(n, 4) unit quaternions (w, x, y, z) to (n, 3, 3) rotation matrices (columns g1, g2, g3)."""
-    w, x, y, z = (quaternions[:, i] for i in range(4))
-    out = np.empty((len(quaternions), 3, 3))   # (filled in place: nested np.stack cost more than the arithmetic)
-    out[:, 0, 0], out[:, 0, 1], out[:, 0, 2] = 1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)
-    out[:, 1, 0], out[:, 1, 1], out[:, 1, 2] = 2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)
-    out[:, 2, 0], out[:, 2, 1], out[:, 2, 2] = 2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)
-    return out
+@njit(cache=True, error_model="numpy")
+def block_paths(y: np.ndarray, body_cps: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every row's rotation (n, 3, 3), contact points and contact velocities (n, 3, 3 each) from kernel states ``y``
+    (n, N_STATE) and the contact points in the body frame about the mass centre ``body_cps`` (3, 3).
+
+    The quaternion (w, x, y, z) is normalised and turned into the rotation matrix (columns g1, g2, g3), the contact
+    points are the mass centre plus R times the body-frame point, their velocities the mass centre's plus omega x (point - mass
+    centre). One compiled pass over the rows (a workbench evaluation did this with some twenty numpy calls); the
+    operations and their order are those of the numpy expressions it replaced, so the bits are the same
+    (``tests/triplanar/test_block_paths.py``)."""
+    n = y.shape[0]
+    rot, cps, vel = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3))
+    for k in range(n):
+        q0, q1, q2, q3 = y[k, K.S_Q], y[k, K.S_Q + 1], y[k, K.S_Q + 2], y[k, K.S_Q + 3]
+        norm = math.sqrt(((q0 * q0 + q1 * q1) + q2 * q2) + q3 * q3)
+        w, x, yy, z = q0 / norm, q1 / norm, q2 / norm, q3 / norm
+        r = rot[k]
+        r[0, 0], r[0, 1], r[0, 2] = 1 - 2 * (yy * yy + z * z), 2 * (x * yy - w * z), 2 * (x * z + w * yy)
+        r[1, 0], r[1, 1], r[1, 2] = 2 * (x * yy + w * z), 1 - 2 * (x * x + z * z), 2 * (yy * z - w * x)
+        r[2, 0], r[2, 1], r[2, 2] = 2 * (x * z - w * yy), 2 * (yy * z + w * x), 1 - 2 * (x * x + yy * yy)
+        w0, w1, w2 = y[k, K.S_W], y[k, K.S_W + 1], y[k, K.S_W + 2]
+        for c in range(3):
+            for i in range(3):   # (the terms in numpy's einsum order: the first and third, then the second)
+                turned = (r[i, 0] * body_cps[c, 0] + r[i, 2] * body_cps[c, 2]) + r[i, 1] * body_cps[c, 1]
+                cps[k, c, i] = y[k, K.S_R + i] + turned
+            a0, a1, a2 = (cps[k, c, 0] - y[k, K.S_R], cps[k, c, 1] - y[k, K.S_R + 1], cps[k, c, 2] - y[k, K.S_R + 2])
+            vel[k, c, 0] = y[k, K.S_V] + (w1 * a2 - w2 * a1)
+            vel[k, c, 1] = y[k, K.S_V + 1] + (w2 * a0 - w0 * a2)
+            vel[k, c, 2] = y[k, K.S_V + 2] + (w0 * a1 - w1 * a0)
+    return rot, cps, vel
 
 
 @dataclass(frozen=True)
@@ -82,34 +106,29 @@ class SimulationResult:
 
     # -- kinematics ------------------------------------------------------------------------
     @cached_property
+    def _kinematics(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rotation, contact points, contact velocities) of every row, in one compiled pass (:func:`block_paths`)."""
+        body = np.ascontiguousarray(self.model.kernel_params_cached[K.P_C:K.P_C + 9].reshape(3, 3))
+        return block_paths(np.ascontiguousarray(self.y), body)
+
+    @property
     def rotation(self) -> np.ndarray:
         """(n, 3, 3) body frame [g1 g2 g3] in world coordinates."""
-        q = self.y[:, K.S_Q:K.S_Q + 4]
-        return rotation_matrices(q / np.linalg.norm(q, axis=1, keepdims=True))
-
-    @cached_property
-    def _body_cps(self) -> np.ndarray:
-        return self.model.kernel_params_cached[K.P_C:K.P_C + 9].reshape(3, 3)
+        return self._kinematics[0]
 
     @property
     def mass_centre(self) -> np.ndarray:
         return self.y[:, K.S_R:K.S_R + 3]
 
-    @cached_property
+    @property
     def contact_points(self) -> np.ndarray:
         """(n, 3, 3): sample, CP1..CP3, coordinate x1..x3 (the paper's q1..q9)."""
-        return self.mass_centre[:, None, :] + np.einsum("nij,cj->nci", self.rotation, self._body_cps)
+        return self._kinematics[1]
 
-    @cached_property
+    @property
     def contact_velocities(self) -> np.ndarray:
-        arms = self.contact_points - self.mass_centre[:, None, :]
-        w = self.y[:, None, K.S_W:K.S_W + 3]
-        # omega x arm, written out: np.cross's operations in its order (so the same bits) without its shape handling
-        turn = np.empty_like(arms)
-        turn[..., 0] = w[..., 1] * arms[..., 2] - w[..., 2] * arms[..., 1]
-        turn[..., 1] = w[..., 2] * arms[..., 0] - w[..., 0] * arms[..., 2]
-        turn[..., 2] = w[..., 0] * arms[..., 1] - w[..., 1] * arms[..., 0]
-        return self.y[:, None, K.S_V:K.S_V + 3] + turn
+        """(n, 3, 3): sample, CP1..CP3, velocity (m/s): the mass centre's velocity plus omega x (CP - mass centre)."""
+        return self._kinematics[2]
 
     @property
     def normal_reactions(self) -> np.ndarray:
