@@ -83,7 +83,7 @@ class Foundation:
                 raise SpecimenError(f"foundation.planes[{i}].dip_deg", f"must lie in [0, 90), got {p.dip_deg}", source)
 
 
-#: how many passed specimens a foundation remembers (:meth:`Specimen.validate`)
+#: how many passed partners a specimen or a foundation remembers (:meth:`Specimen.validate`)
 _PASSED_KEPT = 256
 
 
@@ -147,22 +147,23 @@ class Specimen:
     # -- validation -------------------------------------------------------------------------
     def validate(self, foundation: Foundation, source: str | None = None,
                  plane_tolerance_m: float = PLANE_TOLERANCE_M) -> None:
-        """Raise :class:`SpecimenError` naming the first field that cannot be right. A specimen is immutable: one
-        that passed with this very ``foundation`` object and tolerance is not checked again (the workbench builds
-        thousands of models on the same reference specimen)."""
-        passed = self.__dict__.get("_validated_with")
-        if passed is not None and passed[0] is foundation and passed[1] == plane_tolerance_m:
+        """Raise :class:`SpecimenError` naming the first field that cannot be right. Specimens and foundations are
+        immutable: a block that passed on these planes with this tolerance is not checked again (the workbench
+        builds thousands of models, each a new specimen or foundation differing in one number)."""
+        # A fit makes a new model for every value it tries: a new specimen for a friction angle (the same block by
+        # every other number), a new foundation for a plane's dip. Each remembers what it passed with (the other
+        # side by the numbers the check reads), so the same pair is checked once. (Frozen dataclasses: the
+        # memories go in __dict__, as cached_property puts its values.)
+        mine = self.__dict__.setdefault("_passed_on", {})            # foundations' planes this block passed on
+        theirs = foundation.__dict__.setdefault("_passed_blocks", {})  # blocks' numbers that passed on these planes
+        planes_key, block_key = (foundation.planes, plane_tolerance_m), (self._checked_values(), plane_tolerance_m)
+        if planes_key in mine or block_key in theirs:
             return
-        # A fit of a friction angle makes a new specimen for every value it tries: the same block by every other
-        # number, so the foundation remembers the values it has passed (what the check reads, nothing else).
-        key = (self._checked_values(), plane_tolerance_m)
-        passed_values = foundation.__dict__.setdefault("_passed_specimens", {})  # (frozen: as cached_property does)
-        if key not in passed_values:
-            self._validate(foundation, source, plane_tolerance_m)
-            if len(passed_values) >= _PASSED_KEPT:
-                passed_values.clear()
-            passed_values[key] = True
-        self.__dict__["_validated_with"] = (foundation, plane_tolerance_m)
+        self._validate(foundation, source, plane_tolerance_m)
+        for memory, key in ((mine, planes_key), (theirs, block_key)):
+            if len(memory) >= _PASSED_KEPT:
+                memory.clear()
+            memory[key] = True
 
     def _checked_values(self) -> tuple:
         """Every number :meth:`_validate` reads, as a hashable value (arrays by their bytes and shape)."""

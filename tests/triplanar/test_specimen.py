@@ -186,3 +186,22 @@ def test_actuator_rise_starts_at_the_threshold_and_handles_fast_rises() -> None:
     fast = simulate(paper_model("A", 40.0, effects=[make_effect("actuator_rise:tau_s=1e-6")]))
     step = simulate(base)
     assert abs(fast.t[-1] - step.t[-1]) < 1e-4
+
+
+def test_a_passed_pair_is_remembered_and_a_changed_number_is_checked_again() -> None:
+    """A specimen and foundation remember the partners they passed with (a fit's models differ in one number), but
+    only those: a block whose numbers changed, or planes that changed, are checked in full."""
+    specimen, foundation = reference()
+    specimen.validate(foundation)
+    same_block = replace(specimen, tip_friction_deg=specimen.tip_friction_deg)   # a new object, the same numbers
+    same_block.validate(foundation)
+    with pytest.raises(SpecimenError, match="tip_friction_deg"):
+        replace(specimen, tip_friction_deg=50.0).validate(foundation)
+    with pytest.raises(SpecimenError, match="mass_kg"):
+        replace(specimen, mass_kg=-1.0).validate(foundation)
+    steep = Foundation(tuple(Plane(p.dip_deg + (5.0 if i == 0 else 0.0), p.dip_direction_deg)
+                             for i, p in enumerate(foundation.planes)))
+    with pytest.raises(SpecimenError, match=r"contact_points_m\[0\]"):
+        specimen.validate(steep)
+    with pytest.raises(SpecimenError, match=r"contact_points_m\[0\]"):
+        specimen.validate(steep, plane_tolerance_m=1e-6)
