@@ -1014,13 +1014,8 @@ def event_values_ws(y: np.ndarray, p: np.ndarray, aux: np.ndarray, x1_target: fl
 
 
 @njit(cache=True, error_model="numpy")
-def kinetic_energy(y: np.ndarray, p: np.ndarray) -> float:
-    return _kinetic_energy(y, p, np.empty((3, 3)), np.empty(3), np.empty(3))
-
-
-@njit(cache=True, error_model="numpy")
 def kinetic_energy_ws(y: np.ndarray, p: np.ndarray, ws: np.ndarray) -> float:
-    """:func:`kinetic_energy` with scratch from a workspace."""
+    """The block's kinetic energy at state ``y`` (J), with scratch from a workspace (:func:`new_workspace`)."""
     return _kinetic_energy(y, p, ws[W_R:W_R + 3, :3], ws[W_IW, :3], ws[W_WB, :3])
 
 

@@ -108,7 +108,7 @@ class SimulationResult:
     @cached_property
     def _kinematics(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(rotation, contact points, contact velocities) of every row, in one compiled pass (:func:`block_paths`)."""
-        body = np.ascontiguousarray(self.model.kernel_params_cached[K.P_C:K.P_C + 9].reshape(3, 3))
+        body = self.model.kernel_params_cached[K.P_C:K.P_C + 9].reshape(3, 3).copy()  # (writable: one compiled version)
         return block_paths(np.ascontiguousarray(self.y), body)
 
     @property

@@ -158,7 +158,8 @@ def test_reward_on_a_hand_checked_state() -> None:
     assert inf[S.IN_R_TERM] == 0.0
     assert inf[S.IN_REWARD] == pytest.approx(-0.0325)
     assert inf[S.IN_ERR] == pytest.approx(3.0)                                     # (1 + 5) / 2 over 0.8 mm
-    S._finish(y, p, st.copy(), ref, np.array([0.5, -0.5]), cfg, Outcome.ARRESTED, obs, inf, S.new_workspace())
+    # (the outcome as the compiled step passes it, an int: an IntEnum would compile a second version of _finish)
+    S._finish(y, p, st.copy(), ref, np.array([0.5, -0.5]), cfg, int(Outcome.ARRESTED), obs, inf, S.new_workspace())
     assert inf[S.IN_R_TERM] == pytest.approx(-50.0)                               # nothing of 8 cm travelled
     assert inf[S.IN_REWARD] == pytest.approx(-50.0325)
     step_weighted = replace(env.config, reward_weighting="step").packed()
@@ -228,7 +229,8 @@ def test_held_block_does_not_creep_and_energy_balances() -> None:
 
     def residual(y: np.ndarray) -> float:
         potential = model.specimen.mass_kg * 9.81 * (y[K.S_R + 1] - y0[K.S_R + 1])
-        return y[K.S_WLOAD] - K.kinetic_energy(y, env._p) - potential - y[K.S_DC:K.S_DC + 3].sum() - y[K.S_DTIP]
+        kinetic = K.kinetic_energy_ws(y, env._p, K.new_workspace())
+        return y[K.S_WLOAD] - kinetic - potential - y[K.S_DC:K.S_DC + 3].sum() - y[K.S_DTIP]
 
     from agents import TrackingTip
     controller = TrackingTip()

@@ -50,7 +50,8 @@ def _block_sum(a: np.ndarray, start: int, n: int) -> float:
     return res
 
 
-@njit(cache=True, error_model="numpy")
+# (its signature given: called with a literal 0 from compiled code and with integers from Python, it compiles once)
+@njit("float64(float64[::1], int64, int64)", cache=True, error_model="numpy")
 def pairwise_sum(a: np.ndarray, start: int, n: int) -> float:
     """Sum of ``a[start:start + n]`` (1-d, contiguous) in numpy's order (``np.sum`` of a contiguous array): blocks of
     at most 128 by :func:`_block_sum`, longer runs split in halves at a multiple of 8 and the halves' sums added.

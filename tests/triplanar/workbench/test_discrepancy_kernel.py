@@ -48,6 +48,7 @@ def test_terms_are_the_numpy_expressions_bit_for_bit(n: int, timed: bool, vertic
         positions[:, :, 1] = np.nan
     elif vertical == "some":
         positions[::3, 1, 1] = np.nan
+    positions.setflags(write=False)         # (as a measured test's are: the signature the workbench compiles)
     lag = rng.normal(size=n) * 0.3 if timed else None
     got = per_test_terms(positions, model3, lag if timed else np.zeros(0), timed)
     want = _numpy_terms(positions, model3, lag)
