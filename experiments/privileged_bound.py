@@ -1,0 +1,103 @@
+"""How far a student of ``limit`` can get: ``limit`` itself on the student's judge benches, and how much of
+``limit``'s action is its planner's own randomness, which no student can learn from any input.
+
+``PYTHONPATH=. python -m experiments.privileged_bound --judge 100`` runs ``limit`` on the benches that
+``experiments.train_student --judge 100`` runs a student on (the same draws and noise seeds) and prints the same
+statistics. ``--label-noise K [--first 60000]`` rolls ``limit`` out on ``K`` draws of the tuning stream from
+``--first`` (a range no label round used) with a second ``limit`` of another planner seed alongside it, shown the
+same observations and true states: the two actions in the same state differ only by the cross-entropy search's
+samples. Half their mean squared difference is the variance of that noise in one label (two independent draws),
+printed per span of decision index beside the labels' spread about their mean: the share of the labels' variance
+that is search noise bounds the share any student can explain (docs/notes/student-experiments.md, finding 8).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from typing import Any
+
+import numpy as np
+
+from agents.heldout import TUNING_SEED
+from agents.limit import LimitController
+from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+
+from .distill_labels import bench_of_draw
+from .student_diagnosis import SPANS
+from .train_student import JUDGE_DRAWS, judge_controller
+
+
+def twin_actions(draw: int, seeds: tuple[int, int] = (0, 1), **limit_settings: Any
+                 ) -> tuple[np.ndarray, np.ndarray] | None:
+    """(driving ``limit``'s actions, the twin's actions in the same states), (T, 2) each, on draw ``draw`` of the
+    tuning stream (None if friction holds it at rest); sensor noise seeded by the draw; ``limit_settings``: both
+    limits' other fields (default: as shipped)."""
+    bench = bench_of_draw(TUNING_SEED, draw, {})
+    if bench is None:
+        return None
+    env = TriPlanarShearV1Env()
+    obs, _ = env.reset(seed=draw, options={"bench": bench})
+    pair = [LimitController(seed=seed, **limit_settings) for seed in seeds]
+    for limit in pair:
+        limit.bind(env)
+        limit.reset(bench.load_N, env.config)
+    ran, twin = [], []
+    while True:
+        action, other = (np.asarray(limit.act(obs), dtype=np.float64) for limit in pair)
+        ran.append(action)
+        twin.append(other)
+        obs, _, terminated, truncated, _ = env.step(action.astype(np.float32))
+        if terminated or truncated:
+            return np.array(ran), np.array(twin)
+
+
+def label_noise(first: int, k: int) -> dict:
+    """Per span of decision index (:data:`experiments.student_diagnosis.SPANS`): the decisions, the labels' spread
+    (RMS about the span's mean action), the search noise in one label (RMS of the twins' difference over sqrt 2)
+    and the noise's share of the labels' variance; the same over all decisions."""
+    if first < JUDGE_DRAWS or k < 1:
+        raise ValueError(f"--first must be >= {JUDGE_DRAWS} (the judge's draws stay unlabelled) and K >= 1, got "
+                         f"{first}, {k}")
+    rows = []
+    start = time.process_time()
+    for draw in range(first, first + k):
+        pair = twin_actions(draw)
+        if pair is not None:
+            rows += [(t, a, b) for t, (a, b) in enumerate(zip(*pair))]
+    steps = np.array([r[0] for r in rows])
+    ran, twin = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])
+    out = {"episodes_drawn": k, "decisions": len(rows), "cpu_s": time.process_time() - start, "spans": []}
+    for lo, hi in SPANS + ((0, 10_000),):
+        at = (steps >= lo) & (steps < hi)
+        if not at.any():
+            continue
+        spread = float(np.sqrt(((ran[at] - ran[at].mean(axis=0)) ** 2).mean()))
+        noise = float(np.sqrt(((ran[at] - twin[at]) ** 2).mean() / 2.0))
+        out["spans"].append({"decisions": [lo, hi], "n": int(at.sum()), "label_spread": spread,
+                             "search_noise": noise, "noise_share_of_variance": noise ** 2 / spread ** 2})
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m experiments.privileged_bound", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--judge", type=int, default=0, metavar="N", help="run limit on the first N judge benches")
+    parser.add_argument("--judge-skip", type=int, default=0, metavar="M", help="from the M-th of them")
+    parser.add_argument("--label-noise", type=int, default=0, metavar="K", help="twin limits on K draws")
+    parser.add_argument("--first", type=int, default=60_000, help="the first draw for --label-noise (default 60000)")
+    args = parser.parse_args(argv)
+    try:
+        if args.judge:
+            print(json.dumps(judge_controller(LimitController(), {}, args.judge, args.judge_skip), indent=1))
+        if args.label_noise:
+            print(json.dumps(label_noise(args.first, args.label_noise), indent=1))
+    except ValueError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
