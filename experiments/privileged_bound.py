@@ -4,7 +4,7 @@
 ``PYTHONPATH=. python -m experiments.privileged_bound --judge 100`` runs ``limit`` on the benches that
 ``experiments.train_student --judge 100`` runs a student on (the same draws and noise seeds) and prints the same
 statistics. ``--label-noise K [--first 60000]`` rolls ``limit`` out on ``K`` draws of the tuning stream from
-``--first`` (a range no label round used) with a second ``limit`` of another planner seed alongside it, shown the
+``--first`` (a range no label round used; ``--limit samples=256``: both with another search) with a second ``limit`` of another planner seed alongside it, shown the
 same observations and true states: the two actions in the same state differ only by the cross-entropy search's
 samples. Half their mean squared difference is the variance of that noise in one label (two independent draws),
 printed per span of decision index beside the labels' spread about their mean: the share of the labels' variance
@@ -25,7 +25,7 @@ from agents.heldout import TUNING_SEED
 from agents.limit import LimitController
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
 
-from .distill_labels import bench_of_draw
+from .distill_labels import bench_of_draw, expert_pairs
 from .student_diagnosis import SPANS
 from .train_student import JUDGE_DRAWS, judge_controller
 
@@ -54,7 +54,7 @@ def twin_actions(draw: int, seeds: tuple[int, int] = (0, 1), **limit_settings: A
             return np.array(ran), np.array(twin)
 
 
-def label_noise(first: int, k: int) -> dict:
+def label_noise(first: int, k: int, **limit_settings: Any) -> dict:
     """Per span of decision index (:data:`experiments.student_diagnosis.SPANS`): the decisions, the labels' spread
     (RMS about the span's mean action), the search noise in one label (RMS of the twins' difference over sqrt 2)
     and the noise's share of the labels' variance; the same over all decisions."""
@@ -64,12 +64,12 @@ def label_noise(first: int, k: int) -> dict:
     rows = []
     start = time.process_time()
     for draw in range(first, first + k):
-        pair = twin_actions(draw)
+        pair = twin_actions(draw, **limit_settings)
         if pair is not None:
             rows += [(t, a, b) for t, (a, b) in enumerate(zip(*pair))]
     steps = np.array([r[0] for r in rows])
     ran, twin = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])
-    out = {"episodes_drawn": k, "decisions": len(rows), "cpu_s": time.process_time() - start, "spans": []}
+    out = {"limit": limit_settings, "episodes_drawn": k, "decisions": len(rows), "cpu_s": time.process_time() - start, "spans": []}
     for lo, hi in SPANS + ((0, 10_000),):
         at = (steps >= lo) & (steps < hi)
         if not at.any():
@@ -87,12 +87,16 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--judge-skip", type=int, default=0, metavar="M", help="from the M-th of them")
     parser.add_argument("--label-noise", type=int, default=0, metavar="K", help="twin limits on K draws")
     parser.add_argument("--first", type=int, default=60_000, help="the first draw for --label-noise (default 60000)")
+    parser.add_argument("--limit", action="append", default=[], metavar="FIELD=VALUE",
+                        help="a LimitController setting of both twins (repeatable), e.g. samples=256")
     args = parser.parse_args(argv)
     try:
         if args.judge:
             print(json.dumps(judge_controller(LimitController(), {}, args.judge, args.judge_skip), indent=1))
         if args.label_noise:
-            print(json.dumps(label_noise(args.first, args.label_noise), indent=1))
+            settings = dict(expert_pairs(args.limit, "limit"))
+            settings.pop("seed", None)   # the twins' seeds are theirs (0 and 1)
+            print(json.dumps(label_noise(args.first, args.label_noise, **settings), indent=1))
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
