@@ -57,28 +57,42 @@ def twin_actions(draw: int, seeds: tuple[int, int] = (0, 1), **limit_settings: A
 def label_noise(first: int, k: int, **limit_settings: Any) -> dict:
     """Per span of decision index (:data:`experiments.student_diagnosis.SPANS`): the decisions, the labels' spread
     (RMS about the span's mean action), the search noise in one label (RMS of the twins' difference over sqrt 2)
-    and the noise's share of the labels' variance; the same over all decisions."""
+    and the noise's share of the labels' variance, each with a 95 % interval (:func:`span_figures`); the same over
+    all decisions. ``limit_settings``: both limits' fields (default: as shipped)."""
     if first < JUDGE_DRAWS or k < 1:
         raise ValueError(f"--first must be >= {JUDGE_DRAWS} (the judge's draws stay unlabelled) and K >= 1, got "
                          f"{first}, {k}")
-    rows = []
+    episodes = []
     start = time.process_time()
     for draw in range(first, first + k):
         pair = twin_actions(draw, **limit_settings)
         if pair is not None:
-            rows += [(t, a, b) for t, (a, b) in enumerate(zip(*pair))]
-    steps = np.array([r[0] for r in rows])
-    ran, twin = np.array([r[1] for r in rows]), np.array([r[2] for r in rows])
-    out = {"limit": limit_settings, "episodes_drawn": k, "decisions": len(rows), "cpu_s": time.process_time() - start, "spans": []}
+            episodes.append(pair)
+    out = {"limit": limit_settings, "episodes_drawn": k, "episodes": len(episodes),
+           "decisions": sum(len(ran) for ran, _ in episodes), "cpu_s": time.process_time() - start, "spans": []}
     for lo, hi in SPANS + ((0, 10_000),):
-        at = (steps >= lo) & (steps < hi)
-        if not at.any():
-            continue
-        spread = float(np.sqrt(((ran[at] - ran[at].mean(axis=0)) ** 2).mean()))
-        noise = float(np.sqrt(((ran[at] - twin[at]) ** 2).mean() / 2.0))
-        out["spans"].append({"decisions": [lo, hi], "n": int(at.sum()), "label_spread": spread,
-                             "search_noise": noise, "noise_share_of_variance": noise ** 2 / spread ** 2})
+        parts = [(ran[lo:hi], twin[lo:hi]) for ran, twin in episodes if len(ran) > lo]
+        if parts:
+            out["spans"].append({"decisions": [lo, hi], **span_figures(parts)})
     return out
+
+
+def span_figures(parts: list[tuple[np.ndarray, np.ndarray]], resamples: int = 2000) -> dict[str, Any]:
+    """The figures of :func:`label_noise` on episodes' (ran, twin) actions, and their 95 % intervals from a
+    bootstrap over the episodes (a seeded generator: the same figures every run)."""
+    def figures(chosen: list[int]) -> tuple[float, float, float]:
+        ran = np.concatenate([parts[c][0] for c in chosen])
+        twin = np.concatenate([parts[c][1] for c in chosen])
+        spread = float(np.sqrt(((ran - ran.mean(axis=0)) ** 2).mean()))
+        noise = float(np.sqrt(((ran - twin) ** 2).mean() / 2.0))
+        return spread, noise, noise ** 2 / spread ** 2 if spread > 0 else float("nan")
+    rng = np.random.default_rng(2008)
+    boot = np.array([figures(list(rng.integers(0, len(parts), len(parts)))) for _ in range(resamples)])
+    low, high = np.nanpercentile(boot, [2.5, 97.5], axis=0)
+    spread, noise, share = figures(list(range(len(parts))))
+    return {"episodes": len(parts), "n": int(sum(len(r) for r, _ in parts)), "label_spread": spread,
+            "search_noise": noise, "search_noise_95": [float(low[1]), float(high[1])],
+            "noise_share_of_variance": share, "noise_share_95": [float(low[2]), float(high[2])]}
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -25,3 +25,13 @@ def test_twins_of_one_seed_agree_and_of_two_seeds_differ():
 def test_the_judge_draws_are_refused():
     with pytest.raises(ValueError, match="--first"):
         pb.label_noise(10, 2)
+
+
+def test_the_span_figures_read_the_twins_difference():
+    ran = [np.array([[0.2, 0.0], [0.4, 0.0]]), np.array([[0.0, 0.0], [0.2, 0.0]])]
+    twin = [r + np.array([0.0, 0.2]) for r in ran]       # every difference 0.2 on one component
+    out = pb.span_figures(list(zip(ran, twin)), resamples=50)
+    assert out["episodes"] == 2 and out["n"] == 4
+    np.testing.assert_allclose(out["search_noise"], np.sqrt(0.2 ** 2 / 2 / 2))   # mean over 2 components, / 2
+    np.testing.assert_allclose(out["search_noise_95"], [out["search_noise"]] * 2)
+    np.testing.assert_allclose(out["label_spread"], np.sqrt(0.02 / 2))             # x: 0.2, 0.4, 0, 0.2 about 0.2
