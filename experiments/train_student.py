@@ -17,6 +17,9 @@ episodes a step, each padded to the longest, the padding masked out of the loss)
 student play ``mpc``'s designed excitation for its first ``K`` decisions (written in its ``start`` field) and drops
 those decisions' labels from the loss (they are not the student's to take). ``--post-start-weight W`` counts the
 ``--post-start-span`` decisions after the start ``W`` times in the loss (where the start students failed).
+``--given truth`` appends the bench's true unknowns (the shards' ``truth`` row) to the MLP's input: a privileged
+student, an upper bound on what inferring them would give (``--judge`` hands it each bench's truth); it did not
+drive better (docs/notes/student-experiments.md, finding 8).
 
 ``--judge N`` then runs the student on the first ``N`` startable draws of the tuning stream below 1000 (kept from
 labelling for this, :mod:`experiments.distill_labels`) and prints success and score with their intervals.
