@@ -18,6 +18,10 @@ Two optional layout fields (absent in the first students, which load as before):
   decision to the next, from zero at the reset; the hidden layers read ``g`` instead of ``z``:
   ``r, u = sigmoid(W_ih z + b_ih + W_hh g + b_hh)`` (first two thirds), ``n = tanh(W_in z + b_in + r * (W_hn g +
   b_hn))``, ``g = (1 - u) * n + u * g``.
+* ``"given_names"``: inputs appended after the frame stack (normalised with it: ``obs_mean`` and ``obs_std`` cover
+  them), which the bench's observations do not hold: the bench's unknowns (``experiments.train_student --given
+  truth``: the true ones, a privileged upper bound). Whoever runs the student sets :attr:`StudentController.given`
+  (their values, in this order) before each decision.
 * ``"start"``: actions played, in order, for the episode's first decisions instead of the network's (``mpc``'s
   designed excitation, :meth:`agents.mpc.MPCController.start_command`: the first decisions' right action depends
   on what the bench's sensors cannot yet tell, docs/notes/student-experiments.md); the network still reads them.
@@ -51,7 +55,7 @@ class StudentFileError(ValueError):
 
 def tensor_shapes(spec: dict[str, Any]) -> dict[str, tuple[int, ...]]:
     """Every tensor a student of layout ``spec`` holds, with its shape (the loader accepts exactly these)."""
-    n_in = int(spec["frames"]) * OBS_SIZE
+    n_in = int(spec["frames"]) * OBS_SIZE + len(spec.get("given_names", []))
     shapes: dict[str, tuple[int, ...]] = {"obs_mean": (n_in,), "obs_std": (n_in,)}
     width = n_in
     if spec.get("kind", "mlp") == "gru":
@@ -97,6 +101,11 @@ def check_spec(spec: Any, source: str) -> dict[str, Any]:
             for a in start)):
         raise StudentFileError(f"{source}: field 'start' must be a list of actions [thrust, offset] within -1..1, "
                                f"got {start!r}")
+    given = spec.get("given_names", [])
+    if not (isinstance(given, list) and len(given) <= 64 and all(isinstance(a, str) for a in given)):
+        raise StudentFileError(f"{source}: field 'given_names' must be a list of at most 64 names, got {given!r}")
+    if given and kind != "mlp":
+        raise StudentFileError(f"{source}: field 'given_names' needs kind 'mlp', got {kind!r}")
     aux = spec.get("aux_names")
     if not (isinstance(aux, list) and all(isinstance(a, str) for a in aux)):
         raise StudentFileError(f"{source}: field 'aux_names' must be a list of names, got {aux!r}")
@@ -156,6 +165,8 @@ class StudentController(Controller):
         self.n_frames = int(spec["frames"])
         self.env_kwargs: dict[str, Any] = dict(spec["env_kwargs"])
         self.aux_names: list[str] = list(spec["aux_names"])
+        self.given_names: list[str] = list(spec.get("given_names", []))
+        self.given: np.ndarray | None = None   # the given_names' values (set by whoever runs the student)
         self._mean, self._scale = tensors["obs_mean"], (1.0 / tensors["obs_std"]).astype(np.float32)
         self._hidden = [(tensors[f"hidden{k}.weight"], tensors[f"hidden{k}.bias"]) for k in range(len(spec["hidden"]))]
         self._action = (tensors["action.weight"], tensors["action.bias"])
@@ -190,7 +201,13 @@ class StudentController(Controller):
             self.frames.extend([obs] * self.n_frames)
         else:
             self.frames.append(obs)
-        return self.normalised(np.concatenate(self.frames))
+        if not self.given_names:
+            return self.normalised(np.concatenate(self.frames))
+        given = None if self.given is None else np.asarray(self.given, dtype=np.float32)
+        if given is None or given.shape != (len(self.given_names),):
+            raise ValueError(f"this student reads {len(self.given_names)} given inputs ({self.given_names}) beside "
+                             f"the observations: set its 'given' first, got {None if given is None else given.shape}")
+        return self.normalised(np.concatenate([*self.frames, given]))
 
     def normalised(self, stacks: np.ndarray) -> np.ndarray:
         """Frame stacks (one per row, or one) normalised as the network reads them: ``(x - obs_mean) / obs_std``."""

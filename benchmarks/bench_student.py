@@ -21,15 +21,16 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from agents.student import StudentController
-from experiments.distill_labels import label_shards
+from experiments.distill_labels import TRUTH_NAMES, label_shards
 
 
-def episodes_of(labels: Path, n: int) -> list[np.ndarray]:
+def episodes_of(labels: Path, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(observations, the bench's true unknowns) of the first ``n`` started episodes."""
     found = []
     for path in label_shards([labels]):
         with np.load(path, allow_pickle=False) as s:
             if bool(s["started"]):
-                found.append(s["obs"].copy())
+                found.append((s["obs"].copy(), s["truth"].copy()))
         if len(found) == n:
             break
     if not found:
@@ -37,12 +38,16 @@ def episodes_of(labels: Path, n: int) -> list[np.ndarray]:
     return found
 
 
-def decision_times(student: StudentController, episodes: list[np.ndarray], repeats: int) -> tuple[np.ndarray, ...]:
-    """(CPU ns, wall ns) of every decision: each episode from a reset, ``repeats`` times."""
+def decision_times(student: StudentController, episodes: list[tuple[np.ndarray, np.ndarray]], repeats: int
+                   ) -> tuple[np.ndarray, ...]:
+    """(CPU ns, wall ns) of every decision: each episode from a reset, ``repeats`` times (a privileged student given
+    the episode's true unknowns, ``experiments.train_student --given truth``)."""
     cpu, wall = [], []
     for _ in range(repeats):
-        for obs in episodes:
+        for obs, truth in episodes:
             student.reset(0.0, None)
+            if student.given_names:
+                student.given = given_truth_of(truth, student.given_names)
             for o in obs:
                 c0, w0 = time.thread_time_ns(), time.perf_counter_ns()
                 student.act(o)
@@ -50,6 +55,11 @@ def decision_times(student: StudentController, episodes: list[np.ndarray], repea
                 cpu.append(c1 - c0)
                 wall.append(w1 - w0)
     return np.array(cpu), np.array(wall)
+
+
+def given_truth_of(truth: np.ndarray, names: list[str]) -> np.ndarray:
+    row = dict(zip(TRUTH_NAMES, truth))
+    return np.array([row[name] for name in names], dtype=np.float32)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -66,7 +76,7 @@ def main(argv: list[str] | None = None) -> int:
         cpu, wall = decision_times(student, episodes, args.repeats)
     out = {"decisions": int(len(cpu)), "episodes": len(episodes), "repeats": args.repeats,
            "kind": student.spec.get("kind", "mlp"), "gru": student.spec.get("gru"), "hidden": student.spec["hidden"],
-           "frames": student.n_frames}
+           "frames": student.n_frames, "given": len(student.given_names)}
     for name, ns in (("cpu", cpu), ("wall", wall)):
         out.update({f"{name}_p50_us": float(np.percentile(ns, 50)) / 1e3,
                     f"{name}_p99_us": float(np.percentile(ns, 99)) / 1e3, f"{name}_max_us": float(ns.max()) / 1e3})

@@ -253,7 +253,8 @@ def driver_of(settings: LabelSettings, env_kwargs: dict[str, Any]):
     return driver
 
 
-def _truth(bench) -> np.ndarray:
+def bench_truth(bench) -> np.ndarray:
+    """A bench's privileged row (:data:`TRUTH_NAMES`: its unknowns, then the load level), as a shard's ``truth``."""
     return np.append(hypothesis_of(bench), bench.load_N)
 
 
@@ -332,7 +333,7 @@ def label_episode(task: tuple[LabelSettings, str, int]) -> dict[str, Any]:
     settings, out, draw = task
     bench = bench_of_draw(settings.stream, draw, dict(settings.env_kwargs))
     arrays = not_started() if bench is None else rollout(settings, bench, draw)
-    truth = np.full(len(TRUTH_NAMES), math.nan) if bench is None else _truth(bench)
+    truth = np.full(len(TRUTH_NAMES), math.nan) if bench is None else bench_truth(bench)
     arrays.update(truth=truth, truth_names=np.array(TRUTH_NAMES), estimate_names=np.array(ESTIMATE_NAMES),
                   obs_names=np.array(obs_names()), stream=np.int64(settings.stream), draw=np.int64(draw),
                   round=np.int64(settings.round))

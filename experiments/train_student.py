@@ -17,6 +17,9 @@ episodes a step, each padded to the longest, the padding masked out of the loss)
 student play ``mpc``'s designed excitation for its first ``K`` decisions (written in its ``start`` field) and drops
 those decisions' labels from the loss (they are not the student's to take). ``--post-start-weight W`` counts the
 ``--post-start-span`` decisions after the start ``W`` times in the loss (where the start students failed).
+``--given truth`` appends the bench's true unknowns (the shards' ``truth`` row) to the MLP's input: a privileged
+student, an upper bound on what inferring them would give (``--judge`` hands it each bench's truth); it did not
+drive better (docs/notes/student-experiments.md, finding 8).
 
 ``--judge N`` then runs the student on the first ``N`` startable draws of the tuning stream below 1000 (kept from
 labelling for this, :mod:`experiments.distill_labels`) and prints success and score with their intervals.
@@ -39,10 +42,11 @@ from agents.heldout import FAILURE_SCORE_MM, TUNING_SEED, run_episode
 from agents.student import FORMAT, KINDS, SPEC, WEIGHTS, StudentController, tensor_shapes
 from triplanar.atomic import write_atomic
 
-from .distill_labels import TRUTH_NAMES, bench_of_draw, label_shards, load_labels
+from .distill_labels import TRUTH_NAMES, bench_of_draw, bench_truth, label_shards, load_labels
 from .stats import row_stats
 
 CHECKPOINT = "checkpoint.safetensors"
+GIVEN = ("none", "truth")   # what a student is given beside the observations (agents.student: given_names)
 JUDGE_DRAWS = 1000   # draws below this of the tuning stream are never labelled (distill_labels' --first default)
 
 
@@ -65,6 +69,7 @@ class StudentSettings:
     start_periods: int = 0      # mpc's designed excitation for the first K decisions (no labels learnt there)
     post_start_weight: float = 1.0   # the loss weight of the decisions just after the start (the rest: 1)
     post_start_span: int = 8         # how many decisions after the start carry post_start_weight
+    given: str = "none"         # "truth": the bench's true unknowns appended to the input (privileged, an upper bound)
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -76,6 +81,10 @@ class StudentSettings:
         if not self.post_start_weight > 0 or self.post_start_span < 0:
             raise ValueError(f"post_start_weight must be > 0 and post_start_span >= 0, got "
                              f"{self.post_start_weight!r}, {self.post_start_span!r}")
+        if self.given not in GIVEN:
+            raise ValueError(f"given must be one of {GIVEN}, got {self.given!r}")
+        if self.given != "none" and self.kind != "mlp":
+            raise ValueError(f"given {self.given!r} needs kind 'mlp', got {self.kind!r}")
         if self.aux not in ("truth", "none"):
             raise ValueError(f"aux must be 'truth' or 'none', got {self.aux!r}")
         if not 0.0 <= self.val_fraction < 1.0:
@@ -131,6 +140,7 @@ class Dataset:
     val_episodes: list
     bounds: np.ndarray       # (episodes + 1,) the first row of each episode (rows are in episode order)
     weight: np.ndarray       # (rows,) float32: the label's weight in the loss (0 where not learnt)
+    given_names: list        # the inputs after the frame stack (StudentSettings.given)
 
     @property
     def learnt(self) -> np.ndarray:
@@ -152,6 +162,9 @@ def dataset(shards: list[str], settings: StudentSettings) -> Dataset:
     is_val = np.isin(data["episode"], held)
     learnt = data["step"] >= settings.start_periods
     train, val = np.flatnonzero(~is_val & learnt), np.flatnonzero(is_val & learnt)
+    given_names = list(TRUTH_NAMES) if settings.given == "truth" else []
+    if given_names:   # appended after the frames, normalised with them (agents.student reads them so)
+        data["x"] = np.concatenate([data["x"], data["truth"][:, :len(given_names)]], axis=1)
     obs_mean, obs_std = _scale(data["x"][train])
     aux_names = list(TRUTH_NAMES) if settings.aux == "truth" else []
     aux = data["truth"][:, :len(aux_names)].astype(np.float32)
@@ -160,7 +173,7 @@ def dataset(shards: list[str], settings: StudentSettings) -> Dataset:
     bounds = np.searchsorted(data["episode"], np.arange(n_episodes + 1))
     return Dataset(x, data["y"].astype(np.float32), ((aux - aux_mean) / aux_std).astype(np.float32), train, val,
                    obs_mean, obs_std, aux_mean, aux_std, aux_names, n_episodes, [int(e) for e in held], bounds,
-                   loss_weights(data["step"], settings))
+                   loss_weights(data["step"], settings), given_names)
 
 
 def loss_weights(step: np.ndarray, settings: StudentSettings) -> np.ndarray:
@@ -171,7 +184,7 @@ def loss_weights(step: np.ndarray, settings: StudentSettings) -> np.ndarray:
     return np.where(after, settings.post_start_weight, weight).astype(np.float32)
 
 
-def build_network(settings: StudentSettings, n_aux: int) -> Any:
+def build_network(settings: StudentSettings, n_aux: int, n_given: int = 0) -> Any:
     """The torch network whose tensors :class:`agents.student.StudentController` evaluates (same names)."""
     import torch
     torch.manual_seed(settings.seed)
@@ -179,7 +192,7 @@ def build_network(settings: StudentSettings, n_aux: int) -> Any:
     class Student(torch.nn.Module):
         def __init__(self) -> None:
             super().__init__()
-            width = settings.frames * 15
+            width = settings.frames * 15 + n_given
             self.gru = None
             if settings.kind == "gru":
                 self.gru = torch.nn.GRU(width, settings.gru, batch_first=True)
@@ -358,6 +371,8 @@ def write_student(out: Path, weights: dict[str, np.ndarray], data: Dataset, sett
             "aux_names": data.aux_names, "env_id": "TriPlanarShear-v1", "env_kwargs": record.pop("env_kwargs")}
     if settings.kind == "gru":
         spec.update(kind="gru", gru=int(settings.gru))
+    if data.given_names:
+        spec["given_names"] = data.given_names
     if settings.start_periods:
         spec["start"] = mpc_start(settings.start_periods, spec["env_kwargs"])
     expected = tensor_shapes(spec)
@@ -387,7 +402,7 @@ def train(folders: list[str | Path], out: str | Path, settings: StudentSettings,
         _refuse_other_settings(stored, settings, out)
         meta["shards"] = stored["shards"]
     data = dataset(meta["shards"], settings)
-    net = build_network(settings, len(data.aux_names))
+    net = build_network(settings, len(data.aux_names), len(data.given_names))
     optimizer = torch.optim.AdamW(net.parameters(), lr=settings.lr, weight_decay=settings.weight_decay)
     best = _tensors(net)
     if (out / CHECKPOINT).exists():
@@ -456,12 +471,38 @@ def judge_draws(n: int, env_kwargs: dict[str, Any]) -> list[tuple[int, Any]]:
     return found
 
 
+def given_truth(bench: Any, names: list[str]) -> np.ndarray:
+    """The bench's true unknowns ``names`` (the shards' ``truth`` row, :data:`TRUTH_NAMES`), in that order."""
+    truth = dict(zip(TRUTH_NAMES, bench_truth(bench)))
+    missing = [name for name in names if name not in truth]
+    if missing:
+        raise ValueError(f"given inputs {missing} are not the bench's unknowns {list(TRUTH_NAMES)}")
+    return np.array([truth[name] for name in names], dtype=np.float32)
+
+
 def judge(folder: str | Path, n: int, skip: int = 0) -> dict[str, Any]:
-    """The student of ``folder`` on :func:`judge_draws`' benches from the ``skip``-th (noise seed: the bench's index,
-    as ``triplanar evaluate`` seeds a learned controller): :func:`experiments.stats.row_stats` and each episode."""
+    """The student of ``folder`` on :func:`judge_draws`' benches from the ``skip``-th (:func:`judge_controller`); a
+    privileged student (``given_names``) is given each bench's true unknowns."""
     student = StudentController.load(folder)
-    outcomes = [run_episode(student, bench, env_kwargs=student.env_kwargs, seed=i, bench_set="tuning", index=i)
-                for i, (_, bench) in enumerate(judge_draws(n, student.env_kwargs)) if i >= skip]
+
+    def give(bench: Any) -> None:
+        if student.given_names:   # a privileged student: the bench's true unknowns (StudentSettings.given)
+            student.given = given_truth(bench, student.given_names)
+    return judge_controller(student, student.env_kwargs, n, skip, give)
+
+
+def judge_controller(controller: Any, env_kwargs: dict[str, Any], n: int, skip: int = 0,
+                     before: Any = None) -> dict[str, Any]:
+    """``controller`` on :func:`judge_draws`' benches from the ``skip``-th (noise seed: the bench's index, as
+    ``triplanar evaluate`` seeds a learned controller; ``before(bench)`` called before each episode):
+    :func:`experiments.stats.row_stats` and each failure (index, reason, decisions)."""
+    outcomes = []
+    for i, (_, bench) in enumerate(judge_draws(n, env_kwargs)):
+        if i >= skip:
+            if before is not None:
+                before(bench)
+            outcomes.append(run_episode(controller, bench, env_kwargs=env_kwargs, seed=i, bench_set="tuning",
+                                        index=i))
     errors = np.array([[o.mimicry_error_mm for o in outcomes]])
     success = np.array([[o.success for o in outcomes]])
     stats = row_stats(errors, success, FAILURE_SCORE_MM)

@@ -43,7 +43,7 @@ def test_a_shard_is_deterministic_per_draw_and_holds_mpc_episode(tmp_path):
     assert a["expert_ran"].all() and np.isfinite(a["expert_estimate"][-1]).all()
 
     bench = dl.bench_of_draw(dl.TUNING_SEED, DRAW, dict(SHORT))
-    np.testing.assert_array_equal(a["truth"], dl._truth(bench))
+    np.testing.assert_array_equal(a["truth"], dl.bench_truth(bench))
     outcome = run_episode(MPCController(**dict(TINY)), bench, env_kwargs=dict(SHORT), seed=int(a["noise_seed"]))
     assert outcome.steps == steps and outcome.reason == str(a["reason"])
     assert math.isclose(outcome.travel_m, float(a["travel_m"][-1]), rel_tol=0.0, abs_tol=0.0)
