@@ -39,10 +39,10 @@ def block_paths(y: np.ndarray, body_cps: np.ndarray) -> tuple[np.ndarray, np.nda
     (n, N_STATE) and the contact points in the body frame about the mass centre ``body_cps`` (3, 3).
 
     The quaternion (w, x, y, z) is normalised and turned into the rotation matrix (columns g1, g2, g3), the contact
-    points are the mass centre plus R times the body-frame point, their velocities the mass centre's plus omega x (point - mass
-    centre). One compiled pass over the rows (a workbench evaluation did this with some twenty numpy calls); the
-    operations and their order are those of the numpy expressions it replaced, so the bits are the same
-    (``tests/triplanar/test_block_paths.py``)."""
+    points are the mass centre plus R times the body-frame point, their velocities the mass centre's plus
+    omega x (point - mass centre). One compiled pass over the rows (a workbench evaluation did this with some twenty
+    numpy calls); the operations and their order are those of the numpy expressions it replaced, so the bits are
+    the same (``tests/triplanar/test_block_paths.py``)."""
     n = y.shape[0]
     rot, cps, vel = np.empty((n, 3, 3)), np.empty((n, 3, 3)), np.empty((n, 3, 3))
     for k in range(n):

@@ -156,8 +156,11 @@ class Specimen:
         # memories go in __dict__, as cached_property puts its values.)
         mine = self.__dict__.setdefault("_passed_on", {})            # foundations' planes this block passed on
         theirs = foundation.__dict__.setdefault("_passed_blocks", {})  # blocks' numbers that passed on these planes
-        planes_key, block_key = (foundation.planes, plane_tolerance_m), (self._checked_values(), plane_tolerance_m)
-        if planes_key in mine or block_key in theirs:
+        planes_key = (foundation.planes, plane_tolerance_m)
+        if planes_key in mine:
+            return
+        block_key = (self._checked_values(), plane_tolerance_m)
+        if block_key in theirs:
             return
         self._validate(foundation, source, plane_tolerance_m)
         for memory, key in ((mine, planes_key), (theirs, block_key)):
