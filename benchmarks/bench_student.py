@@ -21,7 +21,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from agents.student import StudentController
-from experiments.distill_labels import TRUTH_NAMES, label_shards
+from experiments.distill_labels import label_shards, truth_values
 
 
 def episodes_of(labels: Path, n: int) -> list[tuple[np.ndarray, np.ndarray]]:
@@ -47,7 +47,7 @@ def decision_times(student: StudentController, episodes: list[tuple[np.ndarray, 
         for obs, truth in episodes:
             student.reset(0.0, None)
             if student.given_names:
-                student.given = given_truth_of(truth, student.given_names)
+                student.given = truth_values(truth, student.given_names)
             for o in obs:
                 c0, w0 = time.thread_time_ns(), time.perf_counter_ns()
                 student.act(o)
@@ -55,11 +55,6 @@ def decision_times(student: StudentController, episodes: list[tuple[np.ndarray, 
                 cpu.append(c1 - c0)
                 wall.append(w1 - w0)
     return np.array(cpu), np.array(wall)
-
-
-def given_truth_of(truth: np.ndarray, names: list[str]) -> np.ndarray:
-    row = dict(zip(TRUTH_NAMES, truth))
-    return np.array([row[name] for name in names], dtype=np.float32)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -58,7 +58,7 @@ import sys
 import time
 from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -260,6 +260,16 @@ def bench_truth(bench) -> np.ndarray:
 
 TRUTH_NAMES = PARAMETERS + GEOMETRY + DIRECTIONS + ("load_N",)
 ESTIMATE_NAMES = PARAMETERS + GEOMETRY
+
+
+def truth_values(truth: np.ndarray, names: Sequence[str]) -> np.ndarray:
+    """The entries ``names`` of a :data:`TRUTH_NAMES` row (a shard's ``truth``, :func:`bench_truth`), in that order:
+    what a privileged student is given (``agents.student``'s ``given_names``)."""
+    row = dict(zip(TRUTH_NAMES, truth))
+    missing = [name for name in names if name not in row]
+    if missing:
+        raise ValueError(f"given inputs {missing} are not the bench's unknowns {list(TRUTH_NAMES)}")
+    return np.array([row[name] for name in names], dtype=np.float32)
 
 
 def rollout(settings: LabelSettings, bench, draw: int) -> dict[str, Any]:

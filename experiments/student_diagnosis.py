@@ -21,7 +21,7 @@ import numpy as np
 
 from agents.student import StudentController
 
-from .distill_labels import TRUTH_NAMES, label_shards
+from .distill_labels import label_shards, truth_values
 
 SPANS = ((0, 1), (1, 2), (2, 4), (4, 8), (8, 16), (16, 32), (32, 10_000))
 DEPARTS = 0.3   # an action this far from the label (either component) departs from it
@@ -43,7 +43,7 @@ def diagnose(folders: list[Path], student: StudentController | None, shards: lis
             if student is not None:
                 student.reset(0.0, None)
                 if student.given_names:   # a privileged student (train_student --given truth): the bench's truth
-                    student.given = np.array([dict(zip(TRUTH_NAMES, s["truth"]))[k] for k in student.given_names])
+                    student.given = truth_values(s["truth"], student.given_names)
                 own = np.array([student.act(o) for o in obs])
             for lo, hi in SPANS:
                 by_span[(lo, hi)]["label"].append(label[lo:hi])

@@ -42,7 +42,7 @@ from agents.heldout import FAILURE_SCORE_MM, TUNING_SEED, run_episode
 from agents.student import FORMAT, KINDS, SPEC, WEIGHTS, StudentController, tensor_shapes
 from triplanar.atomic import write_atomic
 
-from .distill_labels import TRUTH_NAMES, bench_of_draw, bench_truth, label_shards, load_labels
+from .distill_labels import TRUTH_NAMES, bench_of_draw, bench_truth, label_shards, load_labels, truth_values
 from .stats import row_stats
 
 CHECKPOINT = "checkpoint.safetensors"
@@ -471,15 +471,6 @@ def judge_draws(n: int, env_kwargs: dict[str, Any]) -> list[tuple[int, Any]]:
     return found
 
 
-def given_truth(bench: Any, names: list[str]) -> np.ndarray:
-    """The bench's true unknowns ``names`` (the shards' ``truth`` row, :data:`TRUTH_NAMES`), in that order."""
-    truth = dict(zip(TRUTH_NAMES, bench_truth(bench)))
-    missing = [name for name in names if name not in truth]
-    if missing:
-        raise ValueError(f"given inputs {missing} are not the bench's unknowns {list(TRUTH_NAMES)}")
-    return np.array([truth[name] for name in names], dtype=np.float32)
-
-
 def judge(folder: str | Path, n: int, skip: int = 0) -> dict[str, Any]:
     """The student of ``folder`` on :func:`judge_draws`' benches from the ``skip``-th (:func:`judge_controller`); a
     privileged student (``given_names``) is given each bench's true unknowns."""
@@ -487,7 +478,7 @@ def judge(folder: str | Path, n: int, skip: int = 0) -> dict[str, Any]:
 
     def give(bench: Any) -> None:
         if student.given_names:   # a privileged student: the bench's true unknowns (StudentSettings.given)
-            student.given = given_truth(bench, student.given_names)
+            student.given = truth_values(bench_truth(bench), student.given_names)
     return judge_controller(student, student.env_kwargs, n, skip, give)
 
 
