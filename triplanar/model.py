@@ -43,38 +43,96 @@ class Loading:
     rise_time_s: float = 0.0
 
 
-@dataclass(frozen=True)
 class BlockState:
-    """What a user effect's ``wrench`` sees: the block's kinematics at one instant (world frame, SI).
+    """What a user effect's ``wrench`` sees: the block's kinematics at one instant (world frame, SI; read-only).
 
     ``t`` is the time since the actuator began pushing (t = 0: the commanded thrust is switched on, at the
     rest position; ``time_since_actuator_s`` is the same number under a self-explaining name). ``thrust_N``
     is F_T at that instant; ``thrust_direction`` the unit vector it acts along (e1 for the actuator, g1 for
     case C's hydrostatic load); ``load_point`` the point it acts at (P_L of eq. 27-28, or P_CL for case C);
-    ``specimen`` the block and its contacts (mass, inertia, friction angles, drawing).
+    ``specimen`` the block and its contacts (mass, inertia, friction angles, drawing). ``position`` is the mass
+    centre, ``rotation`` (3, 3) has columns g1, g2, g3, ``velocity`` is the mass centre's, ``omega`` the angular
+    velocity, ``contact_points`` and ``contact_velocities`` are (3, 3), CP1..CP3 by row.
+
+    Each attribute is decoded from the kernel state when it is first read, and kept: a ``wrench`` runs at every
+    right-hand-side evaluation and most read one or two of them (a viscous drag reads ``velocity`` only), so
+    decoding all of them every time cost more than the rest of the callback. The values are the same either way.
     """
 
-    t: float
-    position: np.ndarray        # mass centre
-    rotation: np.ndarray        # 3x3, columns g1, g2, g3
-    velocity: np.ndarray        # of the mass centre
-    omega: np.ndarray           # angular velocity
-    contact_points: np.ndarray  # (3, 3)
-    contact_velocities: np.ndarray
-    thrust_N: float
-    load_point: np.ndarray | None = None        # world position where F_T acts
-    thrust_direction: np.ndarray | None = None  # unit vector of F_T
-    specimen: Specimen | None = None
+    __slots__ = ("t", "_y", "_model", "_kinematics", "_direction")
+
+    def __init__(self, t: float, y: np.ndarray, model: Model):
+        self.t = t
+        self._y = y.copy()      # (the kernel reuses its state's memory after the callback returns)
+        self._model = model
+        self._kinematics: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+        self._direction: np.ndarray | None = None
+
+    def __repr__(self) -> str:
+        return f"BlockState(t={self.t!r}, position={self.position!r}, velocity={self.velocity!r})"
 
     @property
     def time_since_actuator_s(self) -> float:
         return self.t
 
+    @property
+    def position(self) -> np.ndarray:
+        return self._y[K.S_R:K.S_R + 3].copy()
+
+    @property
+    def velocity(self) -> np.ndarray:
+        return self._y[K.S_V:K.S_V + 3].copy()
+
+    @property
+    def omega(self) -> np.ndarray:
+        return self._y[K.S_W:K.S_W + 3].copy()
+
+    @property
+    def thrust_N(self) -> float:
+        loading = self._model.loading
+        return loading.force_N if loading.rise_time_s <= 0 else float(self._y[K.S_F])
+
+    @property
+    def specimen(self) -> Specimen:
+        return self._model.specimen
+
+    def _decoded(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rotation, contact points, their velocities and the load point, from one compiled call (each numba call
+        from Python costs ~5 us), made the first time one of them is read."""
+        if self._kinematics is None:
+            rot, cps, cpv, load_point = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
+            K.block_kinematics(self._y, self._model._writable_params, rot, cps, cpv, load_point)
+            self._kinematics = rot, cps, cpv, load_point
+        return self._kinematics
+
+    @property
+    def rotation(self) -> np.ndarray:
+        return self._decoded()[0]
+
+    @property
+    def contact_points(self) -> np.ndarray:
+        return self._decoded()[1]
+
+    @property
+    def contact_velocities(self) -> np.ndarray:
+        return self._decoded()[2]
+
+    @property
+    def load_point(self) -> np.ndarray:
+        return self._decoded()[3]
+
+    @property
+    def thrust_direction(self) -> np.ndarray:
+        if self._direction is None:
+            self._direction = (np.array([1.0, 0.0, 0.0]) if self._model.loading.kind == "actuator"
+                               else self.rotation[:, 0].copy())
+        return self._direction
+
     def moment_of(self, force: np.ndarray, at: np.ndarray) -> np.ndarray:
         """The moment about the mass centre of ``force`` acting at the point ``at`` (world axes): (at - position) x
         force, the same bits as ``np.cross`` at a tenth of its cost (``np.cross`` takes tens of microseconds, and a
         ``wrench`` runs at every right-hand-side evaluation)."""
-        return cross3(np.asarray(at, dtype=float) - self.position, np.asarray(force, dtype=float))
+        return cross3(np.asarray(at, dtype=float) - self._y[K.S_R:K.S_R + 3], np.asarray(force, dtype=float))
 
 
 @dataclass(frozen=True)
@@ -211,16 +269,8 @@ class Model:
         return y
 
     def block_state(self, t: float, y: np.ndarray) -> BlockState:
-        """Decode a kernel state for user code."""
-        rot, cps, cpv, load_point = np.empty((3, 3)), np.empty((3, 3)), np.empty((3, 3)), np.empty(3)
-        # one compiled call for the rotation, contact points and velocities, and load point: this runs at every
-        # right-hand-side evaluation of a run with a user effect, where each numba call from Python costs ~5 us
-        K.block_kinematics(y, self._writable_params, rot, cps, cpv, load_point)
-        v, w = y[K.S_V:K.S_V + 3].copy(), y[K.S_W:K.S_W + 3].copy()
-        r = y[K.S_R:K.S_R + 3].copy()
-        thrust = self.loading.force_N if self.loading.rise_time_s <= 0 else float(y[K.S_F])
-        direction = np.array([1.0, 0.0, 0.0]) if self.loading.kind == "actuator" else rot[:, 0].copy()
-        return BlockState(t, r, rot, v, w, cps, cpv, thrust, load_point, direction, self.specimen)
+        """Decode a kernel state for user code (each attribute when it is first read: :class:`BlockState`)."""
+        return BlockState(t, y, self)
 
     @cached_property
     def _writable_params(self) -> np.ndarray:
@@ -235,8 +285,8 @@ class Model:
         force, moment = np.zeros(3), np.zeros(3)
         for effect in self.force_effects:
             f, m = effect.wrench(t, state)
-            force += np.asarray(f, dtype=float)
-            moment += np.asarray(m, dtype=float)
+            force += f      # (numpy converts a list or tuple; np.asarray first cost 0.5 us a callback)
+            moment += m
         return force, moment
 
     @cached_property
