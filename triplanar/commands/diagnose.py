@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .workbench_options import (add_data_arguments, add_start_arguments, add_worker_arguments, check_effect_names,
                                     executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
                                     refuse_overwriting_inputs)
-from ..workbench.diagnose import Diagnoser
-from ..workbench.executor import TaskCheckpoint
-from ..workbench.results import DiagnosisResult
+
+if TYPE_CHECKING:  # (the workbench is imported when the command runs: building the parser needs none of it)
+    from ..workbench.results import DiagnosisResult
 
 NAME = "diagnose"
 HELP = ("try each candidate effect added to your model, fit it, rank by cross-validated error over load "
@@ -57,7 +58,10 @@ def plot(result: DiagnosisResult, out: Path) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ..workbench.diagnose import Diagnoser
+    from ..workbench.executor import TaskCheckpoint
     from ..workbench.report import write_json
+    from ..workbench.results import DiagnosisResult
     if args.folds < 2:
         raise ValueError(f"--folds {args.folds}: cross-validation needs at least 2 folds")
     refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from .options import load_specimen
 from ..effects import EffectError
@@ -13,13 +14,13 @@ from ..prior import drawing_record
 from .workbench_options import (add_data_arguments, add_start_arguments, add_worker_arguments, check_effect_names,
                                     executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
                                     refuse_overwriting_inputs)
-from ..workbench.compare import Comparison, compare
-from ..workbench.candidates import Candidate
-from ..workbench.fit import EffectFit, safe_evaluate
-from ..workbench.given import parse_free, specimen_candidate
-from ..workbench.results import FitResult, FitStep, fit_added
-from ..workbench.select import ForwardSelection
-from ..workbench.spec import EvalResult, EvalTask, ModelSpec
+
+if TYPE_CHECKING:  # (the workbench is imported when the command runs: building the parser needs none of it)
+    from ..workbench.candidates import Candidate
+    from ..workbench.compare import Comparison
+    from ..workbench.fit import EffectFit
+    from ..workbench.results import FitResult
+    from ..workbench.spec import EvalResult, ModelSpec
 
 NAME = "fit"
 HELP = ("add effects to your model and fit their parameters (--add NAME, repeatable), or let forward "
@@ -64,6 +65,7 @@ def effects_to_add(args: argparse.Namespace) -> tuple[list[str | Candidate], dic
                                                      dict[str, list[str]]]:
     """The ``--add`` names (and the ``--free`` specimen numbers' candidate after them), ``--start`` values and
     ``--per-test`` parameters, checked against each other (before anything is read or written)."""
+    from ..workbench.given import parse_free, specimen_candidate
     starts = parse_starts(args.start)
     per_test = parse_per_test(args.per_test)
     add: list[str | Candidate] = list(check_effect_names(args.add))
@@ -80,6 +82,8 @@ def fit_steps(args: argparse.Namespace, spec: ModelSpec, tests: list[MeasuredTes
               per_test: dict[str, list[str]]) -> tuple[FitResult, ModelSpec, EffectFit | None]:
     """The ``--add`` fits, then forward selection from them (``--forward``): the result, the fitted model and
     the last ``--add`` fit when the figures show it (``None`` without ``--add`` or after forward selection)."""
+    from ..workbench.results import FitResult, FitStep, fit_added
+    from ..workbench.select import ForwardSelection
     with executor_for(args) as ex:
         steps, fit = fit_added(add, tests, spec, starts, ex, per_test)
         current = fit.spec_ if fit is not None else spec
@@ -98,6 +102,8 @@ def fit_steps(args: argparse.Namespace, spec: ModelSpec, tests: list[MeasuredTes
 def per_test_comparison(fitted: Comparison, fit: EffectFit,
                         tests: list[MeasuredTest]) -> tuple[Comparison, dict[str, EvalResult]]:
     """Every test against its own fitted model (its own values of the per-test parameters)."""
+    from ..workbench.fit import safe_evaluate
+    from ..workbench.spec import EvalTask
     own = {t.test_id: safe_evaluate(EvalTask(fit.spec_for(t.test_id), float(t.shear_force_N), (t,), True))
            for t in tests}
     return replace(fitted, discrepancies=[own[t.test_id].discrepancies[0] for t in tests]), own
@@ -105,6 +111,7 @@ def per_test_comparison(fitted: Comparison, fit: EffectFit,
 
 def plot(result: FitResult, current: ModelSpec, fit: EffectFit | None, tests: list[MeasuredTest], out: Path) -> None:
     """The error fall and the fitted model's overhead, residual and deviation figures."""
+    from ..workbench.compare import compare
     from ..workbench.report import plot_deviations, plot_error_fall, plot_overhead, plot_residuals  # matplotlib
     plot_error_fall([s.to_json() for s in result.steps], out / "error_fall.png")
     fitted = compare(tests, current)

@@ -5,15 +5,17 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..effects import REGISTRY, EffectError
 from ..measurement import MeasuredTest
 from ..plugins import import_plugins  # re-exported: commands and tests import it from here
-from ..workbench.compare import load_tests
-from ..workbench.executor import DEFAULT_WORKERS
-from ..workbench.spec import ModelSpec
+from ..executor import DEFAULT_WORKERS
 from .options import (add_executor_arguments, add_model_arguments, executor_from_args, load_specimen, parse_effects,
                       refuse_idle_effects, refuse_overwriting)
+
+if TYPE_CHECKING:  # (the workbench is imported when a command runs: building the parser needs none of it)
+    from ..workbench.spec import ModelSpec
 
 
 def add_data_arguments(parser: argparse.ArgumentParser, default_out: str) -> None:
@@ -85,6 +87,8 @@ def add_worker_arguments(parser: argparse.ArgumentParser) -> None:
 
 def model_and_tests(args: argparse.Namespace) -> tuple[ModelSpec, list[MeasuredTest]]:
     """The user's model (case B + ``--effect``s, ``--specimen``) and the validated tests."""
+    from ..workbench.compare import load_tests
+    from ..workbench.spec import ModelSpec
     import_plugins(args.plugin)
     effects = parse_effects(args.effect)
     specimen, foundation = load_specimen(args.specimen)
