@@ -61,6 +61,9 @@ N_CONTACT_COLUMNS = 3 * POLYGON_SIDES
 OPTIMAL, INFEASIBLE, UNBOUNDED, ITERATION_LIMIT = 0, 1, 2, 3
 MAX_ITER = 5000          # pivots over both phases; the contact LP needs ~10-40
 BLAND_AFTER = 20         # consecutive degenerate pivots before Bland's rule takes over (until progress resumes)
+# (as the arguments the compiled callers pass: typed int64, not literals, so that the one compiled version of
+# simplex serves them and a call from Python alike; a literal made numba compile a second one for the tests)
+_MAX_ITER_ARG, _BLAND_AFTER_ARG = np.int64(MAX_ITER), np.int64(BLAND_AFTER)
 PIVOT_TOL = 1e-9         # smallest usable pivot in a row-equilibrated tableau (rows start with max |entry| = 1)
 OPTIMALITY_TOL = 1e-10   # reduced costs, relative to the largest cost of the phase
 FEASIBILITY_TOL = 1e-9   # phase-1 residual, relative to max(1, largest |b| of the equilibrated rows)
@@ -331,7 +334,7 @@ def holds(y: np.ndarray, p: np.ndarray, thrust: float, ext_f: np.ndarray, ext_m:
         a[6, j] = 1.0
     b[6] = thrust / weight
     x = np.empty(a.shape[1])
-    status, _ = simplex(a, b, np.zeros(a.shape[1]), x, MAX_ITER, BLAND_AFTER)
+    status, _ = simplex(a, b, np.zeros(a.shape[1]), x, _MAX_ITER_ARG, _BLAND_AFTER_ARG)
     if status == ITERATION_LIMIT:
         raise RuntimeError("equilibrium.holds: simplex iteration limit")
     return status == OPTIMAL
@@ -357,7 +360,7 @@ def max_thrust(y: np.ndarray, p: np.ndarray, upper: float, ext_f: np.ndarray, ex
         a[6, n - 1] = 1.0  # the slack: sum(tip weights) + s = upper
         b[6] = upper / weight
     x = np.empty(n)
-    status, objective = simplex(a, b, c, x, MAX_ITER, BLAND_AFTER)
+    status, objective = simplex(a, b, c, x, _MAX_ITER_ARG, _BLAND_AFTER_ARG)
     if status == INFEASIBLE:
         return math.nan
     if status == UNBOUNDED:
