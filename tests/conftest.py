@@ -47,8 +47,7 @@ def lab_fit(tmp_path_factory) -> Path:
 # A name here that no longer exists is ignored: the list only orders, it selects nothing.
 LONGEST_FIRST = (
     "tests/agents/test_train_resume.py::test_train_killed_and_rerun_finishes_without_touching_its_checkpoints",
-    "tests/agents/test_mpc.py::test_limit_at_the_lowest_middle_and_highest_nominal_load",
-    "tests/agents/test_mpc_prior.py::test_tutorial_identify_then_control",
+        "tests/agents/test_mpc_prior.py::test_tutorial_identify_then_control",
     "tests/triplanar/commands/test_command_safety.py::test_diagnose_killed_and_rerun_resumes_to_the_same_report",
     "tests/triplanar/workbench/test_workbench_refit_parsimony.py::",
     "tests/triplanar/workbench/test_workbench_tutorial.py::",

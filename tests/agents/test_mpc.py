@@ -59,11 +59,12 @@ def limit_mean_error_mm(loads) -> float:
 
 
 @pytest.mark.slow
-def test_limit_at_the_lowest_middle_and_highest_nominal_load_beats_in_sample_ppo():
+def test_limit_at_the_middle_nominal_load_beats_in_sample_ppo():
     """The in-sample PPO with exact states reaches 0.50 mm at the paper's 12 loads; the limit (the same knowledge
-    plus the model) must not be worse at the ends of the range and at its middle (measured: 0.124, 0.349 and 0.140
-    mm, mean 0.204; the 12 loads, mean 0.181 mm, are the ``long`` test below)."""
-    mean = limit_mean_error_mm((27.8, 40.0, 55.6))
+    plus the model) must not be worse. Here one episode at 40 N, where it was worst of the lowest, middle and highest
+    loads (measured: 0.124, 0.349 and 0.140 mm at 27.8, 40 and 55.6 N); the 12 loads (mean 0.181 mm) are the
+    ``long`` test below."""
+    mean = limit_mean_error_mm((40.0,))
     assert mean <= 0.50, mean
 
 
