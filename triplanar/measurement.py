@@ -177,6 +177,16 @@ class MeasuredTest:
         object.__setattr__(self, "t_s", t_s)
         object.__setattr__(self, "rows", rows)
 
+    def __setstate__(self, state: dict) -> None:
+        """Unpickled (a pool worker's or Ray's copy of a test): numpy gives the arrays back writable; they stay
+        read-only, as made (and as the workbench's compiled comparison is compiled for: a writable array made numba
+        compile it a second time)."""
+        for name, value in state.items():
+            object.__setattr__(self, name, value)
+        for arr in (self.positions, self.t_s, self.rows):
+            if arr is not None:
+                arr.flags.writeable = False
+
     @property
     def n_samples(self) -> int:
         """Number of samples."""

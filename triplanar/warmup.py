@@ -35,7 +35,7 @@ def warm_physics() -> None:
     simulate(paper_model("A", 35.0, effects=[make_effect("actuator_rise:tau_s=0.05")]))  # the sliding threshold
     model = paper_model("A", 1.0)
     simulate(model)  # held: the right-hand side at rest
-    model.block_state(0.0, model.initial_state())
+    model.block_state(0.0, model.initial_state()).rotation  # a user effect's state, decoded (kernel.block_kinematics)
     assert np.isfinite(result.y).all()
     # What draws a state (the envs' rendered traces): the contact points, and the load point from the right-hand side.
     y, p = model.initial_state(), model.kernel_params()
