@@ -169,13 +169,11 @@ class MeasuredTest:
             if rows.size and not np.issubdtype(rows.dtype, np.integer):
                 raise ValueError(f"test {self.test_id!r}: rows must be integers, got {rows.dtype}")
             rows = rows.astype(np.int64)
-        for arr in (positions, t_s, rows):
-            if arr is not None:
-                arr.flags.writeable = False
         object.__setattr__(self, "shear_force_N", float(self.shear_force_N))
         object.__setattr__(self, "positions", positions)
         object.__setattr__(self, "t_s", t_s)
         object.__setattr__(self, "rows", rows)
+        self._freeze_arrays()
 
     def __setstate__(self, state: dict) -> None:
         """Unpickled (a pool worker's or Ray's copy of a test): numpy gives the arrays back writable; they stay
@@ -183,6 +181,10 @@ class MeasuredTest:
         compile it a second time)."""
         for name, value in state.items():
             object.__setattr__(self, name, value)
+        self._freeze_arrays()
+
+    def _freeze_arrays(self) -> None:
+        """Make the test's own arrays read-only (they are copies: nobody else holds them)."""
         for arr in (self.positions, self.t_s, self.rows):
             if arr is not None:
                 arr.flags.writeable = False
