@@ -54,9 +54,11 @@ class BlockState:
     centre, ``rotation`` (3, 3) has columns g1, g2, g3, ``velocity`` is the mass centre's, ``omega`` the angular
     velocity, ``contact_points`` and ``contact_velocities`` are (3, 3), CP1..CP3 by row.
 
-    Each attribute is decoded from the kernel state when it is first read, and kept: a ``wrench`` runs at every
-    right-hand-side evaluation and most read one or two of them (a viscous drag reads ``velocity`` only), so
-    decoding all of them every time cost more than the rest of the callback. The values are the same either way.
+    Nothing is decoded before it is read: a ``wrench`` runs at every right-hand-side evaluation and most read one or
+    two attributes (a viscous drag reads ``velocity`` only), and decoding all of them every time cost more than the
+    rest of the callback. ``position``, ``velocity`` and ``omega`` are copied from the state at each read; the
+    rotation, contact points and velocities and load point are decoded together (one compiled call) at the first
+    read of any of them and kept, as is ``thrust_direction``. The values are the same either way.
     """
 
     __slots__ = ("t", "_y", "_model", "_kinematics", "_direction")
