@@ -4,7 +4,6 @@ candidate)."""
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 from hypothesis import settings
@@ -24,19 +23,6 @@ def _effect_registry_restored():
     yield
     REGISTRY.clear()
     REGISTRY.update(before)
-
-
-@pytest.fixture(scope="session")
-def lab_fit(tmp_path_factory) -> Path:
-    """``fit.json`` of ``triplanar fit data/lab_traces.csv --add end_friction`` (serial), made once for the tests that
-    read it (13 s of CPU): the identify-then-control tutorial and the serial half of the Ray fit. They share the
-    xdist_group "ray", so that one worker makes it."""
-    from triplanar.cli import main
-    out = tmp_path_factory.mktemp("lab_fit")
-    data = Path(__file__).resolve().parents[1] / "data" / "lab_traces.csv"
-    assert main(["fit", str(data), "--add", "end_friction", "--no-progress", "--out", str(out),
-                 "--executor", "serial"]) == 0
-    return out / "fit.json"
 
 
 # The longest tests first. `make test` runs on two xdist workers, which take tests in collection order as they

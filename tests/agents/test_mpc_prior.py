@@ -86,9 +86,8 @@ def test_toml_of_another_foundation_or_specimen_refused(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.xdist_group("ray")   # with the other reader of the session's lab_fit (tests/conftest.py)
-def test_tutorial_identify_then_control(lab_fit):
-    """Fit the laboratory dataset (``lab_fit``: ``triplanar fit data/lab_traces.csv --add end_friction``), take the
+def test_tutorial_identify_then_control(tmp_path):
+    """Fit the laboratory dataset (``triplanar fit data/lab_traces.csv --add end_friction``), take the
     fit as v1's nominal specimen and as the prior of ``mpc`` (its interval of the tip friction bounds the controller's
     hypotheses), and run ``mpc`` on a bench drawn around the fitted
     specimen with the laboratory's tip with the fit's prior; the drawing's prior, on the same bench, draws the tip
@@ -98,8 +97,11 @@ def test_tutorial_identify_then_control(lab_fit):
     from agents.heldout import random_benches, run_episode, summarise, with_tip
     from agents.mpc import MPCController
     from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+    from triplanar.cli import main
     from triplanar.prior import fitted_intervals
-    fit = lab_fit
+    assert main(["fit", str(ROOT / "data" / "lab_traces.csv"), "--add", "end_friction", "--no-progress",
+                 "--out", str(tmp_path), "--executor", "serial", "--no-plots"]) == 0
+    fit = tmp_path / "fit.json"
     specimen, foundation = _drawing()
     fitted = load_prior(fit, specimen, foundation)
     truth = json.loads((ROOT / "data" / "lab_traces.csv.truth.json").read_text())["effects"][0]["parameters"]

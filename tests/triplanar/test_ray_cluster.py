@@ -59,7 +59,7 @@ def test_a_killed_worker_is_retried_on_the_cluster(cluster, tmp_path) -> None:
 
 def diagnose(out, *options: str) -> list[str]:
     return [sys.executable, "-m", "triplanar.cli", "diagnose", str(DATA), "--out", str(out), "--no-progress",
-            "--folds", "2", *options]
+            "--folds", "2", "--no-plots", *options]
 
 
 def test_diagnose_reports_are_the_same_locally_on_a_local_ray_and_on_the_cluster(cluster, tmp_path) -> None:

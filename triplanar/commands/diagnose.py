@@ -7,8 +7,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from .workbench_options import (add_data_arguments, add_start_arguments, add_worker_arguments, check_effect_names,
-                                    executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
-                                    refuse_overwriting_inputs)
+                                drop_figures, executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
+                                refuse_overwriting_inputs)
 
 if TYPE_CHECKING:  # (the workbench is imported when the command runs: building the parser needs none of it)
     from ..workbench.results import DiagnosisResult
@@ -16,6 +16,7 @@ if TYPE_CHECKING:  # (the workbench is imported when the command runs: building 
 NAME = "diagnose"
 HELP = ("try each candidate effect added to your model, fit it, rank by cross-validated error over load "
         "levels, and name the missing effect (or say that none explains the discrepancy)")
+FIGURES = ("diagnose.png", "time_residuals.png", "deciding.png")   # deciding.png only when the report has experiments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -65,8 +66,7 @@ def run(args: argparse.Namespace) -> int:
     if args.folds < 2:
         raise ValueError(f"--folds {args.folds}: cross-validation needs at least 2 folds")
     refuse_overwriting_inputs(args, [("--json", args.json)] * bool(args.json) + [
-        ("--out", Path(args.out) / name) for name in ("diagnose.json", "diagnose.png", "time_residuals.png",
-                                                      "deciding.png")])
+        ("--out", Path(args.out) / name) for name in ("diagnose.json", *FIGURES)])
     spec, tests = model_and_tests(args)
     starts = parse_starts(args.start)
     per_test = parse_per_test(args.per_test)
@@ -80,9 +80,13 @@ def run(args: argparse.Namespace) -> int:
     result = DiagnosisResult.of(diag)
     for path in (out / "diagnose.json", *([args.json] if args.json else [])):
         write_json(result.to_json(), path)
-    plot(result, out)
+    if args.no_plots:
+        drop_figures(out, FIGURES)
+    else:
+        plot(result, out)
     partial.clear()
     print(result.report())
-    print(f"\nwrote {out / 'diagnose.json'}{', ' + args.json if args.json else ''}, diagnose.png, time_residuals.png"
-          + (", deciding.png" if result.to_json().get("deciding_experiments") else ""))
+    figures = [] if args.no_plots else list(FIGURES[:2]) + ["deciding.png"] * bool(
+        result.to_json().get("deciding_experiments"))
+    print(f"\nwrote {', '.join([str(out / 'diagnose.json'), *([args.json] if args.json else []), *figures])}")
     return 0

@@ -12,8 +12,8 @@ from ..effects import EffectError
 from ..measurement import MeasuredTest
 from ..prior import drawing_record
 from .workbench_options import (add_data_arguments, add_start_arguments, add_worker_arguments, check_effect_names,
-                                    executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
-                                    refuse_overwriting_inputs)
+                                drop_figures, executor_for, model_and_tests, out_dir, parse_per_test, parse_starts,
+                                refuse_overwriting_inputs)
 
 if TYPE_CHECKING:  # (the workbench is imported when the command runs: building the parser needs none of it)
     from ..workbench.candidates import Candidate
@@ -134,7 +134,11 @@ def run(args: argparse.Namespace) -> int:
     result, current, fit = fit_steps(args, spec, tests, add, starts, per_test)
     for path in (out / "fit.json", *([args.json] if args.json else [])):
         write_json(result.to_json(), path)
-    plot(result, current, fit, tests, out)
+    if args.no_plots:
+        drop_figures(out, FIGURES)
+    else:
+        plot(result, current, fit, tests, out)
     print(result.report())
-    print(f"\nwrote {out / 'fit.json'}{', ' + args.json if args.json else ''}, {', '.join(FIGURES)}")
+    written = [str(out / "fit.json"), *([args.json] if args.json else []), *([] if args.no_plots else FIGURES)]
+    print(f"\nwrote {', '.join(written)}")
     return 0

@@ -25,6 +25,9 @@ def add_data_arguments(parser: argparse.ArgumentParser, default_out: str) -> Non
                         help="import this module (a name on the Python path, or a .py file) first, so that the "
                              "effects it registers can be used with --effect and become candidates (repeatable)")
     parser.add_argument("--out", metavar="DIR", default=default_out, help=f"output directory (default {default_out})")
+    parser.add_argument("--no-plots", action="store_true",
+                        help="write the report only, no figures (batch runs); figures an earlier run left in DIR are "
+                             "removed, so that none disagrees with this report")
 
 
 def add_start_arguments(parser: argparse.ArgumentParser) -> None:
@@ -123,6 +126,13 @@ def refuse_overwriting_inputs(args: argparse.Namespace, outputs: list[tuple[str,
         inputs.append(("--specimen", args.specimen))
     inputs += [("--plugin", p) for p in getattr(args, "plugin", []) if p.endswith(".py")]
     refuse_overwriting(outputs, inputs)
+
+
+def drop_figures(out: Path, names: tuple[str, ...]) -> None:
+    """``--no-plots``: remove the figures ``names`` an earlier run left in ``out`` (none may disagree with the report
+    this run writes)."""
+    for name in names:
+        (out / name).unlink(missing_ok=True)
 
 
 def out_dir(args: argparse.Namespace) -> Path:

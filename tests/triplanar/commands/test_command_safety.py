@@ -171,7 +171,8 @@ def test_help_points_to_the_format_docs_and_warns_about_pickles(capsys, monkeypa
 
 def diagnose_cmd(data: Path, out: Path) -> list[str]:
     return [sys.executable, "-m", "triplanar.cli", "diagnose", str(data), "--out", str(out), "--workers", "2",
-            "--no-progress", "--folds", "2", "--candidates", "end_friction,tip_offset,plane_tilt,rate_friction"]
+            "--no-progress", "--no-plots", "--folds", "2", "--candidates",
+            "end_friction,tip_offset,plane_tilt,rate_friction"]
 
 
 def report_without_timing(path: Path) -> dict:

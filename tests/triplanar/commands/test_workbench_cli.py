@@ -43,7 +43,7 @@ def test_compare_writes_table_summary_and_figures(data, tmp_path, capsys) -> Non
 
 
 def test_compare_with_the_right_effect_is_close(data, tmp_path, capsys) -> None:
-    code, out, _ = run(capsys, "compare", data, "--effect", "end_friction:phi_deg=8", "--out", tmp_path)
+    code, out, _ = run(capsys, "compare", data, "--effect", "end_friction:phi_deg=8", "--out", tmp_path, "--no-plots")
     assert code == 0
     rows = list(csv.DictReader(open(tmp_path / "compare.csv")))
     assert max(float(r["mean_distance_mm"]) for r in rows) < 3.0
@@ -74,6 +74,26 @@ def test_fit_add_and_error_fall(data, tmp_path, capsys) -> None:
     assert steps[1]["effects"]["end_friction"]["phi_deg"] == pytest.approx(8.0, rel=0.15)
     assert steps[1]["error_mm"] < 0.2 * steps[0]["error_mm"]
     assert (tmp_path / "error_fall.png").exists() and (tmp_path / "overhead.png").exists()
+
+
+@pytest.mark.parametrize("command, options", [
+    ("compare", []),
+    ("diagnose", ["--candidates", "end_friction", "--folds", "2", "--workers", "1", "--no-progress"]),
+    ("fit", ["--add", "end_friction", "--workers", "1"]),
+])
+def test_no_plots_writes_the_report_only_and_removes_an_earlier_runs_figures(data, tmp_path, capsys, command,
+                                                                              options) -> None:
+    from triplanar.commands import compare, diagnose, fit
+    figures = {"compare": compare.FIGURES, "diagnose": diagnose.FIGURES, "fit": fit.FIGURES}[command]
+    for name in figures:
+        (tmp_path / name).write_bytes(b"an earlier run's figure")
+    code, out, err = run(capsys, command, data, *options, "--out", tmp_path, "--no-plots")
+    assert code == 0, err
+    assert not list(tmp_path.glob("*.png"))     # none left to disagree with the new report
+    report = {"compare": "compare.csv", "diagnose": "diagnose.json", "fit": "fit.json"}[command]
+    assert (tmp_path / report).stat().st_size > 0
+    wrote = out.strip().splitlines()[-1]
+    assert wrote.startswith("wrote ") and report in wrote and ".png" not in wrote
 
 
 # -- bad input -----------------------------------------------------------------------------------------
@@ -127,7 +147,7 @@ def test_test_below_the_sliding_threshold_is_reported_per_test(data, tmp_path, c
     low = MeasuredTest("too-weak", 12.0, tests[0].positions, tests[0].t_s)
     path = tmp_path / "low.csv"
     write_measurements(path, tests[2:4] + [low])
-    code, out, err = run(capsys, "compare", path, "--out", tmp_path / "o")
+    code, out, err = run(capsys, "compare", path, "--out", tmp_path / "o", "--no-plots")
     assert code == 0, err
     rows = [r for r in csv.DictReader(open(tmp_path / "o" / "compare.csv")) if r["test_id"] == "too-weak"]
     assert rows and rows[0]["model_status"] == "held" and "never slides" in rows[0]["note"]

@@ -126,7 +126,7 @@ def test_one_load_level_is_called_in_sample_and_never_high_confidence(tmp_path, 
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)     # no 0 x inf in the sandwich with one test
         code = main(["diagnose", str(data), "--no-progress", "--executor", "serial", "--candidates",
-                     "end_friction,tip_offset", "--out", str(tmp_path / "out")])
+                     "end_friction,tip_offset", "--no-plots", "--out", str(tmp_path / "out")])
     printed = capsys.readouterr().out
     assert code == 0
     assert "held-out" not in printed and "cv error" not in printed and "in-sample mm" in printed

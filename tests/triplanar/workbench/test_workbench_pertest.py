@@ -129,7 +129,7 @@ def test_diagnose_names_a_per_test_candidate_and_the_cli_fits_one(tmp_path, caps
     data = tmp_path / "lab.csv"
     write_lab_data(data, tests, truth)
     assert main(["fit", str(data), "--effect", "end_friction:phi_deg=8", "--add", "tip_offset", "--per-test",
-                 "tip_offset:offset_m", "--out", str(tmp_path / "fit"), "--workers", "1", "--no-progress"]) == 0
+                 "tip_offset:offset_m", "--out", str(tmp_path / "fit"), "--workers", "1", "--no-progress", "--no-plots"]) == 0
     out = capsys.readouterr().out
     assert "offset_m per test (6 values" in out
     step = json.loads((tmp_path / "fit" / "fit.json").read_text())["steps"][1]
