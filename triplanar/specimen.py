@@ -85,6 +85,7 @@ class Foundation:
 
 #: how many passed partners a specimen or a foundation remembers (:meth:`Specimen.validate`)
 _PASSED_KEPT = 256
+_FRICTION_FIELDS = ("friction_deg", "tip_friction_deg")   # checked on every validation (Specimen.validate)
 
 
 @dataclass(frozen=True)
@@ -152,27 +153,30 @@ class Specimen:
         builds thousands of models, each a new specimen or foundation differing in one number)."""
         # A fit makes a new model for every value it tries: a new specimen for a friction angle (the same block by
         # every other number), a new foundation for a plane's dip. Each remembers what it passed with (the other
-        # side by the numbers the check reads), so the same pair is checked once. (Frozen dataclasses: the
-        # memories go in __dict__, as cached_property puts its values.)
+        # side by the block's numbers but its friction angles, which are checked every time: cheap, and the
+        # numbers a friction fit changes), so the same pair is checked once. (Frozen dataclasses: the memories go in
+        # __dict__, as cached_property puts its values.)
         mine = self.__dict__.setdefault("_passed_on", {})            # foundations' planes this block passed on
         theirs = foundation.__dict__.setdefault("_passed_blocks", {})  # blocks' numbers that passed on these planes
         planes_key = (foundation.planes, plane_tolerance_m)
         if planes_key in mine:
             return
-        block_key = (self._checked_values(), plane_tolerance_m)
+        block_key = (self._block_values(), plane_tolerance_m)
         if block_key in theirs:
-            return
-        self._validate(foundation, source, plane_tolerance_m)
+            self._check_finite(source, _FRICTION_FIELDS)   # what _validate checks of them, in its order
+            self._check_friction_ranges(source)
+        else:
+            self._validate(foundation, source, plane_tolerance_m)
         for memory, key in ((mine, planes_key), (theirs, block_key)):
             if len(memory) >= _PASSED_KEPT:
                 memory.clear()
             memory[key] = True
 
-    def _checked_values(self) -> tuple:
-        """Every number :meth:`_validate` reads, as a hashable value (arrays by their bytes and shape)."""
+    def _block_values(self) -> tuple:
+        """Every number :meth:`_validate` reads but the friction angles, as a hashable value (arrays by their bytes
+        and shape)."""
         arrays = tuple((a.shape, a.tobytes()) for a in (self.contact_points_m, self.mass_centre_m, self.inertia_kg_m2))
-        return arrays + (self.mass_kg, self.load_point_A_m, self.load_point_B_m, self.friction_deg,
-                         self.tip_friction_deg)
+        return arrays + (self.mass_kg, self.load_point_A_m, self.load_point_B_m)
 
     def _validate(self, foundation: Foundation, source: str | None, plane_tolerance_m: float) -> None:
         self._check_finite(source)
@@ -183,11 +187,7 @@ class Specimen:
         if self.mass_kg <= 0:
             raise SpecimenError("mass_kg", f"must be positive, got {self.mass_kg}", source)
         self._check_inertia(source)
-        for i, phi in enumerate(self.friction_deg):
-            if not 0.0 <= phi < 45.0:
-                raise SpecimenError(f"friction_deg[{i}]", f"must lie in [0, 45), got {phi}", source)
-        if not 0.0 <= self.tip_friction_deg < 45.0:
-            raise SpecimenError("tip_friction_deg", f"must lie in [0, 45), got {self.tip_friction_deg}", source)
+        self._check_friction_ranges(source)
         p = self.contact_points_m
         if np.linalg.norm(cross3(p[1] - p[0], p[2] - p[0])) < 1e-9:
             raise SpecimenError("contact_points_m", "the three contact points are collinear", source)
@@ -201,12 +201,22 @@ class Specimen:
             raise SpecimenError("mass_centre_m", "the mass centre does not project inside the contact triangle "
                                 f"(barycentric coordinates {np.round(bary, 4).tolist()})", source)
 
-    def _check_finite(self, source: str | None) -> None:
+    def _check_friction_ranges(self, source: str | None) -> None:
+        for i, phi in enumerate(self.friction_deg):
+            if not 0.0 <= phi < 45.0:
+                raise SpecimenError(f"friction_deg[{i}]", f"must lie in [0, 45), got {phi}", source)
+        if not 0.0 <= self.tip_friction_deg < 45.0:
+            raise SpecimenError("tip_friction_deg", f"must lie in [0, 45), got {self.tip_friction_deg}", source)
+
+    def _check_finite(self, source: str | None, names: tuple[str, ...] | None = None) -> None:
+        """Refuse a NaN or infinity in the fields ``names`` (default: every numeric field), in the fields' order."""
         values = {"contact_points_m": self.contact_points_m, "mass_kg": self.mass_kg,
                   "mass_centre_m": self.mass_centre_m, "inertia_kg_m2": self.inertia_kg_m2,
                   "load_point_A_m": self.load_point_A_m, "load_point_B_m": self.load_point_B_m,
                   "friction_deg": self.friction_deg, "tip_friction_deg": self.tip_friction_deg}
         for name, value in values.items():
+            if names is not None and name not in names:
+                continue
             finite = math.isfinite(value) if isinstance(value, float) else \
                 bool(np.isfinite(np.asarray(value, dtype=float)).all())
             if not finite:

@@ -195,8 +195,14 @@ def test_a_passed_pair_is_remembered_and_a_changed_number_is_checked_again() -> 
     specimen.validate(foundation)
     same_block = replace(specimen, tip_friction_deg=specimen.tip_friction_deg)   # a new object, the same numbers
     same_block.validate(foundation)
+    # the friction angles, which a friction fit changes, are checked every time (the rest of the block is remembered)
     with pytest.raises(SpecimenError, match="tip_friction_deg"):
         replace(specimen, tip_friction_deg=50.0).validate(foundation)
+    with pytest.raises(SpecimenError, match=r"friction_deg\[1\]: must lie in \[0, 45\)"):
+        replace(specimen, friction_deg=(17.0, -1.0, 11.0)).validate(foundation)
+    with pytest.raises(SpecimenError, match="friction_deg: contains NaN"):
+        replace(specimen, friction_deg=(17.0, float("nan"), 11.0)).validate(foundation)
+    replace(specimen, tip_friction_deg=9.0).validate(foundation)
     with pytest.raises(SpecimenError, match="mass_kg"):
         replace(specimen, mass_kg=-1.0).validate(foundation)
     steep = Foundation(tuple(Plane(p.dip_deg + (5.0 if i == 0 else 0.0), p.dip_direction_deg)
