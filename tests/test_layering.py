@@ -217,12 +217,15 @@ def _top(modules: set[str]) -> set[str]:
 
 @pytest.mark.parametrize("code", [
     "import triplanar",
-    "import triplanar.workbench, triplanar.paper, triplanar.labdata",
+    "import triplanar.workbench.compare, triplanar.workbench.diagnose, triplanar.workbench.fit, triplanar.paper, "
+    "triplanar.labdata",
     "import triplanar.cli; triplanar.cli.build_parser()",
 ])
 def test_the_core_imports_neither_gymnasium_nor_the_rl_stack(code: str) -> None:
     loaded = _loaded_after(code)
     assert not _top(loaded) & {*RL, "gymnasium", "envs", "agents", "experiments"}
+    if "workbench" in code:     # the library takes plain arguments: none of the command line (one interpreter for both)
+        assert "triplanar.commands" not in loaded
     if "build_parser" in code:
         # every command starts by building the parser: the workbench (scipy.stats, its compiled comparison) cost
         # 2.6 s of CPU there, for commands that never use it; its commands import it when they run
@@ -234,11 +237,6 @@ def test_envs_and_make_vec_need_no_rl_stack() -> None:
                            "gym.make_vec('TriPlanarShear-v0', num_envs=2).close()")
     assert "envs.vector" in loaded
     assert not _top(loaded) & {*RL, "agents", "experiments"}
-
-
-def test_the_workbench_does_not_import_the_commands() -> None:
-    loaded = _loaded_after("import triplanar.workbench.compare, triplanar.workbench.diagnose, triplanar.workbench.fit")
-    assert "triplanar.commands" not in loaded
 
 
 def test_a_command_needing_a_missing_extra_says_how_to_install_it(monkeypatch, capsys) -> None:
