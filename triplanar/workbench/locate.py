@@ -492,7 +492,11 @@ def _likeness(term: LocatedTerm) -> str:
     if term.follows == "time":
         return "like a ripple of the actuator's force" if term.direction.endswith("e1") else "like a vibration"
     if term.direction.endswith("e2"):
-        return "like a lift or an extra weight"
+        down = term.direction == "-e2"
+        if term.follows.startswith("slip speed"):   # through the contacts' friction it acts along the motion too
+            return ("like a force pressing the block down harder the faster it slides (its friction then resists like "
+                    "a drag)") if down else "like a lift growing with speed (the friction eases as it speeds up)"
+        return "like an extra weight" if down else "like a lift"
     if term.direction.endswith("e3"):
         return "like a sideways pull (a cable, a hose)" if term.follows in ("constant", "load") else \
             "like a sideways drag"

@@ -115,3 +115,16 @@ def test_the_probes_lean_callback_is_its_wrench() -> None:
         for a, b in zip(general, lean):
             np.testing.assert_allclose(b, a, rtol=1e-12, atol=1e-15, err_msg=profile)
         assert np.abs(general[1]).max() > 0
+
+
+def test_a_vertical_force_is_likened_by_what_it_follows() -> None:
+    """A vertical force that grows with slip speed acts on the motion through the contacts' friction: the sentence says
+    so, not "a lift or an extra weight" (a drag was located as -e2 following slip speed, its -e1 form a look-alike)."""
+    from triplanar.workbench.locate import LocatedTerm, _likeness
+
+    def term(direction: str, follows: str) -> LocatedTerm:
+        return LocatedTerm("mass centre", direction, follows, 1.0, (0.5, 1.5), "N", 0.5, 1.0)
+    assert "its friction then resists like a drag" in _likeness(term("-e2", "slip speed"))
+    assert "lift growing with speed" in _likeness(term("+e2", "slip speed squared"))
+    assert _likeness(term("-e2", "constant")) == "like an extra weight"
+    assert _likeness(term("+e2", "travel")) == "like a lift"
