@@ -90,7 +90,7 @@ YAML_CHUNKS = st.sampled_from(["a:", " ", "\n", "  ", "- ", "&x ", "*x", "[", "]
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))   # inputs: the profile (tests/conftest.py)
 @given(text=st.lists(YAML_CHUNKS, max_size=16).map("".join))
 def test_fuzz_the_training_yaml_gives_a_named_error_or_a_configuration(text, tmp_path_factory) -> None:
     from agents.train_robust import check_robust_config
@@ -118,7 +118,7 @@ SET_VALUES = st.one_of(st.sampled_from(["-1", "0", "1e308", "3e-4", "'3e-4'", "n
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))   # inputs: the profile (tests/conftest.py)
 @given(key=SET_KEYS, value=SET_VALUES)
 def test_fuzz_set_gives_a_named_error_or_a_configuration(key, value) -> None:
     import argparse

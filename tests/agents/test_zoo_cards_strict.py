@@ -89,7 +89,7 @@ def _mutated(draw):
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))   # inputs: the profile (tests/conftest.py)
 @given(card=_mutated())
 def test_fuzzed_cards_are_a_named_refusal_or_a_valid_card(card):
     try:

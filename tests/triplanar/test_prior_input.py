@@ -55,7 +55,7 @@ JSON_VALUES = st.recursive(st.one_of(st.none(), st.booleans(), st.floats(), st.i
 
 
 @pytest.mark.slow
-@settings(max_examples=1000, deadline=None, suppress_health_check=list(HealthCheck))
+@settings(deadline=None, suppress_health_check=list(HealthCheck))   # inputs: the profile (tests/conftest.py)
 @given(effects=JSON_VALUES, ci=JSON_VALUES)
 def test_fuzz_priors_give_a_named_error_or_a_specimen(effects, ci, tmp_path_factory) -> None:
     path = tmp_path_factory.getbasetemp() / "fuzz_fit.json"   # one file, rewritten: a folder per input is slow
