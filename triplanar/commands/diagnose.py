@@ -16,7 +16,7 @@ if TYPE_CHECKING:  # (the workbench is imported when the command runs: building 
 NAME = "diagnose"
 HELP = ("try each candidate effect added to your model, fit it, rank by cross-validated error over load "
         "levels, and name the missing effect (or say that none explains the discrepancy)")
-FIGURES = ("diagnose.png", "time_residuals.png", "deciding.png")   # deciding.png only when the report has experiments
+FIGURES = ("diagnose.png", "time_residuals.png", "deciding.png")   # deciding.png: figures_of
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -46,15 +46,20 @@ def candidate_names(args: argparse.Namespace) -> list[str] | None:
     return names
 
 
-def plot(result: DiagnosisResult, out: Path) -> None:
-    """The candidates' ranking, the deciding experiments (when the report has any) and the time residuals."""
+def figures_of(report: dict) -> list[str]:
+    """The figures a run with ``report`` draws: deciding.png only when the report has deciding experiments."""
+    return [name for name in FIGURES if name != "deciding.png" or report.get("deciding_experiments")]
+
+
+def plot(result: DiagnosisResult, report: dict, out: Path) -> None:
+    """The candidates' ranking, the deciding experiments (when ``report``, the result's, has any) and the time
+    residuals."""
     from ..workbench.report import plot_candidates, plot_deciding_experiments, plot_time_residuals  # matplotlib
-    report = result.to_json()
     plot_candidates(report, out / "diagnose.png")
     if report.get("deciding_experiments"):
         plot_deciding_experiments(report["deciding_experiments"], out / "deciding.png")
     else:
-        (out / "deciding.png").unlink(missing_ok=True)     # an earlier run's, which this report does not support
+        drop_figures(out, ("deciding.png",))     # an earlier run's, which this report does not support
     plot_time_residuals(result.baseline, result.after, out / "time_residuals.png", result.model, result.best_label)
 
 
@@ -78,15 +83,15 @@ def run(args: argparse.Namespace) -> int:
                          checkpoint=partial, refit_given=not args.no_refit, start=starts,
                          per_test=per_test).fit(tests, spec)
     result = DiagnosisResult.of(diag)
+    report = result.to_json()
     for path in (out / "diagnose.json", *([args.json] if args.json else [])):
-        write_json(result.to_json(), path)
+        write_json(report, path)
     if args.no_plots:
         drop_figures(out, FIGURES)
     else:
-        plot(result, out)
+        plot(result, report, out)
     partial.clear()
     print(result.report())
-    figures = [] if args.no_plots else list(FIGURES[:2]) + ["deciding.png"] * bool(
-        result.to_json().get("deciding_experiments"))
+    figures = [] if args.no_plots else figures_of(report)
     print(f"\nwrote {', '.join([str(out / 'diagnose.json'), *([args.json] if args.json else []), *figures])}")
     return 0
