@@ -44,7 +44,7 @@ from triplanar.measurement import MeasuredTest
 from triplanar.specimen import reference
 from triplanar.workbench.rigidity import rigidity
 
-BLIND = {"load_cell_gain", "time_offset", "rangefinder_offset", "rangefinder_drift",
+BLIND = {"load_cell_gain", "time_offset", "time_base", "rangefinder_offset", "rangefinder_drift",
          "pair_end_friction_time_offset", "pair_cohesion_rangefinder_offset"}
 
 

@@ -21,7 +21,8 @@ Writing one (``docs/adding-an-effect.md`` has the full tutorial)::
 Built-in names are part of the interface: ``end_friction``, ``rate_friction``, ``tip_offset``,
 ``actuator_rise``, ``contact_friction``, ``plane_tilt``, ``cohesion``; instrument effects (``acts_on =
 "instrument"``: they change what is recorded, ``read``/``unread``, or the force the load cell sets):
-``load_cell_gain``, ``rangefinder_gain``, ``rangefinder_offset``, ``rangefinder_drift``, ``time_offset``.
+``load_cell_gain``, ``rangefinder_gain``, ``rangefinder_offset``, ``rangefinder_drift``, ``time_offset``,
+``time_base``.
 """
 
 from __future__ import annotations
@@ -577,6 +578,27 @@ class TimeOffset(Effect):
 
     def unread(self, t_s, positions, rest):
         return (None if t_s is None else t_s - self["dt_s"]), positions
+
+
+@register
+class TimeBase(Effect):
+    """The logger's clock runs ``rate`` x true time (a crystal off its frequency, a sampling rate set wrong in the
+    logger): ``t_s = rate * t``, about the trigger.
+
+    Signature: only in time, in proportion to it (each test's late samples early or late by more than its early
+    ones, unlike ``time_offset``'s constant shift); along a test whose travel grows steadily with time, like a gain
+    of the travel's rangefinder; without ``t_s`` invisible."""
+
+    name = "time_base"
+    acts_on = "instrument"
+    parameters = {"rate": Parameter(1.0, 0.5, 1.5, "-", "recorded / true elapsed time", fit=(0.8, 1.2))}
+    scenario = {"rate": 1.08}
+
+    def read(self, t_s, positions, rest):
+        return (None if t_s is None else t_s * self["rate"]), positions
+
+    def unread(self, t_s, positions, rest):
+        return (None if t_s is None else t_s / self["rate"]), positions
 
 
 BUILTIN: tuple[str, ...] = tuple(REGISTRY)  # the built-in library above, in registration order

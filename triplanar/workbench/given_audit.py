@@ -21,8 +21,22 @@ DECIDING_MEASUREMENT = {
     "load_point": "measure where the tip touches the aft face",
     "inertia": "measure the block's inertia (a trifilar pendulum)",
 }
-#: ...and for an instrument or physical effect that looks like one (a group's other members).
-EFFECT_MEASUREMENT = {"load_cell_gain": "calibrate the load cell with a reference mass"}
+#: ...and for an instrument effect, in a group of look-alikes (a given number's, or the named effects'): the
+#: measurement outside the shear test that tells whether that instrument is off.
+EFFECT_MEASUREMENT = {
+    "load_cell_gain": "calibrate the load cell with a reference mass",
+    "rangefinder_gain": "calibrate the rangefinders against a gauge block",
+    "rangefinder_offset": "read the rangefinders' zero with the block against a reference stop",
+    "rangefinder_drift": "log the rangefinders with the block at rest for as long as a test",
+    "time_offset": "record the trigger and the actuator's start on one clock",
+    "time_base": "time a known interval with the logger (its sampling rate against a reference clock)",
+}
+
+
+def effect_measurements(members: Sequence[str]) -> list[str]:
+    """The measurements outside the shear test that decide among ``members`` (report labels: an effect's name, a
+    refit marked after it): one per instrument effect among them, in their order."""
+    return [EFFECT_MEASUREMENT[m.split()[0]] for m in members if m.split()[0] in EFFECT_MEASUREMENT]
 
 
 def deciding_measurement(name: str) -> str:

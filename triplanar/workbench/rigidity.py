@@ -37,9 +37,9 @@ What rigidity sees and what it cannot (each said in the result's sentence):
   a pair not along an axis, CP1-CP3 of the reference): seen when the block turns enough;
 * an offset or a drift shared by the three points (``rangefinder_offset``, ``rangefinder_drift``): a translation
   of the whole triangle, which keeps every distance: NOT seen;
-* a load-cell gain or a time offset (``load_cell_gain``, ``time_offset``): the positions are right: NOT seen. A
-  time-base error would show in the relation of the forces to the accelerations (the equations of motion); that
-  test is not built here.
+* a load-cell gain, a time offset or a clock running fast or slow (``load_cell_gain``, ``time_offset``,
+  ``time_base``): the positions are right: NOT seen. A time-base error would show in the relation of the forces to
+  the accelerations (the equations of motion); that test is not built here.
 
 A constant difference from the drawing alone (the distances do not change along the path) is
 ``instrument_or_drawing``: an offset on one channel and a contact point machined off the drawing are the same on
@@ -181,7 +181,7 @@ def _pair(tests: Sequence[MeasuredTest], i: int, j: int, rest: np.ndarray) -> tu
     return result, float(norm.isf(ALPHA / 12)) * slope_se * travel * MM
 
 
-BLIND = ("a load-cell gain, a time offset, or an offset or drift shared by the three points (a translation keeps "
+BLIND = ("a load-cell gain, a time offset, a clock running fast or slow, or an offset or drift shared by the three points (a translation keeps "
          "every distance)")
 
 

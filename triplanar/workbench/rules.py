@@ -109,6 +109,7 @@ import math
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
+from .given_audit import effect_measurements
 from .parsimony import difference_se, parsimonious
 from .verdict import Evidence, NamedEffect, Reason, Verdict, VerdictKind, label
 
@@ -601,7 +602,8 @@ def _effect_groups(ev: Evidence, draft: _Draft) -> _Draft:
     """The named entries' look-alike groups: a named entry whose held-out error the data cannot tell from other
     entries' (within one standard error of the difference, :func:`~triplanar.workbench.parsimony.parsimonious`) is
     named with them as a group, never alone with ``high`` (the confidence rules already make it ``low``), with the
-    shear test that decides where :mod:`~triplanar.workbench.experiment` computed one. A laboratory then reads "one of
+    shear test that decides where :mod:`~triplanar.workbench.experiment` computed one and, for each instrument among
+    them, the measurement outside the shear test that checks it (``given_audit.EFFECT_MEASUREMENT``). A laboratory then reads "one of
     these; this test decides" instead of a winner among twins (on the calibration's tuning part: rate friction
     named for cohesion, s3017; a load-cell gain for contact friction, s2020)."""
     if draft.kind is VerdictKind.LIBRARY_EFFECTS and draft.combination is not None:
@@ -614,7 +616,7 @@ def _effect_groups(ev: Evidence, draft: _Draft) -> _Draft:
         if not others:
             continue
         deciding = [e["sentence"] for e in ev.experiments
-                    if {named, *others} >= set(e["between"])]
+                    if {named, *others} >= set(e["between"])] + effect_measurements([named, *others])
         draft.groups.append({"members": [named, *others], "source": "effects",
                              "deciding_measurement": "; ".join(deciding) if deciding else
                              "no deciding shear test was computed for this group"})

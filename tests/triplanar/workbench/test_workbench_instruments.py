@@ -14,7 +14,8 @@ from triplanar.workbench.fit import discrepancies, evaluate_spec
 from triplanar.workbench.spec import spec_with_values
 
 CASE_A = spec_with_values(ModelSpec(), "end_friction", {"phi_deg": 8.0})
-INSTRUMENTS = ("load_cell_gain", "rangefinder_gain", "rangefinder_offset", "rangefinder_drift", "time_offset")
+INSTRUMENTS = ("load_cell_gain", "rangefinder_gain", "rangefinder_offset", "rangefinder_drift", "time_offset",
+               "time_base")
 
 
 def lab(extra: list[str], seed: int, loads=PAPER_LOADS_N, repeats: int = 4) -> list:
@@ -132,3 +133,16 @@ def test_one_load_level_is_called_in_sample_and_never_high_confidence(tmp_path, 
     assert "held-out" not in printed and "cv error" not in printed and "in-sample mm" in printed
     assert "in sample (one load level: nothing held out)" in printed
     assert "confidence: low" in printed
+
+
+@pytest.mark.slow
+def test_a_rangefinder_gain_and_a_clock_off_are_one_group_with_the_measurements_that_decide() -> None:
+    """The travel's rangefinders reading 7 % short (``gain_x1`` 0.93), 4 loads x 2: along tests whose travel grows
+    steadily with time, a logger clock running fast (``time_base``) is the same on these data. Whichever is named,
+    the report names both as one group, never ``high``, with what checks each instrument outside the shear test."""
+    tests = lab(["rangefinder_gain:gain_x1=0.93"], seed=1, loads=(27.8, 35.0, 45.0, 55.6), repeats=2)
+    report = Diagnoser(progress=False, executor="serial").fit(tests, CASE_A).report_
+    assert report["missing_kind"] == "instrument" and report["confidence"] != "high"
+    group, = [g for g in report["lookalike_groups"] if g["source"] == "effects"]
+    assert {"rangefinder_gain", "time_base"} <= set(group["members"])
+    assert "gauge block" in group["deciding_measurement"] and "reference clock" in group["deciding_measurement"]
