@@ -21,6 +21,7 @@ both parts.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 #: A cause shows when it moves the traces by at least this many times the error a perfect model leaves on one test.
@@ -71,6 +72,8 @@ def detectability(cfg: dict[str, Any]) -> dict[str, Any]:
     "expected_effects"}`` of the dataset made from ``cfg`` (``workbench_calibration.settings``)."""
     truth_lib = [tuple(x) for x in cfg["truth"]]
     truth = _tests(cfg, _effects(cfg, truth_lib, True), 0.0, 0.0, 1, (STOP_M, STOP_M))
+    if cfg.get("clock_rate", 1.0) != 1.0:       # a logger clock running fast or slow: the truth's times as recorded
+        truth = [replace(t, t_s=t.t_s * cfg["clock_rate"]) for t in truth]
     perfect = _tests(cfg, _effects(cfg, truth_lib, False), cfg["noise_m"], cfg["friction_scatter_deg"],
                      PERFECT_REPEATS, tuple(cfg["stop_range_m"]))
     perfect_mm = _error(_effects(cfg, truth_lib, False), perfect)

@@ -174,8 +174,8 @@ BEYOND_LABELS: dict[str, tuple] = {
     "pair_load_cell_gain_rangefinder_gain": ("pair", lambda r: {"truth": [
         ("load_cell_gain", {"gain": 1.0 + _u(r, 0.06, 0.12, True)}),
         ("rangefinder_gain", {"gain_x1": 1.0 + _u(r, 0.1, 0.25, True)})], "given": [], "outside": []}),
-    # a logger clock running fast or slow (the library's time_base since 2026-11-29; earlier: outside the library)
-    "time_base": _effect("time_base", lambda r: {"rate": 1.0 + _u(r, 0.02, 0.05, True)}),
+    "outside_clock_rate": ("outside_library", lambda r: {"truth": [], "given": [], "outside": [],
+                                                         "clock_rate": 1.0 + _u(r, 0.02, 0.05, True)}),
 }
 LABELS.update(BEYOND_LABELS)
 #: datasets per label in each mix (the clean kind gets more: its target is a rate over the clean datasets):
@@ -301,8 +301,6 @@ def _read(truth: list, t_s: np.ndarray, positions: np.ndarray, rest: np.ndarray)
             positions = positions + t_s[:, None, None] * rate
         elif name == "time_offset":
             t_s = t_s + p["dt_s"]
-        elif name == "time_base":       # a logger clock running fast (> 1) or slow
-            t_s = t_s * p["rate"]
     return t_s, positions
 
 
@@ -352,6 +350,7 @@ def one_test(job: tuple[dict, float, int]) -> tuple[dict, Any]:
     keep &= np.cumprod(box.contains(clean).all(axis=1)).astype(bool)
     t_s, clean = t_s[keep], clean[keep]
     recorded_t, recorded = _read(cfg["truth"], t_s, clean, np.asarray(spec.contact_points_m))
+    recorded_t = recorded_t * cfg.get("clock_rate", 1.0)     # a logger clock running fast (> 1) or slow
     noisy = recorded + rng.normal(0.0, cfg["noise_m"], clean.shape)
     record.update(n_samples=int(len(t_s)), duration_s=float(t_s[-1]))
     return record, MeasuredTest(test_id=test_id, shear_force_N=force, positions=noisy, t_s=recorded_t)

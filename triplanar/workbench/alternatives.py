@@ -45,14 +45,14 @@ ALTERNATIVE_NFEV = 10
 
 
 def alternative_names(user_base: ModelSpec, refit: Sequence[str], best: CandidateResult) -> list[str]:
-    """Registered one-parameter effects (physics or instrument), neither in the model (``user_base`` and the
-    forward-selection effects ``refit``) nor the named ``best``."""
+    """Registered one-parameter effects that ``diagnose`` screens (physics or instrument; ``Effect.screened``),
+    neither in the model (``user_base`` and the forward-selection effects ``refit``) nor the named ``best``."""
     taken = {*user_base.effect_names, *refit, best.effect}
     out = []
     for name, cls in REGISTRY.items():
         params = cls.parameters.values()
         free = [p for p in params if p.free or p.per_test]
-        if name not in taken and len(free) == 1 and not free[0].per_test:
+        if name not in taken and cls.screened and len(free) == 1 and not free[0].per_test:
             out.append(name)
     return out
 

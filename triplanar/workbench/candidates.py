@@ -267,9 +267,10 @@ def builtin_candidates(specimen: Specimen | None = None) -> dict[str, Candidate]
 
 def candidate_library(names: Iterable[str] | None = None, exclude: Iterable[str] = (),
                       specimen: Specimen | None = None) -> list[Candidate]:
-    """Candidates for ``names`` (default: every registered effect but the given numbers, ``specimen``, which
-    :mod:`triplanar.workbench.given` audits apart), minus ``exclude``."""
-    names = [n for n in REGISTRY if REGISTRY[n].acts_on != "specimen"] if names is None else list(names)
+    """Candidates for ``names`` (default: every registered effect that is screened, ``Effect.screened``, but the
+    given numbers, ``specimen``, which :mod:`triplanar.workbench.given` audits apart), minus ``exclude``."""
+    names = [n for n in REGISTRY if REGISTRY[n].acts_on != "specimen" and REGISTRY[n].screened] \
+        if names is None else list(names)
     skip = set(exclude)
     return [default_candidate(n, specimen) for n in names if n not in skip]
 

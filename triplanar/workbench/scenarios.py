@@ -1,7 +1,7 @@
 """The hidden-effect scenarios the workbench is checked against (tests and benchmarks share them).
 
-Every registered effect with a ``scenario`` (``triplanar/effects.py``): the parameter values a dataset is made
-with, which a fit must then recover. And two effects outside the library (never registered, so never a candidate),
+Every registered effect with a ``scenario`` that ``diagnose`` screens (``triplanar/effects.py``: ``scenario``,
+``screened``): the parameter values a dataset is made with, which a fit must then recover. And two effects outside the library (never registered, so never a candidate),
 for data with something the library cannot name: :class:`ThrustRipple` and :class:`ForceRipple`.
 """
 
@@ -17,7 +17,7 @@ from ..effects import REGISTRY, Effect, Parameter
 def hidden_effects() -> dict[str, tuple[str, dict[str, float]]]:
     """effect -> (the ``--effect`` spec the data are made with, the parameters the fit must recover within 15 %)."""
     return {name: (f"{name}:" + ",".join(f"{k}={v!r}" for k, v in cls.scenario.items()), dict(cls.scenario))
-            for name, cls in REGISTRY.items() if cls.scenario is not None}
+            for name, cls in REGISTRY.items() if cls.scenario is not None and cls.screened}
 
 
 #: the registered effects' scenarios when this module is imported (see :func:`hidden_effects`)

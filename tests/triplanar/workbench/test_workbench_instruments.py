@@ -8,9 +8,10 @@ import pytest
 
 from triplanar import PAPER_LOADS_N, make_effect
 from triplanar.labdata import generate_lab_data
-from triplanar.workbench import Diagnoser, ModelSpec
+from triplanar.workbench import Diagnoser, ModelSpec, candidate_library
 from triplanar.workbench.evidence import systematic_bias
 from triplanar.workbench.fit import discrepancies, evaluate_spec
+from triplanar.workbench.scenarios import HIDDEN_EFFECTS
 from triplanar.workbench.spec import spec_with_values
 
 CASE_A = spec_with_values(ModelSpec(), "end_friction", {"phi_deg": 8.0})
@@ -135,13 +136,32 @@ def test_one_load_level_is_called_in_sample_and_never_high_confidence(tmp_path, 
     assert "confidence: low" in printed
 
 
+#: diagnose's default candidates and the logger's time base, which it tries only when named (``Effect.screened``)
+SCREENED_AND_CLOCK = [c.effect for c in candidate_library()] + ["time_base"]
+
+
+def test_the_time_base_is_tried_only_when_named() -> None:
+    assert "time_base" not in [c.effect for c in candidate_library()]
+    assert "time_base" not in HIDDEN_EFFECTS and "time_offset" in HIDDEN_EFFECTS
+
+
+@pytest.mark.slow
+def test_a_clock_running_fast_is_named_and_fitted_when_the_time_base_is_a_candidate() -> None:
+    """The logger's clock 8 % fast (the effect's scenario), 4 loads x 2, with ``time_base`` named as a candidate."""
+    tests = lab(["time_base:rate=1.08"], seed=1, loads=(27.8, 35.0, 45.0, 55.6), repeats=2)
+    report = Diagnoser(SCREENED_AND_CLOCK, progress=False, executor="serial").fit(tests, CASE_A).report_
+    assert report["missing_effect"] == "time_base" and report["missing_kind"] == "instrument"
+    best = report["candidates"][0]
+    assert abs(best["params"]["rate"] - 1.08) <= 0.15 * 0.08
+
+
 @pytest.mark.slow
 def test_a_rangefinder_gain_and_a_clock_off_are_one_group_with_the_measurements_that_decide() -> None:
     """The travel's rangefinders reading 7 % short (``gain_x1`` 0.93), 4 loads x 2: along tests whose travel grows
     steadily with time, a logger clock running fast (``time_base``) is the same on these data. Whichever is named,
     the report names both as one group, never ``high``, with what checks each instrument outside the shear test."""
     tests = lab(["rangefinder_gain:gain_x1=0.93"], seed=1, loads=(27.8, 35.0, 45.0, 55.6), repeats=2)
-    report = Diagnoser(progress=False, executor="serial").fit(tests, CASE_A).report_
+    report = Diagnoser(SCREENED_AND_CLOCK, progress=False, executor="serial").fit(tests, CASE_A).report_
     assert report["missing_kind"] == "instrument" and report["confidence"] != "high"
     group, = [g for g in report["lookalike_groups"] if g["source"] == "effects"]
     assert {"rangefinder_gain", "time_base"} <= set(group["members"])
