@@ -474,6 +474,10 @@ def _evidence(ev, verdict) -> dict[str, Any]:
         out.update(best=None, top=None if top is None else top.effect,
                    top_improvement=None if top is None else top.improvement,
                    top_plausible=None if top is None else top.plausible)
+    if ev.located is not None:         # the outside-force rule's inputs, and the confidence without it
+        out["outside_force"] = rules.outside_force_rival(ev, verdict)
+        out["confidence_without_located"] = rules.decide(replace(ev, located=None)).confidence
+        out["located_simulations"] = ev.located.n_simulations
     if verdict.combination is not None:
         out["combination"] = {"steps": [s["effect"] for s in verdict.combination["steps"]],
                               "cv_error_mm": verdict.combination["cv_error_mm"],

@@ -1,6 +1,6 @@
 """A cause outside the library located: a user's plugin force at a known contact, along a known direction, is found
-there by :func:`triplanar.workbench.locate.locate`; diagnose attaches it as evidence only when its verdict is
-``outside_library``, and the verdict is the same without it."""
+there by :func:`triplanar.workbench.locate.locate`; diagnose attaches it as evidence when its verdict is
+``outside_library`` (the verdict the same without it) or ``high`` (``rules._outside_force`` reads it then)."""
 
 from __future__ import annotations
 
@@ -90,7 +90,10 @@ def test_nothing_is_located_when_a_library_effect_explains() -> None:
     tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=12, effects=[make_effect("end_friction:phi_deg=8")])
     diag = Diagnoser(["end_friction"], folds=2, progress=False, model_form=False, audit=False, combine=False,
                      executor="serial").fit(tests)
-    assert diag.verdict_ == "library_effect" and diag.evidence_.located is None
+    assert diag.verdict_ == "library_effect"
+    # located only for a high verdict (the rule that keeps high from a verdict a force predicts as well reads it),
+    # and shown in the report only when that rule lowered the confidence
+    assert (diag.evidence_.located is not None) == (diag.confidence_ == "high"), diag.reason_
     assert diag.report_["located"] is None
 
 
