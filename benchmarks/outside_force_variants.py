@@ -57,7 +57,8 @@ for name, fires in VARIANTS.items():
 print()
 for r, ok, o in high:
     if o is None:
-        print(f"s{r['seed']} {r['label']}: {'right' if ok else 'WRONG'}; nothing located")
+        print(f"s{r['seed']} {r['label']}: {'right' if ok else 'WRONG'}; nothing located (no force found, or one "
+              f"parameter named: diagnose does not locate then)")
         continue
     print(f"s{r['seed']} {r['label']}: {'right' if ok else 'WRONG'}; named {o['named_parameters']} p "
           f"{o['named_cv_mm']:.3f} mm, force {o['force']} ({o['force_parameters']} p) {o['force_cv_mm']:.3f} mm, "

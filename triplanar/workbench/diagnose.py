@@ -70,8 +70,8 @@ class Diagnoser:
 
         friction_scatter_deg: the specimen's repeat-to-repeat friction scatter ``expected_scatter_mm`` assumes (deg).
         audit: audit the specimen's given numbers beside the effects (:func:`~triplanar.workbench.given.audit_given`).
-        locate: when the verdict is ``outside_library`` or ``high``, locate a cause outside the library as one extra
-            force on the block (:func:`~triplanar.workbench.locate.locate`: its point, direction and what it follows;
+        locate: when the verdict is ``outside_library`` or ``high`` (naming more than one parameter), locate a cause
+            outside the library as one extra force on the block (:func:`~triplanar.workbench.locate.locate`: its point, direction and what it follows;
             for an outside verdict evidence for the user, for a high one the rival that
             :func:`~triplanar.workbench.rules.decide` holds it against). ``False``: the confidence as without that
             rule.
@@ -154,9 +154,10 @@ class Diagnoser:
             from .combine import combine
             ev = replace(ev, combination=combine(self, ev, tests))
         self.decision_ = rules.decide(ev)
-        if self.locate and rules.locates(self.decision_):
+        if self.locate and rules.locates(ev, self.decision_):
             # where an extra force would act, and what it follows: evidence for the user of an outside verdict, and
-            # for a high one the rival that keeps it high only when the force does not predict as well
+            # for a high one naming more than one parameter the rival that keeps it high only when the force does not
+            # predict as well
             ev = replace(ev, located=locate(tests, ev.base, ev.folds, self.executor))
             self.decision_ = rules.decide(ev)
         self.evidence_ = ev

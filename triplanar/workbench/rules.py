@@ -125,8 +125,9 @@ dataset there was ``high`` (45 of 45 diagnosed). Its benefit is on the stand-in 
 rangefinder drift (5 parameters), the force located within 0.71 standard errors; a 15 N s/m drag named rate and
 contact friction (4), the force (one following slip speed at the mass centre) within 1.44. At 1 standard error the
 drag would stay ``high``; 2 is locate's own level for calling two forces alike (``locate.LOOKALIKE_SE``), kept, with
-the nearest right ``high`` (2.08) close above it. Cost: one location per ``high`` (0.3-0.7 CPU s, median 0.4, against
-3.2-21 CPU s for the diagnosis, median 5.0; 64 datasets).
+the nearest right ``high`` (2.08) close above it. Cost: one location per ``high`` naming more than one parameter (the
+only ones it can lower, :func:`locates`; 12 of the 64: 0.3-0.4 CPU s against 3.7-18.3 CPU s for the diagnosis; the
+measurement located for all 64, 0.3-0.7 CPU s each, and the held-out report below ran so, with the same verdicts).
 
 Reported on the held-out part, seeds 8000-8065 (66 datasets, run once with these rules, commit 8fb791b;
 ``docs/workbench.md``, every line in ``docs/notes/workbench-calibration-heldout-8000.md``): 41 of 43 in-library
@@ -723,11 +724,23 @@ def _instrument_cap(ev: Evidence, draft: _Draft) -> _Draft:
     return draft
 
 
-def locates(verdict: Verdict) -> bool:
+def locates(ev: Evidence, verdict: Verdict) -> bool:
     """Whether the diagnosis locates a cause outside the library as one extra force
     (:func:`~triplanar.workbench.locate.locate`): for an ``outside_library`` verdict (evidence for the user), and for
-    a ``high`` one (:func:`_outside_force` reads it; a ``low`` one it could not lower)."""
-    return verdict.kind is VerdictKind.OUTSIDE_LIBRARY or verdict.confidence == "high"
+    a ``high`` one naming more than one parameter (:func:`_outside_force` reads it; a ``low`` one it could not lower,
+    and a force, one parameter at the least, is never simpler than one: on the tuning part 12 of the 64 ``high``
+    verdicts named more)."""
+    return verdict.kind is VerdictKind.OUTSIDE_LIBRARY or (verdict.confidence == "high"
+                                                            and _named_parameters(ev, verdict)[1] > 1)
+
+
+def _named_parameters(ev: Evidence, draft: _Draft | Verdict) -> tuple[Mapping[str, float], int]:
+    """The named entries' held-out error per test (the combination's when it is named) and their parameter count."""
+    if draft.kind is VerdictKind.LIBRARY_EFFECTS and ev.combination is not None:
+        return ev.combination.held_out_mm, sum(len(e.params) for e in draft.effects)
+    if ev.best is not None and draft.effects:
+        return ev.best.held_out_mm, len(ev.best.params) + len(ev.best.per_test)
+    return {}, 0
 
 
 def outside_force_rival(ev: Evidence, draft: _Draft | Verdict) -> dict[str, Any] | None:
@@ -738,12 +751,7 @@ def outside_force_rival(ev: Evidence, draft: _Draft | Verdict) -> dict[str, Any]
     loc = ev.located
     if loc is None or loc.term is None or not draft.effects:
         return None
-    if draft.kind is VerdictKind.LIBRARY_EFFECTS and ev.combination is not None:
-        named_mm, count = ev.combination.held_out_mm, sum(len(e.params) for e in draft.effects)
-    elif ev.best is not None:
-        named_mm, count = ev.best.held_out_mm, len(ev.best.params) + len(ev.best.per_test)
-    else:
-        return None
+    named_mm, count = _named_parameters(ev, draft)
     common = sorted(set(named_mm) & set(loc.held_out_mm))
     d = np.array([loc.held_out_mm[t] ** 2 - named_mm[t] ** 2 for t in common])
     d = d[np.isfinite(d)]

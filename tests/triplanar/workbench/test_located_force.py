@@ -1,6 +1,7 @@
 """A cause outside the library located: a user's plugin force at a known contact, along a known direction, is found
 there by :func:`triplanar.workbench.locate.locate`; diagnose attaches it as evidence when its verdict is
-``outside_library`` (the verdict the same without it) or ``high`` (``rules._outside_force`` reads it then)."""
+``outside_library`` (the verdict the same without it) or ``high`` naming more than one parameter
+(``rules._outside_force`` reads it then)."""
 
 from __future__ import annotations
 
@@ -91,10 +92,9 @@ def test_nothing_is_located_when_a_library_effect_explains() -> None:
     diag = Diagnoser(["end_friction"], folds=2, progress=False, model_form=False, audit=False, combine=False,
                      executor="serial").fit(tests)
     assert diag.verdict_ == "library_effect"
-    # located only for a high verdict (the rule that keeps high from a verdict a force predicts as well reads it),
-    # and shown in the report only when that rule lowered the confidence
-    assert (diag.evidence_.located is not None) == (diag.confidence_ == "high"), diag.reason_
-    assert diag.report_["located"] is None
+    # one parameter named: no force is simpler, so nothing is located (the outside-force rule reads it only for a
+    # high verdict naming more), and the report's field stays empty
+    assert diag.evidence_.located is None and diag.report_["located"] is None
 
 
 def test_locate_refuses_no_tests() -> None:

@@ -47,7 +47,7 @@ def test_a_high_verdict_stays_high_without_a_rival_force_and_the_report_hides_th
     ev = _evidence(_entry("contact_friction", THREE, NAMED), None)
     verdict = decide(ev)
     assert verdict.kind is VerdictKind.LIBRARY_EFFECT and verdict.confidence == "high", verdict.reason
-    assert rules.locates(verdict)
+    assert rules.locates(ev, verdict)
     worse = [e + 0.5 for e in NAMED]           # the force leaves clearly more on every held-out test
     located = decide(replace(ev, located=_located(worse)))
     assert located == verdict
@@ -69,8 +69,10 @@ def test_a_force_with_fewer_parameters_predicting_as_well_keeps_high_away() -> N
 
 def test_a_force_with_as_many_parameters_as_the_named_entry_does_not_lower_it() -> None:
     one = _entry("end_friction", {"phi_deg": 8.0}, NAMED)
-    verdict = decide(_evidence(one, _located([e - 0.05 for e in NAMED])))     # even a better-predicting force
+    ev = _evidence(one, _located([e - 0.05 for e in NAMED]))
+    verdict = decide(ev)     # even a better-predicting force
     assert verdict.confidence == "high", verdict.reason
+    assert not rules.locates(ev, verdict)           # so diagnose does not locate one at all
 
 
 def test_the_force_lowers_high_within_outside_force_se_standard_errors_and_not_beyond() -> None:
