@@ -105,7 +105,8 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
     gain, gain_se = rules.beats(final, first)
     return Combination(tuple(steps), final.cv_error_mm, td.get("dominant_frequency_hz") is not None,
                        bool(systematic_bias(after)["systematic"]) if after is not None else False, spec, after, td,
-                       growth_along_travel(after) if after is not None else ev.growth_after, gain, gain_se)
+                       growth_along_travel(after) if after is not None else ev.growth_after, gain, gain_se,
+                       dict(final.held_out_mm))
 
 
 Selection = tuple[list[dict[str, Any]], list["CandidateResult"], list[float]]

@@ -70,8 +70,11 @@ class Diagnoser:
 
         friction_scatter_deg: the specimen's repeat-to-repeat friction scatter ``expected_scatter_mm`` assumes (deg).
         audit: audit the specimen's given numbers beside the effects (:func:`~triplanar.workbench.given.audit_given`).
-        locate: when the verdict is ``outside_library``, locate the cause as one extra force on the block
-            (:func:`~triplanar.workbench.locate.locate`: its point, direction and what it follows; evidence only).
+        locate: when the verdict is ``outside_library`` or ``high`` (naming more than one parameter), locate a cause
+            outside the library as one extra force on the block (:func:`~triplanar.workbench.locate.locate`: its point, direction and what it follows;
+            for an outside verdict evidence for the user, for a high one the rival that
+            :func:`~triplanar.workbench.rules.decide` holds it against). ``False``: the confidence as without that
+            rule.
 
     Fitted attributes (set by ``fit`` only): ``evidence_`` (:class:`~triplanar.workbench.verdict.Evidence`: what
     was gathered), ``decision_`` (:class:`~triplanar.workbench.verdict.Verdict`: what
@@ -151,9 +154,12 @@ class Diagnoser:
             from .combine import combine
             ev = replace(ev, combination=combine(self, ev, tests))
         self.decision_ = rules.decide(ev)
-        if self.locate and self.decision_.kind is VerdictKind.OUTSIDE_LIBRARY:
-            # where an extra force would act, and what it follows (evidence for the user: no rule reads it)
+        if self.locate and rules.locates(ev, self.decision_):
+            # where an extra force would act, and what it follows: evidence for the user of an outside verdict, and
+            # for a high one naming more than one parameter the rival that keeps it high only when the force does not
+            # predict as well
             ev = replace(ev, located=locate(tests, ev.base, ev.folds, self.executor))
+            self.decision_ = rules.decide(ev)
         self.evidence_ = ev
         self.seconds_ = time.perf_counter() - began
         return self

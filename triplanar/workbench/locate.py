@@ -26,9 +26,12 @@ test: a test's residual is smooth along its path, so its samples are not indepen
 the simulated force removes is reported; a term that removes none is not reported. The interval is widened as the
 workbench's are where the force leaves more than the repeats' scatter (:mod:`triplanar.workbench.intervals`).
 
-Evidence only: no rule of the verdict reads it (:mod:`triplanar.workbench.rules`). The model it starts from is the
-one diagnosed (``Evidence.base``), not a library entry named with low confidence: an outside verdict says none
-explains, and a stand-in would share the residual with the force.
+For an ``outside_library`` verdict it is evidence for the user. For a verdict that would be ``high`` one rule reads
+it: when the located force, with fewer parameters, predicts the held-out loads as well as the named entries, the
+confidence is ``low`` (:func:`triplanar.workbench.rules._outside_force`; per test held-out errors in
+``LocatedResult.held_out_mm``). The model it starts from is the one diagnosed (``Evidence.base``), not a library entry
+named with low confidence: an outside verdict says none explains, and a stand-in would share the residual with the
+force.
 
 What it cannot say: a force proportional to a contact's normal force (the state a user effect sees has no reactions),
 two extra forces at once (one term is chosen), a vertical oscillation, and a periodic force without the file's times.
@@ -38,8 +41,8 @@ Its constants were chosen on the calibration's tuning seeds 1004-3049; the rates
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
-from typing import Any, Sequence
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -476,6 +479,9 @@ class LocatedResult:
     n_simulations: int
     n_tests: int
     sentence: str
+    #: the located term's held-out error per test (mm, by ``test_id``; linearised, the diagnosis's load folds): what
+    #: :func:`~triplanar.workbench.rules.decide` pairs with the named entries' (empty when no term is located)
+    held_out_mm: Mapping[str, float] = field(default_factory=dict)
 
     def as_json(self) -> dict[str, Any]:
         def finite(v: float) -> float | None:
@@ -631,8 +637,9 @@ def locate(tests: Sequence[MeasuredTest], spec: ModelSpec | None = None,
         return LocatedResult(None, (), error, math.sqrt(float(np.mean(after))), share, len(found), simulations,
                              len(tests), f"no extra force located: the best term of the library (a force at the "
                              f"{best.label}) does not lower the model's error when simulated at its fitted size")
+    by_test = {tests[i].test_id: math.sqrt(float(h)) for i, h in zip(resp.order, held)}
     return LocatedResult(best, lookalikes, error, math.sqrt(float(np.mean(after))), share, len(found), simulations,
-                         len(tests), _sentence(best, lookalikes, share))
+                         len(tests), _sentence(best, lookalikes, share), by_test)
 
 
 def _same_moment(term: LocatedTerm, arms: dict[str, np.ndarray]) -> tuple[str, ...]:

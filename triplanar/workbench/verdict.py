@@ -118,6 +118,8 @@ class Combination:
     growth_after: float
     gain_mm2: float = math.nan
     gain_se_mm2: float = math.nan
+    #: the combination's held-out error per test (mm, by ``test_id``; empty: gathered before it was kept)
+    held_out_mm: Mapping[str, float] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -161,7 +163,8 @@ class Evidence:
     #: gathered before it); the rules read it only to keep physics alone from ``high`` on an instrument fault
     rigidity: RigidityResult | None = None
     #: the cause outside the library located as one extra force (:func:`triplanar.workbench.locate.locate`; ``None``:
-    #: the verdict is not ``outside_library``, or gathered before it); evidence for the user only: no rule reads it
+    #: the verdict is neither ``outside_library`` nor ``high``, or gathered before it); one rule reads it: a library
+    #: verdict is not ``high`` when the located force predicts the held-out loads as well (``rules._outside_force``)
     located: LocatedResult | None = None
 
     @property
@@ -227,7 +230,9 @@ def report_json(ev: Evidence, verdict: Verdict, seconds: float) -> dict[str, Any
             "lookalike_groups": [dict(g) for g in verdict.groups],
             "given_numbers": [a.as_json() for a in ev.given_numbers],
             "rigidity": None if ev.rigidity is None else ev.rigidity.as_json(),
-            "located": None if ev.located is None else ev.located.as_json(),
+            "located": ev.located.as_json() if ev.located is not None and (
+                verdict.kind is VerdictKind.OUTSIDE_LIBRARY or any(r.rule == "located.outside_force"
+                                                                   for r in verdict.reasons)) else None,
             "systematic": {"model_as_given": dict(ev.systematic), "after_best": dict(ev.systematic_after)},
             "combination": None if verdict.combination is None else dict(verdict.combination),
             "deciding_experiments": [dict(e) for e in ev.experiments],

@@ -1,6 +1,7 @@
 """A cause outside the library located: a user's plugin force at a known contact, along a known direction, is found
-there by :func:`triplanar.workbench.locate.locate`; diagnose attaches it as evidence only when its verdict is
-``outside_library``, and the verdict is the same without it."""
+there by :func:`triplanar.workbench.locate.locate`; diagnose attaches it as evidence when its verdict is
+``outside_library`` (the verdict the same without it) or ``high`` naming more than one parameter
+(``rules._outside_force`` reads it then)."""
 
 from __future__ import annotations
 
@@ -90,8 +91,10 @@ def test_nothing_is_located_when_a_library_effect_explains() -> None:
     tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=12, effects=[make_effect("end_friction:phi_deg=8")])
     diag = Diagnoser(["end_friction"], folds=2, progress=False, model_form=False, audit=False, combine=False,
                      executor="serial").fit(tests)
-    assert diag.verdict_ == "library_effect" and diag.evidence_.located is None
-    assert diag.report_["located"] is None
+    assert diag.verdict_ == "library_effect"
+    # one parameter named: no force is simpler, so nothing is located (the outside-force rule reads it only for a
+    # high verdict naming more), and the report's field stays empty
+    assert diag.evidence_.located is None and diag.report_["located"] is None
 
 
 def test_locate_refuses_no_tests() -> None:
