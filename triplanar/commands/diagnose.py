@@ -28,7 +28,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", metavar="REPORT.json", help="also write the JSON report here "
                         "(it is always written to DIR/diagnose.json)")
     parser.add_argument("--candidates", metavar="NAME[,NAME...]",
-                        help="only these candidate effects (default: every registered effect)")
+                        help="only these candidate effects (default: every registered effect but those tried only "
+                             "when named, such as time_base)")
     parser.add_argument("--folds", type=int, default=3, metavar="K", help="cross-validation folds over load levels")
     add_worker_arguments(parser)
 

@@ -52,8 +52,8 @@ class Diagnoser:
     """Find the effect a model lacks (scikit-learn style: configure, ``fit(tests)``, read attributes).
 
     Args:
-        candidates: effect names or :class:`Candidate` recipes (default: every registered effect, minus
-            those already in the model).
+        candidates: effect names or :class:`Candidate` recipes (default: every registered effect that is screened,
+            ``Effect.screened``, minus those already in the model).
         folds: cross-validation folds over load levels (default 3; fewer if there are fewer levels).
         executor: ``None``/``"local"`` (2-process pool), ``"serial"``, ``"ray"``, or any object with ``map``.
         progress: show a progress bar (tqdm, on stderr).

@@ -75,7 +75,7 @@ class ForwardSelection:
     """Add effects one at a time while the error keeps falling (scikit-learn style).
 
     Args:
-        candidates: as for :class:`Diagnoser` (default: every registered effect).
+        candidates: as for :class:`Diagnoser` (default: every screened registered effect).
         max_effects: most effects to add.
         min_fall: smallest fraction of the current error an addition must remove to be kept (default: the
             verdict rules' ``rules.MIN_FALL``, the one step rule of combinations).
