@@ -35,10 +35,10 @@ determine them one by one; ``docs/notes/mpc-tuning-rounds.md``, sixth round). No
 order: a linearised information bound (``benchmarks/information_bound.py``, ninth round) leaves 0.18 mm of the block's
 deviation from its case-C path unknown on the tuning benches, about what ``mpc`` loses to ``limit``.
 
-**Bounded cost** (``move_periods``; zero: unbounded, the default). A move and a refinement replay every period so
-far, so their cost grows with the episode's length. With ``move_periods`` > 0 the bank resample-moves and refines
-only in its first ``move_periods`` periods; after them it only weighs its hypotheses by each new measurement (a plain
-particle filter), and no update costs more than one at ``move_periods``.
+**Bounded cost** (``move_periods``; zero: unbounded, the bank's default; ``mpc`` sets 30). A move and a refinement
+replay every period so far, so their cost grows with the episode's length. With ``move_periods`` > 0 the bank
+resample-moves and refines only in its first ``move_periods`` periods; after them it only weighs its hypotheses by
+each new measurement (a plain particle filter), and no update costs more than one at ``move_periods``.
 
 **Divergence.** If every hypothesis is ruled out (each ended the test while the bench runs on, or its state is not
 finite), or the weighted covariance is not finite and positive definite, the weights go back to the prior

@@ -8,7 +8,14 @@ refinements, and the plan) with the period it was made in and whether the bank r
 Prints the mean, median, p99 and largest decision time, the mean per block of 50 periods (a cost that grows with
 the episode's length shows here), the CPU per episode and each episode's outcome; writes ``OUT/decisions.json``
 (atomically). ``--against OUT``: also the bench-by-bench score difference from an earlier run on the same benches
-(a variant against the current settings; a handful of benches is a small sample: the interval says how small).
+(a variant against the current settings; a handful of benches is a small sample: the interval says how small),
+with both runs' successes and CPU per episode.
+
+Resumable and chunkable: each episode is checkpointed under ``OUT/tasks`` by its settings and bench index alone, so
+running again resumes, and runs of ``--first F --benches K`` chunks into one ``OUT`` are read back by a run over
+their union (``--first 0 --benches N``) without running anything again. Before its first timed episode each
+process runs a short untimed one (:func:`warm_up`), so that numba's cache loading (decisions of several seconds)
+is not counted as a decision's cost.
 """
 
 from __future__ import annotations
@@ -27,13 +34,36 @@ from triplanar.executor import TaskCheckpoint, pool_scope, run_tasks
 from triplanar.workbench.report import write_json
 
 BLOCK = 50  # periods per row of the along-the-episode table
+_BENCHES: dict[int, list] = {}  # per stream, the longest prefix drawn in this process (a prefix does not depend on n)
+_WARM: list[bool] = []  # whether this process has run its untimed episode
 
 
-def episode(task: tuple[dict, int, int, int]) -> dict:
-    """One ``mpc`` episode on tuning bench ``index`` (of ``n`` drawn from ``stream``): its outcome and, per decision,
+def bench_of(index: int, stream: int):
+    """Bench ``index`` of ``stream`` (``random_benches(n, stream)[index]`` for any ``n`` > ``index``)."""
+    drawn = _BENCHES.get(stream, [])
+    if index >= len(drawn):
+        drawn = _BENCHES[stream] = random_benches(max(index + 1, 2 * len(drawn)), stream)
+    return drawn[index]
+
+
+def warm_up() -> None:
+    """A short untimed ``mpc`` episode with tiny settings that still resample-move, refine and plan: the first
+    episode of a process loads numba's compiled functions from its cache, and that is not a decision's cost."""
+    if _WARM:
+        return
+    short = {"time_limit_s": 0.05}
+    tiny = {"bank_size": 4, "elites": 2, "horizon": 8, "hypotheses": 2, "iterations": 1, "refine_evaluations": 2,
+            "refine_every": 1, "samples": 8, "start_periods": 2}
+    run_episode(MPCController(**tiny), random_benches(1, TUNING_SEED, short)[0], env_kwargs=short)
+    _WARM.append(True)
+
+
+def episode(task: tuple[dict, int, int]) -> dict:
+    """One ``mpc`` episode on tuning bench ``index`` of ``stream``: its outcome and, per decision,
     (period, CPU s, resample-moved, refined)."""
-    params, index, n, stream = task
-    bench = random_benches(n, stream)[index]
+    params, index, stream = task
+    warm_up()
+    bench = bench_of(index, stream)
     controller = MPCController(**params)
     act, decisions = controller.act, []
 
@@ -102,7 +132,7 @@ def main() -> None:
     args = parse_args()
     out, params = Path(args.out), settings(args.mpc)
     n = args.first + args.benches
-    tasks = [(params, i, n, TUNING_SEED) for i in range(args.first, n)]
+    tasks = [(params, i, TUNING_SEED) for i in range(args.first, n)]
     with pool_scope(args.workers) as ex:
         results = run_tasks(episode, tasks, ex, progress=True, desc="mpc", checkpoint=TaskCheckpoint(out / "tasks"))
     s = summary_of(results)
@@ -120,13 +150,23 @@ def main() -> None:
         print(f"  bench {r['index']}: {r['reason']}, error {r['mimicry_error_mm']:.3f} mm, {r['steps']} steps, "
               f"{r['cpu_s']:.1f} CPU s")
     if args.against:
-        from experiments.stats import bootstrap_ci
-        base = json.loads((Path(args.against) / "decisions.json").read_text())["summary"]["scores"]
-        if len(base) != len(s["scores"]):
-            raise SystemExit(f"--against {args.against}: {len(base)} benches, not {len(s['scores'])}")
-        d = np.array(s["scores"]) - np.array(base)
-        mean, lo, hi = bootstrap_ci(d[None, :], lambda t: float(np.mean(t)))
-        print(f"score minus {args.against}'s: {mean:+.3f} mm ({lo:+.3f} to {hi:+.3f}, {len(d)} benches)")
+        against(s, Path(args.against), args.first)
+
+
+def against(s: dict, base_out: Path, first: int) -> None:
+    """The bench-by-bench score difference from an earlier run on the same benches, with its 95 % bootstrap
+    interval over the benches, and both runs' successes and CPU per episode."""
+    from experiments.stats import bootstrap_ci
+    run = json.loads((base_out / "decisions.json").read_text())
+    base = run["summary"]
+    if len(base["scores"]) != len(s["scores"]) or run.get("first", 0) != first:
+        raise SystemExit(f"--against {base_out}: benches {run.get('first', 0)}+{len(base['scores'])}, not "
+                         f"{first}+{len(s['scores'])}")
+    d = np.array(s["scores"]) - np.array(base["scores"])
+    mean, lo, hi = bootstrap_ci(d[None, :], lambda t: float(np.mean(t)))
+    print(f"score minus {base_out}'s: {mean:+.3f} mm ({lo:+.3f} to {hi:+.3f}, 95 % bootstrap over {len(d)} benches; "
+          f"single benches {d.min():+.3f} to {d.max():+.3f}); successes {s['success']} against {base['success']}; "
+          f"CPU per episode {s['cpu_s_per_episode']:.2f} s against {base['cpu_s_per_episode']:.2f} s")
 
 
 if __name__ == "__main__":

@@ -81,6 +81,10 @@ LIMIT_STATE = ("needs_env", "decisions")                    # LimitController fi
 MIX_SEED = 50_050  # the DAgger mixture's generator: [MIX_SEED, round, draw]
 REFUSED_STREAMS = {HELDOUT_SEED: "the held-out stream", STRESS_SEED: "the stress stream"}
 NOT_SETTINGS = ("name", "config", "load_N", "info")  # MPCController fields that are state, not settings
+# The labels' mpc keeps its estimator unbounded (move_periods 0: a resample-move and refinement in every period), as
+# the label folders were made before mpc's default bounded it (docs/performance.md); ``--expert move_periods=N``
+# overrides it. Pinned here, not taken from the default, so that a changed default does not change the expert.
+EXPERT_PINNED = {"mpc": {"move_periods": 0}, "limit": {}}
 # The sources whose code decides a label: the expert, its estimator and planner, the env and the physics under it.
 CODE = ("agents/mpc.py", "agents/estimator.py", "agents/planner.py", "agents/refine.py", "envs/core.py",
         "envs/base.py", "envs/prediction.py", "envs/triplanar_shear_v1.py", "triplanar/kernel.py",
@@ -99,7 +103,7 @@ class SettingsMismatch(ValueError):
 class LabelSettings:
     """What decides a folder's labels (stored in ``settings.json``): the stream of benches, the round and its driver
     (``"expert"``: ``mpc`` itself), DAgger's mixture ``beta``, the expert's settings that differ from
-    ``MPCController``'s defaults and the env's keyword arguments (sorted ``(name, value)`` pairs: hashable and
+    ``MPCController``'s defaults and :data:`EXPERT_PINNED` and the env's keyword arguments (sorted ``(name, value)`` pairs: hashable and
     picklable, the executor's tasks carry them)."""
 
     stream: int = TUNING_SEED
@@ -140,13 +144,18 @@ class LabelSettings:
 
 def make_expert(settings: LabelSettings) -> Any:
     """The expert of ``settings`` (tests replace this with a faster one where the point is the bookkeeping)."""
-    return TEACHERS[settings.teacher](**dict(settings.expert))
+    return TEACHERS[settings.teacher](**expert_kwargs(settings))
+
+
+def expert_kwargs(settings: LabelSettings) -> dict[str, Any]:
+    """The expert's settings that are not its class's defaults: :data:`EXPERT_PINNED`, then ``settings.expert``."""
+    return {**EXPERT_PINNED[settings.teacher], **dict(settings.expert)}
 
 
 def expert_settings(settings: LabelSettings) -> dict[str, Any]:
     """Every setting of the expert (defaults included: a changed default is a changed expert), JSON-ready."""
     kind = TEACHERS[settings.teacher]
-    expert = kind(**dict(settings.expert))
+    expert = kind(**expert_kwargs(settings))
     state = NOT_SETTINGS + (LIMIT_STATE if settings.teacher == "limit" else ())
     out = {f.name: getattr(expert, f.name) for f in fields(kind) if f.name not in state and not f.name.startswith("_")}
     return {k: str(v) if isinstance(v, Path) else v for k, v in out.items()}

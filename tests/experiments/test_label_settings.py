@@ -55,3 +55,14 @@ def test_a_docstring_is_not_a_code_change(tmp_path):
 def test_the_evaluation_streams_are_refused(stream):
     with pytest.raises(ValueError, match=f"stream {stream} is the"):
         dl.LabelSettings(stream=stream)
+
+
+def test_the_expert_keeps_the_unbounded_estimator_of_the_stored_folders():
+    """The label folders were made with ``mpc``'s estimator unbounded (``move_periods`` 0); ``mpc``'s default now
+    bounds it, and the expert does not follow the default unless told (``--expert move_periods=N``)."""
+    from agents.mpc import MPCController
+    assert MPCController().move_periods > 0
+    assert dl.expert_settings(dl.LabelSettings())["move_periods"] == 0
+    assert dl.make_expert(dl.LabelSettings()).move_periods == 0
+    told = dl.LabelSettings(expert=(("move_periods", 15),))
+    assert dl.make_expert(told).move_periods == 15 and dl.expert_settings(told)["move_periods"] == 15
