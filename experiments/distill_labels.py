@@ -103,8 +103,8 @@ class SettingsMismatch(ValueError):
 class LabelSettings:
     """What decides a folder's labels (stored in ``settings.json``): the stream of benches, the round and its driver
     (``"expert"``: ``mpc`` itself), DAgger's mixture ``beta``, the expert's settings that differ from
-    ``MPCController``'s defaults and :data:`EXPERT_PINNED` and the env's keyword arguments (sorted ``(name, value)`` pairs: hashable and
-    picklable, the executor's tasks carry them)."""
+    ``MPCController``'s defaults and :data:`EXPERT_PINNED` and the env's keyword arguments (sorted ``(name, value)``
+    pairs: hashable and picklable, the executor's tasks carry them)."""
 
     stream: int = TUNING_SEED
     round: int = 0

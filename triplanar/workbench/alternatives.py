@@ -30,7 +30,7 @@ from scipy.stats import t as student_t
 
 from ..effects import REGISTRY
 from ..measurement import MeasuredTest
-from .candidates import default_candidate
+from .candidates import default_candidate, screened_names
 from .executor import ExecutorLike, run_tasks
 from .fit import FitTask, run_fit
 from .fitbase import FitOutcome
@@ -45,14 +45,13 @@ ALTERNATIVE_NFEV = 10
 
 
 def alternative_names(user_base: ModelSpec, refit: Sequence[str], best: CandidateResult) -> list[str]:
-    """Registered one-parameter effects that ``diagnose`` screens (physics or instrument; ``Effect.screened``),
+    """The one-parameter effects ``diagnose`` screens (physics or instrument; :func:`.candidates.screened_names`),
     neither in the model (``user_base`` and the forward-selection effects ``refit``) nor the named ``best``."""
     taken = {*user_base.effect_names, *refit, best.effect}
     out = []
-    for name, cls in REGISTRY.items():
-        params = cls.parameters.values()
-        free = [p for p in params if p.free or p.per_test]
-        if name not in taken and cls.screened and len(free) == 1 and not free[0].per_test:
+    for name in screened_names():
+        free = [p for p in REGISTRY[name].parameters.values() if p.free or p.per_test]
+        if name not in taken and len(free) == 1 and not free[0].per_test:
             out.append(name)
     return out
 

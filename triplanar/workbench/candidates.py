@@ -265,12 +265,17 @@ def builtin_candidates(specimen: Specimen | None = None) -> dict[str, Candidate]
     return {name: default_candidate(name, specimen) for name in BUILTIN}
 
 
+def screened_names() -> list[str]:
+    """The effects ``diagnose`` tries when no candidates are named, in registration order: every registered effect
+    that is screened (``Effect.screened``) but the given numbers, ``specimen``, which :mod:`triplanar.workbench.given`
+    audits apart."""
+    return [n for n, cls in REGISTRY.items() if cls.acts_on != "specimen" and cls.screened]
+
+
 def candidate_library(names: Iterable[str] | None = None, exclude: Iterable[str] = (),
                       specimen: Specimen | None = None) -> list[Candidate]:
-    """Candidates for ``names`` (default: every registered effect that is screened, ``Effect.screened``, but the
-    given numbers, ``specimen``, which :mod:`triplanar.workbench.given` audits apart), minus ``exclude``."""
-    names = [n for n in REGISTRY if REGISTRY[n].acts_on != "specimen" and REGISTRY[n].screened] \
-        if names is None else list(names)
+    """Candidates for ``names`` (default: :func:`screened_names`), minus ``exclude``."""
+    names = screened_names() if names is None else list(names)
     skip = set(exclude)
     return [default_candidate(n, specimen) for n in names if n not in skip]
 

@@ -71,10 +71,10 @@ class Diagnoser:
         friction_scatter_deg: the specimen's repeat-to-repeat friction scatter ``expected_scatter_mm`` assumes (deg).
         audit: audit the specimen's given numbers beside the effects (:func:`~triplanar.workbench.given.audit_given`).
         locate: when the verdict is ``outside_library`` or ``high`` (naming more than one parameter), locate a cause
-            outside the library as one extra force on the block (:func:`~triplanar.workbench.locate.locate`: its point, direction and what it follows;
-            for an outside verdict evidence for the user, for a high one the rival that
-            :func:`~triplanar.workbench.rules.decide` holds it against). ``False``: the confidence as without that
-            rule.
+            outside the library as one extra force on the block (:func:`~triplanar.workbench.locate.locate`: its
+            point, direction and what it follows; for an outside verdict evidence for the user, for a high one the
+            rival that :func:`~triplanar.workbench.rules.decide` holds it against). ``False``: the confidence as
+            without that rule.
 
     Fitted attributes (set by ``fit`` only): ``evidence_`` (:class:`~triplanar.workbench.verdict.Evidence`: what
     was gathered), ``decision_`` (:class:`~triplanar.workbench.verdict.Verdict`: what

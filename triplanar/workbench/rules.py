@@ -642,8 +642,8 @@ def _effect_groups(ev: Evidence, draft: _Draft) -> _Draft:
     entries' (within one standard error of the difference, :func:`~triplanar.workbench.parsimony.parsimonious`) is
     named with them as a group, never alone with ``high`` (the confidence rules already make it ``low``), with the
     shear test that decides where :mod:`~triplanar.workbench.experiment` computed one and, for each instrument among
-    them, the measurement outside the shear test that checks it (``given_audit.EFFECT_MEASUREMENT``). A laboratory then reads "one of
-    these; this test decides" instead of a winner among twins (on the calibration's tuning part: rate friction
+    them, the measurement outside the shear test that checks it (``given_audit.EFFECT_MEASUREMENT``). A laboratory
+    then reads "one of these; this test decides" instead of a winner among twins (on the calibration's tuning part: rate friction
     named for cohesion, s3017; a load-cell gain for contact friction, s2020)."""
     if draft.kind is VerdictKind.LIBRARY_EFFECTS and draft.combination is not None:
         twins = [(s["effect"], list(s["indistinguishable_from"])) for s in draft.combination["steps"]]
@@ -761,8 +761,8 @@ def outside_force_rival(ev: Evidence, draft: _Draft | Verdict) -> dict[str, Any]
         return None
     mean, se = float(d.mean()), float(d.std(ddof=1) / math.sqrt(len(d)))
     own = 3 if loc.term.follows == "time" else 1        # a periodic force: amplitude, phase and its frequency
-    return {"force": f"{loc.term.label} ({loc.term.size:.3g} {loc.term.unit})", "force_parameters": own, "force_cv_mm": loc.term.cv_error_mm,
-            "named_parameters": count, "named_cv_mm": draft.unexplained_mm, "difference_mm2": mean,
+    return {"force": f"{loc.term.label} ({loc.term.size:.3g} {loc.term.unit})", "force_parameters": own,
+            "force_cv_mm": loc.term.cv_error_mm, "named_parameters": count, "named_cv_mm": draft.unexplained_mm, "difference_mm2": mean,
             "difference_se_mm2": se, "fires": own < count and mean <= OUTSIDE_FORCE_SE * se}
 
 

@@ -1,8 +1,9 @@
 """The hidden-effect scenarios the workbench is checked against (tests and benchmarks share them).
 
-Every registered effect with a ``scenario`` that ``diagnose`` screens (``triplanar/effects.py``: ``scenario``,
-``screened``): the parameter values a dataset is made with, which a fit must then recover. And two effects outside the library (never registered, so never a candidate),
-for data with something the library cannot name: :class:`ThrustRipple` and :class:`ForceRipple`.
+Every effect ``diagnose`` screens (:func:`~triplanar.workbench.candidates.screened_names`) that has a ``scenario``
+(``triplanar/effects.py``): the parameter values a dataset is made with, which a fit must then recover. And two
+effects outside the library (never registered, so never a candidate), for data with something the library cannot
+name: :class:`ThrustRipple` and :class:`ForceRipple`.
 """
 
 from __future__ import annotations
@@ -12,12 +13,14 @@ import math
 import numpy as np
 
 from ..effects import REGISTRY, Effect, Parameter
+from .candidates import screened_names
 
 
 def hidden_effects() -> dict[str, tuple[str, dict[str, float]]]:
     """effect -> (the ``--effect`` spec the data are made with, the parameters the fit must recover within 15 %)."""
-    return {name: (f"{name}:" + ",".join(f"{k}={v!r}" for k, v in cls.scenario.items()), dict(cls.scenario))
-            for name, cls in REGISTRY.items() if cls.scenario is not None and cls.screened}
+    scenarios = {name: REGISTRY[name].scenario for name in screened_names()}
+    return {name: (f"{name}:" + ",".join(f"{k}={v!r}" for k, v in values.items()), dict(values))
+            for name, values in scenarios.items() if values is not None}
 
 
 #: the registered effects' scenarios when this module is imported (see :func:`hidden_effects`)
