@@ -24,6 +24,7 @@ from .episodes import EpisodeBatch, outcome_table, run_batch
 from .stats import return_stats, row_stats
 
 DEFAULT_DESIGN = "default"
+OWN_BENCH = "leave --design out to run it on its model card's bench"
 STEEL_TIP_DEG = 8.0     # the nominal specimen's tip: what the model-based controllers assume on the default bench
 # Gains tuned by the bench study on its tuning benches (docs/actuator-study/tuning.csv); the study re-tunes them.
 PI_GAINS = {"kp": -20.0, "ki": 200.0}
@@ -90,9 +91,10 @@ def scripted_batch(name: str, design: Design | None, bench_set: str, n: int, see
 
 
 def batches_for(controller: str, design: Design | None, bench_set: str, n: int, seeds: Sequence[int] | None,
-                zoo_dir: Path | None = None) -> list[EpisodeBatch]:
+                zoo_dir: Path | None = None, default_named: bool = False) -> list[EpisodeBatch]:
     """One batch per seed of ``controller`` (scripted: noise replicates, default seed 0; shipped: its training
-    seeds, default all of its card's)."""
+    seeds, default all of its card's). ``design`` None: the default bench, or a shipped agent's own card's bench
+    unless ``default_named`` (the default bench was asked for by name: an agent of another bench is refused)."""
     if controller in BUILTIN:
         return [scripted_batch(controller, design, bench_set, n, s) for s in (seeds or [0])]
     from agents.zoo import bench_arguments, check_bench, check_layout, read_card
@@ -100,7 +102,10 @@ def batches_for(controller: str, design: Design | None, bench_set: str, n: int, 
     check_layout(card, {**card["env_kwargs"], **(design.env_kwargs() if design is not None else {})})  # before any work
     if design is not None:   # an agent runs on its card's bench only
         check_bench(card, bench_arguments({**card["env_kwargs"], **design.env_kwargs(),
-                                           "tip_friction_deg": design.tip_friction_deg}), f"design {design.name!r}")
+                                           "tip_friction_deg": design.tip_friction_deg}), f"design {design.name!r}",
+                    OWN_BENCH)
+    elif default_named:
+        check_bench(card, bench_arguments({}), f"design {DEFAULT_DESIGN!r}", OWN_BENCH)
     chosen = list(seeds) if seeds else list(card["seeds"])
     unknown = [s for s in chosen if s not in card["seeds"]]
     if unknown:
@@ -123,10 +128,12 @@ class Evaluation:
     wall_s: float
 
 
-def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = "heldout", n: int = 200,
+def evaluate(controller: str, *, design: str | None = None, bench_set: str = "heldout", n: int = 200,
              seeds: Sequence[int] | None = None, executor: ExecutorLike = None, zoo_dir: Path | None = None,
              progress: bool = True) -> Evaluation:
-    """Run ``controller`` on ``n`` benches of ``bench_set`` (the nominal set has its 12 loads) for each seed."""
+    """Run ``controller`` on ``n`` benches of ``bench_set`` (the nominal set has its 12 loads) for each seed, on
+    ``design`` (None: the default bench, or a shipped agent's card's; a shipped agent asked to run on another bench,
+    ``"default"`` included, is refused naming the first argument that differs)."""
     from agents import zoo
     zoo_dir = Path(zoo_dir or zoo.ZOO_DIR)   # named explicitly in every task
     names = controller_names(zoo_dir)
@@ -137,15 +144,15 @@ def evaluate(controller: str, *, design: str = DEFAULT_DESIGN, bench_set: str = 
     if isinstance(n, bool) or not isinstance(n, int) or not 0 < n <= MAX_BENCHES:
         raise ValueError(f"--n: expected a number of benches in [1, {MAX_BENCHES}], got {n!r}")
     check_seeds(seeds)
-    if design not in design_names():
+    if design is not None and design not in design_names():
         raise ValueError(f"unknown design {design!r}; choose from {design_names()}")
-    chosen = None if design == DEFAULT_DESIGN else design_by_name(design)
-    batches = batches_for(controller, chosen, bench_set, n, seeds, zoo_dir)
+    chosen = None if design in (None, DEFAULT_DESIGN) else design_by_name(design)
+    batches = batches_for(controller, chosen, bench_set, n, seeds, zoo_dir, default_named=design == DEFAULT_DESIGN)
     started = time.perf_counter()
     results = run_tasks(run_batch, batches, executor=executor, progress=progress, desc=f"{controller} on {bench_set}")
     errors, success = outcome_table(batches, results)
     returns = [[o.episode_return for o in r] for r in results]
-    return Evaluation(controller, design, bench_set, [b.seed for b in batches],
+    return Evaluation(controller, design or DEFAULT_DESIGN, bench_set, [b.seed for b in batches],
                       {**row_stats(errors, success, FAILURE_SCORE_MM), **return_stats(returns)}, results,
                       time.perf_counter() - started)
 

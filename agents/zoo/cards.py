@@ -191,14 +191,16 @@ def bench_arguments_of_env(env: Any) -> dict[str, Any]:
             | {f.name: getattr(inner.config, f.name) for f in fields(ShearConfig) if f.name not in EPISODE_ARGUMENTS})
 
 
-def check_bench(card: dict[str, Any], actual: dict[str, Any], where: str = "this env") -> None:
-    """Refuse, naming the first differing argument, a bench (:func:`bench_arguments`) other than the card's."""
+def check_bench(card: dict[str, Any], actual: dict[str, Any], where: str = "this env",
+                hint: str = "make its env with agent.make_env()") -> None:
+    """Refuse, naming the first differing argument, a bench (:func:`bench_arguments`) other than the card's; the
+    message ends with ``hint`` (what to do instead)."""
     expected = bench_arguments(card["env_kwargs"])
     for key, want in expected.items():
         have = actual.get(key)
         if not (have == want or (_is_number(have) and _is_number(want) and float(have) == float(want))):
             raise ShippedAgentError(f"shipped agent {card['name']!r} was trained with {key}={want!r} (model card: "
-                                    f"env_kwargs), {where} has {key}={have!r}; make its env with agent.make_env()")
+                                    f"env_kwargs), {where} has {key}={have!r}; {hint}")
 
 
 def card_markdown(card: dict[str, Any]) -> str:

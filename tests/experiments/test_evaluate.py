@@ -54,6 +54,19 @@ def test_evaluate_refuses_unknown_names_listing_the_valid_ones(tmp_path, capsys)
         ev.evaluate("adaptive", n=-3)
 
 
+def test_a_shipped_agent_on_a_bench_not_its_cards_is_refused_naming_the_argument(tmp_path, capsys):
+    """ppo_steel_slow_noisy's card is a 5 Hz stage: asked for the default bench by name (or a design of another
+    stage) it is refused before any episode, naming the argument; without --design it runs on its card's bench."""
+    for design in ("default", "steel_lab"):
+        out = tmp_path / design
+        assert cli.main(["evaluate", "--controller", "ppo_steel_slow_noisy", "--design", design, "--n", "1",
+                         "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert f"design '{design}' has stage_bandwidth_hz=20.0" in err and "leave --design out" in err
+        assert not out.exists() or not any(out.iterdir())
+    assert ev.batches_for("ppo_robust", None, "heldout", 1, [0], default_named=True)   # its card is the default
+
+
 def test_evaluate_writes_the_tables_and_plot(tmp_path, capsys):
     assert cli.main(["evaluate", "--controller", "moment_matching", "--benches", "stress", "--n", "6", "--seeds",
                      "0", "1", "--executor", "serial", "--out", str(tmp_path)]) == 0

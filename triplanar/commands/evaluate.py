@@ -24,9 +24,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--controller", required=True, help="a scripted controller (steel_tip, teflon_tip, "
                         "frictionless_tip, tracking_tip, moment_matching, pi_feedback, adaptive) or a shipped agent "
                         "(pinned in agents/zoo); an unknown name lists them all")
-    parser.add_argument("--design", default="default", help="actuator design of the bench study's sweep (default: "
-                        "the default bench; a shipped agent runs on its model card's bench, known tip included); an "
-                        "unknown name lists them")
+    parser.add_argument("--design", help="actuator design of the bench study's sweep, or 'default' (omitted: the "
+                        "default bench, and a shipped agent its model card's bench, known tip included; a shipped "
+                        "agent named with another design is refused naming the argument that differs); an unknown "
+                        "name lists them")
     parser.add_argument("--benches", default="heldout", choices=("heldout", "stress", "nominal"),
                         help="held-out specimens (the training ranges), stress specimens (outside them), or the "
                              "nominal specimen at the paper's 12 loads (default heldout)")
