@@ -22,6 +22,7 @@ from triplanar.paths import lateral_dilation
 from triplanar.simulate import simulate
 
 from .controller_base import Controller
+from .information_bound import InformationBound
 from .limit import LimitController
 from .mpc import MPCController
 
@@ -201,7 +202,7 @@ class AdaptiveMomentMatching(BenchMomentMatching):
 def _factories() -> dict[str, type]:
     return {"fixed_tip": BenchController, "frictionless_tip": BenchController, "moment_matching": BenchMomentMatching,
             "tracking_tip": BenchTracking, "pi_feedback": BenchPI, "adaptive": AdaptiveMomentMatching,
-            "limit": LimitController, "mpc": MPCController}
+            "limit": LimitController, "mpc": MPCController, "information_bound": InformationBound}
 
 
 def controller_names() -> list[str]:

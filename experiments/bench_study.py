@@ -37,7 +37,7 @@ from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 from . import tables
 from .designs import DESIGNS, Design
 from .episodes import EpisodeBatch, outcome_table, run_batch
-from .evaluate import MODEL_BASED, SCRIPTED, scripted_batch
+from .evaluate import MODEL_BASED, SCRIPTED, runs_in_real_time, scripted_batch
 from .stats import indistinguishable, row_stats
 
 __all__ = ["DESIGNS", "Design", "EpisodeBatch", "recommend", "run_bench_study", "run_batch"]
@@ -152,13 +152,7 @@ def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design],
              for s in design_seeds]
     design_runs = run_tasks(_design_ppo, tasks, executor=executor, progress=True, desc="design PPO",
                             checkpoint=TaskCheckpoint(out_dir / "tasks"))
-    batches = []
-    for design in designs:
-        for name in DESIGN_SCRIPTED:
-            batches += [scripted_batch(name, design, "heldout", n, s, pi, adaptive, f"{design.name}|{name}")
-                        for s in scripted_seeds]
-        batches += [scripted_batch(name, design, "heldout", min(n, n_model_based), scripted_seeds[0],
-                                   label=f"{design.name}|{name}") for name in model_based]
+    batches = design_batches(pi, adaptive, n, designs, scripted_seeds, model_based, n_model_based)
     kwargs_of = {d.name: tuple(sorted(d.env_kwargs().items())) for d in designs}
     by_name = {d.name: d for d in designs}
     for (_, design, _, seed), run in zip(tasks, design_runs):
@@ -180,6 +174,20 @@ def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design],
     from . import bench_plots
     bench_plots.designs_plot(out_dir / "designs.png", sorted(rows, key=lambda r: (r["demand"], r["design"])))
     return rows
+
+
+def design_batches(pi, adaptive, n: int, designs: Sequence[Design], scripted_seeds: Sequence[int],
+                   model_based: Sequence[str], n_model_based: int) -> list[EpisodeBatch]:
+    """Every design's scripted controllers (each noise replicate) and model-based controllers and references (one
+    replicate, ``n_model_based`` benches), labelled ``design|controller``."""
+    batches = []
+    for design in designs:
+        for name in DESIGN_SCRIPTED:
+            batches += [scripted_batch(name, design, "heldout", n, s, pi, adaptive, f"{design.name}|{name}")
+                        for s in scripted_seeds]
+        batches += [scripted_batch(name, design, "heldout", min(n, n_model_based), scripted_seeds[0],
+                                   label=f"{design.name}|{name}") for name in model_based]
+    return batches
 
 
 DESIGN_FIELDS = ("design", "tip_friction_deg", "stage_bandwidth_hz", "latency_s", "sensor_noise_m", "demand",
@@ -209,17 +217,23 @@ def best_rows(rows: list[dict[str, Any]]) -> list[dict[str, Any]]:
 
 
 def limit_lines(rows: list[dict[str, Any]]) -> list[str]:
-    """Per design with a ``limit`` row: its limit and the best buildable controller's score as a multiple of it."""
+    """Per design with a ``limit`` or ``information_bound`` row: the references and the best controller that runs in
+    real time as a multiple of each (``mpc``, which does not, beside them)."""
     lines = []
     for name in dict.fromkeys(r["design"] for r in rows):
-        mine = [r for r in rows if r["design"] == name]
-        limit = next((r for r in mine if r["controller"] == "limit"), None)
-        buildable = [r for r in mine if r["controller"] != "limit" and math.isfinite(r["score"])]
-        if limit is None or not buildable:
+        mine = {r["controller"]: r for r in rows if r["design"] == name}
+        references = [(label, mine[c]) for c, label in (("limit", "the limit"), ("information_bound", "the bound"))
+                      if c in mine]
+        real_time = [r for c, r in mine.items() if runs_in_real_time(c) and math.isfinite(r["score"])]
+        if not references or not real_time:
             continue
-        best = min(buildable, key=lambda r: r["score"])
-        lines.append(f"{name}: limit {limit['score']:.2f} mm (score, {limit['n_benches']} benches); best controller "
-                     f"{best['controller']} {best['score']:.2f} mm = {best['score'] / limit['score']:.2f} x the limit")
+        best = min(real_time, key=lambda r: r["score"])
+        refs = "; ".join(f"{label.split()[-1]} {r['score']:.2f} mm (score, {r['n_benches']} benches)"
+                         for label, r in references)
+        ratios = ", ".join(f"{best['score'] / r['score']:.2f} x {label}" for label, r in references)
+        offline = f" (mpc, not real time: {mine['mpc']['score']:.2f} mm)" if "mpc" in mine else ""
+        lines.append(f"{name}: {refs}; best real-time controller {best['controller']} {best['score']:.2f} mm = "
+                     f"{ratios}{offline}")
     return lines
 
 
@@ -231,11 +245,14 @@ def _describe(r: dict[str, Any]) -> str:
 
 def recommend(rows: list[dict[str, Any]]) -> str:
     """The least demanding design whose error interval lies wholly under the target (with the target success
-    rate); otherwise the designs that cannot be told apart from the best (overlapping intervals)."""
+    rate), with the controller to run on it (counting only those that run in real time); otherwise the designs that
+    cannot be told apart from the best (overlapping intervals)."""
     limits = limit_lines(rows)
-    per_design = (" Per design, the limit (perfect knowledge) and the best controller's distance to it: "
-                  + "; ".join(limits) + ".") if limits else ""
-    rows = [r for r in rows if r["controller"] != "limit"]  # a reference, not a controller a laboratory can build
+    per_design = (" Per design, the limit (perfect knowledge), the information-limited bound (what the bench's "
+                  "sensors allow) and the best real-time controller's distance to them: " + "; ".join(limits) + ".") \
+        if limits else ""
+    # only a controller a laboratory can build and run at the bench's period: not the references, not mpc
+    rows = [r for r in rows if runs_in_real_time(r["controller"])]
     ok = [r for r in rows if r["success_rate"] >= TARGET_SUCCESS and math.isfinite(r["error_high_mm"])
           and r["error_high_mm"] < TARGET_ERROR_MM]
     if ok:
@@ -336,7 +353,8 @@ def main(argv: Iterable[str] | None = None) -> int:
     parser.add_argument("--in-sample-run", help="a finished v0 PPO run directory (agents.trainer) to evaluate")
     parser.add_argument("--doc", help="also write the report (bench_report.md) here")
     parser.add_argument("--model-based", nargs="*", default=list(MODEL_BASED), choices=list(MODEL_BASED),
-                        help="model-based controllers to evaluate (default: mpc limit; none: leave them out)")
+                        help="model-based controllers and references to evaluate (default: mpc limit "
+                        "information_bound; none: leave them out)")
     parser.add_argument("--n-model-based", type=int, default=N_MODEL_BASED,
                         help="benches per design for the model-based controllers")
     parser.add_argument("--rerun", nargs="+", default=[], choices=[*SCRIPTED, *MODEL_BASED],

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from agents.controller_specs import ControllerSpec, ScriptedSpec, ShippedSpec, parse_controller
+from agents.information_bound import InformationBound
 from agents.heldout import TUNING_SEED, Outcome, bench_set, random_benches, run_episode
 
 NOISE_SEED = 40_040
@@ -72,9 +73,16 @@ def controller_of(batch: EpisodeBatch) -> tuple[Any, dict[str, Any], bool]:
 
 
 def run_batch(batch: EpisodeBatch) -> list[Outcome]:
+    """The batch's episodes; ``information_bound``'s outcome carries the bound, not its episode's error."""
     controller, env_kwargs, learned = controller_of(batch)
-    return [run_episode(controller, b, env_kwargs=env_kwargs, seed=i if learned else noise_seed(i, batch.seed),
-                        bench_set=batch.bench_set, index=i) for i, b in enumerate(benches_of(batch))]
+    out = []
+    for i, b in enumerate(benches_of(batch)):
+        played = run_episode(controller, b, env_kwargs=env_kwargs, seed=i if learned else noise_seed(i, batch.seed),
+                             bench_set=batch.bench_set, index=i)
+        if isinstance(controller, InformationBound):   # (the tip the design knows is not an unknown)
+            played = controller.outcome(played, b, env_kwargs, batch.tip_friction_deg)
+        out.append(played)
+    return out
 
 
 def outcome_table(batches: list[EpisodeBatch], results: list[list[Outcome]]) -> tuple[np.ndarray, np.ndarray]:

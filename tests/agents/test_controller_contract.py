@@ -47,12 +47,12 @@ def test_every_v0_controller_runs_through_the_loop(controller):
 
 
 @pytest.mark.parametrize("name", ["fixed_tip", "frictionless_tip", "tracking_tip", "moment_matching", "pi_feedback",
-                                  "adaptive", "mpc", "limit"])
+                                  "adaptive", "mpc", "limit", "information_bound"])
 def test_every_v1_bench_controller_runs_through_the_loop(name):
     from experiments.evaluate import ADAPTIVE_GAINS, BUILTIN, PI_GAINS
     assert {factory for factory, _, _ in BUILTIN.values()} <= {"fixed_tip", "frictionless_tip", "tracking_tip",
                                                                "moment_matching", "pi_feedback", "adaptive", "mpc",
-                                                               "limit"}
+                                                               "limit", "information_bound"}
     params = {"pi_feedback": PI_GAINS, "adaptive": ADAPTIVE_GAINS}.get(name, SMALL.get(name, {}))
     bench = nominal_benches([40.0])[0]
     env = TriPlanarShearV1Env()

@@ -129,15 +129,20 @@ def test_report_and_plots_take_a_row_without_successes(tmp_path):
     assert "recurrent PPO: none" in text and (tmp_path / "rows.png").stat().st_size > 0
 
 
-def test_the_limit_is_reported_per_design_but_never_recommended():
+def test_the_references_are_reported_per_design_and_only_real_time_controllers_recommended():
     def row(design, controller, score, high, demand=1):
         return {"design": design, "controller": controller, "score": score, "error_high_mm": high,
                 "mimicry_error_mm": score, "error_low_mm": score / 2, "success_rate": 1.0, "success_low": 0.98,
                 "success_high": 1.0, "n_benches": 50, "demand": demand, "tip_friction_deg": 3.0,
                 "stage_bandwidth_hz": 20.0, "latency_s": 0.005, "sensor_noise_m": 2e-4}
-    rows = [row("a", "limit", 0.4, 0.5, 0), row("a", "mpc", 1.2, 1.4, 0), row("b", "limit", 0.3, 0.4, 2),
+    rows = [row("a", "limit", 0.4, 0.5, 0), row("a", "mpc", 0.6, 0.7, 0), row("a", "best_scripted:adaptive", 1.2, 1.4, 0),
+            row("b", "limit", 0.3, 0.4, 2), row("b", "information_bound", 0.45, 0.5, 2), row("b", "mpc", 0.5, 0.6, 2),
             row("b", "ppo_robust", 0.9, 0.95, 2)]
     text = bs.recommend(rows)
-    assert "b (tip" in text and "a (tip" not in text.split("Per design")[0]
-    assert "a: limit 0.40 mm" in text and "mpc 1.20 mm = 3.00 x the limit" in text
-    assert "ppo_robust 0.90 mm = 3.00 x the limit" in text
+    # a's interval under 1 mm is mpc's, which does not run in real time: b is named, with the controller to run
+    assert "b (tip" in text and "b with ppo_robust" in text and "a (tip" not in text.split("Per design")[0]
+    assert "a (mpc)" not in text
+    assert "a: limit 0.40 mm (score, 50 benches); best real-time controller best_scripted:adaptive 1.20 mm = 3.00 x " \
+           "the limit (mpc, not real time: 0.60 mm)" in text
+    assert "b: limit 0.30 mm (score, 50 benches); bound 0.45 mm (score, 50 benches); best real-time controller " \
+           "ppo_robust 0.90 mm = 3.00 x the limit, 2.00 x the bound (mpc, not real time: 0.50 mm)" in text

@@ -22,8 +22,9 @@ HELP = ("evaluate a scripted, model-based or shipped controller on TriPlanarShea
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--controller", required=True, help="a scripted controller (steel_tip, teflon_tip, "
-                        "frictionless_tip, tracking_tip, moment_matching, pi_feedback, adaptive) or a shipped agent "
-                        "(pinned in agents/zoo); an unknown name lists them all")
+                        "frictionless_tip, tracking_tip, moment_matching, pi_feedback, adaptive), a model-based one "
+                        "(mpc; limit and information_bound: the references, perfect knowledge and what the bench's "
+                        "sensors allow) or a shipped agent (pinned in agents/zoo); an unknown name lists them all")
     parser.add_argument("--design", help="actuator design of the bench study's sweep, or 'default' (omitted: the "
                         "default bench, and a shipped agent its model card's bench, known tip included; a shipped "
                         "agent named with another design is refused naming the argument that differs); an unknown "
