@@ -99,6 +99,8 @@ class MPCController(Controller):
     thrust_envelope: float = 0.3
     normal_margin: float = 0.1
     plane_margin_m: float = 0.0
+    fev_budget: float = 0.0
+    decision_fev_budget: float = 0.0
     guard_weight: float = 0.1
     ramp_periods: int = 0
     offset_envelope: float = 1.0
@@ -216,5 +218,5 @@ class MPCController(Controller):
                      "planned": planned,
                      "estimate": dict(zip(PARAMETERS + GEOMETRY, (float(v) for v in mean))),
                      "tip_friction_interval_deg": self.bank.interval(0),
-                     "cpu_s": time.process_time() - start}
+                     "fevs": self.planner.last_fevs if planned else 0.0, "cpu_s": time.process_time() - start}
         return self._last.astype(np.float32)

@@ -10,6 +10,11 @@ model scores worse than the one it had.
 
 With several weighted states (the estimator's hypotheses of :mod:`agents.mpc`) a candidate's cost is the weighted
 mean of its costs from each: the plan is good on average over what the specimen may be.
+
+Work budgets (both off by default): ``fev_budget`` ends a candidate's rollout once its kernel evaluations exceed it
+(:mod:`envs.prediction`, "Work budget"), and ``decision_fev_budget`` starts no further iteration once the decision's
+evaluations exceed it (the first always runs), keeping the best plan found: a decision's cost is then bounded by the
+budget plus one iteration, counted in evaluations so that a plan is the same on every machine.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import numpy as np
 from envs.prediction import BenchState, predict
 
 _SETTINGS = ("horizon", "block", "samples", "iterations", "elites", "sigma0", "seed", "pace_s", "normal_margin",
-             "plane_margin_m")
+             "plane_margin_m", "fev_budget", "decision_fev_budget")
 
 
 @dataclass
@@ -43,11 +48,14 @@ class CEMPlanner:
     pace_s: float = 0.5
     normal_margin: float = 0.0
     plane_margin_m: float = 0.0
+    fev_budget: float = 0.0     # a candidate's work budget (envs.prediction, "Work budget"; zero: none)
+    decision_fev_budget: float = 0.0   # a decision's: no further iteration once spent (zero: none)
     low: tuple[float, float] = (-1.0, -1.0)
     high: tuple[float, float] = (1.0, 1.0)
     _mean: np.ndarray | None = None
     _rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
     last_cost: float = float("nan")
+    last_fevs: float = 0.0      # the kernel's right-hand-side evaluations of the last decision
     evaluations: int = 0
 
     @classmethod
@@ -90,7 +98,10 @@ class CEMPlanner:
             mean = self._mean
         sigma = np.full_like(mean, self.sigma0)
         best_knots, best_cost = mean.copy(), np.inf
+        work, spent = np.empty(self.samples), 0.0
         for _ in range(self.iterations):
+            if 0.0 < self.decision_fev_budget <= spent:
+                break   # (the first iteration always runs: the warm start and the previous elite are in it)
             noise = self._rng.standard_normal((self.samples, self.knots, 2))
             cand = np.clip(mean[None] + sigma[None] * noise, self.low, self.high)
             cand[0] = mean
@@ -101,14 +112,15 @@ class CEMPlanner:
             for state, weight in zip(states, w):
                 if weight > 0:
                     costs += weight * predict(state, plans, self.pace_s, self.normal_margin,
-                                               self.plane_margin_m)[0]
+                                               self.plane_margin_m, self.fev_budget, work)[0]
+                    spent += float(work.sum())
             self.evaluations += self.samples * len(states)
             order = np.argsort(costs, kind="stable")
             if costs[order[0]] < best_cost:
                 best_cost, best_knots = float(costs[order[0]]), cand[order[0]].copy()
             elite = cand[order[:self.elites]]
             mean, sigma = elite.mean(axis=0), np.maximum(elite.std(axis=0), 0.02)
-        self.last_cost = best_cost
+        self.last_cost, self.last_fevs = best_cost, spent
         return self._expand(best_knots[None])[0]
 
     def advance(self, plan: np.ndarray) -> None:
