@@ -57,3 +57,10 @@ def test_a_decision_starts_no_iteration_once_its_budget_is_spent():
     capped.plan([state, state], [0.5, 0.5], hold)
     assert free.evaluations == 3 * 8 * 2 and capped.evaluations == 8 * 2   # the first iteration only
     assert 0 < capped.last_fevs < free.last_fevs
+
+
+def test_a_negative_budget_is_refused_naming_it():
+    import pytest
+    for name in ("fev_budget", "decision_fev_budget"):
+        with pytest.raises(ValueError, match=name):
+            CEMPlanner(**{name: -1.0})
