@@ -681,7 +681,7 @@ def _given_numbers(ev: Evidence, draft: _Draft) -> _Draft:
         fit = a.fitted
         if fit is None or not fit.plausible or fit.improvement < MIN_IMPROVEMENT:
             continue
-        p = fit.parameters[a.name]
+        p = fit.parameters[a.parameter]
         ci = "" if p.ci95 is None else f" [{p.ci95[0]:.4g}, {p.ci95[1]:.4g}]"
         draft.reasons.append(Reason(f"your given {a.name} = {a.screen.given:.4g} is probably {p.value:.4g}{ci} (it "
                                     f"leaves {fit.cv_error_mm:.2f} mm {ev.where}; to decide: {a.deciding})",
