@@ -122,8 +122,8 @@ def free_candidates(free: Mapping[str, tuple[float, float] | None], specimen: Sp
     if unknown and not (unknown[0].startswith("cp") and unknown[0].endswith("_x2_m")):
         raise EffectError(f"no given number {unknown[0]!r}; freeable numbers: of the specimen {', '.join(NUMBERS)}; "
                           f"of the instruments {', '.join(INSTRUMENT_NUMBERS)}")
-    mine = {k: v for k, v in free.items() if k not in INSTRUMENT_NUMBERS}
-    out = [specimen_candidate(mine, specimen, foundation)] if mine else []
+    of_specimen = {k: v for k, v in free.items() if k not in INSTRUMENT_NUMBERS}
+    out = [specimen_candidate(of_specimen, specimen, foundation)] if of_specimen else []
     return out + instrument_candidates({k: v for k, v in free.items() if k in INSTRUMENT_NUMBERS})
 
 
@@ -239,8 +239,8 @@ def _screen_models(ev: Evidence, tasks: Sequence[CandidateTask], tests: Sequence
     many of them are given numbers: the specimen's, the instruments' (those whose effect the model does not set: a
     given instrument effect is refitted as one), then the leading one-parameter candidates' (``effect.param``)."""
     specs, steps = _trials(ev.base, specimen_candidate(dict.fromkeys(NUMBERS), specimen, foundation), tests)
-    mine = {k: None for k, n in INSTRUMENT_NUMBERS.items() if n.effect not in ev.base.effect_names}
-    for cand in instrument_candidates(mine):      # (their start is the model as given: the first model stands for it)
+    unset = {k: None for k, n in INSTRUMENT_NUMBERS.items() if n.effect not in ev.base.effect_names}
+    for cand in instrument_candidates(unset):      # (their start is the model as given: the first model stands for it)
         more, found = _trials(ev.base, cand, tests)
         specs += more[1:]
         steps += [(number_of(cand.effect, p) or p, g, b, h) for p, g, b, h in found]

@@ -144,7 +144,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 import numpy as np
 
-from .given_audit import effect_measurements
+from .given_audit import GivenAudit, effect_measurements
 from .parsimony import difference_se, parsimonious
 from .verdict import Evidence, NamedEffect, Reason, Verdict, VerdictKind, label
 
@@ -681,7 +681,7 @@ def _given_numbers(ev: Evidence, draft: _Draft) -> _Draft:
     least = _number_bar(ev)
     for a in ev.given_numbers:
         fit = a.fitted
-        if fit is None or not fit.plausible or fit.improvement < least:
+        if fit is None or not fit.plausible or fit.improvement < least or _holds_given(a):
             continue
         p = fit.parameters[a.parameter]
         ci = "" if p.ci95 is None else f" [{p.ci95[0]:.4g}, {p.ci95[1]:.4g}]"
@@ -706,6 +706,13 @@ def _given_numbers(ev: Evidence, draft: _Draft) -> _Draft:
             draft.confidence = "low"
             draft.effects = [_capped(e) for e in draft.effects]
     return draft
+
+
+def _holds_given(a: GivenAudit) -> bool:
+    """Whether the fitted number's 95 % interval holds the value given: the data then do not say it is wrong."""
+    assert a.fitted is not None
+    ci = a.fitted.parameters[a.parameter].ci95
+    return ci is not None and ci[0] <= a.screen.given <= ci[1]
 
 
 def _number_bar(ev: Evidence) -> float:
