@@ -624,18 +624,47 @@ def _combined(ev: Evidence, draft: _Draft) -> _Draft:
                         f"{ev.where}; together they leave {comb.cv_error_mm:.2f} mm against a repeat scatter of "
                         f"{scatter:.2f} mm" + (f"; low confidence at the step of {'; '.join(low)}" if low else ""),
                         "EXPLAINED_FACTOR", comb.cv_error_mm, EXPLAINED_FACTOR * scatter)
+        named, idle = _drop_idle(steps)
         effects = [NamedEffect(s["effect"], s["kind"], dict(s["params"]), dict(s["param_ci95"]), s["confidence"],
                                dict(s.get("given") or {}), {k: v for k, v in s.items() if k != "given"})
-                   for s in steps]
+                   for s in named]
         return _Draft(VerdictKind.LIBRARY_EFFECTS, effects,
-                      next((s["effect"] for s in steps if s["kind"] == "candidate"), None),
-                      "high" if all(s["confidence"] == "high" for s in steps) else "low", [reason],
+                      next((s["effect"] for s in named if s["kind"] == "candidate"), None),
+                      "high" if all(s["confidence"] == "high" for s in named) else "low", [reason, *idle],
                       comb.cv_error_mm, draft.combination, True)
     if len(steps) >= 2:
         draft.reasons.append(Reason(f"in combination ({listed} of the error {ev.where}) they still leave "
                                     f"{comb.cv_error_mm:.2f} mm" + (", periodic" if comb.periodic else ""),
                                     "EXPLAINED_FACTOR", comb.cv_error_mm, EXPLAINED_FACTOR * scatter))
     return draft
+
+
+def _idle_parameters(step: Mapping[str, Any]) -> dict[str, Sequence[float]]:
+    """A combination step's fitted parameters and their 95 % intervals (in the combination's joint fit) when every
+    one holds the value at which the effect does nothing (its neutral value); else empty."""
+    from ..effects import REGISTRY
+    cls = REGISTRY.get(step["effect"])
+    if cls is None or step["kind"] != "candidate":
+        return {}
+    cis = {k: ci for k, ci in step["param_ci95"].items() if ci is not None and k in cls.parameters}
+    holds = all(ci[0] <= cls.parameters[k].neutral_value <= ci[1] for k, ci in cis.items())
+    return cis if cis and holds else {}
+
+
+def _drop_idle(steps: list[dict[str, Any]]) -> tuple[list[dict[str, Any]], list[Reason]]:
+    """The steps a ``library_effects`` verdict names: not one that does nothing identifiable beside the others (every
+    parameter's interval in the joint fit holds its neutral value: it removed its share at its step, and the entries
+    that joined after it took that share over), as long as two remain; with the reason for each left out. On the
+    calibration's first beyond part (seeds 6000-6017, tuning) a time offset came first for two instrument gains at
+    once and ended at dt_s = 0.00033 s [-0.00079, 0.00145] beside them (s6003)."""
+    idle = {i: _idle_parameters(s) for i, s in enumerate(steps)}
+    idle = {i: p for i, p in idle.items() if p}
+    if not idle or len(steps) - len(idle) < 2:
+        return steps, []
+    reasons = [Reason(f"{steps[i]['effect']} is not named: beside the others its "
+                      + ", ".join(f"{k} [{ci[0]:.4g}, {ci[1]:.4g}]" for k, ci in p.items())
+                      + " holds the value at which it does nothing", "combination.idle_step") for i, p in idle.items()]
+    return [s for i, s in enumerate(steps) if i not in idle], reasons
 
 
 def _effect_groups(ev: Evidence, draft: _Draft) -> _Draft:
@@ -647,7 +676,9 @@ def _effect_groups(ev: Evidence, draft: _Draft) -> _Draft:
     then reads "one of these; this test decides" instead of a winner among twins (on the calibration's tuning part: rate friction
     named for cohesion, s3017; a load-cell gain for contact friction, s2020)."""
     if draft.kind is VerdictKind.LIBRARY_EFFECTS and draft.combination is not None:
-        twins = [(s["effect"], list(s["indistinguishable_from"])) for s in draft.combination["steps"]]
+        named = {e.effect for e in draft.effects}
+        twins = [(s["effect"], list(s["indistinguishable_from"])) for s in draft.combination["steps"]
+                 if s["effect"] in named]
     elif draft.kind in (VerdictKind.LIBRARY_EFFECT, VerdictKind.REFIT_GIVEN_EFFECT) and ev.best is not None:
         twins = [(label(ev.best), [label(c) for c in ev.lookalikes])]
     else:
