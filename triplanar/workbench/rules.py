@@ -702,11 +702,14 @@ def _format_value(name: str, value: float, ci: Sequence[float] | None) -> str:
 def _given_numbers(ev: Evidence, draft: _Draft) -> _Draft:
     """The audit of the given numbers (specimen, instruments) on the draft (only when one was fitted in full, so a
     diagnosis without the audit decides as before). A number *explains* as an entry does (improvement at least
-    ``MIN_IMPROVEMENT``, plausible); it is then said ("your given X is probably Y [interval]") with the measurement
-    that decides it. It caps the verdict's confidence at ``low`` when its cross-validated error is within ``MARGIN`` x
-    what the named entries leave, or when a named entry is in its look-alike group (signatures the same within the
-    noise: no shear test tells them apart; the group and its deciding measurement are reported; the entry examined
-    and its look-alikes count as named here)."""
+    ``MIN_IMPROVEMENT``, plausible; :func:`_number_bar`) and when its interval does not hold the value given
+    (:func:`_holds_given`). Where an entry is named, a number that explains is said only as its rival: its
+    cross-validated error within ``MARGIN`` x what the named entries leave, or a named entry in its look-alike group
+    (signatures the same within the noise: no shear test tells them apart; the entry examined and its look-alikes
+    count as named here); a number the named entries beat by more is not said (on the calibration's tuning part such
+    sentences came only where every given number was right). A number said ("your given X is probably Y [interval]",
+    with the measurement that decides it) caps the confidence at ``low`` when it is such a rival or twin; the group and
+    its deciding measurement are reported."""
     named = {e.effect for e in draft.effects}
     examined = named | ({ev.best.effect, *(c.effect for c in ev.lookalikes)} if ev.best is not None else set())
     least = _number_bar(ev)
@@ -714,29 +717,38 @@ def _given_numbers(ev: Evidence, draft: _Draft) -> _Draft:
         fit = a.fitted
         if fit is None or not fit.plausible or fit.improvement < least or _holds_given(a):
             continue
-        p = fit.parameters[a.parameter]
-        ci = "" if p.ci95 is None else f" [{p.ci95[0]:.4g}, {p.ci95[1]:.4g}]"
-        draft.reasons.append(Reason(f"your given {a.name} = {a.screen.given:.4g} is probably {p.value:.4g}{ci} (it "
-                                    f"leaves {fit.cv_error_mm:.2f} mm {ev.where}; to decide: {a.deciding})",
-                                    "MIN_IMPROVEMENT", fit.improvement, least))
         twins = [g for g in a.group if g in examined]
         rival = bool(named) and fit.cv_error_mm <= MARGIN * draft.unexplained_mm
-        if twins:
-            members = [*twins, f"the given {a.name}"]
-            deciding = a.deciding_with(twins)
-            draft.groups.append({"members": [*twins, a.name], "source": "given", "deciding_measurement": deciding})
-            draft.reasons.append(Reason(f"{' and '.join(members)} change the traces alike on these data (their "
-                                        f"sensitivities agree within the noise, {ev.noise_floor_mm:.2f} mm): no shear "
-                                        f"test tells them apart; to decide: {deciding}", "given.same_within_noise",
-                                        fit.cv_error_mm, draft.unexplained_mm))
-        elif rival:
-            draft.reasons.append(Reason(f"the given {a.name} refitted leaves {fit.cv_error_mm:.2f} mm, within "
-                                        f"{MARGIN:g} x the named entry's {draft.unexplained_mm:.2f} mm", "MARGIN",
-                                        fit.cv_error_mm, MARGIN * draft.unexplained_mm))
-        if (twins or rival) and draft.confidence == "high":
+        if named and not (twins or rival):
+            continue
+        _say_number(ev, draft, a, twins, rival, least)
+        if draft.confidence == "high" and (twins or rival):
             draft.confidence = "low"
             draft.effects = [_capped(e) for e in draft.effects]
     return draft
+
+
+def _say_number(ev: Evidence, draft: _Draft, a: GivenAudit, twins: list[str], rival: bool, least: float) -> None:
+    """The reasons (and the look-alike group) of a given number that explains (:func:`_given_numbers`)."""
+    fit = a.fitted
+    assert fit is not None
+    p = fit.parameters[a.parameter]
+    ci = "" if p.ci95 is None else f" [{p.ci95[0]:.4g}, {p.ci95[1]:.4g}]"
+    draft.reasons.append(Reason(f"your given {a.name} = {a.screen.given:.4g} is probably {p.value:.4g}{ci} (it "
+                                f"leaves {fit.cv_error_mm:.2f} mm {ev.where}; to decide: {a.deciding})",
+                                "MIN_IMPROVEMENT", fit.improvement, least))
+    if twins:
+        members = [*twins, f"the given {a.name}"]
+        deciding = a.deciding_with(twins)
+        draft.groups.append({"members": [*twins, a.name], "source": "given", "deciding_measurement": deciding})
+        draft.reasons.append(Reason(f"{' and '.join(members)} change the traces alike on these data (their "
+                                    f"sensitivities agree within the noise, {ev.noise_floor_mm:.2f} mm): no shear "
+                                    f"test tells them apart; to decide: {deciding}", "given.same_within_noise",
+                                    fit.cv_error_mm, draft.unexplained_mm))
+    elif rival:
+        draft.reasons.append(Reason(f"the given {a.name} refitted leaves {fit.cv_error_mm:.2f} mm, within "
+                                    f"{MARGIN:g} x the named entry's {draft.unexplained_mm:.2f} mm", "MARGIN",
+                                    fit.cv_error_mm, MARGIN * draft.unexplained_mm))
 
 
 def _holds_given(a: GivenAudit) -> bool:
