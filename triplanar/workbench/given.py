@@ -206,8 +206,9 @@ def audit_given(ev: Evidence, tasks: Sequence[CandidateTask], tests: Sequence[Me
     """The audit of the given numbers, the specimen's and the instruments' (module doc of
     :mod:`triplanar.workbench.rules`, ``SCREEN_*``): every number screened by its linearised sensitivity at the model
     diagnosed; those that could remove at least ``SCREEN_SHARE`` of the squared discrepancy within their tolerance
-    (at most ``MAX_AUDITED``, largest first) fitted in full (cross-validated, as a candidate), but an instrument's
-    number whose effect the diagnosis tries as a candidate (that fit is the candidate's); each grouped with the numbers
+    (at most ``MAX_AUDITED`` of the specimen's and ``MAX_AUDITED_INSTRUMENTS`` of the instruments', largest first)
+    fitted in full (cross-validated, as a candidate), but an instrument's number whose effect the diagnosis tries as a
+    candidate (that fit is the candidate's); each grouped with the numbers
     and the leading effects whose signature is the same within the noise. Nothing is audited when the model already
     sets numbers through a ``specimen`` effect (``--effect specimen:...``): write them in the specimen file instead."""
     from .executor import executor_scope
@@ -222,8 +223,10 @@ def audit_given(ev: Evidence, tasks: Sequence[CandidateTask], tests: Sequence[Me
     signatures = [_signature(n, g, b, _column(r, r0, h), r0) for (n, g, b, h), r in zip(steps, found)]
     numbers, effects = signatures[:n_numbers], signatures[n_numbers:]
     tried = {t.candidate.effect for t in tasks if t.kind == "candidate"}
-    chosen = sorted((s for s in numbers if s.share >= rules.SCREEN_SHARE and _fitted_here(s.label, tried)),
-                    key=lambda s: -s.share)[:rules.MAX_AUDITED]
+    likely = sorted((s for s in numbers if s.share >= rules.SCREEN_SHARE and _fitted_here(s.label, tried)),
+                    key=lambda s: -s.share)
+    chosen = ([s for s in likely if s.label not in INSTRUMENT_NUMBERS][:rules.MAX_AUDITED]
+              + [s for s in likely if s.label in INSTRUMENT_NUMBERS][:rules.MAX_AUDITED_INSTRUMENTS])
     fitted = _fit_in_full(ev, tasks, tests, executor, progress, [s.label for s in chosen], specimen, foundation)
     out = []
     for s in numbers:
