@@ -134,6 +134,16 @@ Reported on the held-out part, seeds 8000-8065 (66 datasets, run once with these
 ``docs/workbench.md``, every line in ``docs/notes/workbench-calibration-heldout-8000.md``): 41 of 43 in-library
 verdicts right (95.3 %), 10 of 10 clean ones ``none_missing``, never ``high`` on a wrong answer; the outside-force rule
 lowered none of the 13 ``high`` s (all right). Those seeds tune from then on.
+
+Then, on 2026-11-29 (issue 33 item 1: the instruments' given numbers in the audit, :mod:`~triplanar.workbench.given`),
+what a given number says (:func:`_given_numbers`, :func:`_holds_given`, :func:`_number_bar`) and a combination's
+idle step (:func:`_drop_idle`), chosen on 224 of the tuning datasets with the first beyond part (seeds 6000-6017)
+in them: no in-library verdict or confidence changed, the beyond part's 13 -> 15 of 17
+(``docs/notes/workbench-calibration-tuning.md``). Reported once (commit 3154a2a; ``docs/workbench.md``): the second
+beyond part, seeds 6100-6135, 32 of 36 right (27 with the audit rule before), never ``high`` on a wrong answer; the
+held-out part, seeds 9000-9065, 39 of 40 in-library verdicts right, 10 of 10 clean ones ``none_missing``, ``high`` on
+a wrong answer once (s9052, a time offset's value 0.05 ms outside its interval), no verdict changed by the rules of
+this change on the same evidence. Those seeds tune from then on.
 """
 
 from __future__ import annotations
