@@ -10,9 +10,10 @@ naming both), ``none_missing`` (the model is the truth) and ``outside_library`` 
 ``benchmarks/calibration_plugins.py``), and the BEYOND part's kinds (issue 33: ``given_number``, a specimen number
 off its drawing, the audit expected to name it; two instrument gains; a logger clock running fast or slow). Each
 dataset comes from its stated seed (:data:`PARTS`): the TUNING part has seeds 1000-1033, 2000-2065, 3000-3065,
-4000-4065, 7000-7065 and 8000-8065 (the held-out parts of the first five reports: looked at, so tuning data since),
-the HELD-OUT part 9000-9065, the BEYOND part 6000-6017 (``--part``; ``--first-seed N`` numbers a part's datasets from N
-instead, for new seeds); choose rules on the tuning part only. ::
+4000-4065, 7000-7065, 8000-8065 and 9000-9065 (the held-out parts of the first six reports: looked at, so tuning data
+since) and the BEYOND parts 6000-6017 and 6100-6135 (each reported once; alone: ``beyond-tuning``), the HELD-OUT part
+10000-10065, the next beyond part ``beyond-3``, 6200-6235 (``--part``; ``--first-seed N`` numbers a part's datasets
+from N instead, for new seeds); choose rules on the tuning part only. ::
 
     PYTHONPATH=. python benchmarks/workbench_calibration.py generate --part tuning [--out /work/calib]
     PYTHONPATH=. python benchmarks/workbench_calibration.py run --part tuning [--out /work/calib]
@@ -58,11 +59,18 @@ LOADS_NOTE = ("27.8 N is left out: with the smoothed law a block below its thres
               "the stiffer truths (end friction 12 deg, cohesion) put their threshold near it")
 #: The parts, each a list of seed ranges ``(first seed, mix)``; a range's datasets are numbered first seed + index.
 #: Seeds 2000-2065, 3000-3065, 4000-4065 and 7000-7065 were the held-out parts of the four reports of 2026-11-28,
-#: 8000-8065 that of 2026-11-29 (``docs/notes/``): looked at, they tune since. Seeds 5000-5999 are left to ad hoc
-#: studies (``--first-seed``).
-PARTS = {"tuning": ((1000, "small"), (2000, "full"), (3000, "full"), (4000, "full"), (7000, "full"), (8000, "full")),
-         "held-out": ((9000, "full"),),
-         "beyond": ((6000, "beyond"),)}
+#: 8000-8065 and 9000-9065 those of 2026-11-29 (``docs/notes/``): looked at, they tune since. The beyond parts,
+#: seeds 6000-6017 (reported 2026-11-28) and 6100-6135 (``beyond-2``, the beyond mix twice over, reported
+#: 2026-11-29), tune since too (``beyond-tuning``: those seeds alone); ``beyond-3``, 6200-6235, is the next report's,
+#: with the held-out part 10000-10065. Seeds 5000-5999 are left to ad hoc studies (``--first-seed``).
+PARTS = {"tuning": ((1000, "small"), (2000, "full"), (3000, "full"), (4000, "full"), (6000, "beyond"),
+                    (6100, "beyond-36"), (7000, "full"), (8000, "full"), (9000, "full")),
+         "held-out": ((10000, "full"),),
+         "beyond-tuning": ((6000, "beyond"), (6100, "beyond-36")),
+         "beyond-2": ((6100, "beyond-36"),),
+         "beyond-3": ((6200, "beyond-36"),)}
+#: The parts for reporting rules chosen on the others (``run`` asks ``--i-am-reporting``).
+REPORTING = ("held-out", "beyond-3")
 
 
 def _u(rng: np.random.Generator, lo: float, hi: float, signed: bool = False) -> float:
@@ -180,9 +188,9 @@ BEYOND_LABELS: dict[str, tuple] = {
 }
 LABELS.update(BEYOND_LABELS)
 #: datasets per label in each mix (the clean kind gets more: its target is a rate over the clean datasets):
-#: "small" 34 datasets, "full" 66, "beyond" 18 (its own labels only)
-REPLICATES = {"small": {"none_missing": 3}, "full": {"none_missing": 5}, "beyond": {}}
-DEFAULT_REPLICATES = {"small": 1, "full": 2, "beyond": 3}
+#: "small" 34 datasets, "full" 66, "beyond" 18 (its own labels only), "beyond-36" the same labels twice as often
+REPLICATES = {"small": {"none_missing": 3}, "full": {"none_missing": 5}, "beyond": {}, "beyond-36": {}}
+DEFAULT_REPLICATES = {"small": 1, "full": 2, "beyond": 3, "beyond-36": 6}
 EXPECTED = {"effect": "library_effect", "refit": "refit_given_effect", "pair": "library_effects",
             "none_missing": "none_missing", "outside_library": "outside_library",
             "given_number": "given_number"}     # not a verdict kind: the audit names the number (score)
@@ -200,7 +208,7 @@ def _seed_range(mix: str, first_seed: int) -> list[tuple[str, int]]:
     """``(label, seed)`` of a range of ``mix`` (seed = ``first_seed`` + index), the kinds taken in turn (so that the
     first datasets of a range already hold every kind: a run cut short still covers them)."""
     queues: dict[str, list[str]] = {kind: [] for kind in EXPECTED}
-    labels = {k: v for k, v in LABELS.items() if (k in BEYOND_LABELS) == (mix == "beyond")}
+    labels = {k: v for k, v in LABELS.items() if (k in BEYOND_LABELS) == mix.startswith("beyond")}
     counts = {label: REPLICATES[mix].get(kind, DEFAULT_REPLICATES[mix]) for label, (kind, _) in labels.items()}
     for round_ in range(max(counts.values())):
         for label, (kind, _) in labels.items():
@@ -548,7 +556,8 @@ def _row(label: str, seed: int, truth: dict, ev, verdict, seconds: float, n_test
             "lookalike_groups": report["lookalike_groups"], "given_numbers": report["given_numbers"],
             "evidence": _evidence(ev, verdict), "best_entry": _best_entry(ev.best), "n_tests": n_tests,
             "seconds": round(seconds, 1), "generation_seconds": truth.get("seconds"),
-            "detectability": None if detect is None else {k: v for k, v in detect.items() if k != "settings"}}
+            "detectability": None if detect is None else {k: v for k, v in detect.items() if k != "settings"},
+            "clock_rate": truth["settings"].get("clock_rate")}
 
 
 def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | None:
@@ -679,10 +688,9 @@ def _right(r: dict[str, Any], expected: str, effects: set[str], groups: bool = F
                 and all(n & want for n in named))
     verdict = r["verdict"]
     if expected == "given_number":      # the audit says "your given NAME is probably ..." (or groups it)
-        wanted = {k for e in r["truth"] if e["name"] == "specimen" for k in e["parameters"]}
-        said = {a for a in wanted if f"your given {a} =" in r["reason"]}
-        grouped = {m for g in (r.get("lookalike_groups") or []) for m in g["members"]} if groups else set()
-        return bool(wanted) and wanted <= said | grouped
+        return _audit_names(r, {k for e in r["truth"] if e["name"] == "specimen" for k in e["parameters"]}, groups)
+    if r.get("clock_rate") and expected == "outside_library" and _audit_names(r, {CLOCK}, groups):
+        return True                     # a logger clock off: the audit of the instruments' numbers names it
     if expected == "library_effect":
         return verdict == "library_effect" and any(e in n for n in named for e in effects)
     if expected == "refit_given_effect":
@@ -690,6 +698,26 @@ def _right(r: dict[str, Any], expected: str, effects: set[str], groups: bool = F
     if expected == "library_effects":
         return verdict == "library_effects" and covers(effects)
     return verdict == expected
+
+
+#: The instruments' given number a logger clock off its rate is (``triplanar.instrument_numbers``).
+CLOCK = "time_base_rate"
+
+
+def _audit_names(r: dict[str, Any], wanted: set[str], groups: bool) -> bool:
+    """Whether the audit says "your given NAME is probably ..." of every wanted number (with ``groups``: or a named
+    look-alike group holds it, an instrument's number by its effect's name)."""
+    from triplanar.instrument_numbers import INSTRUMENT_NUMBERS
+    said = {a for a in wanted if f"your given {a} =" in r["reason"]}
+    members = {m for g in (r.get("lookalike_groups") or []) for m in g["members"]} if groups else set()
+    grouped = {a for a in wanted if a in members or (a in INSTRUMENT_NUMBERS and INSTRUMENT_NUMBERS[a].effect in members)}
+    return bool(wanted) and wanted <= said | grouped
+
+
+def _clock_covered(r: dict[str, Any]) -> bool:
+    """Whether the audit's interval for the time base holds the clock's true rate."""
+    ci = next((a.get("ci95") for a in r.get("given_numbers") or [] if a["name"] == CLOCK), None)
+    return ci is not None and ci[0] <= r["clock_rate"] <= ci[1]
 
 
 def score(r: dict[str, Any]) -> dict[str, Any]:
@@ -711,6 +739,8 @@ def score(r: dict[str, Any]) -> dict[str, Any]:
         audited = {a["name"]: a for a in r.get("given_numbers") or [] if a.get("ci95")}
         covers = [audited[k]["ci95"][0] <= v <= audited[k]["ci95"][1] for k, v in truth["specimen"].items()
                   if k in audited]
+    if r.get("clock_rate") and f"your given {CLOCK} =" in r["reason"]:    # a clock the audit named: its interval
+        kind, covers = "given_number", [_clock_covered(r)]
     value = None if kind in ("none_missing", "outside_library") or not covers else all(covers)
     return {"right": right, "right_in_group": in_group, "value_ok": value,
             "high_wrong": r["confidence"] == "high" and (not right or value is False),
@@ -837,8 +867,9 @@ def table(rows: list[dict[str, Any]]) -> list[str]:
 
 def run(args: argparse.Namespace) -> None:
     from triplanar.executor import run_tasks
-    if "held-out" in args.parts and not args.i_am_reporting:
-        raise SystemExit("run --part held-out: the held-out part is for reporting rules chosen on the tuning part; "
+    reported = [p for p in args.parts if p in REPORTING]
+    if reported and not args.i_am_reporting:
+        raise SystemExit(f"run --part {reported[0]}: that part is for reporting rules chosen on the tuning part; "
                          "add --i-am-reporting to run it")
     out = str(args.out) + ("?" if args.table_only else "")
     jobs = [(label, seed, out, part if args.generate else None) for part in args.parts
@@ -924,7 +955,8 @@ def main() -> None:
         if name == "generate":
             p.add_argument("--limit", type=int, help="only the first N datasets")
         else:
-            p.add_argument("--i-am-reporting", action="store_true", help="allow running the held-out part")
+            p.add_argument("--i-am-reporting", action="store_true", help="allow running a reporting part (held-out, "
+                           "beyond-2)")
             p.add_argument("--generate", action="store_true", help="make a missing dataset first (then diagnose it)")
             p.add_argument("--table-only", action="store_true", help="only tabulate the results kept so far")
             p.add_argument("--redecide", action="store_true", help="re-run today's rules.decide on each dataset's "

@@ -596,7 +596,9 @@ class TimeBase(Effect):
     a clock (on the workbench calibration's tuning part, seeds 1000-7065: four of the six quadratic drags that were
     rightly ``outside_library`` named ``time_base``, low; two rangefinder gains named ``high`` lowered to ``low``; no
     verdict made right), while a clock 2-5 % off in the independent laboratory's data showed in one of three
-    datasets (its D 1.19; the other two below detectability), named a rangefinder gain. ``docs/workbench.md``."""
+    datasets (its D 1.19; the other two below detectability), named a rangefinder gain. ``docs/workbench.md``. Its
+    rate is audited instead as a given number of the instruments (``time_base_rate``,
+    :mod:`triplanar.instrument_numbers`): said beside the verdict, never named in its place."""
 
     name = "time_base"
     acts_on = "instrument"

@@ -35,10 +35,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "model already has (--effect) is refitted: its parameters are freed, starting at the "
                              "values given")
     parser.add_argument("--free", action="append", default=[], metavar="NAME[=LOW:HIGH]",
-                        help="a number of the specimen to fit instead of taking it as given (repeatable; fitted "
-                             "jointly, after the --add effects): mass_kg, com_g1_m..com_g3_m, cp1_x1_m, cp1_x3_m, ..., "
-                             "load_point_A_m, load_point_B_m, inertia_g1_kg_m2..; over the drawing's tolerance "
-                             "(mass +-10 %%, lengths +-5 mm, inertia +-15 %%) or LOW:HIGH in SI units")
+                        help="a given number to fit instead of taking it as given (repeatable; fitted jointly, "
+                             "after the --add effects): of the specimen mass_kg, com_g1_m..com_g3_m, cp1_x1_m, "
+                             "cp1_x3_m, ..., load_point_A_m, load_point_B_m, inertia_g1_kg_m2..; of the instruments "
+                             "time_base_rate, time_offset_s, load_cell_gain, rangefinder_gain_x1, _x3, "
+                             "rangefinder_offset_x1_m, _x3_m, rangefinder_drift_x1_m_s, _x3_m_s; over the drawing's "
+                             "tolerance (mass +-10 %%, lengths +-5 mm, inertia +-15 %%), the calibration's (the "
+                             "instrument effect's fit range) or LOW:HIGH in SI units")
     add_start_arguments(parser)
     parser.add_argument("--forward", action="store_true",
                         help="forward selection: diagnose, add the named effect, repeat until the error stops falling "
@@ -63,14 +66,18 @@ def check_arguments(args: argparse.Namespace) -> None:
 
 def effects_to_add(args: argparse.Namespace) -> tuple[list[str | Candidate], dict[str, dict[str, float]],
                                                      dict[str, list[str]]]:
-    """The ``--add`` names (and the ``--free`` specimen numbers' candidate after them), ``--start`` values and
+    """The ``--add`` names (and the ``--free`` numbers' candidates after them), ``--start`` values and
     ``--per-test`` parameters, checked against each other (before anything is read or written)."""
-    from ..workbench.given import parse_free, specimen_candidate
+    from ..workbench.given import free_candidates, parse_free
     starts = parse_starts(args.start)
     per_test = parse_per_test(args.per_test)
     add: list[str | Candidate] = list(check_effect_names(args.add))
     if args.free:
-        add.append(specimen_candidate(parse_free(args.free), *load_specimen(args.specimen)))
+        freed = free_candidates(parse_free(args.free), *load_specimen(args.specimen))
+        both = sorted({c.effect for c in freed} & set(add))
+        if both:
+            raise EffectError(f"--free: {both[0]}'s numbers are freed and --add {both[0]} fits it too: give one")
+        add += freed
     missing = sorted(set(per_test) - set(add))
     if missing:
         raise EffectError(f"--per-test {missing[0]}: that effect is not fitted; add it with --add {missing[0]}")

@@ -69,7 +69,8 @@ class Diagnoser:
             (:mod:`.alternatives`: refits with each further one-parameter physical effect).
 
         friction_scatter_deg: the specimen's repeat-to-repeat friction scatter ``expected_scatter_mm`` assumes (deg).
-        audit: audit the specimen's given numbers beside the effects (:func:`~triplanar.workbench.given.audit_given`).
+        audit: audit the given numbers (the specimen's and the instruments') beside the effects
+            (:func:`~triplanar.workbench.given.audit_given`).
         locate: when the verdict is ``outside_library`` or ``high`` (naming more than one parameter), locate a cause
             outside the library as one extra force on the block (:func:`~triplanar.workbench.locate.locate`: its
             point, direction and what it follows; for an outside verdict evidence for the user, for a high one the
@@ -142,7 +143,7 @@ class Diagnoser:
         ev = self._gather(tests, user_base, base, refit, folds, baseline, scatter, ranked)
         # instrument or specimen, from the rigid block (one rule reads it: no high for physics on an instrument fault)
         ev = replace(ev, rigidity=rigidity(tests, user_base.rest_positions))
-        if self.audit:      # the specimen's given numbers beside the effects: screened, the likely ones fitted
+        if self.audit:      # the given numbers (specimen, instruments) beside the effects: screened, likely ones fitted
             ev = replace(ev, given_numbers=audit_given(ev, tasks, tests, self.executor, self.progress))
         if ev.best is not None and self.model_form:
             # the examined entry: profile-likelihood intervals beside the curvature ones, and the model-form allowance

@@ -1,8 +1,11 @@
-"""The specimen's given numbers as candidates: ``fit --free NAME`` and the audit in ``diagnose``.
+"""The given numbers as candidates, the specimen's and the instruments': ``fit --free NAME`` and the audit in
+``diagnose``.
 
-A freed number is a parameter of the ``specimen`` effect (:mod:`triplanar.specimen_numbers`), so it is fitted by the
+A freed number of the specimen is a parameter of the ``specimen`` effect (:mod:`triplanar.specimen_numbers`), one of
+the instruments a parameter of its instrument effect (:mod:`triplanar.instrument_numbers`), so each is fitted by the
 same machinery that refits a given effect's parameter (:class:`~triplanar.workbench.fit.EffectFit`, its intervals
-and profiles): :func:`specimen_candidate` is its recipe, over the drawing's tolerance unless a range is given.
+and profiles): :func:`specimen_candidate` and :func:`instrument_candidates` are their recipes (:func:`free_candidates`
+either), over the drawing's or the calibration's tolerance unless a range is given.
 """
 
 from __future__ import annotations
@@ -13,7 +16,8 @@ from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 
 import numpy as np
 
-from ..effects import EffectError
+from ..effects import REGISTRY, EffectError
+from ..instrument_numbers import INSTRUMENT_NUMBERS, check_instrument_range, number_of
 from ..measurement import MeasuredTest
 from ..specimen import Foundation, Specimen, reference
 from ..specimen_numbers import NUMBERS, check_range, given_values, refusal
@@ -27,7 +31,7 @@ from .given_audit import GivenAudit, Signature
 if TYPE_CHECKING:
     from .verdict import Evidence
 
-__all__ = ["GivenAudit", "audit_given", "parse_free", "specimen_candidate"]
+__all__ = ["GivenAudit", "audit_given", "free_candidates", "instrument_candidates", "parse_free", "specimen_candidate"]
 
 
 def parse_free(items: list[str]) -> dict[str, tuple[float, float] | None]:
@@ -87,6 +91,40 @@ def _physical(name: str, given: float, specimen: Specimen, foundation: Foundatio
             end = given + 0.5 * (end - given)
         ends.append(end)
     return ends[0], ends[1]
+
+
+def instrument_candidates(free: Mapping[str, tuple[float, float] | None]) -> list[Candidate]:
+    """The recipes that free the named numbers of the instruments (:data:`~triplanar.instrument_numbers.
+    INSTRUMENT_NUMBERS`) from the calibration as given (the effect's identity value), each over its range (``None``:
+    the calibration's tolerance), one candidate per instrument effect, its other parameters held at identity. A range
+    the number cannot take is refused naming it (nothing is fitted)."""
+    by_effect: dict[str, dict[str, tuple[float, float]]] = {}
+    for name, rng in free.items():
+        number = INSTRUMENT_NUMBERS[name]
+        low, high = rng if rng is not None else number.calibration_range()
+        check_instrument_range(name, low, high)
+        by_effect.setdefault(number.effect, {})[number.param] = (low, high)
+    out = []
+    for effect, bounds in by_effect.items():
+        params = REGISTRY[effect].parameters
+        single = next(iter(bounds)) if len(bounds) == 1 else None      # scanned first, as a library candidate is
+        out.append(Candidate(effect, tuple(bounds), bounds, {k: params[k].neutral_value for k in bounds},
+                             fixed={k: p.neutral_value for k, p in params.items() if k not in bounds},
+                             grid=(params[single].grid or 7) if single else 0))
+    return out
+
+
+def free_candidates(free: Mapping[str, tuple[float, float] | None], specimen: Specimen | None = None,
+                    foundation: Foundation | None = None) -> list[Candidate]:
+    """The recipes of ``fit --free``: the specimen's numbers in one candidate (:func:`specimen_candidate`), the
+    instruments' one per effect (:func:`instrument_candidates`). A name neither has is refused listing both."""
+    unknown = [n for n in free if n not in NUMBERS and n not in INSTRUMENT_NUMBERS]
+    if unknown and not (unknown[0].startswith("cp") and unknown[0].endswith("_x2_m")):
+        raise EffectError(f"no given number {unknown[0]!r}; freeable numbers: of the specimen {', '.join(NUMBERS)}; "
+                          f"of the instruments {', '.join(INSTRUMENT_NUMBERS)}")
+    of_specimen = {k: v for k, v in free.items() if k not in INSTRUMENT_NUMBERS}
+    out = [specimen_candidate(of_specimen, specimen, foundation)] if of_specimen else []
+    return out + instrument_candidates({k: v for k, v in free.items() if k in INSTRUMENT_NUMBERS})
 
 
 # -- diagnose's audit of the given numbers ---------------------------------------------------------------------------
@@ -165,47 +203,98 @@ def same_within_noise(a: Signature, b: Signature, r0: np.ndarray, n_tests: int, 
 
 def audit_given(ev: Evidence, tasks: Sequence[CandidateTask], tests: Sequence[MeasuredTest], executor: ExecutorLike,
                 progress: bool = False) -> tuple[GivenAudit, ...]:
-    """The audit of the specimen's given numbers (module doc of :mod:`triplanar.workbench.rules`, ``SCREEN_*``):
-    every number screened by its linearised sensitivity at the model diagnosed; those that could remove at least
-    ``SCREEN_SHARE`` of the squared discrepancy within the drawing's tolerance (at most ``MAX_AUDITED``, largest
-    first) fitted in full (cross-validated, as a candidate); each grouped with the numbers and the leading effects
-    whose signature is the same within the noise. Nothing is audited when the model already sets numbers through a
-    ``specimen`` effect (``--effect specimen:...``): write them in the specimen file instead."""
-    from .executor import executor_scope, run_tasks
-    from .sweep import assemble, run_candidate
+    """The audit of the given numbers, the specimen's and the instruments' (module doc of
+    :mod:`triplanar.workbench.rules`, ``SCREEN_*``): every number screened by its linearised sensitivity at the model
+    diagnosed; those that could remove at least ``SCREEN_SHARE`` of the squared discrepancy within their tolerance
+    (at most ``MAX_AUDITED`` of the specimen's and ``MAX_AUDITED_INSTRUMENTS`` of the instruments', largest first)
+    fitted in full (cross-validated, as a candidate), but an instrument's number whose effect the diagnosis tries as a
+    candidate (that fit is the candidate's); each grouped with the numbers
+    and the leading effects whose signature is the same within the noise. Nothing is audited when the model already
+    sets numbers through a ``specimen`` effect (``--effect specimen:...``): write them in the specimen file instead."""
+    from .executor import executor_scope
     if "specimen" in ev.base.effect_names:
         return ()           # numbers already set by an effect: the audit would re-give them (write them in the file)
     specimen, foundation = ev.base.specimen, ev.base.foundation
     if specimen is None or foundation is None:
         specimen, foundation = reference()
-    every = specimen_candidate(dict.fromkeys(NUMBERS), specimen, foundation)
-    leading = [t for t in sorted(tasks, key=lambda t: _rank(ev, t)) if t.kind == "candidate"
-               and len(t.candidate.shared) == 1 and not t.candidate.per_test][:rules.SCREEN_EFFECTS]
-    specs, steps = _trials(ev.base, every, tests)
-    for t in leading:       # (their start is the model as given: the numbers' start stands for it)
-        more, [(p, g, b, h)] = _trials(ev.base, t.candidate, tests)
-        specs.append(more[1])
-        steps.append((f"{t.candidate.effect}.{p}", g, b, h))
+    specs, steps, n_numbers = _screen_models(ev, tasks, tests, specimen, foundation)
     with executor_scope(executor, len({t.shear_force_N for t in tests})) as ex:
         r0, *found = _residuals(specs, tests, ex.map)     # one map: every model at every load level
     signatures = [_signature(n, g, b, _column(r, r0, h), r0) for (n, g, b, h), r in zip(steps, found)]
-    numbers, effects = signatures[:len(NUMBERS)], signatures[len(NUMBERS):]
-    chosen = sorted((s for s in numbers if s.share >= rules.SCREEN_SHARE), key=lambda s: -s.share)
-    chosen = chosen[:rules.MAX_AUDITED]
-    fit_tasks = [CandidateTask(ev.user_base, specimen_candidate({s.label: None}, specimen, foundation), tuple(tests),
-                               tuple(tuple(f) for f in ev.folds), tasks[0].max_nfev if tasks else 30,
-                               tasks[0].refit if tasks else (), kind="given") for s in chosen]
-    outcomes = run_tasks(run_candidate, fit_tasks, executor, progress, desc="audit") if fit_tasks else []
-    # (every task's key is "given:specimen": each is assembled from its own outcomes)
-    fitted = {t.candidate.free[0]: assemble(t, {f"{t.key}/{k}": v for k, v in out.items()}, len(ev.folds), len(tests),
-                                            ev.baseline_error_mm, ev.repeat_scatter_mm)
-              for t, out in zip(fit_tasks, outcomes)}
+    numbers, effects = signatures[:n_numbers], signatures[n_numbers:]
+    tried = {t.candidate.effect for t in tasks if t.kind == "candidate"}
+    likely = sorted((s for s in numbers if s.share >= rules.SCREEN_SHARE and _fitted_here(s.label, tried)),
+                    key=lambda s: -s.share)
+    chosen = ([s for s in likely if s.label not in INSTRUMENT_NUMBERS][:rules.MAX_AUDITED]
+              + [s for s in likely if s.label in INSTRUMENT_NUMBERS][:rules.MAX_AUDITED_INSTRUMENTS])
+    fitted = _fit_in_full(ev, tasks, tests, executor, progress, [s.label for s in chosen], specimen, foundation)
     out = []
     for s in numbers:
-        group = tuple(o.label.split(".")[0] for o in (*effects, *numbers) if o is not s and s.share > 0
-                      and same_within_noise(s, o, r0, len(tests), ev.noise_floor_mm)) if s.label in fitted else ()
+        group = _group(s, [*effects, *numbers], r0, len(tests), ev.noise_floor_mm) if s.label in fitted else ()
         out.append(GivenAudit(s.label, replace(s, column=None), fitted.get(s.label), group))
     return tuple(sorted(out, key=lambda a: -a.screen.share))
+
+
+def _screen_models(ev: Evidence, tasks: Sequence[CandidateTask], tests: Sequence[MeasuredTest], specimen: Specimen,
+                   foundation: Foundation) -> tuple[list[ModelSpec], list[tuple[str, float, tuple[float, float], float]],
+                                                    int]:
+    """The models of the audit's screen (the model diagnosed first), the step of each column (:func:`_trials`) and how
+    many of them are given numbers: the specimen's, the instruments' (those whose effect the model does not set: a
+    given instrument effect is refitted as one), then the leading one-parameter candidates' (``effect.param``)."""
+    specs, steps = _trials(ev.base, specimen_candidate(dict.fromkeys(NUMBERS), specimen, foundation), tests)
+    unset = {k: None for k, n in INSTRUMENT_NUMBERS.items() if n.effect not in ev.base.effect_names}
+    for cand in instrument_candidates(unset):      # (their start is the model as given: the first model stands for it)
+        more, found = _trials(ev.base, cand, tests)
+        specs += more[1:]
+        steps += [(number_of(cand.effect, p) or p, g, b, h) for p, g, b, h in found]
+    n_numbers = len(steps)
+    leading = [t for t in sorted(tasks, key=lambda t: _rank(ev, t)) if t.kind == "candidate"
+               and len(t.candidate.shared) == 1 and not t.candidate.per_test][:rules.SCREEN_EFFECTS]
+    for t in leading:
+        more, [(p, g, b, h)] = _trials(ev.base, t.candidate, tests)
+        specs.append(more[1])
+        steps.append((f"{t.candidate.effect}.{p}", g, b, h))
+    return specs, steps, n_numbers
+
+
+def _fitted_here(label: str, tried: set[str]) -> bool:
+    """Whether the audit fits ``label`` in full: a specimen number, or an instrument's whose effect is not a
+    candidate of the diagnosis (else the candidate's fit is that number's, ranked with the others)."""
+    number = INSTRUMENT_NUMBERS.get(label)
+    return number is None or number.effect not in tried
+
+
+def _fit_in_full(ev: Evidence, tasks: Sequence[CandidateTask], tests: Sequence[MeasuredTest], executor: ExecutorLike,
+                 progress: bool, names: Sequence[str], specimen: Specimen, foundation: Foundation) -> dict:
+    """The cross-validated fit of each named number alone, as a candidate: ``{name: CandidateResult}``."""
+    from .executor import run_tasks
+    from .sweep import assemble, run_candidate
+    cands = [instrument_candidates({n: None})[0] if n in INSTRUMENT_NUMBERS
+             else specimen_candidate({n: None}, specimen, foundation) for n in names]
+    fit_tasks = [CandidateTask(ev.user_base, c, tuple(tests), tuple(tuple(f) for f in ev.folds),
+                               tasks[0].max_nfev if tasks else 30, tasks[0].refit if tasks else (), kind="given")
+                 for c in cands]
+    outcomes = run_tasks(run_candidate, fit_tasks, executor, progress, desc="audit") if fit_tasks else []
+    # (each task is assembled from its own outcomes: two numbers of the specimen share the key "given:specimen")
+    return {n: assemble(t, {f"{t.key}/{k}": v for k, v in out.items()}, len(ev.folds), len(tests),
+                        ev.baseline_error_mm, ev.repeat_scatter_mm)
+            for n, t, out in zip(names, fit_tasks, outcomes)}
+
+
+def _cause(label: str) -> str:
+    """What a screened column stands for in a look-alike group: an effect's name (an instrument number's is its
+    effect's: ``rangefinder_gain_x1`` and the candidate ``rangefinder_gain`` are one instrument), or a specimen number's."""
+    number = INSTRUMENT_NUMBERS.get(label)
+    return number.effect if number is not None else label.split(".")[0]
+
+
+def _group(s: Signature, others: Sequence[Signature], r0: np.ndarray, n_tests: int, noise_mm: float) -> tuple[str, ...]:
+    """The causes whose signature is the same as ``s``'s within the noise (:func:`same_within_noise`), each once,
+    ``s``'s own cause left out."""
+    if s.share <= 0:
+        return ()
+    alike = [_cause(o.label) for o in others if o is not s and same_within_noise(s, o, r0, n_tests, noise_mm)]
+    return tuple(c for c in dict.fromkeys(alike) if c != _cause(s.label))
 
 
 def _rank(ev: Evidence, task: CandidateTask) -> float:

@@ -9,6 +9,8 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
+from ..instrument_numbers import INSTRUMENT_NUMBERS
+
 if TYPE_CHECKING:
     from .candidate_result import CandidateResult
 
@@ -40,7 +42,9 @@ def effect_measurements(members: Sequence[str]) -> list[str]:
 
 
 def deciding_measurement(name: str) -> str:
-    """What decides the given number ``name`` outside the shear test."""
+    """What decides the given number ``name`` (the specimen's or an instrument's) outside the shear test."""
+    if name in INSTRUMENT_NUMBERS:
+        return EFFECT_MEASUREMENT[INSTRUMENT_NUMBERS[name].effect]
     return next(v for k, v in DECIDING_MEASUREMENT.items() if name.startswith(k))
 
 
@@ -60,13 +64,18 @@ class Signature:
 
 @dataclass(frozen=True)
 class GivenAudit:
-    """One given number in a diagnosis (:func:`audit_given`): its screen, its full cross-validated fit (``None`` when
+    """One given number in a diagnosis, the specimen's or an instrument's (:func:`audit_given`): its screen, its full cross-validated fit (``None`` when
     the screen left it out) and the entries whose signature on these data is the same within the noise (``group``)."""
 
     name: str
     screen: Signature
     fitted: CandidateResult | None = None
     group: tuple[str, ...] = ()
+
+    @property
+    def parameter(self) -> str:
+        """The fitted parameter that holds this number (an instrument's: its effect's parameter)."""
+        return INSTRUMENT_NUMBERS[self.name].param if self.name in INSTRUMENT_NUMBERS else self.name
 
     @property
     def deciding(self) -> str:
@@ -86,7 +95,7 @@ class GivenAudit:
                                "screen_estimate": self.screen.estimate, "group": list(self.group),
                                "deciding_measurement": self.deciding}
         if self.fitted is not None:
-            p = self.fitted.parameters[self.name]
+            p = self.fitted.parameters[self.parameter]
             out.update(fitted=p.value, ci95=None if p.ci95 is None else list(p.ci95), status=p.status,
                        cv_error_mm=self.fitted.cv_error_mm, improvement=self.fitted.improvement,
                        plausible=self.fitted.plausible)

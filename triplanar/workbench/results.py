@@ -292,7 +292,7 @@ def _given_number_lines(report: Mapping[str, Any]) -> list[str]:
     if not fitted:
         return []
     error = "cv error mm" if report.get("cross_validated", True) else "in-sample mm"
-    lines = ["", f"given numbers of the specimen, screened and fitted ({error}, the given -> the fitted [95% interval]):"]
+    lines = ["", f"given numbers, screened and fitted ({error}, the given -> the fitted [95% interval]):"]
     for a in fitted:
         group = f"   same within the noise as {', '.join(a['group'])}" if a["group"] else ""
         lines.append(f"  {a['name']:24s} {a['cv_error_mm']:8.3f}   {a['given']:.4g} -> "

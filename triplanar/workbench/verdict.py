@@ -157,7 +157,8 @@ class Evidence:
     combination: Combination | None = None
     #: the trace difference (mm) every interval admits (``rules.IMPLEMENTATION_TOLERANCE_M``; 0: gathered before it)
     implementation_tolerance_mm: float = 0.0
-    #: the audit of the specimen's given numbers (:func:`triplanar.workbench.given.audit_given`; empty: not audited)
+    #: the audit of the given numbers, the specimen's and the instruments'
+    #: (:func:`triplanar.workbench.given.audit_given`; empty: not audited)
     given_numbers: Sequence[GivenAudit] = ()
     #: the rigid-block test of the measured contact points (:func:`triplanar.workbench.rigidity.rigidity`; ``None``:
     #: gathered before it); the rules read it only to keep physics alone from ``high`` on an instrument fault
