@@ -34,9 +34,18 @@ of that choice, the variants tried and their numbers in ``docs/notes/mpc-tuning-
 * **The planner** is ``limit``'s (horizon 48 periods, longer than the rest of the travel once the first plan is made,
   so no cost-to-go stands in for it; 64 candidates x 4 iterations), replanning every period.
 
+* **Work budget** (``fev_budget`` 20,000 and ``decision_fev_budget`` 5e6 of the kernel's evaluations,
+  :mod:`agents.planner`): a candidate's rollout ends once it has cost 20,000 evaluations (a period costs 13-70 where
+  the block slides or sticks cleanly, thousands in a stiff state), and no further CEM iteration starts once the
+  decision has cost 5 million, so a decision costs at most 5 million plus one iteration of candidates that each stop
+  within a period of 20,000 (about 17 million evaluations, ~13 s of CPU here, if no period costs more than the
+  stiffest seen, ~7,000; before, decisions of 85 s were seen on a held-out bench). Chosen on 60 tuning benches against no budget by the rule of
+  ``move_periods`` below: score +0.005 mm (+0.000 to +0.015), 60/60 each, decision p99 3.9 s against 4.2 s, largest
+  6.0 s against 11.4 s; a tighter one (5,000 and 1.9e6) lost a bench (59/60, +0.164 mm, -0.004 to +0.490) and was
+  not taken (``docs/performance.md``).
 * **Cost** (``move_periods``, 30). The bank resample-moves and refines, the two steps that replay the whole
   history, only in its first 30 periods, and is a plain particle filter after them, so that its update no longer
-  grows with the episode's length, however long that runs (the plan's cost never did: its horizon is fixed).
+  grows with the episode's length, however long that runs (the plan's does not grow with it: its horizon is fixed).
   Chosen on 60 tuning benches against the unbounded bank (0, the setting before 2026-11-29, which the
   distillation labels' expert keeps): score +0.001 mm (-0.009 to +0.008), 60/60 successes each, 7 % less CPU per
   episode; 15 moved the score by +0.067 mm (+0.021 to +0.124) and was not taken (``docs/performance.md``).
@@ -99,8 +108,8 @@ class MPCController(Controller):
     thrust_envelope: float = 0.3
     normal_margin: float = 0.1
     plane_margin_m: float = 0.0
-    fev_budget: float = 0.0
-    decision_fev_budget: float = 0.0
+    fev_budget: float = 20_000.0
+    decision_fev_budget: float = 5e6
     guard_weight: float = 0.1
     ramp_periods: int = 0
     offset_envelope: float = 1.0

@@ -84,7 +84,11 @@ NOT_SETTINGS = ("name", "config", "load_N", "info")  # MPCController fields that
 # The labels' mpc keeps its estimator unbounded (move_periods 0: a resample-move and refinement in every period), as
 # the label folders were made before mpc's default bounded it (docs/performance.md); ``--expert move_periods=N``
 # overrides it. Pinned here, not taken from the default, so that a changed default does not change the expert.
-EXPERT_PINNED = {"mpc": {"move_periods": 0}, "limit": {}}
+# The same for the planner's work budgets (mpc's default since 2026-11-29; none in the labels' expert).
+EXPERT_PINNED = {"mpc": {"move_periods": 0, "fev_budget": 0.0, "decision_fev_budget": 0.0}, "limit": {}}
+# Expert settings added after label folders were made, at the value that leaves the expert as it was: a folder
+# whose settings.json lacks one holds labels of that value (so that a resume is not refused for a new field).
+ADDED_SETTINGS = {"fev_budget": 0.0, "decision_fev_budget": 0.0}
 # The sources whose code decides a label: the expert, its estimator and planner, the env and the physics under it.
 CODE = ("agents/mpc.py", "agents/estimator.py", "agents/planner.py", "agents/refine.py", "envs/core.py",
         "envs/base.py", "envs/prediction.py", "envs/triplanar_shear_v1.py", "triplanar/kernel.py",
@@ -217,6 +221,8 @@ def check_settings(out: Path, settings: LabelSettings, accept_code_change: bool 
     stored_record = json.loads(path.read_text())
     accepted = stored_record.pop("accepted_code_changes", [])
     stored, now = _flat(stored_record), _flat(record)
+    for name, value in ADDED_SETTINGS.items():
+        stored.setdefault(f"expert.{name}", value)
     keys = [k for k in sorted(set(stored) | set(now)) if stored.get(k, "absent") != now.get(k, "absent")]
     if keys and accept_code_change and all(k.startswith("code_version.") for k in keys):
         accepted.append({"fields": keys, "was": stored_record["code_version"], "at": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())})

@@ -66,3 +66,23 @@ def test_the_expert_keeps_the_unbounded_estimator_of_the_stored_folders():
     assert dl.make_expert(dl.LabelSettings()).move_periods == 0
     told = dl.LabelSettings(expert=(("move_periods", 15),))
     assert dl.make_expert(told).move_periods == 15 and dl.expert_settings(told)["move_periods"] == 15
+
+
+def test_the_labels_expert_has_no_work_budget_and_old_folders_resume(tmp_path):
+    """mpc's planner has work budgets by default since 2026-11-29; the labels' expert keeps none (pinned), and a
+    folder whose settings.json was written before the budgets existed resumes (it holds labels of no budget)."""
+    import json
+    from agents.mpc import MPCController
+    assert MPCController().fev_budget > 0 and MPCController().decision_fev_budget > 0
+    expert = dl.make_expert(dl.LabelSettings())
+    assert expert.fev_budget == 0.0 and expert.decision_fev_budget == 0.0
+    dl.check_settings(tmp_path, dl.LabelSettings())
+    path = tmp_path / "settings.json"
+    record = json.loads(path.read_text())
+    for name in dl.ADDED_SETTINGS:
+        del record["expert"][name]
+    path.write_text(json.dumps(record))
+    dl.check_settings(tmp_path, dl.LabelSettings())            # accepted: the same expert
+    told = dl.LabelSettings(expert=(("fev_budget", 100.0),))
+    with pytest.raises(dl.SettingsMismatch, match="fev_budget"):
+        dl.check_settings(tmp_path, told)
