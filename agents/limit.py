@@ -36,8 +36,9 @@ class LimitController(Controller):
     """Perfect-knowledge receding-horizon control (module docstring); the planner's settings are its fields
     (``normal_margin``: :func:`envs.prediction.predict`'s lift-off margin, 0.1 of the normal load as ``mpc``'s;
     ``plane_margin_m``: its margin from leaving a plane, none: the limit knows where the planes meet;
-    ``thrust_envelope``: the thrusts searched, ``1 +-`` this times the load level, as ``mpc``'s; ``fev_budget``,
-    ``decision_fev_budget``: the planner's work budgets, :mod:`agents.planner`, none)."""
+    ``thrust_envelope``: the thrusts searched, ``1 +-`` this times the load level, as ``mpc``'s; ``change_cost``: the
+    planner's tie-breaking cost on changes of action, none by default; ``fev_budget``, ``decision_fev_budget``: the
+    planner's work budgets, :mod:`agents.planner`, none)."""
 
     name: str = "limit"
     config: ShearConfig = field(default_factory=ShearConfig)
@@ -54,6 +55,7 @@ class LimitController(Controller):
     plane_margin_m: float = 0.0
     fev_budget: float = 0.0
     decision_fev_budget: float = 0.0
+    change_cost: float = 0.0
     thrust_envelope: float = 0.4
     needs_env: bool = True
     _env: Any = None

@@ -28,7 +28,7 @@ import numpy as np
 from envs.prediction import BenchState, predict
 
 _SETTINGS = ("horizon", "block", "samples", "iterations", "elites", "sigma0", "seed", "pace_s", "normal_margin",
-             "plane_margin_m", "fev_budget", "decision_fev_budget")
+             "plane_margin_m", "fev_budget", "decision_fev_budget", "change_cost")
 
 
 @dataclass
@@ -36,7 +36,10 @@ class CEMPlanner:
     """Cross-entropy planner (module docstring). ``samples`` candidates per iteration, ``iterations`` per decision,
     the ``elites`` best refit the sampling mean and spread (``sigma0`` at the start of each decision, in action
     units); candidates stay within ``low``-``high`` (per action: a safety envelope); ``normal_margin`` is
-    :func:`envs.prediction.predict`'s safety margin (zero: none)."""
+    :func:`envs.prediction.predict`'s safety margin (zero: none); ``change_cost`` (cost units per squared action
+    unit, zero: none) adds that times the sum of the squared changes between the plan's blocks, the first from the
+    last action sent: a tie-breaker, so that where the model's cost is flat the search settles on the same, steady
+    plan each time instead of a random one (a teacher whose labels a student can learn)."""
 
     horizon: int = 20
     block: int = 4
@@ -50,6 +53,7 @@ class CEMPlanner:
     plane_margin_m: float = 0.0
     fev_budget: float = 0.0     # a candidate's work budget (envs.prediction, "Work budget"; zero: none)
     decision_fev_budget: float = 0.0   # a decision's: no further iteration once spent (zero: none)
+    change_cost: float = 0.0
     low: tuple[float, float] = (-1.0, -1.0)
     high: tuple[float, float] = (1.0, 1.0)
     _mean: np.ndarray | None = None
@@ -60,10 +64,12 @@ class CEMPlanner:
 
     @classmethod
     def with_settings_of(cls, owner: Any) -> CEMPlanner:
-        """A planner whose settings (``horizon`` ... ``normal_margin``) are read from the attributes of the same names
-        on ``owner`` (a controller that exposes them as its own fields, with its own defaults), converted to the
-        planner's types; ``low``/``high`` are the owner's to set (``mpc`` sets its envelope)."""
-        settings = {f.name: type(f.default)(getattr(owner, f.name)) for f in fields(cls) if f.name in _SETTINGS}
+        """A planner whose settings (``horizon`` ... ``change_cost``) are read from the attributes of the same names
+        on ``owner`` (a controller that exposes them as its own fields, with its own defaults; one it lacks keeps the
+        planner's default, as ``change_cost`` for ``mpc``), converted to the planner's types; ``low``/``high`` are
+        the owner's to set (``mpc`` sets its envelope)."""
+        settings = {f.name: type(f.default)(getattr(owner, f.name)) for f in fields(cls)
+                    if f.name in _SETTINGS and hasattr(owner, f.name)}
         return cls(**settings)
 
     def __post_init__(self) -> None:
@@ -73,6 +79,8 @@ class CEMPlanner:
         for name in ("fev_budget", "decision_fev_budget"):
             if not getattr(self, name) >= 0.0:
                 raise ValueError(f"{name} must be >= 0 (0: no budget), got {getattr(self, name)!r}")
+        if not self.change_cost >= 0.0:
+            raise ValueError(f"change_cost must be >= 0, got {self.change_cost!r}")
         if self.elites > self.samples:
             raise ValueError(f"elites ({self.elites}) must not exceed samples ({self.samples})")
         self.reset()
@@ -93,10 +101,11 @@ class CEMPlanner:
     def plan(self, states: Sequence[BenchState], weights: Sequence[float], hold: np.ndarray) -> np.ndarray:
         """The best (horizon x 2) plan found from ``states`` (weighted by ``weights``); ``hold`` (the last action)
         starts the very first plan."""
+        hold = np.asarray(hold, dtype=float)
         w = np.asarray(weights, dtype=float)
         w = w / w.sum()
         if self._mean is None:
-            mean = np.repeat(np.clip(np.asarray(hold, dtype=float), self.low, self.high)[None, :], self.knots, axis=0)
+            mean = np.repeat(np.clip(hold, self.low, self.high)[None, :], self.knots, axis=0)
         else:
             mean = self._mean
         sigma = np.full_like(mean, self.sigma0)
@@ -118,6 +127,8 @@ class CEMPlanner:
                                                self.plane_margin_m, self.fev_budget, work)[0]
                     spent += float(work.sum())
             self.evaluations += self.samples * len(states)
+            if self.change_cost > 0.0:
+                costs += self.change_cost * change_sums(cand, hold)
             order = np.argsort(costs, kind="stable")
             if costs[order[0]] < best_cost:
                 best_cost, best_knots = float(costs[order[0]]), cand[order[0]].copy()
@@ -131,3 +142,10 @@ class CEMPlanner:
         shifted = np.concatenate([plan[1:], np.repeat(plan[-1:], self.horizon - len(plan) + 1, axis=0)])
         # back to knots: the value at each block's first period
         self._mean = shifted[::self.block][:self.knots].copy()
+
+
+def change_sums(knots: np.ndarray, hold: np.ndarray) -> np.ndarray:
+    """(n,): each candidate's sum of squared changes between consecutive knots of (n, knots, 2), the first knot's
+    from ``hold`` (the last action sent)."""
+    steps = np.diff(np.concatenate([np.broadcast_to(hold, (len(knots), 1, 2)), knots], axis=1), axis=1)
+    return (steps ** 2).sum(axis=(1, 2))

@@ -34,6 +34,8 @@ teacher.
 ``distance_mm``        the travel.
 ``expert_estimate``    (T, 11): ``mpc``'s estimate of the unknowns after each decision (``estimate_names``), an
                        auxiliary target; ``expert_planned`` (T,) whether it replanned.
+``plain_action``       (T, 2) float32, only with ``--plain-twin`` (``--teacher limit``): the action of a plain
+                       ``limit`` (as shipped) shown the same states, the control for a teacher set by ``--expert``.
 ``truth``              (15,): privileged information, the bench's true unknowns (``truth_names``: the estimator's
                        parameters, geometry and dip directions, then the load level), for a privileged teacher.
 scalars                ``stream``, ``draw``, ``round``, ``noise_seed``, ``started`` (False: friction holds this draw at
@@ -88,7 +90,7 @@ NOT_SETTINGS = ("name", "config", "load_N", "info")  # MPCController fields that
 EXPERT_PINNED = {"mpc": {"move_periods": 0, "fev_budget": 0.0, "decision_fev_budget": 0.0}, "limit": {}}
 # Expert settings added after label folders were made, at the value that leaves the expert as it was: a folder
 # whose settings.json lacks one holds labels of that value (so that a resume is not refused for a new field).
-ADDED_SETTINGS = {"fev_budget": 0.0, "decision_fev_budget": 0.0}
+ADDED_SETTINGS = {"fev_budget": 0.0, "decision_fev_budget": 0.0, "change_cost": 0.0}
 # The sources whose code decides a label: the expert, its estimator and planner, the env and the physics under it.
 CODE = ("agents/mpc.py", "agents/estimator.py", "agents/planner.py", "agents/refine.py", "envs/core.py",
         "envs/base.py", "envs/prediction.py", "envs/triplanar_shear_v1.py", "triplanar/kernel.py",
@@ -117,6 +119,7 @@ class LabelSettings:
     expert: tuple = ()
     env_kwargs: tuple = ()
     teacher: str = "mpc"     # or "limit": the privileged teacher, which knows the bench (TEACHERS)
+    plain_twin: bool = False  # limit only: also store a plain limit's action in the same states (plain_action)
 
     def __post_init__(self) -> None:
         if self.stream in REFUSED_STREAMS:
@@ -136,6 +139,8 @@ class LabelSettings:
                 raise ValueError(f"driver: {error}") from None
         if self.teacher not in TEACHERS:
             raise ValueError(f"teacher must be one of {sorted(TEACHERS)}, got {self.teacher!r}")
+        if self.plain_twin and self.teacher != "limit":
+            raise ValueError(f"plain_twin needs teacher 'limit' (a twin that reads the true state), got {self.teacher!r}")
         kind = TEACHERS[self.teacher]
         unknown = [k for k, _ in self.expert if k not in kind.__dataclass_fields__ or k in NOT_SETTINGS]
         if unknown:
@@ -144,6 +149,17 @@ class LabelSettings:
         if bench or any(k == "randomize" for k, _ in self.env_kwargs):
             raise ValueError(f"env_kwargs {bench or ['randomize']}: labels run v1's default bench, whose hardware "
                              "mpc knows (its fields), and the stream gives the specimen")
+
+
+def plain_twin(settings: LabelSettings, env: Any, load_N: float) -> Any:
+    """The round's plain twin (None without ``plain_twin``): ``limit`` as shipped, bound to ``env`` and reset, shown
+    the states the round visits; its action is the shard's ``plain_action``, the control of a teacher variant."""
+    if not settings.plain_twin:
+        return None
+    twin = TEACHERS[settings.teacher](**EXPERT_PINNED[settings.teacher])
+    twin.bind(env)
+    twin.reset(load_N, env.config)
+    return twin
 
 
 def make_expert(settings: LabelSettings) -> Any:
@@ -194,7 +210,8 @@ def settings_record(settings: LabelSettings) -> dict[str, Any]:
             "beta": settings.beta, "env_kwargs": dict(settings.env_kwargs), "expert": expert_settings(settings),
             "code_version": {**code_version(), **teacher_code(settings.teacher)},
             # the teacher only where it is not mpc: the folders written before the field resume as they were
-            **({"teacher": settings.teacher} if settings.teacher != "mpc" else {})}
+            **({"teacher": settings.teacher} if settings.teacher != "mpc" else {}),
+            **({"plain_twin": True} if settings.plain_twin else {})}   # (likewise)
 
 
 def _flat(record: dict, prefix: str = "") -> dict[str, Any]:
@@ -222,7 +239,8 @@ def check_settings(out: Path, settings: LabelSettings, accept_code_change: bool 
     accepted = stored_record.pop("accepted_code_changes", [])
     stored, now = _flat(stored_record), _flat(record)
     for name, value in ADDED_SETTINGS.items():
-        stored.setdefault(f"expert.{name}", value)
+        if f"expert.{name}" in now:
+            stored.setdefault(f"expert.{name}", value)
     keys = [k for k in sorted(set(stored) | set(now)) if stored.get(k, "absent") != now.get(k, "absent")]
     if keys and accept_code_change and all(k.startswith("code_version.") for k in keys):
         accepted.append({"fields": keys, "was": stored_record["code_version"], "at": time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime())})
@@ -301,12 +319,16 @@ def rollout(settings: LabelSettings, bench, draw: int) -> dict[str, Any]:
         if getattr(driver, "needs_env", False):
             driver.bind(env)
         driver.reset(bench.load_N, env.config)
+    twin = plain_twin(settings, env, bench.load_N)
     mix = np.random.default_rng([MIX_SEED, settings.round, draw])
     rows: dict[str, list] = {k: [] for k in ("obs", "expert_action", "action", "expert_ran", "reward", "distance_mm",
                                              "travel_m", "expert_estimate", "expert_planned", "expert_cpu_s")}
+    rows.update({"plain_action": []} if twin is not None else {})
     start = time.process_time()
     while True:
         label = np.asarray(expert.act(obs), dtype=np.float32)
+        if twin is not None:
+            rows["plain_action"].append(np.asarray(twin.act(obs), dtype=np.float32))
         action, ran = label, True
         if driver is not None:
             own = np.asarray(driver.act(obs), dtype=np.float32)
@@ -339,7 +361,8 @@ def rollout(settings: LabelSettings, bench, draw: int) -> dict[str, Any]:
             "episode_cpu_s": np.float64(time.process_time() - start), "noise_seed": np.int64(seed),
             "started": np.bool_(True), "success": np.bool_(success), "reason": np.str_(info["reason"]),
             "mimicry_error_mm": np.float64(info["mimicry_error_mm"] if success else math.nan),
-            "steps": np.int64(len(rows["obs"]))}
+            "steps": np.int64(len(rows["obs"])),
+            **({"plain_action": np.array(rows["plain_action"], dtype=np.float32)} if twin is not None else {})}
 
 
 def not_started() -> dict[str, Any]:
@@ -429,13 +452,13 @@ def label_shards(folders: list[str | Path]) -> list[Path]:
     return [path for folder in folders for path in sorted((Path(folder) / "shards").glob("*.npz"))]
 
 
-def load_labels(folders: list[str | Path], frames: int = 4, shards: list[str | Path] | None = None
-                ) -> dict[str, np.ndarray]:
+def load_labels(folders: list[str | Path], frames: int = 4, shards: list[str | Path] | None = None,
+                label: str = "expert_action") -> dict[str, np.ndarray]:
     """Every started episode's decisions in ``folders`` (DAgger's aggregate of rounds) as one training set: ``x``
     (frame-stacked observations, :func:`frame_stacked`), ``y`` (``mpc``'s actions), ``truth`` (each decision's
     bench's privileged row), ``episode`` (an index per shard, for splitting by episode), ``step`` and ``draw``.
     ``shards``: exactly these shard files instead (a training run that must read the same set again while a label
-    run adds to the folders)."""
+    run adds to the folders). ``label``: the shard array read as ``y`` (``plain_action``: the plain twin's)."""
     parts: dict[str, list] = {k: [] for k in ("x", "y", "truth", "episode", "step", "draw")}
     episode = 0
     for path in label_shards(folders) if shards is None else [Path(p) for p in shards]:
@@ -444,7 +467,9 @@ def load_labels(folders: list[str | Path], frames: int = 4, shards: list[str | P
                 continue
             steps = int(s["steps"])
             parts["x"].append(frame_stacked(s["obs"], frames))
-            parts["y"].append(s["expert_action"])
+            if label not in s.files:
+                raise ValueError(f"{path} has no {label!r} (a folder made without --plain-twin?)")
+            parts["y"].append(s[label])
             parts["truth"].append(np.repeat(s["truth"][None, :], steps, axis=0))
             parts["episode"].append(np.full(steps, episode))
             parts["step"].append(np.arange(steps))
@@ -489,6 +514,9 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     parser.add_argument("--teacher", default="mpc", choices=sorted(TEACHERS), help="the expert whose actions "
                         "label (default mpc; limit: the privileged teacher that knows the bench, about 3 CPU s per "
                         "episode against mpc's 20-30; --expert then sets limit's fields)")
+    parser.add_argument("--plain-twin", action="store_true", help="--teacher limit: also store the action of a "
+                        "plain limit (as shipped) in the same states, plain_action: the control for a teacher "
+                        "variant set with --expert (twice the CPU)")
     parser.add_argument("--workers", type=int, default=1, help="processes (default 1; a local pool for more)")
     parser.add_argument("--accept-code-change", action="store_true", help="resume although the code version of "
                         "the expert or the env differs (only that: checked to leave the expert's actions unchanged)")
@@ -505,7 +533,8 @@ def main(argv: list[str] | None = None) -> int:
     from triplanar.commands.options import executor_from_args
     try:
         settings = LabelSettings(stream=args.stream, round=args.round, driver=args.driver, beta=args.beta,
-                                 expert=expert_pairs(args.expert, args.teacher), teacher=args.teacher)
+                                 expert=expert_pairs(args.expert, args.teacher), teacher=args.teacher,
+                                 plain_twin=args.plain_twin)
         start = time.time()
         with executor_from_args(args, args.workers) as executor:
             done = generate(args.out, settings, args.first, args.n, executor, progress=True,

@@ -4,7 +4,8 @@
 ``PYTHONPATH=. python -m experiments.privileged_bound --judge 100`` runs ``limit`` on the benches that
 ``experiments.train_student --judge 100`` runs a student on (the same draws and noise seeds) and prints the same
 statistics. ``--label-noise K [--first 60000]`` rolls ``limit`` out on ``K`` draws of the tuning stream from
-``--first`` (a range no label round used; ``--limit samples=256``: both with another search) with a second ``limit`` of another planner seed alongside it, shown the
+``--first`` (a range no label round used; ``--limit samples=256``: both with another search; ``--limit`` sets the
+judged ``limit`` too) with a second ``limit`` of another planner seed alongside it, shown the
 same observations and true states: the two actions in the same state differ only by the cross-entropy search's
 samples. Half their mean squared difference is the variance of that noise in one label (two independent draws),
 printed per span of decision index beside the labels' spread about their mean: the share of the labels' variance
@@ -102,13 +103,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--label-noise", type=int, default=0, metavar="K", help="twin limits on K draws")
     parser.add_argument("--first", type=int, default=60_000, help="the first draw for --label-noise (default 60000)")
     parser.add_argument("--limit", action="append", default=[], metavar="FIELD=VALUE",
-                        help="a LimitController setting of both twins (repeatable), e.g. samples=256")
+                        help="a LimitController setting of the judged limit and of both twins (repeatable), e.g. samples=256 "
+                        "or change_cost=0.01")
     args = parser.parse_args(argv)
     try:
+        settings = dict(expert_pairs(args.limit, "limit"))
         if args.judge:
-            print(json.dumps(judge_controller(LimitController(), {}, args.judge, args.judge_skip), indent=1))
+            print(json.dumps(judge_controller(LimitController(**settings), {}, args.judge, args.judge_skip),
+                             indent=1))
         if args.label_noise:
-            settings = dict(expert_pairs(args.limit, "limit"))
             settings.pop("seed", None)   # the twins' seeds are theirs (0 and 1)
             print(json.dumps(label_noise(args.first, args.label_noise, **settings), indent=1))
     except ValueError as error:

@@ -47,6 +47,7 @@ from .stats import row_stats
 
 CHECKPOINT = "checkpoint.safetensors"
 GIVEN = ("none", "truth")   # what a student is given beside the observations (agents.student: given_names)
+LABELS = ("expert_action", "plain_action")   # the shard array learnt (plain_action: distill_labels --plain-twin)
 JUDGE_DRAWS = 1000   # draws below this of the tuning stream are never labelled (distill_labels' --first default)
 
 
@@ -70,6 +71,7 @@ class StudentSettings:
     post_start_weight: float = 1.0   # the loss weight of the decisions just after the start (the rest: 1)
     post_start_span: int = 8         # how many decisions after the start carry post_start_weight
     given: str = "none"         # "truth": the bench's true unknowns appended to the input (privileged, an upper bound)
+    label: str = "expert_action"  # or "plain_action": the plain limit's action in the same states (a paired control)
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -85,6 +87,8 @@ class StudentSettings:
             raise ValueError(f"given must be one of {GIVEN}, got {self.given!r}")
         if self.given != "none" and self.kind != "mlp":
             raise ValueError(f"given {self.given!r} needs kind 'mlp', got {self.kind!r}")
+        if self.label not in LABELS:
+            raise ValueError(f"label must be one of {LABELS}, got {self.label!r}")
         if self.aux not in ("truth", "none"):
             raise ValueError(f"aux must be 'truth' or 'none', got {self.aux!r}")
         if not 0.0 <= self.val_fraction < 1.0:
@@ -156,7 +160,7 @@ def _scale(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def dataset(shards: list[str], settings: StudentSettings) -> Dataset:
     """The shards' decisions, split by episode and normalised on the training rows."""
-    data = load_labels([], settings.frames, shards=shards)
+    data = load_labels([], settings.frames, shards=shards, label=settings.label)
     n_episodes = int(data["episode"].max()) + 1
     held = validation_episodes(n_episodes, settings.val_fraction, settings.seed)
     is_val = np.isin(data["episode"], held)

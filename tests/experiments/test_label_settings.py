@@ -79,7 +79,7 @@ def test_the_labels_expert_has_no_work_budget_and_old_folders_resume(tmp_path):
     dl.check_settings(tmp_path, dl.LabelSettings())
     path = tmp_path / "settings.json"
     record = json.loads(path.read_text())
-    for name in dl.ADDED_SETTINGS:
+    for name in ("fev_budget", "decision_fev_budget"):
         del record["expert"][name]
     path.write_text(json.dumps(record))
     dl.check_settings(tmp_path, dl.LabelSettings())            # accepted: the same expert

@@ -35,3 +35,11 @@ def test_the_span_figures_read_the_twins_difference():
     np.testing.assert_allclose(out["search_noise"], np.sqrt(0.2 ** 2 / 2 / 2))   # mean over 2 components, / 2
     np.testing.assert_allclose(out["search_noise_95"], [out["search_noise"]] * 2)
     np.testing.assert_allclose(out["label_spread"], np.sqrt(0.02 / 2))             # x: 0.2, 0.4, 0, 0.2 about 0.2
+
+
+def test_the_judged_limit_takes_the_limit_settings(monkeypatch):
+    judged = []
+    monkeypatch.setattr(pb, "judge_controller", lambda controller, *args: judged.append(controller) or {})
+    assert pb.main(["--judge", "3", "--limit", "change_cost=0.01"]) == 0
+    assert pb.main(["--judge", "3"]) == 0
+    assert [c.change_cost for c in judged] == [0.01, 0.0]
