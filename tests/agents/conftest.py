@@ -38,3 +38,28 @@ class StudentFiles:
 @pytest.fixture
 def student_files() -> type[StudentFiles]:
     return StudentFiles
+
+
+@pytest.fixture
+def limit_actions():
+    """:func:`_limit_actions` (a fixture: the test modules share it without importing one another)."""
+    return _limit_actions
+
+
+def _limit_actions(steps: int = 6, **settings) -> np.ndarray:
+    """The actions ``limit`` (its settings ``settings``) sends in its first ``steps`` decisions on the nominal 40 N
+    bench, each stepped on the env (the planner-setting tests compare them)."""
+    from agents.heldout import nominal_benches
+    from agents.limit import LimitController
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+    bench = nominal_benches([40.0])[0]
+    env = TriPlanarShearV1Env()
+    env.reset(seed=0, options={"bench": bench})
+    controller = LimitController(**settings)
+    controller.bind(env)
+    controller.reset(bench.load_N, env.unwrapped.config)
+    sent = []
+    for _ in range(steps):
+        sent.append(controller.act(None))
+        env.step(sent[-1])
+    return np.array(sent)

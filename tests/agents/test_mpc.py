@@ -14,6 +14,7 @@ from envs.triplanar_shear_v1 import TriPlanarShearV1Env
 from triplanar import PAPER_LOADS_N
 from triplanar import kernel as K
 
+
 IDEAL = {"stage_bandwidth_hz": math.inf, "thrust_bandwidth_hz": math.inf, "latency_s": 0.0}
 
 
@@ -74,22 +75,12 @@ def test_limit_at_the_papers_twelve_loads_beats_in_sample_ppo():
     assert mean <= 0.50, mean
 
 
-def test_limit_searches_thrusts_within_its_envelope():
+def test_limit_searches_thrusts_within_its_envelope(limit_actions):
     """``limit`` plans thrusts within ``1 +- thrust_envelope`` times the load level (action units); with the whole
     range open the same search sends thrusts outside that band."""
-    bench = nominal_benches([40.0])[0]
 
     def thrusts(envelope: float) -> np.ndarray:
-        env = TriPlanarShearV1Env()
-        env.reset(seed=0, options={"bench": bench})
-        controller = LimitController(horizon=8, samples=8, iterations=2, thrust_envelope=envelope)
-        controller.bind(env)
-        controller.reset(bench.load_N, env.unwrapped.config)
-        sent = []
-        for _ in range(6):
-            sent.append(controller.act(None))
-            env.step(sent[-1])
-        return np.abs(np.array(sent)[:, 0])
+        return np.abs(limit_actions(horizon=8, samples=8, iterations=2, thrust_envelope=envelope)[:, 0])
 
     assert np.max(thrusts(0.1)) <= 0.1 + 1e-6
     assert np.max(thrusts(1.0)) > 0.1

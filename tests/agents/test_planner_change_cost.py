@@ -8,29 +8,14 @@ import hashlib
 import numpy as np
 import pytest
 
-from agents.heldout import nominal_benches
 from agents.limit import LimitController
 from agents.mpc import MPCController
 from agents.planner import CEMPlanner, change_sums
-from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+
 
 SMALL = {"horizon": 8, "samples": 8, "iterations": 2}
 # limit (SMALL) on the nominal 40 N bench, 6 decisions, before change_cost existed (commit ee5b8f5)
 BEFORE = "f17f4d948f7edf52"
-
-
-def limit_actions(**settings) -> np.ndarray:
-    bench = nominal_benches([40.0])[0]
-    env = TriPlanarShearV1Env()
-    env.reset(seed=0, options={"bench": bench})
-    controller = LimitController(**SMALL, **settings)
-    controller.bind(env)
-    controller.reset(bench.load_N, env.unwrapped.config)
-    sent = []
-    for _ in range(6):
-        sent.append(controller.act(None))
-        env.step(sent[-1])
-    return np.array(sent)
 
 
 def test_change_sums_are_the_squared_steps_from_the_last_action():
@@ -39,12 +24,12 @@ def test_change_sums_are_the_squared_steps_from_the_last_action():
     assert change_sums(np.zeros((2, 4, 2)), np.zeros(2)).tolist() == [0.0, 0.0]
 
 
-def test_no_change_cost_leaves_limits_actions_bitwise_as_they_were():
-    assert hashlib.sha256(limit_actions().tobytes()).hexdigest()[:16] == BEFORE
+def test_no_change_cost_leaves_limits_actions_bitwise_as_they_were(limit_actions):
+    assert hashlib.sha256(limit_actions(**SMALL).tobytes()).hexdigest()[:16] == BEFORE
 
 
-def test_a_change_cost_changes_the_plan_and_steadies_it():
-    plain, steady = limit_actions(), limit_actions(change_cost=0.05)
+def test_a_change_cost_changes_the_plan_and_steadies_it(limit_actions):
+    plain, steady = limit_actions(**SMALL), limit_actions(**SMALL, change_cost=0.05)
     assert not np.array_equal(plain, steady)
     def moved(a: np.ndarray) -> float:
         return float(np.abs(np.diff(a, axis=0)).sum())
