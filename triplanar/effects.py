@@ -166,7 +166,16 @@ class Effect:
         return self.values[key]
 
     def __repr__(self) -> str:
-        inner = ",".join(f"{k}={v:g}" for k, v in self.values.items() if not math.isnan(v))
+        """The specification that reads back as this effect (``make_effect(repr(e)) == e``): each value in 6
+        significant digits where that is exact, else in full."""
+        return self._spec(lambda v: f"{v:g}" if float(f"{v:g}") == v else repr(float(v)))
+
+    def label(self) -> str:
+        """The specification for people: each value in 6 significant digits (a model's description)."""
+        return self._spec(lambda v: f"{v:g}")
+
+    def _spec(self, number) -> str:
+        inner = ",".join(f"{k}={number(v)}" for k, v in self.values.items() if not math.isnan(v))
         return f"{self.name}:{inner}" if inner else self.name
 
     def _identity(self) -> tuple:

@@ -117,7 +117,7 @@ class ModelSpec:
             effects = [e for e in effects if e is not ends[0]]
         else:
             parts = [base.get(self.case, f"case {self.case}")]
-        parts += [repr(e) for e in effects]
+        parts += [e.label() for e in effects]
         return " + ".join(parts)
 
 
