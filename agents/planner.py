@@ -76,11 +76,9 @@ class CEMPlanner:
         for name in ("horizon", "block", "samples", "iterations", "elites"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"{name} must be a positive integer, got {getattr(self, name)!r}")
-        for name in ("fev_budget", "decision_fev_budget"):
+        for name in ("fev_budget", "decision_fev_budget", "change_cost"):
             if not getattr(self, name) >= 0.0:
-                raise ValueError(f"{name} must be >= 0 (0: no budget), got {getattr(self, name)!r}")
-        if not self.change_cost >= 0.0:
-            raise ValueError(f"change_cost must be >= 0, got {self.change_cost!r}")
+                raise ValueError(f"{name} must be >= 0 (0: none), got {getattr(self, name)!r}")
         if self.elites > self.samples:
             raise ValueError(f"elites ({self.elites}) must not exceed samples ({self.samples})")
         self.reset()
