@@ -100,9 +100,10 @@ def unknown_ranges(known_tip_deg: float | None = None) -> tuple[np.ndarray, np.n
 
 
 def _sensitivities(bench: Bench, commands: np.ndarray, env_kwargs: dict[str, Any] | None, known_tip_deg,
-                   truncate: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
-    """``(d_signal, d_reference, travel of each period, span of the free unknowns)``: (unknowns, periods, 9) each,
-    over the periods every perturbed bench ran (``truncate``; else None if one ended early)."""
+                   truncate: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float] | None:
+    """``(d_signal, d_reference, travel of each period, span of the free unknowns, travel target)``: the first two
+    (unknowns, periods, 9), over the periods every perturbed bench ran (``truncate``; else None if one ended
+    early)."""
     prior, _ = make_config(None).base_specimen()
     low, high, free = unknown_ranges(known_tip_deg)
     theta = hypothesis_of(bench)
@@ -130,7 +131,7 @@ def _sensitivities(bench: Bench, commands: np.ndarray, env_kwargs: dict[str, Any
     d_signal = np.array([(up[:n] - down[:n]) / h for ((up, _, _), (down, _, _)), h in zip(pairs, steps)])
     d_reference = np.array([(at_travel(ru, s, travel) - at_travel(rd, s, travel)) / h
                             for ((_, ru, _), (_, rd, _)), h in zip(pairs, steps)])
-    return d_signal, d_reference, s, (high - low)[free]
+    return d_signal, d_reference, s, (high - low)[free], travel
 
 
 def deviation_bound(bench: Bench, commands: np.ndarray, env_kwargs: dict[str, Any] | None = None,
@@ -142,7 +143,7 @@ def deviation_bound(bench: Bench, commands: np.ndarray, env_kwargs: dict[str, An
     found = _sensitivities(bench, commands, env_kwargs, known_tip_deg, truncate)
     if found is None:
         return None
-    d_signal, d_reference, s, span = found
+    d_signal, d_reference, s, span, travel = found
     noise = float((env_kwargs or {}).get("sensor_noise_m", BenchConfig().sensor_noise_m))
     information = np.diag(12.0 / span ** 2)  # the prior: a uniform range's variance
     z = np.random.default_rng(0).standard_normal((SAMPLES, 2))
@@ -156,10 +157,10 @@ def deviation_bound(bench: Bench, commands: np.ndarray, env_kwargs: dict[str, An
         deviation_mm[k] = expected_distance_mm(g_deviation @ cov @ g_deviation.T, z)
         jacobian = d_signal[:, k, :].T / noise
         information = information + jacobian.T @ jacobian
-    travel = make_config(None).travel_m
-    return {"reference_bound_mm": travel_average(reference_mm, s), "deviation_bound_mm": travel_average(deviation_mm, s),
-            "reference_profile_mm": reference_mm.tolist(), "deviation_profile_mm": deviation_mm.tolist(),
-            "travel_fraction": (s / travel).tolist(), "covered": n / len(commands)}
+    return {"reference_bound_mm": travel_average(reference_mm, s),
+            "deviation_bound_mm": travel_average(deviation_mm, s), "reference_profile_mm": reference_mm.tolist(),
+            "deviation_profile_mm": deviation_mm.tolist(), "travel_fraction": (s / travel).tolist(),
+            "covered": n / len(commands)}
 
 
 @dataclass

@@ -39,8 +39,8 @@ of that choice, the variants tried and their numbers in ``docs/notes/mpc-tuning-
   the block slides or sticks cleanly, thousands in a stiff state), and no further CEM iteration starts once the
   decision has cost 5 million, so a decision costs at most 5 million plus one iteration of candidates that each stop
   within a period of 20,000 (about 17 million evaluations, ~13 s of CPU here, if no period costs more than the
-  stiffest seen, ~7,000; before, decisions of 85 s were seen on a held-out bench). Chosen on 60 tuning benches against no budget by the rule of
-  ``move_periods`` below: score +0.005 mm (+0.000 to +0.015), 60/60 each, decision p99 3.9 s against 4.2 s, largest
+  stiffest seen, ~7,000; before, decisions of 85 s were seen on a held-out bench). Chosen on 60 tuning benches
+  against no budget by the rule of ``move_periods`` below: score +0.005 mm (+0.000 to +0.015), 60/60 each, decision p99 3.9 s against 4.2 s, largest
   6.0 s against 11.4 s; a tighter one (5,000 and 1.9e6) lost a bench (59/60, +0.164 mm, -0.004 to +0.490) and was
   not taken (``docs/performance.md``).
 * **Cost** (``move_periods``, 30). The bank resample-moves and refines, the two steps that replay the whole

@@ -139,8 +139,8 @@ def rollout_costs(y0, p0, modes0, armed0, st0, ref, cfg, bc, bs0, queue0, plans,
     """Run every candidate ``plans[i]`` (horizon x 2 raw actions) from the given state; write its cost (module
     docstring) into ``costs[i]``, the distance after each period (mm) into ``dists[i]`` and the outcome of each
     period into ``codes[i]`` (-1 after the end; ``TIME_LIMIT`` for a truncation), its right-hand-side evaluations into
-    ``fevs[i]`` (the kernel's work). A positive ``fev_budget`` ends a candidate's rollout after the period in which its right-hand-side evaluations exceed it, scored as at its
-    horizon's end (module docstring, "Work budget")."""
+    ``fevs[i]`` (the kernel's work). A positive ``fev_budget`` ends a candidate's rollout after the period in which
+    its evaluations exceed it, scored as at its horizon's end (module docstring, "Work budget")."""
     n, horizon = plans.shape[0], plans.shape[1]
     ws = new_workspace()
     applied, obs, inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)

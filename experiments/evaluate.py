@@ -44,18 +44,18 @@ MODEL_BASED = {"mpc": ("mpc", None, False), "limit": ("limit", None, False),
                "information_bound": ("information_bound", None, False)}
 REFERENCES = ("limit", "information_bound")
 NOT_REAL_TIME = ("mpc", *REFERENCES)
-
-
-def runs_in_real_time(label: str) -> bool:
-    """Whether the controller of a table's row (``best_scripted:NAME`` for the best scripted one) runs within the
-    bench's 5 ms period: every scripted and learned controller; not ``mpc``, nor the references."""
-    return label.split(":")[-1] not in NOT_REAL_TIME
 BUILTIN = {**SCRIPTED, **MODEL_BASED}
 RETURN_FIELDS = ("mean_return", "return_low", "return_high")   # the summary's mean episode return, 95 % interval
 
 
 MAX_BENCHES = 100_000   # --n: about a day of CPU for a scripted controller; more is a typo
 MAX_SEED = 2**32 - 1
+
+
+def runs_in_real_time(label: str) -> bool:
+    """Whether the controller of a table's row (``best_scripted:NAME`` for the best scripted one) runs within the
+    bench's 5 ms period: every scripted and learned controller; not ``mpc``, nor the references."""
+    return label.split(":")[-1] not in NOT_REAL_TIME
 
 
 def check_seeds(seeds: Sequence[int] | None) -> None:
