@@ -15,27 +15,31 @@ numbers does: :mod:`triplanar.workbench.given`), builds from them the column of 
 library (:data:`POINTS` x three directions x :data:`FOLLOWS`: constant, in proportion to the load, travel, slip speed,
 its square, and periodic in time, in the horizontal plane, as a sine and a cosine at the frequency where the model's
 travel lag oscillates most (:func:`_scan_frequency`); a force following slip speed follows its own point's, so the
-best of those are measured for their point alone), and regresses the model's residual on each term alone: the term whose fitted size best predicts the
-residual of load levels it was not fitted on (the diagnosis's cross-validation folds) is the one located; terms whose
-held-out error is within two paired standard errors of it are its look-alikes (the data cannot tell them apart), and
-the points where the same force has the same moment about the vertical are named with its own (a force along e1 at the
+best of those are measured for their point alone), and regresses the model's residual on each term alone, scoring
+each on the load levels it was not fitted on (the diagnosis's cross-validation folds). The terms whose held-out error
+is within two paired standard errors of the least are look-alikes (the data cannot tell them apart); of them one is
+named (:func:`_named`: horizontal, through the mass centre, constant rather than in proportion to the load), and the
+points where the same force has the same moment about the vertical are named with its own (a force along e1 at the
 tip and at the mass centre differ only by a moment about a horizontal axis, which the contacts' reactions take up).
+When no term beats the model alone so, the closest is named ``weak``: a lead for the user, never read by a rule.
 Its size is then refined on the model simulated with it (secant steps: a drag slows the block, which changes the drag,
-so the response is not linear at the sizes found), with a 95 % interval from the spread over the tests (clustered by
-test: a test's residual is smooth along its path, so its samples are not independent), and the share of the residual
-the simulated force removes is reported; a term that removes none is not reported. The interval is widened as the
-workbench's are where the force leaves more than the repeats' scatter (:mod:`triplanar.workbench.intervals`).
+so the response is not linear at the sizes found), with a 95 % interval from the larger of the spread over the tests
+(clustered by test: a test's residual is smooth along its path, so its samples are not independent) and the jackknife
+over the load folds, and the share of the residual the simulated force removes is reported; a term that removes none
+is not reported. The interval is widened as the workbench's are where the force leaves more than the repeats' scatter
+(:mod:`triplanar.workbench.intervals`).
 
 For an ``outside_library`` verdict it is evidence for the user. For a verdict that would be ``high`` one rule reads
-it: when the located force, with fewer parameters, predicts the held-out loads as well as the named entries, the
-confidence is ``low`` (:func:`triplanar.workbench.rules._outside_force`; per test held-out errors in
-``LocatedResult.held_out_mm``). The model it starts from is the one diagnosed (``Evidence.base``), not a library entry
+it: when the force with the least held-out error (``LocatedResult.compared``, whichever look-alike is named), with
+fewer parameters, predicts the held-out loads as well as the named entries, the confidence is ``low``
+(:func:`triplanar.workbench.rules._outside_force`; per test held-out errors in ``LocatedResult.held_out_mm``). The model it starts from is the one diagnosed (``Evidence.base``), not a library entry
 named with low confidence: an outside verdict says none explains, and a stand-in would share the residual with the
 force.
 
 What it cannot say: a force proportional to a contact's normal force (the state a user effect sees has no reactions),
 two extra forces at once (one term is chosen), a vertical oscillation, and a periodic force without the file's times.
-Its constants were chosen on the calibration's tuning seeds 1004-3049; the rates on others are in docs/workbench.md.
+Its constants were chosen on the calibration's tuning seeds 1004-3049, the naming order on 1004-4049 and 5000-5249;
+the rates on others are in docs/workbench.md.
 """
 
 from __future__ import annotations
