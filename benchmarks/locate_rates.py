@@ -104,8 +104,8 @@ def main() -> None:
             seed = int(path.stem.rsplit("-s", 1)[1])
             if args.seeds is not None and seed not in args.seeds:
                 continue
-            if 4000 <= seed <= 4065:
-                raise SystemExit(f"{path}: seeds 4000-4065 are the calibration's held-out part; not looked at here")
+            if 10000 <= seed <= 10065:
+                raise SystemExit(f"{path}: seeds 10000-10065 are the calibration's held-out part; not looked at here")
             truth = json.loads(path.with_name(path.name + ".truth.json").read_text(encoding="utf-8"))
             tests = read_measurements(path)
             given = [make_effect(f"{e['name']}:" + ",".join(f"{k}={v}" for k, v in e["parameters"].items()))
@@ -126,7 +126,8 @@ def main() -> None:
             term = found.term.label if found.term else "none"
             if found.term is not None:
                 term += f" {found.term.size:.3g} [{found.term.ci95[0]:.3g}, {found.term.ci95[1]:.3g}] (true {size:.3g})"
-            print(f"{path.stem:34s} {verdict:16s} {term:92s} where {'Y' if right['where'] else 'n'} "
+            term += " (weak)" if found.weak else ""
+            print(f"{path.stem:34s} {verdict:16s} {term:99s} where {'Y' if right['where'] else 'n'} "
                   f"(group {'Y' if right['where_group'] else 'n'}, {len(found.lookalikes)} alike) follows "
                   f"{'Y' if right['follows'] else 'n'}  removes {100 * found.share_removed:5.1f} %  "
                   f"{cpu:5.1f} CPU s", flush=True)

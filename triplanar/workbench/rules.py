@@ -834,7 +834,9 @@ def outside_force_rival(ev: Evidence, draft: _Draft | Verdict) -> dict[str, Any]
     over the tests of the force's held-out squared error minus the named entries' (mm^2) with its standard error, and
     whether the rule fires."""
     loc = ev.located
-    if loc is None or loc.term is None or not draft.effects:
+    # the term with the least held-out error, whichever look-alike the sentence names (none when only weak)
+    term = None if loc is None else loc.compared
+    if term is None or not draft.effects:
         return None
     named_mm, count = _named_parameters(ev, draft)
     common = sorted(set(named_mm) & set(loc.held_out_mm))
@@ -843,9 +845,9 @@ def outside_force_rival(ev: Evidence, draft: _Draft | Verdict) -> dict[str, Any]
     if len(d) < 2:
         return None
     mean, se = float(d.mean()), float(d.std(ddof=1) / math.sqrt(len(d)))
-    own = 3 if loc.term.follows == "time" else 1        # a periodic force: amplitude, phase and its frequency
-    return {"force": f"{loc.term.label} ({loc.term.size:.3g} {loc.term.unit})", "force_parameters": own,
-            "force_cv_mm": loc.term.cv_error_mm, "named_parameters": count, "named_cv_mm": draft.unexplained_mm, "difference_mm2": mean,
+    own = 3 if term.follows == "time" else 1        # a periodic force: amplitude, phase and its frequency
+    return {"force": f"{term.label} ({term.size:.3g} {term.unit})", "force_parameters": own,
+            "force_cv_mm": term.cv_error_mm, "named_parameters": count, "named_cv_mm": draft.unexplained_mm, "difference_mm2": mean,
             "difference_se_mm2": se, "fires": own < count and mean <= OUTSIDE_FORCE_SE * se}
 
 

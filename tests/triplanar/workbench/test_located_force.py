@@ -131,3 +131,42 @@ def test_a_vertical_force_is_likened_by_what_it_follows() -> None:
     assert "lift growing with speed" in _likeness(term("+e2", "slip speed squared"))
     assert _likeness(term("-e2", "constant")) == "like an extra weight"
     assert _likeness(term("+e2", "travel")) == "like a lift"
+
+
+def _group(*specs: tuple[str, str, str]) -> list[tuple]:
+    """Look-alikes as :func:`locate` ranks them (least held-out error first), by (point, direction, follows)."""
+    from triplanar.workbench.locate import LocatedTerm
+    return [(LocatedTerm(p, d, f, 1.0, (0.5, 1.5), "N", 0.5, 1.0 + 0.01 * i), np.ones(4)) for i, (p, d, f)
+            in enumerate(specs)]
+
+
+def _named(group: list[tuple]) -> tuple[str, str, str]:
+    from triplanar.workbench.locate import _named as named
+    term = named(group)
+    return term.point, term.direction, term.follows
+
+
+def test_the_named_look_alike_is_horizontal_through_the_mass_centre_and_constant_before_load() -> None:
+    """Among terms the held-out loads cannot tell apart (locate._named): a drag read as a vertical force in proportion
+    to the load is named as the drag; a pull at the mass centre as constant rather than in proportion to the load;
+    a force through the mass centre before the same force at a contact."""
+    drag = _group(("mass centre", "-e2", "load"), ("mass centre", "-e1", "slip speed"))
+    assert _named(drag) == ("mass centre", "-e1", "slip speed")
+    pull = _group(("mass centre", "-e3", "load"), ("CP2", "-e3", "constant"), ("mass centre", "-e3", "constant"))
+    assert _named(pull) == ("mass centre", "-e3", "constant")
+    # in proportion to the load stays named when no constant force at its point and direction is a look-alike
+    assert _named(_group(("mass centre", "-e1", "load"), ("mass centre", "-e1", "travel"))) == \
+        ("mass centre", "-e1", "load")
+    # a vertical force alone is named: the order chooses among look-alikes, it adds none
+    assert _named(_group(("CP1", "-e2", "constant"))) == ("CP1", "-e2", "constant")
+
+
+def test_the_rule_compares_the_least_held_out_error_and_never_a_weak_term() -> None:
+    from triplanar.workbench.locate import LocatedTerm
+    named = LocatedTerm("mass centre", "-e3", "constant", 1.0, (0.8, 1.2), "N", 0.5, 1.1)
+    least = LocatedTerm("mass centre", "-e3", "load", 0.02, (0.01, 0.03), "N/N", 0.5, 1.0)
+    found = LocatedResult(named, (least.label,), 2.0, 1.0, 0.7, 90, 400, 8, "", {"t0": 1.0}, False, least)
+    assert found.compared is least
+    assert LocatedResult(named, (), 2.0, 1.0, 0.7, 90, 400, 8, "").compared is named
+    assert LocatedResult(named, (), 2.0, 1.5, 0.4, 90, 400, 8, "", {}, True).compared is None
+    assert found.as_json()["least_held_out"] == least.label and found.as_json()["weak"] is False

@@ -86,3 +86,11 @@ def test_the_force_lowers_high_within_outside_force_se_standard_errors_and_not_b
         rival = rules.outside_force_rival(ev, decide(replace(ev, located=None)))
         assert math.isclose(rival["difference_mm2"] / rival["difference_se_mm2"], z, rel_tol=1e-9)
         assert decide(ev).confidence == ("low" if fires else "high"), (z, rival)
+
+
+def test_a_weak_location_never_lowers_high() -> None:
+    """A located force that does not beat the model alone on held-out loads is named for the user only (``weak``):
+    the rule compares none, even with held-out errors as close as those that lower a ``high`` above."""
+    close = [e + (0.03 if i % 2 else -0.02) for i, e in enumerate(NAMED)]
+    ev = _evidence(_entry("contact_friction", THREE, NAMED), replace(_located(close), weak=True))
+    assert decide(ev).confidence == "high"
