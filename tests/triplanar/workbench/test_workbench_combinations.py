@@ -90,3 +90,22 @@ def test_forward_selection_also_runs_from_a_close_runner_up() -> None:
     steps = report["combination"]["steps"]
     assert [(s["effect"], s.get("instead_of")) for s in steps] == [("actuator_rise", "rate_friction"),
                                                                    ("tip_offset", None)]
+
+
+def test_forward_selection_starts_where_the_rigid_block_points_when_no_entry_explains(monkeypatch) -> None:
+    """A load-cell gain and an x1 rangefinder gain that partly cancel (as the calibration's s6106): no entry alone
+    removes 30 % and none is examined, but the contact points' distances change along the travel (rigidity
+    ``instrument``); forward selection from the rangefinder gain, the entry that test sees
+    (``rules.rigidity_start``), names both, each truth inside its interval. Without that start: ``outside_library``."""
+    truth = {"load_cell_gain": {"gain": 0.89}, "rangefinder_gain": {"gain_x1": 0.76}}
+    candidates = ["load_cell_gain", "rangefinder_gain", "contact_friction", "tip_offset", "time_offset"]
+    report = _pair_report(truth, 3, candidates)
+    assert report["rigidity"]["kind"] == "instrument"
+    assert [s["effect"] for s in report["combination"]["steps"]] == ["rangefinder_gain", "load_cell_gain"]
+    assert max(c["improvement"] for c in report["candidates"]) < 0.3     # no single entry explains
+    from triplanar.workbench import rules
+    monkeypatch.setattr(rules, "rigidity_start", lambda ev: None)
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=3, effects=[
+        make_effect("load_cell_gain:gain=0.89"), make_effect("rangefinder_gain:gain_x1=0.76")])
+    without = Diagnoser(candidates, folds=2, progress=False, model_form=False, executor="serial").fit(tests)
+    assert without.verdict_ == "outside_library" and without.combination_ is None, without.reason_
