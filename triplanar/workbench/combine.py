@@ -7,7 +7,10 @@ parameters refitted jointly with every later addition, as :class:`~triplanar.wor
 does), the remaining candidates are diagnosed against the model with it, and so on (once a second entry has joined,
 the first is re-examined given the second: :func:`_first_reexamined`); the rules of
 :mod:`~triplanar.workbench.rules` say when to look further (:func:`~triplanar.workbench.rules.combination_continues`)
-and which entry joins (:func:`~triplanar.workbench.rules.step_accepted`).
+and which entry joins (:func:`~triplanar.workbench.rules.step_accepted`). It also runs from a close runner-up
+(:func:`_close_runner_up`) and from the entry the rigid block's test points at
+(:func:`~triplanar.workbench.rules.rigidity_start`; with no entry examined, from it alone), and keeps the better
+combination.
 
 Each step records its entry, its parameters with 95 % intervals *from the final joint fit*, its own share of the
 improvement (``(cv error before it - cv error after it) / baseline error``: the shares add up to the total
@@ -70,17 +73,20 @@ def combine(diag: Diagnoser, ev: Evidence, tests: Sequence[MeasuredTest]) -> Com
     """Forward selection from ``ev``'s examined entry (module doc), each round diagnosed by ``diag``'s
     :meth:`~triplanar.workbench.diagnose.Diagnoser.next_round`; every step has its ``params`` and ``param_ci95``
     from the last joint fit."""
-    first = ev.best
+    start = rules.rigidity_start(ev)
+    first = ev.best if ev.best is not None else start
     assert first is not None
     base = ev.user_base
     if first.kind == "refit":      # the refitted given effect stays at its refitted values from here on
         base = spec_with_values(replace(base, effects=without_effect(base.effects, first.effect)), first.effect,
                                 first.params)
-    steps, results, baselines = _forward(diag, ev, tests, base, first, ev.lookalikes)
-    runner = _close_runner_up(ev, first)
-    if runner is not None and len(results) >= 2:
-        alt_steps, alt_results, alt_baselines = _forward(diag, ev, tests, base, runner,
-                                                         lookalikes_of(runner, ev.ranked))
+    steps, results, baselines = _forward(diag, ev, tests, base, first, ev.lookalikes if ev.best else ())
+    runner = _close_runner_up(ev, first) if ev.best is not None else None
+    others = [runner] if runner is not None and len(results) >= 2 else []
+    if start is not None and start is not first:        # rules.rigidity_start: the entry the rigid block points at
+        others.append(start)
+    for other in others:
+        alt_steps, alt_results, alt_baselines = _forward(diag, ev, tests, base, other, lookalikes_of(other, ev.ranked))
         if len(alt_results) >= 2 and rules.swap_accepted(alt_results[-1], results[-1]):
             steps, results, baselines = alt_steps, alt_results, alt_baselines
             steps[0]["instead_of"] = first.effect

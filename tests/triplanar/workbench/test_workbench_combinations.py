@@ -90,3 +90,40 @@ def test_forward_selection_also_runs_from_a_close_runner_up() -> None:
     steps = report["combination"]["steps"]
     assert [(s["effect"], s.get("instead_of")) for s in steps] == [("actuator_rise", "rate_friction"),
                                                                    ("tip_offset", None)]
+
+
+def test_forward_selection_starts_where_the_rigid_block_points_when_no_entry_explains(monkeypatch) -> None:
+    """A load-cell gain and an x1 rangefinder gain that partly cancel (as the calibration's s6106): no entry alone
+    removes 30 % and none is examined, but the contact points' distances change along the travel (rigidity
+    ``instrument``); forward selection from the rangefinder gain, the entry that test sees
+    (``rules.rigidity_start``), names both, each truth inside its interval. Without that start: ``outside_library``."""
+    truth = {"load_cell_gain": {"gain": 0.89}, "rangefinder_gain": {"gain_x1": 0.76}}
+    candidates = ["load_cell_gain", "rangefinder_gain", "contact_friction", "tip_offset", "time_offset"]
+    report = _pair_report(truth, 3, candidates)
+    assert report["rigidity"]["kind"] == "instrument"
+    assert [s["effect"] for s in report["combination"]["steps"]] == ["rangefinder_gain", "load_cell_gain"]
+    assert max(c["improvement"] for c in report["candidates"]) < 0.3     # no single entry explains
+    from triplanar.workbench import rules
+    monkeypatch.setattr(rules, "rigidity_start", lambda ev: None)
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=3, effects=[
+        make_effect("load_cell_gain:gain=0.89"), make_effect("rangefinder_gain:gain_x1=0.76")])
+    without = Diagnoser(candidates, folds=2, progress=False, model_form=False, executor="serial").fit(tests)
+    assert without.verdict_ == "outside_library" and without.combination_ is None, without.reason_
+
+
+def test_a_single_entry_the_rigid_block_cannot_see_is_tried_with_the_one_it_sees(monkeypatch) -> None:
+    """A load-cell gain 1.096 with an x1 rangefinder gain 0.9 on noisier data (0.6 mm, 0.3 deg; as the calibration's
+    s6206): the load-cell gain alone passes as the verdict, but it cannot change the contact points' distances, which
+    the rigid block's test says do change (``instrument``); forward selection is tried and names both. Without that
+    (``rules.rigidity_start`` off) the load-cell gain is named alone."""
+    from triplanar.workbench import rules
+    tests, _ = generate_lab_data(loads=LOADS, repeats=2, seed=3, noise_m=6e-4, scatter_deg=0.3, effects=[
+        make_effect("load_cell_gain:gain=1.096"), make_effect("rangefinder_gain:gain_x1=0.9")])
+    candidates = ["load_cell_gain", "rangefinder_gain", "contact_friction", "tip_offset", "time_offset"]
+    report = Diagnoser(candidates, folds=2, progress=False, model_form=False, executor="serial").fit(tests).report_
+    assert report["rigidity"]["kind"] == "instrument"
+    assert report["verdict"] == "library_effects", report["reason"]
+    assert sorted(m["effect"] for m in report["missing_effects"]) == ["load_cell_gain", "rangefinder_gain"]
+    monkeypatch.setattr(rules, "rigidity_start", lambda ev: None)
+    without = Diagnoser(candidates, folds=2, progress=False, model_form=False, executor="serial").fit(tests)
+    assert without.verdict_ == "library_effect" and without.missing_effect_ == "load_cell_gain", without.reason_
