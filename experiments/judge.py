@@ -4,7 +4,8 @@ PPO run, a shipped agent or ``limit`` is compared with the students on the same 
 
 ``python -m experiments.judge --controller ppo:RUN [--controller ...] --n 100 [--skip M] [--shipped-seed K ...]``
 prints, as JSON, each controller's row (:func:`experiments.stats.row_stats`: success with its Wilson interval, error
-over successes and score with their bootstrap intervals, the failures) and, with several, the row pooling them as
+over successes and score with their bootstrap intervals, the failures, each bench's score: failure =
+``FAILURE_SCORE_MM``, for paired comparisons) and, with several, the row pooling them as
 seeds of one recipe (the same benches each). ``--out FILE`` also writes it. A controller is any string of
 :func:`agents.controller_specs.parse_controller` (``ppo:RUN`` loads a privileged run, ``env.privileged``, as
 :class:`agents.robust_policy.PrivilegedPolicy`; ``shipped:ppo_robust``, once per ``--shipped-seed``).
@@ -20,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from agents.controller_specs import ControllerSpecError, parse_controller
+from agents.heldout import FAILURE_SCORE_MM
 
 from .train_student import judge_outcomes, judged_stats
 
@@ -36,7 +38,8 @@ def judge_all(texts: list[str], n: int, skip: int = 0, shipped_seeds: tuple[int,
         built = parse_controller(text, seed=seed).build(label, {})
         started = time.process_time()
         outcomes = judge_outcomes(built.controller, built.env_kwargs, n, skip)
-        rows[label] = {**judged_stats([outcomes]), "cpu_s": time.process_time() - started}
+        rows[label] = {**judged_stats([outcomes]), "cpu_s": time.process_time() - started,
+                       "bench_scores_mm": [o.mimicry_error_mm if o.success else FAILURE_SCORE_MM for o in outcomes]}
         runs.append(outcomes)
     result: dict[str, Any] = {"n": n, "skip": skip, "rows": rows}
     if len(runs) > 1:

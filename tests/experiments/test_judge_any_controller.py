@@ -13,6 +13,7 @@ def test_rows_are_judged_on_the_same_benches_and_pooled_as_seeds():
     rows, pooled = result["rows"], result["pooled"]
     assert list(rows) == ["fixed_tip", "pi_feedback"] and all(r["n_episodes"] == 2 for r in rows.values())
     assert pooled["n_seeds"] == 2 and pooled["n_benches"] == 2 and pooled["n_episodes"] == 4
+    assert rows["fixed_tip"]["score"] == pytest.approx(sum(rows["fixed_tip"]["bench_scores_mm"]) / 2)
     assert pooled["seed_scores_mm"] == pytest.approx([rows["fixed_tip"]["score"], rows["pi_feedback"]["score"]])
     assert pooled["success_rate"] == pytest.approx((rows["fixed_tip"]["success_rate"]
                                                     + rows["pi_feedback"]["success_rate"]) / 2)
