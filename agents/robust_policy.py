@@ -17,7 +17,8 @@ import numpy as np
 
 from .controller_base import Controller
 from .ppo_controller import load_untrusted_sb3_zip, load_untrusted_vecnormalize
-from .train_config import ALGOS, frame_stack_of
+from .privileged import privileged_row, truth_scale
+from .train_config import ALGOS, frame_stack_of, is_privileged
 
 FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
 
@@ -41,13 +42,47 @@ class RobustPolicy(Controller):
         self.frames.clear()
 
     def act(self, obs: np.ndarray) -> np.ndarray:
+        return self._decide(self._stack(obs))
+
+    def _stack(self, obs: np.ndarray) -> np.ndarray:
         if not self.frames:
             self.frames.extend([obs] * self.n_frames)
         else:
             self.frames.append(obs)
-        stacked = np.concatenate(list(self.frames)).astype(np.float32)
-        action, _ = self.model.predict(self.normalizer.normalize_obs(stacked), deterministic=True)
+        return np.concatenate(list(self.frames)).astype(np.float32)
+
+    def _decide(self, policy_input: np.ndarray) -> np.ndarray:
+        action, _ = self.model.predict(self.normalizer.normalize_obs(policy_input), deterministic=True)
         return np.asarray(action, dtype=np.float32)
+
+
+class PrivilegedPolicy(RobustPolicy):
+    """A robust PPO trained with ``env: privileged: true``: its input is the frame stack, then the privileged row of
+    the episode's bench (:func:`agents.privileged.privileged_row`), which it reads at :meth:`reset` from the env it
+    is bound to, as ``limit`` reads the true state (``needs_env``; :func:`agents.controller_base.play` binds it). A
+    teacher's policy: no laboratory can run it."""
+
+    needs_env = True
+
+    def __init__(self, model: Any, normalizer: Any, name: str = "ppo_privileged", frames: int = FRAMES):
+        super().__init__(model, normalizer, name, frames)
+        self._env: Any = None
+        self._truth: np.ndarray | None = None
+
+    def bind(self, env: Any) -> None:
+        self._env = env.unwrapped
+
+    def reset(self, load_N: float, config: Any) -> None:
+        super().reset(load_N, config)
+        self._truth = None
+        if self._env is not None:
+            self._truth = privileged_row(self._env.episode_bench, truth_scale(*config.base_specimen()))
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        if self._truth is None:
+            raise RuntimeError(f"{self.name} needs the episode's true bench: call bind(env) after env.reset, then "
+                               "reset (agents.controller_base.play does)")
+        return self._decide(np.concatenate([self._stack(obs), self._truth]))
 
 
 class RecurrentPolicy(Controller):
@@ -82,16 +117,23 @@ def run_config(run_dir: str | Path) -> dict[str, Any]:
     return json.loads((Path(run_dir) / "config.json").read_text())
 
 
-def policy_of_model(model: Any, normalizer: Any, algo: str, frames: int) -> RobustPolicy | RecurrentPolicy:
-    """A model in training (and its normaliser) as a bench controller."""
+def policy_of_model(model: Any, normalizer: Any, algo: str, frames: int, privileged: bool = False
+                    ) -> RobustPolicy | RecurrentPolicy:
+    """A model in training (and its normaliser) as a bench controller (``privileged``: a
+    :class:`PrivilegedPolicy`)."""
     if algo == "recurrent":
         return RecurrentPolicy(model, normalizer)
+    if privileged:
+        return PrivilegedPolicy(model, normalizer, frames=frames)
     return RobustPolicy(model, normalizer, frames=frames)
 
 
 def load_policy(run_dir: str | Path, algo: str = "ppo", name: str | None = None) -> RobustPolicy | RecurrentPolicy:
-    """A finished v1 run as a bench controller (``reset``/``act``)."""
+    """A finished v1 run as a bench controller (``reset``/``act``); a run trained with ``env.privileged`` as a
+    :class:`PrivilegedPolicy`."""
     cls = RecurrentPolicy if algo == "recurrent" else RobustPolicy
+    if cls is RobustPolicy and (Path(run_dir) / "config.json").exists() and is_privileged(run_config(run_dir)):
+        return PrivilegedPolicy.load(run_dir, name=name or "ppo_privileged")
     return cls.load(run_dir, name=name or ALGOS[algo])
 
 

@@ -19,7 +19,9 @@ from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
 from envs.vector import ShearBatch
 from envs.vector_v1 import BANK_REUSE, BenchBatch
 
-__all__ = ["ShearSB3VecEnv", "bench_vec_env"]
+from .privileged import TRUTH_NAMES, privileged_row, truth_scale
+
+__all__ = ["PrivilegedSB3VecEnv", "ShearSB3VecEnv", "bench_vec_env"]
 
 
 class ShearSB3VecEnv(VecEnv):
@@ -116,12 +118,34 @@ class ShearSB3VecEnv(VecEnv):
         return [None for _ in range(self.num_envs)]
 
 
+class PrivilegedSB3VecEnv(ShearSB3VecEnv):
+    """v1's batch with each row's privileged row (:func:`agents.privileged.privileged_row` of the bench it runs)
+    appended to its flat observation: a teacher's training env (``env: privileged: true``). The terminal observation
+    carries the ended episode's row, the next observation the new episode's."""
+
+    def __init__(self, num_envs: int, seed: int | None = None, *, batch: BenchBatch):
+        self._scale = truth_scale(batch.specimen, batch.foundation)
+        self._truth = np.zeros((num_envs, len(TRUTH_NAMES)), dtype=np.float32)
+        self._truth_of: list[Any] = [None] * num_envs   # the bench each row of _truth was computed for
+        super().__init__(num_envs, seed=seed, batch=batch)
+        plain, extra = self.observation_space, np.full(len(TRUTH_NAMES), np.inf, dtype=np.float32)
+        self.observation_space = spaces.Box(np.concatenate([plain.low, -extra]), np.concatenate([plain.high, extra]),
+                                            dtype=np.float32)
+
+    def _flat_observations(self) -> np.ndarray:
+        for i, bench in enumerate(self.batch.benches):
+            if bench is not self._truth_of[i]:   # a new episode (the bank hands out the same bench again: no cost)
+                self._truth[i], self._truth_of[i] = privileged_row(bench, self._scale), bench
+        return np.concatenate([super()._flat_observations(), self._truth], axis=1)
+
+
 def bench_vec_env(num_envs: int, seed: int | None = None, *, frame_stack: int = 1, start_bank: int = 0,
-                  bank_reuse: int = BANK_REUSE, **v1_kwargs: Any) -> ShearSB3VecEnv:
+                  bank_reuse: int = BANK_REUSE, privileged: bool = False, **v1_kwargs: Any) -> ShearSB3VecEnv:
     """``TriPlanarShear-v1`` x ``num_envs`` as an SB3 ``VecEnv`` (every v1 argument, plus the batch's frame stack
-    and start bank: :mod:`envs.vector_v1`); env ``i`` is seeded ``seed + i``."""
+    and start bank: :mod:`envs.vector_v1`; ``privileged``: each row's true unknowns appended,
+    :class:`PrivilegedSB3VecEnv`); env ``i`` is seeded ``seed + i``."""
     bench_kwargs = {k: v for k, v in v1_kwargs.items() if k in BENCH_FIELDS}
     shear_kwargs = {k: v for k, v in v1_kwargs.items() if k not in BENCH_FIELDS}
     bench = BenchConfig(**bench_kwargs)
     batch = BenchBatch(num_envs, S.make_config(None, **shear_kwargs), bench, frame_stack, start_bank, bank_reuse)
-    return ShearSB3VecEnv(num_envs, seed=seed, batch=batch)
+    return (PrivilegedSB3VecEnv if privileged else ShearSB3VecEnv)(num_envs, seed=seed, batch=batch)

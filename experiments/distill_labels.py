@@ -65,10 +65,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from agents.controller_specs import ControllerSpecError, parse_controller
-from agents.estimator import DIRECTIONS, GEOMETRY, PARAMETERS, hypothesis_of
+from agents.estimator import GEOMETRY, PARAMETERS
 from agents.heldout import HELDOUT_SEED, STRESS_SEED, TUNING_SEED, first_startable
 from agents.limit import LimitController
 from agents.mpc import MPCController
+from agents.privileged import TRUTH_NAMES, bench_truth
 from envs.core import make_config
 from envs.triplanar_shear_v1 import BENCH_FIELDS, BENCH_OBSERVATION, TriPlanarShearV1Env, draw_bench
 from triplanar.atomic import remove_stale_temporaries, write_atomic
@@ -268,8 +269,10 @@ def complete(path: Path) -> bool:
 
 def bench_of_draw(stream: int, draw: int, env_kwargs: dict[str, Any]):
     """Draw ``draw`` of ``stream`` (``draw_bench`` from ``default_rng([stream, draw])``, as
-    :func:`agents.heldout.random_benches` draws), or None if friction holds it at rest (never run)."""
-    specimen, foundation = make_config(None, **env_kwargs).base_specimen()
+    :func:`agents.heldout.random_benches` draws), or None if friction holds it at rest (never run). ``env_kwargs``:
+    the v1 env's arguments (the bench's own, such as ``observation_mode``, do not change the specimen)."""
+    shear_kwargs = {k: v for k, v in env_kwargs.items() if k not in BENCH_FIELDS}
+    specimen, foundation = make_config(None, **shear_kwargs).base_specimen()
     bench = draw_bench(np.random.default_rng([stream, draw]), specimen, foundation)
     return (first_startable([bench], 1, None, env_kwargs) or [None])[0]
 
@@ -286,12 +289,6 @@ def driver_of(settings: LabelSettings, env_kwargs: dict[str, Any]):
     return driver
 
 
-def bench_truth(bench) -> np.ndarray:
-    """A bench's privileged row (:data:`TRUTH_NAMES`: its unknowns, then the load level), as a shard's ``truth``."""
-    return np.append(hypothesis_of(bench), bench.load_N)
-
-
-TRUTH_NAMES = PARAMETERS + GEOMETRY + DIRECTIONS + ("load_N",)
 ESTIMATE_NAMES = PARAMETERS + GEOMETRY
 
 

@@ -491,6 +491,12 @@ def judge_controller(controller: Any, env_kwargs: dict[str, Any], n: int, skip: 
     """``controller`` on :func:`judge_draws`' benches from the ``skip``-th (noise seed: the bench's index, as
     ``triplanar evaluate`` seeds a learned controller; ``before(bench)`` called before each episode):
     :func:`experiments.stats.row_stats` and each failure (index, reason, decisions)."""
+    return judged_stats([judge_outcomes(controller, env_kwargs, n, skip, before)])
+
+
+def judge_outcomes(controller: Any, env_kwargs: dict[str, Any], n: int, skip: int = 0,
+                   before: Any = None) -> list[Any]:
+    """The episodes of :func:`judge_controller` (:class:`agents.heldout.Outcome` each)."""
     outcomes = []
     for i, (_, bench) in enumerate(judge_draws(n, env_kwargs)):
         if i >= skip:
@@ -498,10 +504,17 @@ def judge_controller(controller: Any, env_kwargs: dict[str, Any], n: int, skip: 
                 before(bench)
             outcomes.append(run_episode(controller, bench, env_kwargs=env_kwargs, seed=i, bench_set="tuning",
                                         index=i))
-    errors = np.array([[o.mimicry_error_mm for o in outcomes]])
-    success = np.array([[o.success for o in outcomes]])
+    return outcomes
+
+
+def judged_stats(runs: list[list[Any]]) -> dict[str, Any]:
+    """:func:`experiments.stats.row_stats` of one or more controllers' :func:`judge_outcomes` on the same benches
+    (pooled as seeds of a row) and each failure (index, reason, decisions)."""
+    errors = np.array([[o.mimicry_error_mm for o in outcomes] for outcomes in runs])
+    success = np.array([[o.success for o in outcomes] for outcomes in runs])
     stats = row_stats(errors, success, FAILURE_SCORE_MM)
-    stats["failures"] = [(o.index, o.reason, o.steps) for o in outcomes if not o.success]   # steps: when it ended
+    stats["failures"] = [(o.index, o.reason, o.steps) for outcomes in runs for o in outcomes
+                         if not o.success]   # steps: when it ended
     return stats
 
 
