@@ -104,8 +104,11 @@ class DeviationPolicy(RobustPolicy):
         if self._env is None:
             raise RuntimeError(f"{self.name} reads the episode's deviation from its true reference: call bind(env) "
                                "first (agents.controller_base.play does)")
-        deviation = self._env.reference_deviation().astype(np.float32)
-        return self._decide(np.concatenate([self._stack(obs), deviation]))
+        return self._decide(np.concatenate([self._stack(obs), self._deviation().astype(np.float32)]))
+
+    def _deviation(self) -> np.ndarray:
+        """The input after the frame stack (a probe of an estimator's error overrides it)."""
+        return self._env.reference_deviation()
 
 
 EXTRA_POLICIES = {PRIVILEGED: PrivilegedPolicy, REFERENCE_DEVIATION: DeviationPolicy}   # train_config.EXTRA_INPUTS
