@@ -138,18 +138,39 @@ class PrivilegedSB3VecEnv(ShearSB3VecEnv):
         return np.concatenate([super()._flat_observations(), self._truth], axis=1)
 
 
+# The deviation values an estimator must supply: CP1 z, CP2 x, CP2 z, CP3 x, CP3 z. CP1's x deviation is zero by
+# construction (the travel is CP1's x displacement and the reference is indexed by it); the slope follows them.
+ESTIMATED_DEVIATION = slice(1, 6)
+BIAS_STREAM = 40_040   # the first entry of the training bias's seed sequence (envs.vector_v1.BANK_STREAM's kin)
+
+
 class DeviationSB3VecEnv(ShearSB3VecEnv):
     """v1's batch with each row's deviation from its true hydrostatic reference and the reference's slope
     (:meth:`envs.vector_v1.BenchBatch.reference_deviations`, 12 values, now) appended to its flat observation:
-    ``env: reference_deviation: true``, a privileged feature that a bench controller would have to estimate."""
+    ``env: reference_deviation: true``, a privileged feature that a bench controller would have to estimate.
 
-    def __init__(self, num_envs: int, seed: int | None = None, *, batch: BenchBatch):
+    ``bias_mm`` (``env: reference_deviation_bias_mm``; default 0: exact) trains with an estimate's error: each
+    episode's :data:`ESTIMATED_DEVIATION` values are off by a Gaussian bias of that standard deviation, drawn at its
+    start from the env's own stream (``[BIAS_STREAM, seed]``) and constant through it."""
+
+    def __init__(self, num_envs: int, seed: int | None = None, *, batch: BenchBatch, bias_mm: float = 0.0):
+        self.bias_mm = float(bias_mm)
+        self._rng = np.random.default_rng(None if seed is None else [BIAS_STREAM, seed])
+        self._bias = np.zeros((num_envs, REFERENCE_DEVIATION_DIM))
+        self._last_step = np.full(num_envs, np.inf)   # each row's control periods at the last observation
         super().__init__(num_envs, seed=seed, batch=batch)
         self.observation_space = _widened(self.observation_space, REFERENCE_DEVIATION_DIM)
 
     def _flat_observations(self) -> np.ndarray:
-        deviations = self.batch.reference_deviations().astype(np.float32)
-        return np.concatenate([super()._flat_observations(), deviations], axis=1)
+        deviations = self.batch.reference_deviations()
+        if self.bias_mm:
+            steps = self.batch.ST[:, S.ST_STEP].copy()
+            new = steps < self._last_step   # fewer periods than at the last look: a new episode
+            width = ESTIMATED_DEVIATION.stop - ESTIMATED_DEVIATION.start
+            self._bias[new, ESTIMATED_DEVIATION] = self._rng.normal(0.0, self.bias_mm, (int(new.sum()), width))
+            self._last_step = steps
+            deviations = deviations + self._bias
+        return np.concatenate([super()._flat_observations(), deviations.astype(np.float32)], axis=1)
 
 
 def _widened(space: spaces.Box, extra: int) -> spaces.Box:

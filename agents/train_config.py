@@ -9,7 +9,8 @@ the key, :mod:`agents.config_checks`):
   ``privileged: true``: a teacher's run, each env's true unknowns appended to its observation, :mod:`agents.privileged`;
   its policy reads them from the env it is bound to, :class:`agents.robust_policy.PrivilegedPolicy`; or
   ``reference_deviation: true``: each env's deviation from its true hydrostatic reference and the reference's slope,
-  :func:`envs.core.reference_deviation`, read likewise by :class:`agents.robust_policy.DeviationPolicy`);
+  :func:`envs.core.reference_deviation`, read likewise by :class:`agents.robust_policy.DeviationPolicy`; with
+  ``reference_deviation_bias_mm: B``, trained off by a per-episode bias, :class:`agents.sb3_vec_env.DeviationSB3VecEnv`);
 * ``algo``: ``ppo`` (SB3 PPO) or ``recurrent`` (sb3-contrib ``RecurrentPPO``, v1), ``policy`` and ``hyperparams``
   (its keyword arguments); ``ppo:`` is the same pair in one section with ``policy`` inside (``agents/ppo.yaml``);
 * ``n_envs`` (one batched env, :mod:`agents.sb3_vec_env`) and ``normalize`` (``VecNormalize``'s arguments);
@@ -37,6 +38,7 @@ BATCH_KEYS = ("frame_stack", "start_bank", "bank_reuse")   # the batched v1 env'
 PRIVILEGED = "privileged"  # v1, algo ppo: the bench's true unknowns appended to the observation (agents.privileged)
 REFERENCE_DEVIATION = "reference_deviation"  # v1, algo ppo: the deviation from the true case-C reference appended
 EXTRA_INPUTS = (PRIVILEGED, REFERENCE_DEVIATION)   # a frame-stack PPO's privileged inputs (at most one per run)
+DEVIATION_BIAS = "reference_deviation_bias_mm"   # training with an estimate's error (agents.sb3_vec_env)
 ALGOS = {"ppo": "ppo_robust", "recurrent": "ppo_recurrent"}  # algo -> v1 controller name in the tables
 POLICIES = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy"}
 EVALUATIONS = 20       # v1: points of the learning curve when neither the YAML nor the caller sets train.eval_freq
@@ -188,7 +190,8 @@ def frame_stack_of(config: dict[str, Any]) -> int:
 
 def single_env_kwargs(config: dict[str, Any]) -> dict[str, Any]:
     """v1: the single env's arguments (evaluation episodes): the batch's own keys left out."""
-    return {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS and k not in EXTRA_INPUTS}
+    return {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS and k not in EXTRA_INPUTS
+            and k != DEVIATION_BIAS}
 
 
 def is_privileged(config: dict[str, Any]) -> bool:
@@ -216,22 +219,32 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
     from envs.vector_v1 import BenchBatch
     env = dict(config.get("env") or {})
-    known = {f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | set(EXTRA_INPUTS)
+    known = {f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | set(EXTRA_INPUTS) | {DEVIATION_BIAS}
     unknown = sorted(set(env) - known)
     if unknown:
         raise ValueError(f"unknown env argument(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
     extras = {key: _privileged_option(env.pop(key, False), config.get("algo", "ppo"), key) for key in EXTRA_INPUTS}
     if all(extras.values()):
         raise ValueError(f"{PRIVILEGED} and {REFERENCE_DEVIATION}: give one of them, not both")
+    bias = _deviation_bias(env.pop(DEVIATION_BIAS, 0.0), extras[REFERENCE_DEVIATION])
     batch_kwargs = {k: env.pop(k) for k in BATCH_KEYS if k in env}
     bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
     batch = BenchBatch(n_envs, make_config(None, **env), bench, **batch_kwargs)
     if check_only:
         return batch
     from .sb3_vec_env import DeviationSB3VecEnv, PrivilegedSB3VecEnv, ShearSB3VecEnv
-    cls = {PRIVILEGED: PrivilegedSB3VecEnv, REFERENCE_DEVIATION: DeviationSB3VecEnv}.get(
-        extra_input_of(config), ShearSB3VecEnv)
-    return cls(batch.num_envs, seed=seed, batch=batch)
+    if extras[REFERENCE_DEVIATION]:
+        return DeviationSB3VecEnv(batch.num_envs, seed=seed, batch=batch, bias_mm=bias)
+    return (PrivilegedSB3VecEnv if extras[PRIVILEGED] else ShearSB3VecEnv)(batch.num_envs, seed=seed, batch=batch)
+
+
+def _deviation_bias(value: Any, deviation: bool) -> float:
+    """``env.reference_deviation_bias_mm``, checked: a finite number >= 0, and only with ``reference_deviation``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
+        raise ValueError(f"{DEVIATION_BIAS}: expected a number of mm >= 0, got {value!r:.80}")
+    if value and not deviation:
+        raise ValueError(f"{DEVIATION_BIAS}: a bias of the reference deviation needs {REFERENCE_DEVIATION}: true")
+    return float(value)
 
 
 def _privileged_option(value: Any, algo: Any, key: str = PRIVILEGED) -> bool:

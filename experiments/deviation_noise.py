@@ -25,10 +25,11 @@ import numpy as np
 
 from agents.heldout import FAILURE_SCORE_MM
 from agents.robust_policy import DeviationPolicy, load_policy
+from agents.sb3_vec_env import ESTIMATED_DEVIATION
 
 from .train_student import judge_outcomes, judged_stats
 
-ESTIMATED = slice(1, 6)   # the deviation values an estimator must supply (CP1 z, CP2 x, CP2 z, CP3 x, CP3 z)
+ESTIMATED = ESTIMATED_DEVIATION   # the deviation values an estimator must supply (CP1 z, CP2 x, CP2 z, CP3 x, CP3 z)
 
 
 class NoisyDeviationPolicy(DeviationPolicy):

@@ -111,3 +111,33 @@ def test_both_privileged_inputs_at_once_are_refused_by_name():
     config = {"env": {**ENV, "reference_deviation": True}}
     assert train_config.extra_input_of(config) == "reference_deviation"
     assert "reference_deviation" not in train_config.single_env_kwargs(config)
+
+
+def test_a_training_bias_is_constant_within_an_episode_redrawn_at_the_next_and_only_on_the_estimated_values():
+    exact, biased = _vec_env(reference_deviation=True), _vec_env(reference_deviation=True,
+                                                                 reference_deviation_bias_mm=0.2)
+    obs_exact, obs_biased = exact.reset(), biased.reset()
+    first = (obs_biased - obs_exact)[:, PLAIN:]
+    for step in range(400):
+        diff = (obs_biased - obs_exact)[:, PLAIN:]
+        np.testing.assert_array_equal(diff[:, [0] + list(range(6, 12))], 0.0)   # CP1 x and the slope: exact
+        assert np.all(np.abs(diff[:, 1:6]) > 1e-5)
+        np.testing.assert_allclose(diff, first, atol=1e-5)
+        obs_exact, _, done, infos_exact = exact.step(ACTIONS)
+        obs_biased, _, done_b, infos = biased.step(ACTIONS)
+        np.testing.assert_array_equal(done, done_b)
+        if done.any():   # the ended episode keeps its bias to its terminal observation; the next gets a new one
+            i = int(np.flatnonzero(done)[0])
+            ended = infos[i]["terminal_observation"] - infos_exact[i]["terminal_observation"]
+            np.testing.assert_allclose(ended[PLAIN:], first[i], atol=1e-5)
+            assert np.all(np.abs((obs_biased - obs_exact)[i, PLAIN + 1:PLAIN + 6] - first[i, 1:6]) > 1e-4)
+            return
+    pytest.fail("no episode ended in 400 periods")
+
+
+@pytest.mark.parametrize("overrides, message", [
+    ({"env.reference_deviation_bias_mm": 0.1}, "needs reference_deviation: true"),
+    ({"env.reference_deviation": True, "env.reference_deviation_bias_mm": -1}, "expected a number of mm >= 0")])
+def test_a_bad_training_bias_is_refused_by_name(overrides, message):
+    with pytest.raises(ValueError, match=f"reference_deviation_bias_mm: .*{message}"):
+        train_config.load_config(train_config.PROFILES[train_config.V1].configs["ppo"], overrides, train_config.V1)
