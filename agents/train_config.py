@@ -10,7 +10,8 @@ the key, :mod:`agents.config_checks`):
   its policy reads them from the env it is bound to, :class:`agents.robust_policy.PrivilegedPolicy`; or
   ``reference_deviation: true``: each env's deviation from its true hydrostatic reference and the reference's slope,
   :func:`envs.core.reference_deviation`, read likewise by :class:`agents.robust_policy.DeviationPolicy`; with
-  ``reference_deviation_bias_mm: B``, trained off by a per-episode bias, :class:`agents.sb3_vec_env.DeviationSB3VecEnv`);
+  ``reference_deviation_bias_mm: B``, trained off by a per-episode bias,
+  :class:`agents.sb3_vec_env.DeviationSB3VecEnv`);
 * ``algo``: ``ppo`` (SB3 PPO) or ``recurrent`` (sb3-contrib ``RecurrentPPO``, v1), ``policy`` and ``hyperparams``
   (its keyword arguments); ``ppo:`` is the same pair in one section with ``policy`` inside (``agents/ppo.yaml``);
 * ``n_envs`` (one batched env, :mod:`agents.sb3_vec_env`) and ``normalize`` (``VecNormalize``'s arguments);
@@ -219,7 +220,8 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
     from envs.vector_v1 import BenchBatch
     env = dict(config.get("env") or {})
-    known = {f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | set(EXTRA_INPUTS) | {DEVIATION_BIAS}
+    known = ({f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | set(EXTRA_INPUTS)
+             | {DEVIATION_BIAS})
     unknown = sorted(set(env) - known)
     if unknown:
         raise ValueError(f"unknown env argument(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
