@@ -18,7 +18,7 @@ import numpy as np
 from .controller_base import Controller
 from .ppo_controller import load_untrusted_sb3_zip, load_untrusted_vecnormalize
 from .privileged import privileged_row, truth_scale
-from .train_config import ALGOS, frame_stack_of, is_privileged
+from .train_config import ALGOS, PRIVILEGED, REFERENCE_DEVIATION, extra_input_of, frame_stack_of
 
 FRAMES = 4             # the frame stack of a run that does not say (runs from before config.json)
 
@@ -85,6 +85,35 @@ class PrivilegedPolicy(RobustPolicy):
         return self._decide(np.concatenate([self._stack(obs), self._truth]))
 
 
+class DeviationPolicy(RobustPolicy):
+    """A robust PPO trained with ``env: reference_deviation: true``: its input is the frame stack, then the
+    episode's deviation from its true hydrostatic reference and the reference's slope now
+    (:meth:`envs.base.ShearEnvBase.reference_deviation`, the same function the training batch calls), read at each
+    decision from the env it is bound to (``needs_env``). A privileged policy: a bench would have to estimate it."""
+
+    needs_env = True
+
+    def __init__(self, model: Any, normalizer: Any, name: str = "ppo_deviation", frames: int = FRAMES):
+        super().__init__(model, normalizer, name, frames)
+        self._env: Any = None
+
+    def bind(self, env: Any) -> None:
+        self._env = env.unwrapped
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        if self._env is None:
+            raise RuntimeError(f"{self.name} reads the episode's deviation from its true reference: call bind(env) "
+                               "first (agents.controller_base.play does)")
+        return self._decide(np.concatenate([self._stack(obs), self._deviation().astype(np.float32)]))
+
+    def _deviation(self) -> np.ndarray:
+        """The input after the frame stack (a probe of an estimator's error overrides it)."""
+        return self._env.reference_deviation()
+
+
+EXTRA_POLICIES = {PRIVILEGED: PrivilegedPolicy, REFERENCE_DEVIATION: DeviationPolicy}   # train_config.EXTRA_INPUTS
+
+
 class RecurrentPolicy(Controller):
     """A trained recurrent PPO (``RecurrentPPO``) as ``policy(obs) -> action`` on raw bench observations: keeps the
     LSTM state itself, reset at each episode's start."""
@@ -117,23 +146,22 @@ def run_config(run_dir: str | Path) -> dict[str, Any]:
     return json.loads((Path(run_dir) / "config.json").read_text())
 
 
-def policy_of_model(model: Any, normalizer: Any, algo: str, frames: int, privileged: bool = False
+def policy_of_model(model: Any, normalizer: Any, algo: str, frames: int, extra: str | None = None
                     ) -> RobustPolicy | RecurrentPolicy:
-    """A model in training (and its normaliser) as a bench controller (``privileged``: a
-    :class:`PrivilegedPolicy`)."""
+    """A model in training (and its normaliser) as a bench controller (``extra``: the run's privileged input,
+    :func:`agents.train_config.extra_input_of`, read by its :data:`EXTRA_POLICIES` class)."""
     if algo == "recurrent":
         return RecurrentPolicy(model, normalizer)
-    if privileged:
-        return PrivilegedPolicy(model, normalizer, frames=frames)
-    return RobustPolicy(model, normalizer, frames=frames)
+    return EXTRA_POLICIES.get(extra, RobustPolicy)(model, normalizer, frames=frames)
 
 
 def load_policy(run_dir: str | Path, algo: str = "ppo", name: str | None = None) -> RobustPolicy | RecurrentPolicy:
     """A finished v1 run as a bench controller (``reset``/``act``); a run trained with ``env.privileged`` as a
-    :class:`PrivilegedPolicy`."""
+    :class:`PrivilegedPolicy`, with ``env.reference_deviation`` as a :class:`DeviationPolicy`."""
     cls = RecurrentPolicy if algo == "recurrent" else RobustPolicy
-    if cls is RobustPolicy and (Path(run_dir) / "config.json").exists() and is_privileged(run_config(run_dir)):
-        return PrivilegedPolicy.load(run_dir, name=name or "ppo_privileged")
+    extra = extra_input_of(run_config(run_dir)) if (Path(run_dir) / "config.json").exists() else None
+    if cls is RobustPolicy and extra is not None:
+        return EXTRA_POLICIES[extra].load(run_dir, name=name or f"ppo_{extra}")
     return cls.load(run_dir, name=name or ALGOS[algo])
 
 

@@ -24,7 +24,7 @@ from typing import Any
 from triplanar.atomic import write_atomic
 
 from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer
-from .train_config import ALGOS, frame_stack_of, is_privileged, single_env_kwargs
+from .train_config import ALGOS, extra_input_of, frame_stack_of, single_env_kwargs
 from .train_logging import record_evaluation
 
 CURVE_BENCHES = 10
@@ -94,7 +94,7 @@ class BenchesRun:
         from .robust_policy import evaluate_policy_on, policy_of_model
 
         policy = policy_of_model(self.model, self.model.get_vec_normalize_env(), self.algo, frame_stack_of(self.config),
-                                 is_privileged(self.config))
+                                 extra_input_of(self.config))
         stats = summarise(evaluate_policy_on(policy, self.curve_benches, single_env_kwargs(self.config), "tuning"))
         record_evaluation(self.model, stats)
         self.rows.append({"timesteps": self.model.num_timesteps, "wall_s": self.wall(), **stats})

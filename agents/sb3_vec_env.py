@@ -15,13 +15,14 @@ from gymnasium import spaces
 from stable_baselines3.common.vec_env import VecEnv
 
 from envs import core as S
+from envs.core import REFERENCE_DEVIATION_DIM
 from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
 from envs.vector import ShearBatch
 from envs.vector_v1 import BANK_REUSE, BenchBatch
 
 from .privileged import TRUTH_NAMES, privileged_row, truth_scale
 
-__all__ = ["PrivilegedSB3VecEnv", "ShearSB3VecEnv", "bench_vec_env"]
+__all__ = ["DeviationSB3VecEnv", "PrivilegedSB3VecEnv", "ShearSB3VecEnv", "bench_vec_env"]
 
 
 class ShearSB3VecEnv(VecEnv):
@@ -128,9 +129,7 @@ class PrivilegedSB3VecEnv(ShearSB3VecEnv):
         self._truth = np.zeros((num_envs, len(TRUTH_NAMES)), dtype=np.float32)
         self._truth_of: list[Any] = [None] * num_envs   # the bench each row of _truth was computed for
         super().__init__(num_envs, seed=seed, batch=batch)
-        plain, extra = self.observation_space, np.full(len(TRUTH_NAMES), np.inf, dtype=np.float32)
-        self.observation_space = spaces.Box(np.concatenate([plain.low, -extra]), np.concatenate([plain.high, extra]),
-                                            dtype=np.float32)
+        self.observation_space = _widened(self.observation_space, len(TRUTH_NAMES))
 
     def _flat_observations(self) -> np.ndarray:
         for i, bench in enumerate(self.batch.benches):
@@ -139,13 +138,59 @@ class PrivilegedSB3VecEnv(ShearSB3VecEnv):
         return np.concatenate([super()._flat_observations(), self._truth], axis=1)
 
 
+# The deviation values an estimator must supply: CP1 z, CP2 x, CP2 z, CP3 x, CP3 z. CP1's x deviation is zero by
+# construction (the travel is CP1's x displacement and the reference is indexed by it); the slope follows them.
+ESTIMATED_DEVIATION = slice(1, 6)
+BIAS_STREAM = 40_040   # the first entry of the training bias's seed sequence (envs.vector_v1.BANK_STREAM's kin)
+
+
+class DeviationSB3VecEnv(ShearSB3VecEnv):
+    """v1's batch with each row's deviation from its true hydrostatic reference and the reference's slope
+    (:meth:`envs.vector_v1.BenchBatch.reference_deviations`, 12 values, now) appended to its flat observation:
+    ``env: reference_deviation: true``, a privileged feature that a bench controller would have to estimate.
+
+    ``bias_mm`` (``env: reference_deviation_bias_mm``; default 0: exact) trains with an estimate's error: each
+    episode's :data:`ESTIMATED_DEVIATION` values are off by a Gaussian bias of that standard deviation, drawn at its
+    start from the env's own stream (``[BIAS_STREAM, seed]``) and constant through it."""
+
+    def __init__(self, num_envs: int, seed: int | None = None, *, batch: BenchBatch, bias_mm: float = 0.0):
+        self.bias_mm = float(bias_mm)
+        self._rng = np.random.default_rng(None if seed is None else [BIAS_STREAM, seed])
+        self._bias = np.zeros((num_envs, REFERENCE_DEVIATION_DIM))
+        self._last_step = np.full(num_envs, np.inf)   # each row's control periods at the last observation
+        super().__init__(num_envs, seed=seed, batch=batch)
+        self.observation_space = _widened(self.observation_space, REFERENCE_DEVIATION_DIM)
+
+    def _flat_observations(self) -> np.ndarray:
+        deviations = self.batch.reference_deviations()
+        if self.bias_mm:
+            steps = self.batch.ST[:, S.ST_STEP].copy()
+            new = steps < self._last_step   # fewer periods than at the last look: a new episode
+            width = ESTIMATED_DEVIATION.stop - ESTIMATED_DEVIATION.start
+            self._bias[new, ESTIMATED_DEVIATION] = self._rng.normal(0.0, self.bias_mm, (int(new.sum()), width))
+            self._last_step = steps
+            deviations = deviations + self._bias
+        return np.concatenate([super()._flat_observations(), deviations.astype(np.float32)], axis=1)
+
+
+def _widened(space: spaces.Box, extra: int) -> spaces.Box:
+    """``space`` with ``extra`` unbounded values appended."""
+    more = np.full(extra, np.inf, dtype=np.float32)
+    return spaces.Box(np.concatenate([space.low, -more]), np.concatenate([space.high, more]), dtype=np.float32)
+
+
 def bench_vec_env(num_envs: int, seed: int | None = None, *, frame_stack: int = 1, start_bank: int = 0,
-                  bank_reuse: int = BANK_REUSE, privileged: bool = False, **v1_kwargs: Any) -> ShearSB3VecEnv:
+                  bank_reuse: int = BANK_REUSE, privileged: bool = False, reference_deviation: bool = False,
+                  **v1_kwargs: Any) -> ShearSB3VecEnv:
     """``TriPlanarShear-v1`` x ``num_envs`` as an SB3 ``VecEnv`` (every v1 argument, plus the batch's frame stack
     and start bank: :mod:`envs.vector_v1`; ``privileged``: each row's true unknowns appended,
-    :class:`PrivilegedSB3VecEnv`); env ``i`` is seeded ``seed + i``."""
+    :class:`PrivilegedSB3VecEnv`; ``reference_deviation``: its deviation from its true reference,
+    :class:`DeviationSB3VecEnv`; not both); env ``i`` is seeded ``seed + i``."""
+    if privileged and reference_deviation:
+        raise ValueError("give privileged or reference_deviation, not both")
     bench_kwargs = {k: v for k, v in v1_kwargs.items() if k in BENCH_FIELDS}
     shear_kwargs = {k: v for k, v in v1_kwargs.items() if k not in BENCH_FIELDS}
     bench = BenchConfig(**bench_kwargs)
     batch = BenchBatch(num_envs, S.make_config(None, **shear_kwargs), bench, frame_stack, start_bank, bank_reuse)
-    return (PrivilegedSB3VecEnv if privileged else ShearSB3VecEnv)(num_envs, seed=seed, batch=batch)
+    cls = PrivilegedSB3VecEnv if privileged else DeviationSB3VecEnv if reference_deviation else ShearSB3VecEnv
+    return cls(num_envs, seed=seed, batch=batch)

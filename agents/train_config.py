@@ -7,7 +7,11 @@ the key, :mod:`agents.config_checks`):
   realistic bench; evaluated on tuning benches), and ``env``: its arguments (v0: ``ShearConfig`` fields; v1: any v1
   argument, randomisation included, plus the batch's ``frame_stack``, ``start_bank``, ``bank_reuse``, and
   ``privileged: true``: a teacher's run, each env's true unknowns appended to its observation, :mod:`agents.privileged`;
-  its policy reads them from the env it is bound to, :class:`agents.robust_policy.PrivilegedPolicy`);
+  its policy reads them from the env it is bound to, :class:`agents.robust_policy.PrivilegedPolicy`; or
+  ``reference_deviation: true``: each env's deviation from its true hydrostatic reference and the reference's slope,
+  :func:`envs.core.reference_deviation`, read likewise by :class:`agents.robust_policy.DeviationPolicy`; with
+  ``reference_deviation_bias_mm: B``, trained off by a per-episode bias,
+  :class:`agents.sb3_vec_env.DeviationSB3VecEnv`);
 * ``algo``: ``ppo`` (SB3 PPO) or ``recurrent`` (sb3-contrib ``RecurrentPPO``, v1), ``policy`` and ``hyperparams``
   (its keyword arguments); ``ppo:`` is the same pair in one section with ``policy`` inside (``agents/ppo.yaml``);
 * ``n_envs`` (one batched env, :mod:`agents.sb3_vec_env`) and ``normalize`` (``VecNormalize``'s arguments);
@@ -33,6 +37,9 @@ CONFIG_KEYS = ("env_id", "algo", "env", "n_envs", "normalize", "policy", "hyperp
 TRAIN_KEYS = ("total_timesteps", "eval_freq", "checkpoint_freq", "torch_threads")
 BATCH_KEYS = ("frame_stack", "start_bank", "bank_reuse")   # the batched v1 env's own arguments (envs.vector_v1)
 PRIVILEGED = "privileged"  # v1, algo ppo: the bench's true unknowns appended to the observation (agents.privileged)
+REFERENCE_DEVIATION = "reference_deviation"  # v1, algo ppo: the deviation from the true case-C reference appended
+EXTRA_INPUTS = (PRIVILEGED, REFERENCE_DEVIATION)   # a frame-stack PPO's privileged inputs (at most one per run)
+DEVIATION_BIAS = "reference_deviation_bias_mm"   # training with an estimate's error (agents.sb3_vec_env)
 ALGOS = {"ppo": "ppo_robust", "recurrent": "ppo_recurrent"}  # algo -> v1 controller name in the tables
 POLICIES = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy"}
 EVALUATIONS = 20       # v1: points of the learning curve when neither the YAML nor the caller sets train.eval_freq
@@ -184,12 +191,19 @@ def frame_stack_of(config: dict[str, Any]) -> int:
 
 def single_env_kwargs(config: dict[str, Any]) -> dict[str, Any]:
     """v1: the single env's arguments (evaluation episodes): the batch's own keys left out."""
-    return {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS and k != PRIVILEGED}
+    return {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS and k not in EXTRA_INPUTS
+            and k != DEVIATION_BIAS}
 
 
 def is_privileged(config: dict[str, Any]) -> bool:
     """Whether the run's policy sees the privileged row (``env.privileged``)."""
     return bool((config.get("env") or {}).get(PRIVILEGED, False))
+
+
+def extra_input_of(config: dict[str, Any]) -> str | None:
+    """The privileged input (of :data:`EXTRA_INPUTS`) the run's policy sees appended to its frame stack, if any."""
+    env = config.get("env") or {}
+    return next((key for key in EXTRA_INPUTS if env.get(key, False)), None)
 
 
 def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, check_only: bool = False) -> Any:
@@ -206,26 +220,42 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     from envs.triplanar_shear_v1 import BENCH_FIELDS, BenchConfig
     from envs.vector_v1 import BenchBatch
     env = dict(config.get("env") or {})
-    known = {f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | {PRIVILEGED}
+    known = ({f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | set(EXTRA_INPUTS)
+             | {DEVIATION_BIAS})
     unknown = sorted(set(env) - known)
     if unknown:
         raise ValueError(f"unknown env argument(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
-    privileged = _privileged_option(env.pop(PRIVILEGED, False), config.get("algo", "ppo"))
+    extras = {key: _privileged_option(env.pop(key, False), config.get("algo", "ppo"), key) for key in EXTRA_INPUTS}
+    if all(extras.values()):
+        raise ValueError(f"{PRIVILEGED} and {REFERENCE_DEVIATION}: give one of them, not both")
+    bias = _deviation_bias(env.pop(DEVIATION_BIAS, 0.0), extras[REFERENCE_DEVIATION])
     batch_kwargs = {k: env.pop(k) for k in BATCH_KEYS if k in env}
     bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
     batch = BenchBatch(n_envs, make_config(None, **env), bench, **batch_kwargs)
     if check_only:
         return batch
-    from .sb3_vec_env import PrivilegedSB3VecEnv, ShearSB3VecEnv
-    return (PrivilegedSB3VecEnv if privileged else ShearSB3VecEnv)(batch.num_envs, seed=seed, batch=batch)
+    from .sb3_vec_env import DeviationSB3VecEnv, PrivilegedSB3VecEnv, ShearSB3VecEnv
+    if extras[REFERENCE_DEVIATION]:
+        return DeviationSB3VecEnv(batch.num_envs, seed=seed, batch=batch, bias_mm=bias)
+    return (PrivilegedSB3VecEnv if extras[PRIVILEGED] else ShearSB3VecEnv)(batch.num_envs, seed=seed, batch=batch)
 
 
-def _privileged_option(value: Any, algo: Any) -> bool:
-    """``env.privileged``, checked: a boolean, and only for the frame-stack PPO (whose policy appends the row)."""
+def _deviation_bias(value: Any, deviation: bool) -> float:
+    """``env.reference_deviation_bias_mm``, checked: a finite number >= 0, and only with ``reference_deviation``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value) or value < 0:
+        raise ValueError(f"{DEVIATION_BIAS}: expected a number of mm >= 0, got {value!r:.80}")
+    if value and not deviation:
+        raise ValueError(f"{DEVIATION_BIAS}: a bias of the reference deviation needs {REFERENCE_DEVIATION}: true")
+    return float(value)
+
+
+def _privileged_option(value: Any, algo: Any, key: str = PRIVILEGED) -> bool:
+    """``env.privileged`` (or another of :data:`EXTRA_INPUTS`, ``key``), checked: a boolean, and only for the
+    frame-stack PPO (whose policy appends the input)."""
     if not isinstance(value, bool):
-        raise ValueError(f"{PRIVILEGED}: expected true or false, got {value!r:.80}")
+        raise ValueError(f"{key}: expected true or false, got {value!r:.80}")
     if value and algo != "ppo":
-        raise ValueError(f"{PRIVILEGED}: the privileged row is for algo ppo (frame stack), not {algo!r}")
+        raise ValueError(f"{key}: the privileged input is for algo ppo (frame stack), not {algo!r}")
     return value
 
 

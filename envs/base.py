@@ -17,7 +17,7 @@ import gymnasium as gym
 import numpy as np
 
 from .core import (IN_TRUNC, N_INFO, OBS_DIM, ST_CP_REST, ST_LOAD, ST_T, EpisodeStart, ShearConfig,
-                   contact_points_of, control_step, load_point_of, new_workspace)
+                   contact_points_of, control_step, load_point_of, new_workspace, reference_deviation)
 
 
 @dataclass
@@ -87,6 +87,13 @@ class ShearEnvBase(gym.Env):
             gym.logger.warn("You are calling 'step()' even though this environment has already returned terminated "
                             "= True or truncated = True. You should always call 'reset()' once you receive "
                             "'terminated = True' or 'truncated = True' -- any further steps are undefined behavior.")
+
+    def reference_deviation(self) -> np.ndarray:
+        """The episode's deviation from its true hydrostatic reference now, and the reference's slope
+        (:func:`envs.core.reference_deviation`, 12 values): the truth, for a privileged policy (after ``reset``)."""
+        if self._start is None:
+            raise gym.error.ResetNeeded("call reset() before reference_deviation()")
+        return reference_deviation(self._obs, self._ref, self.config.travel_m)
 
     @property
     def dt(self) -> float:

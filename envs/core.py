@@ -580,6 +580,34 @@ def control_step(y, p, modes, armed, st, ref, action, cfg, obs, inf, ws) -> int:
     return code
 
 
+# The reference terms of the distance: each contact point's x and z (the components _finish's distance uses).
+DEVIATION_COLUMNS = np.array([3 * i + c for i in range(3) for c in (0, 2)])
+REFERENCE_DEVIATION_DIM = 2 * len(DEVIATION_COLUMNS)
+
+
+def reference_deviation(obs: np.ndarray, ref: np.ndarray, travel_m: float) -> np.ndarray:
+    """The block's deviation from its hydrostatic (case-C) reference and where that reference heads, from state
+    observations ``obs`` (``(OBS_DIM,)`` or ``(n, OBS_DIM)``, float64: an env's own, as :func:`control_step` left
+    them) and reference paths ``ref`` (``(REFERENCE_POINTS, 9)`` or ``(n, REFERENCE_POINTS, 9)``); ``(..., 12)``:
+
+    * 6 values, mm: CP1 x, CP1 z, CP2 x, ... of the displacement minus the reference at the same travel (the terms
+      whose norms, averaged over the three points, are the step's ``distance_mm``: ``_finish`` computes them from the
+      same two fields it writes into ``obs``, which agree for displacements within the observation bound of 0.5 m);
+    * 6 values, m per m of travel: the reference's slope there (the sample interval ``_finish`` interpolates in).
+
+    The truth of the episode (the reference is simulated from the true specimen): a privileged feature."""
+    obs, ref = np.asarray(obs, dtype=np.float64), np.asarray(ref, dtype=np.float64)
+    pos = obs[..., OBS_POS + DEVIATION_COLUMNS]
+    deviation_mm = (pos - obs[..., OBS_REF + DEVIATION_COLUMNS]) * 1000.0
+    n_ref = ref.shape[-2]
+    x = np.clip(obs[..., OBS_POS], 0.0, travel_m) / travel_m * (n_ref - 1)   # the travel, as _finish indexes it
+    k = np.minimum(x.astype(np.int64), n_ref - 2)
+    lower = np.take_along_axis(ref, k[..., None, None], axis=-2)[..., 0, :]
+    upper = np.take_along_axis(ref, k[..., None, None] + 1, axis=-2)[..., 0, :]
+    slope = (upper - lower)[..., DEVIATION_COLUMNS] * ((n_ref - 1) / travel_m)
+    return np.concatenate([deviation_mm, slope], axis=-1)
+
+
 def contact_points_of(y: np.ndarray, p: np.ndarray) -> np.ndarray:
     """The three contact points (world, 3x3) of state ``y``: what a rendered trace records."""
     cps = np.empty((3, 3))

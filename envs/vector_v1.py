@@ -213,6 +213,11 @@ class BenchBatch:
         """Every row's observation, float32 (``(n, dim)``, or ``(n, k, dim)`` with a frame stack), a new array."""
         return self.FRAMES.copy() if self.frame_stack > 1 else self._single.copy()
 
+    def reference_deviations(self) -> np.ndarray:
+        """Every row's deviation from its true hydrostatic reference now and the reference's slope
+        (:func:`envs.core.reference_deviation`, ``(n, 12)``, float64): the truth, for a privileged policy."""
+        return S.reference_deviation(self.OBS, self.REF, self.config.travel_m)
+
     def rewards(self) -> np.ndarray:
         """The last step's rewards (float64): the core's distance and termination terms and the bench's action rate."""
         return (self.INF[:, S.IN_R_DIST] + self.INF[:, S.IN_R_TERM]) + self.R_RATE
