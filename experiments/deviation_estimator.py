@@ -11,9 +11,11 @@ rounds: the states the estimate's own errors lead to; the label is the truth eit
 Rerun the same command to resume (complete shards are skipped; other settings are refused, naming them).
 
 ``python -m experiments.deviation_estimator train --data DIR [DIR ...] --policy RUN --out EST [--epochs 150]``
-fits the GRU by MSE on normalised targets (whole episodes, a seeded fifth of them held out for validation; the
-best validation epoch is written, atomically). ``measure --estimator EST --n 100`` runs the composed controller on
-the judge's benches and prints the estimator's RMS error by decision span and its CPU time per decision.
+fits the GRU by MSE on normalised targets (whole episodes, each cut before its first decision beyond
+``--outlier-mm``, 10; a seeded fifth of them held out for validation; the best validation epoch is written,
+atomically). ``measure --estimator EST --n 100 [--shadow]`` runs the composed controller on the judge's benches
+(``--shadow``: the exact-deviation teacher drives, the estimator follows) and prints the estimator's RMS error by
+decision span and the CPU time per decision. Results: docs/notes/student-experiments.md, finding 12.
 """
 
 from __future__ import annotations
