@@ -11,6 +11,8 @@ spec               canonical string            builds
                    ``ppo_state:RUN``
 ``ShippedSpec``    ``shipped:NAME``            training seed ``seed`` of a shipped agent (:mod:`agents.zoo`)
 ``StudentSpec``    ``student:FOLDER``          a distilled student (:mod:`agents.student`)
+``EstimatedSpec``  ``estimated:FOLDER``        a reference-deviation PPO on a bench estimate of its deviation
+                                               (:mod:`agents.deviation_estimator`)
 =================  ==========================  =============================================================
 
 :func:`parse_controller` is the one place a user's string becomes a spec (``--driver`` of
@@ -178,7 +180,25 @@ class StudentSpec:
         return Built(student, {**student.env_kwargs, **env_kwargs}, True)
 
 
-ControllerSpec = Union[ScriptedSpec, PPOSpec, ShippedSpec, StudentSpec]
+@dataclass(frozen=True)
+class EstimatedSpec:
+    """An estimator folder of ``experiments.deviation_estimator`` and the reference-deviation run it names."""
+
+    folder: str
+
+    def __post_init__(self):
+        _nonempty("EstimatedSpec", "folder", self.folder)
+
+    @property
+    def text(self) -> str:
+        return f"estimated:{self.folder}"
+
+    def build(self, label: str, env_kwargs: dict[str, Any], tip_friction_deg: float | None = None) -> Built:
+        from .deviation_estimator import EstimatedDeviationPolicy
+        return Built(EstimatedDeviationPolicy.load(self.folder, name=label), dict(env_kwargs), True)
+
+
+ControllerSpec = Union[ScriptedSpec, PPOSpec, ShippedSpec, StudentSpec, EstimatedSpec]
 
 
 def parse_controller(text: str, *, params: tuple = (), seed: int = 0, zoo_dir: str | None = None) -> ControllerSpec:
@@ -194,7 +214,7 @@ def parse_controller(text: str, *, params: tuple = (), seed: int = 0, zoo_dir: s
     if not sep:
         return ScriptedSpec(text, params)
     if not rest:
-        field = {"shipped": "name", "student": "folder"}.get(kind, "path")
+        field = {"shipped": "name", "student": "folder", "estimated": "folder"}.get(kind, "path")
         raise ControllerSpecError(f"controller {text!r}: the {field} after {kind + ':'!r} is empty")
     if kind in PPO_KINDS:
         return PPOSpec(rest, kind)
@@ -202,5 +222,7 @@ def parse_controller(text: str, *, params: tuple = (), seed: int = 0, zoo_dir: s
         return ShippedSpec(rest, seed, zoo_dir)
     if kind == "student":
         return StudentSpec(rest)
+    if kind == "estimated":
+        return EstimatedSpec(rest)
     raise ControllerSpecError(f"controller {text!r}: unknown kind {kind!r}; expected a bench controller name or "
-                              f"one of {[*PPO_KINDS, 'shipped', 'student']} followed by ':'")
+                              f"one of {[*PPO_KINDS, 'shipped', 'student', 'estimated']} followed by ':'")

@@ -1,0 +1,155 @@
+"""A bench estimate of the reference deviation (:func:`envs.core.reference_deviation`: the block's deviation from
+its true case-C reference and the reference's slope, privileged) from the bench's observations alone, and the
+composed controller that drives a reference-deviation PPO (:class:`agents.robust_policy.DeviationPolicy`) on it:
+the adaptation module of rapid motor adaptation (Kumar et al. 2021), trained by supervised learning on the
+teacher's own rollouts (:mod:`experiments.deviation_estimator`).
+
+An estimator is two files in one folder, neither of which can hold code: ``estimator.safetensors`` (float32 weights
+and normalisations) and ``estimator.json`` (its layout, the policy run it feeds, the SHA-256 of the weights file, the
+training record). It is evaluated here with numpy, O(1) per decision: a gated recurrent unit (torch's ``nn.GRU``
+equations, gates in the order reset, update, new) reads each new bench observation, normalised, from a zero state
+at the reset; a tanh layer and a linear head map its state to the ``targets`` columns of the 12 deviation values,
+de-normalised; the ``fixed`` columns (zero or one by construction: CP1's x deviation and slope, the travel being
+CP1's x displacement) are set to their constants.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from envs.core import REFERENCE_DEVIATION_DIM
+from envs.triplanar_shear_v1 import BENCH_OBSERVATION
+
+from .robust_policy import DeviationPolicy, RobustPolicy, load_policy
+
+WEIGHTS = "estimator.safetensors"
+SPEC = "estimator.json"
+FORMAT = 1
+OBS_SIZE = BENCH_OBSERVATION.size
+
+
+class EstimatorFileError(ValueError):
+    """An estimator folder that does not load (the message names the file and the field)."""
+
+
+def tensor_shapes(spec: dict[str, Any]) -> dict[str, tuple[int, ...]]:
+    """Every tensor an estimator of layout ``spec`` holds, with its shape."""
+    cells, hidden, n_out = int(spec["gru"]), int(spec["hidden"]), len(spec["targets"])
+    return {"in_mean": (OBS_SIZE,), "in_std": (OBS_SIZE,), "gru.weight_ih": (3 * cells, OBS_SIZE),
+            "gru.weight_hh": (3 * cells, cells), "gru.bias_ih": (3 * cells,), "gru.bias_hh": (3 * cells,),
+            "hidden.weight": (hidden, cells), "hidden.bias": (hidden,), "head.weight": (n_out, hidden),
+            "head.bias": (n_out,), "out_mean": (n_out,), "out_std": (n_out,)}
+
+
+def check_spec(spec: Any, source: str) -> dict[str, Any]:
+    """``estimator.json``'s content, checked (refused naming the field)."""
+    if not isinstance(spec, dict) or spec.get("format") != FORMAT:
+        raise EstimatorFileError(f"{source}: field 'format' must be {FORMAT}")
+    for field in ("gru", "hidden"):
+        value = spec.get(field)
+        if not (isinstance(value, int) and 0 < value <= 1024):
+            raise EstimatorFileError(f"{source}: field {field!r} must be an integer 1-1024, got {value!r}")
+    targets, fixed = spec.get("targets"), spec.get("fixed")
+    if not (isinstance(targets, list) and isinstance(fixed, dict)
+            and sorted(targets + [int(k) for k in fixed]) == list(range(REFERENCE_DEVIATION_DIM))):
+        raise EstimatorFileError(f"{source}: fields 'targets' and 'fixed' must split the {REFERENCE_DEVIATION_DIM} "
+                                 f"deviation columns, got {targets!r} and {fixed!r}")
+    if not isinstance(spec.get("policy_run"), str):
+        raise EstimatorFileError(f"{source}: field 'policy_run' must be the reference-deviation run's folder")
+    if not (isinstance(spec.get("weights_sha256"), str) and len(spec["weights_sha256"]) == 64):
+        raise EstimatorFileError(f"{source}: field 'weights_sha256' must be a SHA-256 (64 hex digits)")
+    return spec
+
+
+def read_estimator(folder: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """(spec, tensors) of the estimator in ``folder``, checked: the weights file's SHA-256 the spec's, exactly the
+    layout's tensors, finite float32."""
+    from safetensors.numpy import load as load_tensors
+    folder = Path(folder)
+    try:
+        spec = check_spec(json.loads((folder / SPEC).read_text()), str(folder / SPEC))
+        data = (folder / WEIGHTS).read_bytes()
+    except OSError as err:
+        raise EstimatorFileError(f"{err.filename}: cannot read ({err.strerror})") from None
+    if hashlib.sha256(data).hexdigest() != spec["weights_sha256"]:
+        raise EstimatorFileError(f"{folder / WEIGHTS}: SHA-256 differs from {SPEC}'s 'weights_sha256'")
+    tensors, expected = load_tensors(data), tensor_shapes(spec)
+    if set(tensors) != set(expected):
+        raise EstimatorFileError(f"{folder / WEIGHTS}: tensors {sorted(set(tensors) ^ set(expected))} missing or "
+                                 "unexpected")
+    for key, shape in expected.items():
+        if tensors[key].shape != shape or tensors[key].dtype != np.float32 or not np.all(np.isfinite(tensors[key])):
+            raise EstimatorFileError(f"{folder / WEIGHTS}: tensor {key!r} must be finite float32 of shape {shape}")
+    return spec, tensors
+
+
+class DeviationEstimator:
+    """The run-time estimator (module docstring): :meth:`reset` at each episode's start, :meth:`update` with each
+    new bench observation returns the 12 estimated deviation values."""
+
+    def __init__(self, spec: dict[str, Any], tensors: dict[str, np.ndarray]):
+        self.spec = spec
+        self._mean, self._scale = tensors["in_mean"], (1.0 / tensors["in_std"]).astype(np.float32)
+        self._gru = tuple(tensors[f"gru.{k}"] for k in ("weight_ih", "bias_ih", "weight_hh", "bias_hh"))
+        self._hidden = (tensors["hidden.weight"], tensors["hidden.bias"])
+        self._head = (tensors["head.weight"], tensors["head.bias"], tensors["out_mean"], tensors["out_std"])
+        self._targets = np.asarray(spec["targets"], dtype=np.int64)
+        self._fixed = np.zeros(REFERENCE_DEVIATION_DIM)
+        for column, value in spec["fixed"].items():
+            self._fixed[int(column)] = float(value)
+        self._g = np.zeros(int(spec["gru"]), dtype=np.float32)
+
+    @classmethod
+    def load(cls, folder: str | Path) -> DeviationEstimator:
+        return cls(*read_estimator(folder))
+
+    def reset(self) -> None:
+        self._g = np.zeros_like(self._g)
+
+    def update(self, obs: np.ndarray) -> np.ndarray:
+        """The estimate after ``obs`` (the GRU's state advanced by it)."""
+        z = (np.asarray(obs, dtype=np.float32) - self._mean) * self._scale
+        w_ih, b_ih, w_hh, b_hh = self._gru
+        gi, gh, n = w_ih @ z + b_ih, w_hh @ self._g + b_hh, len(self._g)
+        r = 1.0 / (1.0 + np.exp(-(gi[:n] + gh[:n])))
+        u = 1.0 / (1.0 + np.exp(-(gi[n:2 * n] + gh[n:2 * n])))
+        self._g = ((1.0 - u) * np.tanh(gi[2 * n:] + r * gh[2 * n:]) + u * self._g).astype(np.float32)
+        h = np.tanh(self._hidden[0] @ self._g + self._hidden[1])
+        weight, bias, mean, std = self._head
+        out = self._fixed.copy()
+        out[self._targets] = (weight @ h + bias) * std + mean
+        return out
+
+
+class EstimatedDeviationPolicy(RobustPolicy):
+    """A reference-deviation PPO driven on its estimator's deviation (module docstring): reads only the bench's
+    observations (``needs_env`` False). ``estimate`` holds the last decision's estimate."""
+
+    needs_env = False
+
+    def __init__(self, policy: DeviationPolicy, estimator: DeviationEstimator, name: str = "ppo_deviation_estimated"):
+        if not isinstance(policy, DeviationPolicy):
+            raise ValueError(f"policy {policy.name!r}: not a reference_deviation run (its config.json has no "
+                             "env.reference_deviation), so it has no deviation input to estimate")
+        super().__init__(policy.model, policy.normalizer, name, policy.n_frames)
+        self.estimator = estimator
+        self.estimate = np.zeros(REFERENCE_DEVIATION_DIM)
+
+    @classmethod
+    def load(cls, folder: str | Path, name: str = "ppo_deviation_estimated") -> EstimatedDeviationPolicy:
+        """The estimator in ``folder`` and the policy run its spec names (UNPICKLES that run: load only yours)."""
+        estimator = DeviationEstimator.load(folder)
+        return cls(load_policy(estimator.spec["policy_run"]), estimator, name)
+
+    def reset(self, load_N: float, config: Any) -> None:
+        super().reset(load_N, config)
+        self.estimator.reset()
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        self.estimate = self.estimator.update(obs)
+        return self._decide(np.concatenate([self._stack(obs), self.estimate.astype(np.float32)]))

@@ -1,0 +1,94 @@
+"""The bench estimate of the reference deviation (``agents.deviation_estimator``): its numpy run-time network is the
+torch network it was trained as, the composed controller reads only the bench's observations and is repeatable, and
+a policy without the deviation input is refused."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pytest
+
+pytest.importorskip("torch")
+pytest.importorskip("stable_baselines3")
+
+from agents.deviation_estimator import DeviationEstimator, EstimatedDeviationPolicy
+from agents.heldout import nominal_benches, run_episode
+from agents.robust_policy import DeviationPolicy, RobustPolicy
+from experiments import deviation_estimator as E
+
+
+class _Recorder:
+    """A stand-in PPO: records each input it is given, acts by a fixed rule of the newest frame."""
+
+    def __init__(self):
+        self.inputs: list[np.ndarray] = []
+
+    def normalize_obs(self, x):
+        return x
+
+    def predict(self, x, deterministic=True):
+        self.inputs.append(np.array(x))
+        return np.array([0.4, 0.1 * np.tanh(1e3 * x[45])], dtype=np.float32), None
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """An estimator trained for two epochs on three teacher episodes (the teacher: the stand-in, bound to the env)."""
+    out = tmp_path_factory.mktemp("est")
+    benches = nominal_benches((30.0, 40.0, 50.0))
+    for k, bench in enumerate(benches):
+        recorder = _Recorder()
+        arrays = E.rollout(DeviationPolicy(recorder, recorder), bench, seed=k)
+        (out / "data" / "shards").mkdir(parents=True, exist_ok=True)
+        E._save(out / "data" / "shards" / f"{k:07d}.npz", draw=k, **arrays)
+    args = argparse.Namespace(data=[out / "data"], policy="/no/run", out=out / "est", gru=8, hidden=6, epochs=2,
+                              batch=2, lr=1e-2, seed=0, outlier_mm=np.inf)
+    spec = E.train(args)
+    return out, spec
+
+
+def test_the_numpy_estimator_is_the_torch_network_it_was_trained_as(trained):
+    import torch
+    from safetensors.numpy import load_file
+    out, spec = trained
+    tensors = load_file(str(out / "est" / "estimator.safetensors"))
+    net = E.build_network(len(spec["targets"]), 8, 6, seed=1)
+    net.load_state_dict({(k + "_l0" if k.startswith("gru.") else k): torch.from_numpy(v) for k, v in tensors.items()
+                         if k.split(".")[0] in ("gru", "hidden", "head")})
+    episode = E.load_shards([out / "data"])[1]
+    x = (episode["obs"] - tensors["in_mean"]) / tensors["in_std"]
+    with torch.no_grad():
+        expected = net(torch.from_numpy(x[None].astype(np.float32)))[0].numpy() * tensors["out_std"] + tensors["out_mean"]
+    estimator = DeviationEstimator.load(out / "est")
+    estimator.reset()
+    got = np.array([estimator.update(obs) for obs in episode["obs"]])
+    assert len(got) > 5
+    np.testing.assert_allclose(got[:, spec["targets"]], expected, rtol=1e-4, atol=1e-5)
+    assert spec["fixed"] == {"0": 0.0, "6": 1.0}   # CP1's x deviation and slope: constants by construction
+    np.testing.assert_array_equal(got[:, 0], 0.0)
+    np.testing.assert_array_equal(got[:, 6], 1.0)
+
+
+def test_the_composed_controller_feeds_its_estimate_reads_no_env_and_repeats(trained):
+    out, _ = trained
+    bench = nominal_benches((40.0,))[0]
+    runs = []
+    for _ in range(2):
+        recorder = _Recorder()
+        composed = EstimatedDeviationPolicy(DeviationPolicy(recorder, recorder), DeviationEstimator.load(out / "est"))
+        assert composed.needs_env is False   # play() never hands it the env
+        run_episode(composed, bench, seed=3)
+        runs.append(np.array(recorder.inputs))
+    np.testing.assert_array_equal(runs[0], runs[1])
+    estimator = DeviationEstimator.load(out / "est")   # the appended input is the estimator's, decision by decision
+    frames = runs[0][:, 45:60]
+    np.testing.assert_array_equal(runs[0][:, 60:], np.array([estimator.update(f) for f in frames], dtype=np.float32))
+    assert np.ptp(runs[0][:, 61]) > 0   # the estimate moved along the episode
+
+
+def test_a_policy_trained_without_the_deviation_input_is_refused(trained):
+    out, _ = trained
+    recorder = _Recorder()
+    with pytest.raises(ValueError, match="not a reference_deviation run"):
+        EstimatedDeviationPolicy(RobustPolicy(recorder, recorder), DeviationEstimator.load(out / "est"))
