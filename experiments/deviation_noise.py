@@ -16,9 +16,7 @@ one :func:`experiments.judge`-style row per ``--bias-mm`` value (0 included: the
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -27,6 +25,7 @@ from agents.heldout import FAILURE_SCORE_MM
 from agents.robust_policy import DeviationPolicy, load_policy
 from agents.sb3_vec_env import ESTIMATED_DEVIATION
 
+from .judge import emit
 from .train_student import judge_outcomes, judged_stats
 
 ESTIMATED = ESTIMATED_DEVIATION   # the deviation values an estimator must supply (CP1 z, CP2 x, CP2 z, CP3 x, CP3 z)
@@ -82,10 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    emit(result, args.out)
     return 0
 
 

@@ -17,11 +17,11 @@ import argparse
 import json
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
 from agents.controller_specs import ControllerSpecError, parse_controller
 from agents.heldout import FAILURE_SCORE_MM
+from triplanar.atomic import write_atomic
 
 from .train_student import judge_outcomes, judged_stats
 
@@ -47,6 +47,14 @@ def judge_all(texts: list[str], n: int, skip: int = 0, shipped_seeds: tuple[int,
     return result
 
 
+def emit(result: dict[str, Any], out: str | None) -> None:
+    """Print ``result`` as JSON and, with ``out``, write it there too (complete or not at all)."""
+    text = json.dumps(result, indent=1)
+    print(text)
+    if out:
+        write_atomic(out, lambda tmp: tmp.write_text(text + "\n"))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m experiments.judge", description=__doc__.split("\n\n")[0])
     parser.add_argument("--controller", action="append", required=True, help="a controller string (repeatable)")
@@ -61,10 +69,7 @@ def main(argv: list[str] | None = None) -> int:
     except (ControllerSpecError, ValueError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
-    text = json.dumps(result, indent=1)
-    print(text)
-    if args.out:
-        Path(args.out).write_text(text + "\n")
+    emit(result, args.out)
     return 0
 
 

@@ -5,6 +5,7 @@ candidate)."""
 from __future__ import annotations
 
 
+import numpy as np
 import pytest
 from hypothesis import settings
 
@@ -15,6 +16,28 @@ from triplanar.effects import REGISTRY
 settings.register_profile("quick", max_examples=100)
 settings.register_profile("thorough", max_examples=1000)
 settings.load_profile("quick")
+
+
+class RecordingModel:
+    """A stand-in for a trained PPO model and its normaliser (a policy of ``agents.robust_policy`` calls
+    ``normalize_obs``, then ``predict``): records every input it is given; acts by ``act(x)``, zeros by default."""
+
+    def __init__(self, act=None):
+        self.inputs: list[np.ndarray] = []
+        self._act = act
+
+    def normalize_obs(self, x):
+        return x
+
+    def predict(self, x, deterministic=True):
+        self.inputs.append(np.array(x))
+        return (np.zeros(2, dtype=np.float32) if self._act is None else self._act(x)), None
+
+
+@pytest.fixture(scope="session")
+def recording_model():
+    """:class:`RecordingModel`, to build stand-ins with (``recording_model(act=None)``)."""
+    return RecordingModel
 
 
 @pytest.fixture(autouse=True)

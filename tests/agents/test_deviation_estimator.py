@@ -18,27 +18,19 @@ from agents.robust_policy import DeviationPolicy, RobustPolicy
 from experiments import deviation_estimator as E
 
 
-class _Recorder:
-    """A stand-in PPO: records each input it is given, acts by a fixed rule of the newest frame."""
 
-    def __init__(self):
-        self.inputs: list[np.ndarray] = []
-
-    def normalize_obs(self, x):
-        return x
-
-    def predict(self, x, deterministic=True):
-        self.inputs.append(np.array(x))
-        return np.array([0.4, 0.1 * np.tanh(1e3 * x[45])], dtype=np.float32), None
+def _act(x):
+    """The stand-in PPO's fixed rule of the newest frame."""
+    return np.array([0.4, 0.1 * np.tanh(1e3 * x[45])], dtype=np.float32)
 
 
 @pytest.fixture(scope="module")
-def trained(tmp_path_factory):
+def trained(tmp_path_factory, recording_model):
     """An estimator trained for two epochs on three teacher episodes (the teacher: the stand-in, bound to the env)."""
     out = tmp_path_factory.mktemp("est")
     benches = nominal_benches((30.0, 40.0, 50.0))
     for k, bench in enumerate(benches):
-        recorder = _Recorder()
+        recorder = recording_model(_act)
         arrays = E.rollout(DeviationPolicy(recorder, recorder), bench, seed=k)
         (out / "data" / "shards").mkdir(parents=True, exist_ok=True)
         E._save(out / "data" / "shards" / f"{k:07d}.npz", draw=k, **arrays)
@@ -70,12 +62,12 @@ def test_the_numpy_estimator_is_the_torch_network_it_was_trained_as(trained):
     np.testing.assert_array_equal(got[:, 6], 1.0)
 
 
-def test_the_composed_controller_feeds_its_estimate_reads_no_env_and_repeats(trained):
+def test_the_composed_controller_feeds_its_estimate_reads_no_env_and_repeats(trained, recording_model):
     out, _ = trained
     bench = nominal_benches((40.0,))[0]
     runs = []
     for _ in range(2):
-        recorder = _Recorder()
+        recorder = recording_model(_act)
         composed = EstimatedDeviationPolicy(DeviationPolicy(recorder, recorder), DeviationEstimator.load(out / "est"))
         assert composed.needs_env is False   # play() never hands it the env
         run_episode(composed, bench, seed=3)
@@ -87,8 +79,8 @@ def test_the_composed_controller_feeds_its_estimate_reads_no_env_and_repeats(tra
     assert np.ptp(runs[0][:, 61]) > 0   # the estimate moved along the episode
 
 
-def test_a_policy_trained_without_the_deviation_input_is_refused(trained):
+def test_a_policy_trained_without_the_deviation_input_is_refused(trained, recording_model):
     out, _ = trained
-    recorder = _Recorder()
+    recorder = recording_model(_act)
     with pytest.raises(ValueError, match="not a reference_deviation run"):
         EstimatedDeviationPolicy(RobustPolicy(recorder, recorder), DeviationEstimator.load(out / "est"))

@@ -56,22 +56,9 @@ def test_the_privileged_observation_is_the_plain_one_then_the_scaled_truth_of_ea
     pytest.fail("no episode ended in 400 periods")
 
 
-class _Recorder:
-    """A model and normaliser that record what the policy feeds them."""
 
-    def __init__(self):
-        self.inputs: list[np.ndarray] = []
-
-    def normalize_obs(self, x):
-        return x
-
-    def predict(self, x, deterministic=True):
-        self.inputs.append(np.array(x))
-        return np.zeros(2, dtype=np.float32), None
-
-
-def test_the_privileged_policy_feeds_the_frame_stack_then_the_bound_envs_truth():
-    recorder = _Recorder()
+def test_the_privileged_policy_feeds_the_frame_stack_then_the_bound_envs_truth(recording_model):
+    recorder = recording_model()
     policy = PrivilegedPolicy(recorder, recorder)
     bench = nominal_benches((40.0,))[0]
     outcome = run_episode(policy, bench, seed=0)
@@ -83,8 +70,8 @@ def test_the_privileged_policy_feeds_the_frame_stack_then_the_bound_envs_truth()
     np.testing.assert_array_equal(recorder.inputs[-1][PLAIN:], row)
 
 
-def test_the_privileged_policy_refuses_to_act_unbound():
-    recorder = _Recorder()
+def test_the_privileged_policy_refuses_to_act_unbound(recording_model):
+    recorder = recording_model()
     policy = PrivilegedPolicy(recorder, recorder)
     policy.reset(40.0, TriPlanarShearV1Env().config)
     with pytest.raises(RuntimeError, match="bind"):

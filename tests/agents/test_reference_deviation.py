@@ -77,20 +77,9 @@ def test_the_batch_appends_each_rows_deviation_as_the_single_env_computes_it():
             return
 
 
-class _Recorder:
-    def __init__(self):
-        self.inputs: list[np.ndarray] = []
 
-    def normalize_obs(self, x):
-        return x
-
-    def predict(self, x, deterministic=True):
-        self.inputs.append(np.array(x))
-        return np.zeros(2, dtype=np.float32), None
-
-
-def test_the_deviation_policy_feeds_the_bound_envs_deviation_and_refuses_unbound():
-    recorder = _Recorder()
+def test_the_deviation_policy_feeds_the_bound_envs_deviation_and_refuses_unbound(recording_model):
+    recorder = recording_model()
     with pytest.raises(RuntimeError, match="bind"):
         DeviationPolicy(recorder, recorder).act(np.zeros(15, dtype=np.float32))
     seen = []

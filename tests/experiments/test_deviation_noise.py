@@ -15,20 +15,9 @@ from experiments.deviation_noise import NoisyDeviationPolicy
 PLAIN = 4 * 15
 
 
-class _Recorder:
-    def __init__(self):
-        self.inputs: list[np.ndarray] = []
 
-    def normalize_obs(self, x):
-        return x
-
-    def predict(self, x, deterministic=True):
-        self.inputs.append(np.array(x))
-        return np.zeros(2, dtype=np.float32), None
-
-
-def _inputs(bias_mm: float, noise_mm: float) -> np.ndarray:
-    recorder = _Recorder()
+def _inputs(recording_model, bias_mm: float, noise_mm: float) -> np.ndarray:
+    recorder = recording_model()
     policy = DeviationPolicy(recorder, recorder)
     if bias_mm or noise_mm:
         policy = NoisyDeviationPolicy(policy, bias_mm, noise_mm, seed=4)
@@ -36,8 +25,8 @@ def _inputs(bias_mm: float, noise_mm: float) -> np.ndarray:
     return np.array(recorder.inputs)
 
 
-def test_the_bias_is_constant_within_an_episode_and_only_on_the_estimated_values():
-    exact, biased, noisy = _inputs(0.0, 0.0), _inputs(0.2, 0.0), _inputs(0.0, 0.2)
+def test_the_bias_is_constant_within_an_episode_and_only_on_the_estimated_values(recording_model):
+    exact, biased, noisy = (_inputs(recording_model, b, n) for b, n in ((0.0, 0.0), (0.2, 0.0), (0.0, 0.2)))
     assert len(exact) == len(biased) == len(noisy) > 2   # zero actions: the same episode each time
     diff = (biased - exact)[:, PLAIN:]
     np.testing.assert_array_equal(diff[:, [0] + list(range(6, 12))], 0.0)
