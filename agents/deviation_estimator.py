@@ -15,8 +15,6 @@ CP1's x displacement) are set to their constants.
 
 from __future__ import annotations
 
-import hashlib
-import json
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +23,7 @@ import numpy as np
 from envs.core import REFERENCE_DEVIATION_DIM
 from envs.triplanar_shear_v1 import BENCH_OBSERVATION
 
+from .numpy_networks import gru_step, read_network
 from .robust_policy import DeviationPolicy, RobustPolicy, load_policy
 
 WEIGHTS = "estimator.safetensors"
@@ -69,23 +68,7 @@ def check_spec(spec: Any, source: str) -> dict[str, Any]:
 def read_estimator(folder: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """(spec, tensors) of the estimator in ``folder``, checked: the weights file's SHA-256 the spec's, exactly the
     layout's tensors, finite float32."""
-    from safetensors.numpy import load as load_tensors
-    folder = Path(folder)
-    try:
-        spec = check_spec(json.loads((folder / SPEC).read_text()), str(folder / SPEC))
-        data = (folder / WEIGHTS).read_bytes()
-    except OSError as err:
-        raise EstimatorFileError(f"{err.filename}: cannot read ({err.strerror})") from None
-    if hashlib.sha256(data).hexdigest() != spec["weights_sha256"]:
-        raise EstimatorFileError(f"{folder / WEIGHTS}: SHA-256 differs from {SPEC}'s 'weights_sha256'")
-    tensors, expected = load_tensors(data), tensor_shapes(spec)
-    if set(tensors) != set(expected):
-        raise EstimatorFileError(f"{folder / WEIGHTS}: tensors {sorted(set(tensors) ^ set(expected))} missing or "
-                                 "unexpected")
-    for key, shape in expected.items():
-        if tensors[key].shape != shape or tensors[key].dtype != np.float32 or not np.all(np.isfinite(tensors[key])):
-            raise EstimatorFileError(f"{folder / WEIGHTS}: tensor {key!r} must be finite float32 of shape {shape}")
-    return spec, tensors
+    return read_network(folder, SPEC, WEIGHTS, check_spec, tensor_shapes, EstimatorFileError, "estimator")
 
 
 class DeviationEstimator:
@@ -114,11 +97,7 @@ class DeviationEstimator:
     def update(self, obs: np.ndarray) -> np.ndarray:
         """The estimate after ``obs`` (the GRU's state advanced by it)."""
         z = (np.asarray(obs, dtype=np.float32) - self._mean) * self._scale
-        w_ih, b_ih, w_hh, b_hh = self._gru
-        gi, gh, n = w_ih @ z + b_ih, w_hh @ self._g + b_hh, len(self._g)
-        r = 1.0 / (1.0 + np.exp(-(gi[:n] + gh[:n])))
-        u = 1.0 / (1.0 + np.exp(-(gi[n:2 * n] + gh[n:2 * n])))
-        self._g = ((1.0 - u) * np.tanh(gi[2 * n:] + r * gh[2 * n:]) + u * self._g).astype(np.float32)
+        self._g = gru_step(self._gru, self._g, z)
         h = np.tanh(self._hidden[0] @ self._g + self._hidden[1])
         weight, bias, mean, std = self._head
         out = self._fixed.copy()

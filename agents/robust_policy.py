@@ -56,21 +56,28 @@ class RobustPolicy(Controller):
         return np.asarray(action, dtype=np.float32)
 
 
-class PrivilegedPolicy(RobustPolicy):
-    """A robust PPO trained with ``env: privileged: true``: its input is the frame stack, then the privileged row of
-    the episode's bench (:func:`agents.privileged.privileged_row`), which it reads at :meth:`reset` from the env it
-    is bound to, as ``limit`` reads the true state (``needs_env``; :func:`agents.controller_base.play` binds it). A
-    teacher's policy: no laboratory can run it."""
+class _EnvReadingPolicy(RobustPolicy):
+    """A robust PPO whose input after the frame stack is read from the env it is bound to, as ``limit`` reads the
+    true state (``needs_env``; :func:`agents.controller_base.play` binds it): a teacher's policy, no laboratory can
+    run it."""
 
     needs_env = True
 
-    def __init__(self, model: Any, normalizer: Any, name: str = "ppo_privileged", frames: int = FRAMES):
+    def __init__(self, model: Any, normalizer: Any, name: str, frames: int = FRAMES):
         super().__init__(model, normalizer, name, frames)
         self._env: Any = None
-        self._truth: np.ndarray | None = None
 
     def bind(self, env: Any) -> None:
         self._env = env.unwrapped
+
+
+class PrivilegedPolicy(_EnvReadingPolicy):
+    """A robust PPO trained with ``env: privileged: true``: its input is the frame stack, then the privileged row of
+    the episode's bench (:func:`agents.privileged.privileged_row`), read at :meth:`reset` from the bound env."""
+
+    def __init__(self, model: Any, normalizer: Any, name: str = "ppo_privileged", frames: int = FRAMES):
+        super().__init__(model, normalizer, name, frames)
+        self._truth: np.ndarray | None = None
 
     def reset(self, load_N: float, config: Any) -> None:
         super().reset(load_N, config)
@@ -85,20 +92,14 @@ class PrivilegedPolicy(RobustPolicy):
         return self._decide(np.concatenate([self._stack(obs), self._truth]))
 
 
-class DeviationPolicy(RobustPolicy):
+class DeviationPolicy(_EnvReadingPolicy):
     """A robust PPO trained with ``env: reference_deviation: true``: its input is the frame stack, then the
     episode's deviation from its true hydrostatic reference and the reference's slope now
     (:meth:`envs.base.ShearEnvBase.reference_deviation`, the same function the training batch calls), read at each
-    decision from the env it is bound to (``needs_env``). A privileged policy: a bench would have to estimate it."""
-
-    needs_env = True
+    decision from the bound env. A privileged policy: a bench would have to estimate it."""
 
     def __init__(self, model: Any, normalizer: Any, name: str = "ppo_deviation", frames: int = FRAMES):
         super().__init__(model, normalizer, name, frames)
-        self._env: Any = None
-
-    def bind(self, env: Any) -> None:
-        self._env = env.unwrapped
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         if self._env is None:

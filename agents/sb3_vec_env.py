@@ -180,17 +180,12 @@ def _widened(space: spaces.Box, extra: int) -> spaces.Box:
 
 
 def bench_vec_env(num_envs: int, seed: int | None = None, *, frame_stack: int = 1, start_bank: int = 0,
-                  bank_reuse: int = BANK_REUSE, privileged: bool = False, reference_deviation: bool = False,
-                  **v1_kwargs: Any) -> ShearSB3VecEnv:
+                  bank_reuse: int = BANK_REUSE, **v1_kwargs: Any) -> ShearSB3VecEnv:
     """``TriPlanarShear-v1`` x ``num_envs`` as an SB3 ``VecEnv`` (every v1 argument, plus the batch's frame stack
-    and start bank: :mod:`envs.vector_v1`; ``privileged``: each row's true unknowns appended,
-    :class:`PrivilegedSB3VecEnv`; ``reference_deviation``: its deviation from its true reference,
-    :class:`DeviationSB3VecEnv`; not both); env ``i`` is seeded ``seed + i``."""
-    if privileged and reference_deviation:
-        raise ValueError("give privileged or reference_deviation, not both")
+    and start bank: :mod:`envs.vector_v1`); env ``i`` is seeded ``seed + i``. (A privileged input, a training run's
+    ``env: privileged`` or ``reference_deviation``: :func:`agents.train_config.make_vec_env`.)"""
     bench_kwargs = {k: v for k, v in v1_kwargs.items() if k in BENCH_FIELDS}
     shear_kwargs = {k: v for k, v in v1_kwargs.items() if k not in BENCH_FIELDS}
     bench = BenchConfig(**bench_kwargs)
     batch = BenchBatch(num_envs, S.make_config(None, **shear_kwargs), bench, frame_stack, start_bank, bank_reuse)
-    cls = PrivilegedSB3VecEnv if privileged else DeviationSB3VecEnv if reference_deviation else ShearSB3VecEnv
-    return cls(num_envs, seed=seed, batch=batch)
+    return ShearSB3VecEnv(num_envs, seed=seed, batch=batch)

@@ -29,8 +29,6 @@ Two optional layout fields (absent in the first students, which load as before):
 
 from __future__ import annotations
 
-import hashlib
-import json
 from collections import deque
 from pathlib import Path
 from typing import Any
@@ -40,6 +38,7 @@ import numpy as np
 from envs.triplanar_shear_v1 import BENCH_OBSERVATION
 
 from .controller_base import Controller
+from .numpy_networks import gru_step, read_network
 
 WEIGHTS = "student.safetensors"
 SPEC = "student.json"
@@ -120,37 +119,9 @@ def check_spec(spec: Any, source: str) -> dict[str, Any]:
 def read_student(folder: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """(spec, tensors) of the student in ``folder``: the spec checked, the weights file's SHA-256 the spec's, and
     exactly the tensors of the spec's layout, finite, float32 (refused naming the file and field otherwise)."""
-    from safetensors import SafetensorError
-    from safetensors.numpy import load as load_tensors
-    folder = Path(folder)
-    spec_path, weights_path = folder / SPEC, folder / WEIGHTS
-    try:
-        spec = check_spec(json.loads(spec_path.read_text()), str(spec_path))
-        data = weights_path.read_bytes()
-    except OSError as err:
-        raise StudentFileError(f"{err.filename}: cannot read ({err.strerror})") from None
-    except ValueError as err:
-        if isinstance(err, StudentFileError):
-            raise
-        raise StudentFileError(f"{spec_path}: not JSON ({err})") from None
-    if hashlib.sha256(data).hexdigest() != spec["weights_sha256"]:
-        raise StudentFileError(f"{weights_path}: SHA-256 differs from {SPEC}'s 'weights_sha256' (not this "
-                               "student's weights)")
-    try:
-        tensors = load_tensors(data)
-    except (SafetensorError, ValueError) as err:
-        raise StudentFileError(f"{weights_path}: not a safetensors file ({err})") from None
-    expected = tensor_shapes(spec)
-    if set(tensors) != set(expected):
-        raise StudentFileError(f"{weights_path}: tensors {sorted(set(tensors) ^ set(expected))} missing or "
-                               f"unexpected for the layout of {SPEC}")
-    for key, shape in expected.items():
-        t = tensors[key]
-        if t.shape != shape or t.dtype != np.float32 or not np.all(np.isfinite(t)):
-            raise StudentFileError(f"{weights_path}: tensor {key!r} must be finite float32 of shape {shape}, got "
-                                   f"{t.dtype} {t.shape}")
+    spec, tensors = read_network(folder, SPEC, WEIGHTS, check_spec, tensor_shapes, StudentFileError, "student")
     if np.any(tensors["obs_std"] <= 0) or ("aux_std" in tensors and np.any(tensors["aux_std"] <= 0)):
-        raise StudentFileError(f"{weights_path}: tensors 'obs_std' and 'aux_std' must be > 0")
+        raise StudentFileError(f"{Path(folder) / WEIGHTS}: tensors 'obs_std' and 'aux_std' must be > 0")
     return spec, tensors
 
 
@@ -215,13 +186,7 @@ class StudentController(Controller):
 
     def _recur(self, z: np.ndarray) -> np.ndarray:
         """The GRU's state after input ``z`` (module docstring; torch's gate order: reset, update, new)."""
-        w_ih, b_ih, w_hh, b_hh = self._gru
-        gi, gh = w_ih @ z + b_ih, w_hh @ self._g + b_hh
-        n = len(self._g)
-        r = 1.0 / (1.0 + np.exp(-(gi[:n] + gh[:n])))
-        u = 1.0 / (1.0 + np.exp(-(gi[n:2 * n] + gh[n:2 * n])))
-        new = np.tanh(gi[2 * n:] + r * gh[2 * n:])
-        self._g = ((1.0 - u) * new + u * self._g).astype(np.float32)
+        self._g = gru_step(self._gru, self._g, z)
         return self._g
 
     def act(self, obs: np.ndarray) -> np.ndarray:

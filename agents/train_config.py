@@ -195,11 +195,6 @@ def single_env_kwargs(config: dict[str, Any]) -> dict[str, Any]:
             and k != DEVIATION_BIAS}
 
 
-def is_privileged(config: dict[str, Any]) -> bool:
-    """Whether the run's policy sees the privileged row (``env.privileged``)."""
-    return bool((config.get("env") or {}).get(PRIVILEGED, False))
-
-
 def extra_input_of(config: dict[str, Any]) -> str | None:
     """The privileged input (of :data:`EXTRA_INPUTS`) the run's policy sees appended to its frame stack, if any."""
     env = config.get("env") or {}

@@ -89,4 +89,5 @@ def test_a_bad_privileged_option_is_refused_by_name(overrides, message):
 
 def test_the_evaluation_episodes_run_the_env_without_the_option():
     config = {"env": {**ENV, "privileged": True}}
-    assert train_config.is_privileged(config) and "privileged" not in train_config.single_env_kwargs(config)
+    assert train_config.extra_input_of(config) == "privileged"
+    assert "privileged" not in train_config.single_env_kwargs(config)
