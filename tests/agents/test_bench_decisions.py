@@ -1,0 +1,29 @@
+"""benchmarks/bench_decisions.py times every decision of any controller spec through the one episode loop."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+
+from bench_decisions import bench_decisions
+
+
+def test_every_decision_of_every_timed_episode_is_timed():
+    result = bench_decisions("pi_feedback", benches=2, first=1)
+    assert result["benches"] == [1, 3]
+    assert [o["bench"] for o in result["outcomes"]] == [1, 2]
+    assert result["decisions"] == sum(o["steps"] for o in result["outcomes"])
+    for clock in ("thread_cpu", "wall"):
+        times = result[clock]
+        assert 0.0 < times["p50_ms"] <= times["p99_ms"] <= times["max_ms"]
+
+
+def test_a_bad_bench_range_or_controller_is_refused_by_name():
+    with pytest.raises(ValueError, match="--benches"):
+        bench_decisions("pi_feedback", benches=0)
+    with pytest.raises(Exception, match="mpc"):   # the unknown name's message lists the valid ones
+        bench_decisions("no_such_controller", benches=1)
