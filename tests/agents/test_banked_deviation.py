@@ -1,0 +1,101 @@
+"""The specimen bank's estimate of the reference deviation (``SpecimenBank.deviations``, ``agents.banked_deviation``):
+each hypothesis's deviation is what the env computes for a bench that is that hypothesis, through resample-moves;
+the composed controller feeds the bank's estimate to the policy, plays the start, reads no env and repeats."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from agents.banked_deviation import BankedDeviationPolicy
+from agents.estimator import bench_of
+from agents.heldout import nominal_benches, run_episode
+from agents.mpc import MPCController
+from agents.robust_policy import DeviationPolicy, RobustPolicy
+from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+
+
+def _act(x):
+    """The stand-in PPO's fixed rule of the newest frame."""
+    return np.array([0.4, 0.1 * np.tanh(1e3 * x[45])], dtype=np.float32)
+
+
+def _check_against_twins(bank, commands):
+    """Each hypothesis's deviation is the env's for the bench it stands for, run with the same commands."""
+    got = bank.deviations()
+    for j, theta in enumerate(bank.theta):
+        twin = TriPlanarShearV1Env(**bank.env_kwargs)
+        twin.reset(seed=0, options={"bench": bench_of(bank.prior, theta, bank.load_N)})
+        for raw in commands:
+            twin.step(raw)
+        # (1e-6 mm: the start's observation is the env's float32 one; a wrong hypothesis's is off by mm)
+        np.testing.assert_allclose(got[j], twin.reference_deviation(), rtol=0, atol=1e-6)
+    np.testing.assert_allclose(bank.deviation(), bank.weights() @ got, rtol=0, atol=1e-12)
+
+
+def test_each_hypothesis_deviation_is_the_envs_for_that_bench_right_after_a_resample_move():
+    bench = nominal_benches((40.0,))[0]
+    env = TriPlanarShearV1Env()
+    obs, _ = env.reset(seed=1, options={"bench": bench})
+    bank = MPCController(bank_size=6, refine_every=0, move_periods=0).new_bank(bench.load_N, env.unwrapped.config)
+    _check_against_twins(bank, [])
+    commands, checked = [], 0
+    for k in range(10):
+        raw = np.array([0.3 + 0.05 * (k % 3), 0.05 * (-1) ** k])
+        commands.append(raw)
+        obs, *_ = env.step(raw.astype(np.float32))
+        moves = bank.rejuvenations
+        bank.update(raw, obs)
+        if bank.rejuvenations > moves:   # the hypotheses were just replaced by moved ones
+            _check_against_twins(bank, commands)
+            checked += 1
+    assert checked > 0
+
+
+class _Recorded(BankedDeviationPolicy):
+    """Records what it sees and the commands it sends."""
+
+    def reset(self, load_N, config):
+        super().reset(load_N, config)
+        self.seen, self.sent = [], []
+
+    def act(self, obs):
+        action = super().act(obs)
+        self.seen.append(np.array(obs))
+        self.sent.append(np.array(action))
+        return action
+
+
+def test_the_composed_controller_feeds_the_banks_estimate_plays_the_start_and_repeats(recording_model):
+    bench = nominal_benches((40.0,))[0]
+    runs = []
+    for _ in range(2):
+        recorder = recording_model(_act)
+        composed = _Recorded(DeviationPolicy(recorder, recorder), MPCController(bank_size=4), start_periods=2)
+        assert composed.needs_env is False   # play() never hands it the env
+        outcome = run_episode(composed, bench, seed=3)
+        runs.append(np.array(recorder.inputs))
+    np.testing.assert_array_equal(runs[0], runs[1])
+    inputs, sent, settings = runs[0], composed.sent, composed.bank_settings
+    config = TriPlanarShearV1Env().unwrapped.config
+    np.testing.assert_array_equal(sent[:2], [settings.start_command(k, config).astype(np.float32) for k in (1, 2)])
+    assert len(inputs) == outcome.steps - 2   # the policy decided every period after the start
+    np.testing.assert_array_equal(inputs[:, 45:60], composed.seen[2:])
+    bank = settings.new_bank(bench.load_N, config)   # the appended input is a bank's fed the same periods
+    bank.rejuvenate_ess = 0.0
+    for k, obs in enumerate(composed.seen):
+        if k:
+            bank.update(np.asarray(sent[k - 1], dtype=np.float64), obs)
+        if k >= 2:
+            np.testing.assert_array_equal(inputs[k - 2, 60:], bank.deviation(composed.min_ess).astype(np.float32))
+    assert np.ptp(inputs[:, 62]) > 0   # the estimate moved along the episode
+
+
+def test_a_policy_without_the_deviation_input_and_bad_settings_are_refused(recording_model):
+    recorder = recording_model(_act)
+    with pytest.raises(ValueError, match="not a reference_deviation run"):
+        BankedDeviationPolicy(RobustPolicy(recorder, recorder), MPCController(bank_size=4))
+    with pytest.raises(ValueError, match="min_ess"):
+        BankedDeviationPolicy(DeviationPolicy(recorder, recorder), MPCController(bank_size=4), min_ess=0.5)
+    with pytest.raises(ValueError, match="start_periods"):
+        BankedDeviationPolicy(DeviationPolicy(recorder, recorder), MPCController(bank_size=4), start_periods=-1)
