@@ -20,19 +20,23 @@ machine), tens of ms per move, so it does not fit a period. ``start_periods`` > 
 (:meth:`MPCController.start_command`) first, whatever the policy would do (the policy still sees these
 observations in its frame stack); it cost accuracy here (the policy was not trained after it).
 
-**Cost.** A decision is one bank update (every hypothesis advanced one period by the env's compiled step,
-:func:`envs.prediction.step_state`, and weighed), the tempered weighted mean and the policy: measured in the
-finding, about 1 ms per decision at 16 hypotheses on a loaded machine. It does not grow with the episode.
+**Cost.** A decision weighs the bank by the new measurement (:meth:`SpecimenBank.weigh`), takes the tempered
+weighted mean and runs the policy; advancing every hypothesis by the command just decided (the env's compiled step,
+:func:`envs.prediction.step_state`, :meth:`SpecimenBank.predict`) needs no measurement, so it runs after the
+decision, in the period's slack (together, :meth:`SpecimenBank.observe` to the last bit). Neither grows with the
+episode. ``info`` holds each period's thread CPU to the decision and in all (finding 13b's numbers).
 """
 
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from envs.core import REFERENCE_DEVIATION_DIM
+from envs.triplanar_shear_v1 import B_RANGE
 
 from .mpc import MPCController
 from .robust_policy import DeviationPolicy, RobustPolicy, load_policy
@@ -41,6 +45,41 @@ from .robust_policy import DeviationPolicy, RobustPolicy, load_policy
 BANK_SIZE = 16
 MIN_ESS = 4.0
 START_PERIODS = 0
+
+
+_ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0)}
+
+
+class NumpyActor:
+    """The deterministic action of a PPO ``MlpPolicy`` (SB3's ``ActorCriticPolicy``: flattened input, the actor's
+    ``mlp_extractor.policy_net``, ``action_net``: the Gaussian's mean, clipped to the action space as its ``predict``
+    does), with the weights copied out in float32 and run with numpy: SB3's ``predict`` costs ~0.5 ms a decision on
+    this machine, most of it torch's overhead around three small layers (finding 13b). A layout it does not know
+    is refused naming the module."""
+
+    def __init__(self, model: Any):
+        policy = model.policy
+        if type(policy.features_extractor).__name__ != "FlattenExtractor" or policy.squash_output or \
+                type(policy.action_dist).__name__ != "DiagGaussianDistribution":
+            raise ValueError(f"NumpyActor: {type(policy).__name__} is not a flat-input Gaussian MLP actor")
+        self.layers = []
+        for module in [*policy.mlp_extractor.policy_net, policy.action_net]:
+            name = type(module).__name__
+            if name == "Linear":
+                self.layers.append((module.weight.detach().cpu().numpy().astype(np.float32),
+                                    module.bias.detach().cpu().numpy().astype(np.float32)))
+            elif name in _ACTIVATIONS:
+                self.layers.append(_ACTIVATIONS[name])
+            else:
+                raise ValueError(f"NumpyActor: module {name!r} of the actor is not a Linear layer or "
+                                 f"one of {sorted(_ACTIVATIONS)}")
+        self.low, self.high = model.action_space.low, model.action_space.high
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=np.float32).reshape(-1)
+        for layer in self.layers:
+            x = layer[0] @ x + layer[1] if isinstance(layer, tuple) else layer(x)
+        return np.clip(x, self.low, self.high).astype(np.float32)
 
 
 class BankedDeviationPolicy(RobustPolicy):
@@ -61,6 +100,7 @@ class BankedDeviationPolicy(RobustPolicy):
         if not min_ess >= 1.0:
             raise ValueError(f"min_ess must be a number >= 1 (an effective sample size), got {min_ess!r}")
         super().__init__(policy.model, policy.normalizer, name, policy.n_frames)
+        self.actor = NumpyActor(policy.model) if hasattr(policy.model, "policy") else None   # (a test's stand-in)
         self.bank_settings, self.moves, self.min_ess = bank_settings, bool(moves), float(min_ess)
         self.start_periods = start_periods
         self.estimate = np.zeros(REFERENCE_DEVIATION_DIM)
@@ -81,11 +121,20 @@ class BankedDeviationPolicy(RobustPolicy):
         if not self.moves:
             self.bank.rejuvenate_ess = 0.0   # (an effective size is never below zero: no resample-move)
         self._periods = 0
-        self._last: np.ndarray | None = None
+        self.info = {"decision_cpu_s": 0.0, "period_cpu_s": 0.0}
+
+    def _decide(self, policy_input: np.ndarray) -> np.ndarray:
+        if self.actor is None:
+            return super()._decide(policy_input)
+        return self.actor(self.normalizer.normalize_obs(policy_input))
 
     def act(self, obs: np.ndarray) -> np.ndarray:
-        if self._last is not None:  # the observation of the period the last action ran
-            self.bank.update(self._last, obs)
+        """Weigh the bank by the period just measured, decide; then advance the bank by the decided command (in
+        the period's slack on a bench, after the command is sent). ``info``: the thread CPU to the decision and in
+        all."""
+        started = time.thread_time()
+        if self._periods:  # the measurement of the period the last command ran
+            self.bank.weigh(np.array(obs[B_RANGE:B_RANGE + 9], dtype=float))
         self._periods += 1
         self.estimate = self.bank.deviation(self.min_ess)
         policy_input = np.concatenate([self._stack(obs), self.estimate.astype(np.float32)])
@@ -93,5 +142,7 @@ class BankedDeviationPolicy(RobustPolicy):
             action = self.bank_settings.start_command(self._periods, self.config).astype(np.float32)
         else:
             action = self._decide(policy_input)
-        self._last = np.asarray(action, dtype=np.float64)   # the command the bench runs (float32, exactly)
+        decided = time.thread_time()
+        self.bank.predict(np.asarray(action, dtype=np.float64))   # the command the bench runs (float32, exactly)
+        self.info = {"decision_cpu_s": decided - started, "period_cpu_s": time.thread_time() - started}
         return action

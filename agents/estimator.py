@@ -370,6 +370,43 @@ class SpecimenBank:
                 self.log_w[i] += inc
                 self.ll[i] += inc
                 self.alive[i] = math.isfinite(self.log_w[i])
+        self._settle()
+
+    def predict(self, raw: np.ndarray) -> None:
+        """:meth:`observe`'s first half, which needs no measurement: every live hypothesis advanced by the command
+        ``raw`` the bench is running (its observation kept); :meth:`weigh` then takes the period's measurement. A
+        controller runs it once the command is sent, in the period's slack, so that its next decision only weighs
+        (the two halves are :meth:`observe` to the last bit)."""
+        self._predicted = np.array(raw, dtype=np.float64)
+        self._ended = np.zeros(len(self.states), dtype=bool)
+        for i, s in enumerate(self.states):
+            if self.alive[i]:
+                code = step_state(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue,
+                                  self._predicted, self._applied, self._obs, self._inf, self._ws)
+                self.observations[i] = self._obs
+                self._ended[i] = code != RUNNING or not np.all(np.isfinite(s.y))
+
+    def weigh(self, measured: np.ndarray) -> None:
+        """:meth:`observe`'s second half: weigh the hypotheses :meth:`predict` advanced by the nine displacements
+        ``measured`` after that period."""
+        if getattr(self, "_predicted", None) is None:
+            raise RuntimeError("SpecimenBank.weigh: no predicted period to weigh (call predict(raw) first)")
+        measured = np.asarray(measured, dtype=float)
+        self._history.append((self._predicted, measured))
+        self._predicted = None
+        variance = self.sensor_noise_m ** 2 + self.model_error_m ** 2
+        for i in np.flatnonzero(self.alive):
+            r = self.observations[i, OBS_POS:OBS_POS + 9] - measured
+            inc = -0.5 * float(r @ r) / variance
+            if self._ended[i] or not math.isfinite(inc):
+                inc = -math.inf
+            self.log_w[i] += inc
+            self.ll[i] += inc
+            self.alive[i] = math.isfinite(self.log_w[i])
+        self._settle()
+
+    def _settle(self) -> None:
+        """After a period's weighing: the refinement, the fallback to the prior if the bank diverged, or a move."""
         self.diverged = False
         moving = self.move_periods <= 0 or len(self._history) <= self.move_periods  # (module docstring)
         if moving and self.refine_every > 0 and len(self._history) % int(self.refine_every) == 0:
@@ -387,24 +424,11 @@ class SpecimenBank:
             else:
                 self._rejuvenate()
 
-    def shrink(self, count: int) -> None:
-        """Keep only the ``count`` likeliest hypotheses (their weights as they were, renormalised): a large bank
-        that has weighed a few periods cheaply (:meth:`run_ahead`) becomes a small one whose update fits a period."""
-        keep = np.sort(np.argsort(-self.weights(), kind="stable")[:int(count)])
-        self.theta, self.observations = self.theta[keep], self.observations[keep]
-        self.states = [self.states[i] for i in keep]
-        self.log_w, self.ll, self.alive = self.log_w[keep], self.ll[keep], self.alive[keep]
-
     def ess(self) -> float:
         w = self.weights()
         return 1.0 / float(w @ w)
 
-    def improve(self, count: int) -> None:
-        """The greedy move (:meth:`_rejuvenate`) on only the ``count`` least likely hypotheses: a bounded piece of
-        work (``count`` starts and replays of the history so far) that a controller can spread over periods."""
-        self._rejuvenate(int(count))
-
-    def _rejuvenate(self, count: int | None = None) -> None:
+    def _rejuvenate(self) -> None:
         """Resample-move: the least likely half of the bank is replaced by perturbed copies of hypotheses drawn by
         their weights (a Gaussian kernel ``jitter`` times the bank's weighted spread, at least its spacing, kept in
         the prior's ranges), each run from its own start with the commands sent so far and weighed by every
@@ -419,7 +443,7 @@ class SpecimenBank:
         if not self.vary_geometry:
             sigma[len(PARAMETERS):] = 0.0
         order = np.argsort(self.log_w)
-        slots = order[:len(self.states) // 2 if count is None else count]
+        slots = order[:len(self.states) // 2]
         parents = np.searchsorted(np.cumsum(w), (np.arange(len(slots)) + self._rng.random()) / len(slots))
         parents = np.minimum(parents, len(w) - 1)
         for slot, parent in zip(slots, parents):

@@ -1,6 +1,7 @@
 """The specimen bank's estimate of the reference deviation (``SpecimenBank.deviations``, ``agents.banked_deviation``):
 each hypothesis's deviation is what the env computes for a bench that is that hypothesis, through resample-moves;
-the composed controller feeds the bank's estimate to the policy, plays the start, reads no env and repeats."""
+the bank's update split around the decision (predict, then weigh) is its whole update to the last bit; the composed
+controller feeds the bank's estimate to the policy, plays the start, reads no env and repeats."""
 
 from __future__ import annotations
 
@@ -12,7 +13,7 @@ from agents.estimator import bench_of
 from agents.heldout import nominal_benches, run_episode
 from agents.mpc import MPCController
 from agents.robust_policy import DeviationPolicy, RobustPolicy
-from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+from envs.triplanar_shear_v1 import B_RANGE, TriPlanarShearV1Env
 
 
 def _act(x):
@@ -50,6 +51,25 @@ def test_each_hypothesis_deviation_is_the_envs_for_that_bench_right_after_a_resa
             _check_against_twins(bank, commands)
             checked += 1
     assert checked > 0
+
+
+def test_predict_then_weigh_is_observe_to_the_last_bit_through_moves_and_refinements():
+    bench = nominal_benches((40.0,))[0]
+    env = TriPlanarShearV1Env()
+    obs, _ = env.reset(seed=2, options={"bench": bench})
+    settings = MPCController(bank_size=6, refine_every=4, refine_evaluations=4, move_periods=0)
+    whole, split = (settings.new_bank(bench.load_N, env.unwrapped.config) for _ in range(2))
+    for k in range(9):
+        raw = np.array([0.3 + 0.05 * (k % 3), 0.05 * (-1) ** k])
+        obs, *_ = env.step(raw.astype(np.float32))
+        whole.update(raw, obs)
+        split.predict(raw)
+        split.weigh(obs[B_RANGE:B_RANGE + 9])
+        for name in ("theta", "observations", "log_w", "ll", "alive"):
+            np.testing.assert_array_equal(getattr(split, name), getattr(whole, name), err_msg=name)
+    assert whole.rejuvenations > 0 and whole.refinements > 0
+    with pytest.raises(RuntimeError, match="predict"):
+        split.weigh(obs[B_RANGE:B_RANGE + 9])
 
 
 class _Recorded(BankedDeviationPolicy):
@@ -99,3 +119,30 @@ def test_a_policy_without_the_deviation_input_and_bad_settings_are_refused(recor
         BankedDeviationPolicy(DeviationPolicy(recorder, recorder), MPCController(bank_size=4), min_ess=0.5)
     with pytest.raises(ValueError, match="start_periods"):
         BankedDeviationPolicy(DeviationPolicy(recorder, recorder), MPCController(bank_size=4), start_periods=-1)
+
+
+def _sb3_model(activation):
+    """An untrained SB3 MlpPolicy of the deviation policy's input and action sizes, as a model holds it."""
+    import gymnasium as gym
+    from stable_baselines3.common.policies import ActorCriticPolicy
+    obs_space = gym.spaces.Box(-np.inf, np.inf, (72,), np.float32)
+    act_space = gym.spaces.Box(-1.0, 1.0, (2,), np.float32)
+    policy = ActorCriticPolicy(obs_space, act_space, lambda _: 0.0, net_arch=[16, 16], activation_fn=activation)
+    with __import__("torch").no_grad():
+        policy.action_net.bias.fill_(1.0)   # so that about half the actions are clipped
+    return type("Model", (), {"policy": policy, "action_space": act_space})()
+
+
+def test_the_numpy_actor_is_sb3s_deterministic_predict_and_refuses_a_layout_it_does_not_know():
+    import torch.nn as nn
+
+    from agents.banked_deviation import NumpyActor
+    model = _sb3_model(nn.Tanh)
+    actor = NumpyActor(model)
+    x = np.random.default_rng(0).normal(size=(200, 72)).astype(np.float32) * 3
+    expected = np.array([model.policy.predict(row, deterministic=True)[0] for row in x])
+    got = np.array([actor(row) for row in x])
+    np.testing.assert_allclose(got, expected, rtol=0, atol=2e-6)
+    assert (got == 1.0).any()   # the clip to the action space was exercised
+    with pytest.raises(ValueError, match="'ELU'"):
+        NumpyActor(_sb3_model(nn.ELU))
