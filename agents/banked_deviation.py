@@ -53,7 +53,7 @@ _ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0)}
 class NumpyActor:
     """The deterministic action of a PPO ``MlpPolicy`` (SB3's ``ActorCriticPolicy``: flattened input, the actor's
     ``mlp_extractor.policy_net``, ``action_net``: the Gaussian's mean, clipped to the action space as its ``predict``
-    does), with the weights copied out in float32 and run with numpy: SB3's ``predict`` costs ~0.5 ms a decision on
+    does), with the weights copied out in float32 and run with numpy: SB3's ``predict`` costs 0.25-0.55 ms a decision on
     this machine, most of it torch's overhead around three small layers (finding 13b). A layout it does not know
     is refused naming the module."""
 
