@@ -23,7 +23,7 @@ observations in its frame stack); it cost accuracy here (the policy was not trai
 **Cost.** A decision weighs the bank by the new measurement (:meth:`SpecimenBank.weigh`), takes the tempered
 weighted mean and runs the policy; advancing every hypothesis by the command just decided (the env's compiled step,
 :func:`envs.prediction.step_state`, :meth:`SpecimenBank.predict`) needs no measurement, so it runs after the
-decision, in the period's slack (together, :meth:`SpecimenBank.observe` to the last bit). Neither grows with the
+decision, in the period's slack (:meth:`SpecimenBank.observe` is the two halves). Neither grows with the
 episode. ``info`` holds each period's thread CPU to the decision and in all (finding 13b's numbers).
 """
 

@@ -213,6 +213,7 @@ class SpecimenBank:
         self.diverged = False
         self._history: list[tuple[np.ndarray, np.ndarray]] = []
         self._counted_from = 0  # measurements before a fallback no longer count
+        self._predicted: np.ndarray | None = None   # the command predict() advanced the bank by, not yet weighed
         self._ws = new_workspace()
 
     def _hypothesis(self, theta: np.ndarray) -> Bench:
@@ -248,11 +249,14 @@ class SpecimenBank:
         """One period of hypothesis ``s``; the log-likelihood of ``measured`` (-inf if it ended the test)."""
         code = step_state(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, raw,
                           self._applied, self._obs, self._inf, self._ws)
-        self._residual = r = self._obs[OBS_POS:OBS_POS + 9] - measured
+        return self._log_likelihood(code != RUNNING or not np.all(np.isfinite(s.y)), self._obs, measured)
+
+    def _log_likelihood(self, ended: bool, obs: np.ndarray, measured: np.ndarray) -> float:
+        """The log-likelihood of ``measured`` for a hypothesis whose state observation is ``obs`` (-inf if it
+        ``ended`` the test); its residual is left in ``_residual``."""
+        self._residual = r = obs[OBS_POS:OBS_POS + 9] - measured
         ll = -0.5 * float(r @ r) / (self.sensor_noise_m ** 2 + self.model_error_m ** 2)
-        if code != RUNNING or not math.isfinite(ll) or not np.all(np.isfinite(s.y)):
-            return -math.inf
-        return ll
+        return -math.inf if ended or not math.isfinite(ll) else ll
 
     def _replay(self, s: BenchState) -> float:
         """Run a new hypothesis from its start with every command sent so far: its whole history's
@@ -362,21 +366,14 @@ class SpecimenBank:
 
     def observe(self, raw: np.ndarray, measured: np.ndarray) -> None:
         """:meth:`update` with the command and the nine measured displacements given directly."""
-        self._history.append((raw, measured))
-        for i, s in enumerate(self.states):
-            if self.alive[i]:
-                inc = self._advance(s, raw, measured)
-                self.observations[i] = self._obs
-                self.log_w[i] += inc
-                self.ll[i] += inc
-                self.alive[i] = math.isfinite(self.log_w[i])
-        self._settle()
+        self.predict(raw)
+        self.weigh(measured)
 
     def predict(self, raw: np.ndarray) -> None:
         """:meth:`observe`'s first half, which needs no measurement: every live hypothesis advanced by the command
         ``raw`` the bench is running (its observation kept); :meth:`weigh` then takes the period's measurement. A
         controller runs it once the command is sent, in the period's slack, so that its next decision only weighs
-        (the two halves are :meth:`observe` to the last bit)."""
+        (:meth:`observe` is the two halves)."""
         self._predicted = np.array(raw, dtype=np.float64)
         self._ended = np.zeros(len(self.states), dtype=bool)
         for i, s in enumerate(self.states):
@@ -389,17 +386,13 @@ class SpecimenBank:
     def weigh(self, measured: np.ndarray) -> None:
         """:meth:`observe`'s second half: weigh the hypotheses :meth:`predict` advanced by the nine displacements
         ``measured`` after that period."""
-        if getattr(self, "_predicted", None) is None:
+        if self._predicted is None:
             raise RuntimeError("SpecimenBank.weigh: no predicted period to weigh (call predict(raw) first)")
         measured = np.asarray(measured, dtype=float)
         self._history.append((self._predicted, measured))
         self._predicted = None
-        variance = self.sensor_noise_m ** 2 + self.model_error_m ** 2
         for i in np.flatnonzero(self.alive):
-            r = self.observations[i, OBS_POS:OBS_POS + 9] - measured
-            inc = -0.5 * float(r @ r) / variance
-            if self._ended[i] or not math.isfinite(inc):
-                inc = -math.inf
+            inc = self._log_likelihood(bool(self._ended[i]), self.observations[i], measured)
             self.log_w[i] += inc
             self.ll[i] += inc
             self.alive[i] = math.isfinite(self.log_w[i])
