@@ -13,6 +13,8 @@ spec               canonical string            builds
 ``StudentSpec``    ``student:FOLDER``          a distilled student (:mod:`agents.student`)
 ``EstimatedSpec``  ``estimated:FOLDER``        a reference-deviation PPO on a bench estimate of its deviation
                                                (:mod:`agents.deviation_estimator`)
+``BankedSpec``     ``banked:RUN``              a reference-deviation PPO run on a specimen bank's estimate of
+                                               its deviation (:mod:`agents.banked_deviation`)
 =================  ==========================  =============================================================
 
 :func:`parse_controller` is the one place a user's string becomes a spec (``--driver`` of
@@ -83,7 +85,7 @@ class ScriptedSpec:
         if self.name not in controller_names():
             raise ControllerSpecError(f"ScriptedSpec.name: unknown controller {self.name!r}; choose from "
                                       f"{controller_names()} (or ppo:RUN, ppo_recurrent:RUN, ppo_state:RUN, "
-                                      "shipped:NAME, student:FOLDER)")
+                                      "shipped:NAME, student:FOLDER, estimated:FOLDER, banked:RUN)")
         if not isinstance(self.params, tuple) or not all(
                 isinstance(p, tuple) and len(p) == 2 and isinstance(p[0], str) for p in self.params):
             raise ControllerSpecError(f"ScriptedSpec.params: expected a tuple of (name, value) pairs, got "
@@ -198,7 +200,25 @@ class EstimatedSpec:
         return Built(EstimatedDeviationPolicy.load(self.folder, name=label), dict(env_kwargs), True)
 
 
-ControllerSpec = Union[ScriptedSpec, PPOSpec, ShippedSpec, StudentSpec, EstimatedSpec]
+@dataclass(frozen=True)
+class BankedSpec:
+    """A reference-deviation PPO run on a specimen bank's estimate of its deviation, at the module's settings."""
+
+    run: str
+
+    def __post_init__(self):
+        _nonempty("BankedSpec", "run", self.run)
+
+    @property
+    def text(self) -> str:
+        return f"banked:{self.run}"
+
+    def build(self, label: str, env_kwargs: dict[str, Any], tip_friction_deg: float | None = None) -> Built:
+        from .banked_deviation import BankedDeviationPolicy
+        return Built(BankedDeviationPolicy.load(self.run, name=label), dict(env_kwargs), True)
+
+
+ControllerSpec = Union[ScriptedSpec, PPOSpec, ShippedSpec, StudentSpec, EstimatedSpec, BankedSpec]
 
 
 def parse_controller(text: str, *, params: tuple = (), seed: int = 0, zoo_dir: str | None = None) -> ControllerSpec:
@@ -214,7 +234,7 @@ def parse_controller(text: str, *, params: tuple = (), seed: int = 0, zoo_dir: s
     if not sep:
         return ScriptedSpec(text, params)
     if not rest:
-        field = {"shipped": "name", "student": "folder", "estimated": "folder"}.get(kind, "path")
+        field = {"shipped": "name", "student": "folder", "estimated": "folder", "banked": "run"}.get(kind, "path")
         raise ControllerSpecError(f"controller {text!r}: the {field} after {kind + ':'!r} is empty")
     if kind in PPO_KINDS:
         return PPOSpec(rest, kind)
@@ -224,5 +244,7 @@ def parse_controller(text: str, *, params: tuple = (), seed: int = 0, zoo_dir: s
         return StudentSpec(rest)
     if kind == "estimated":
         return EstimatedSpec(rest)
+    if kind == "banked":
+        return BankedSpec(rest)
     raise ControllerSpecError(f"controller {text!r}: unknown kind {kind!r}; expected a bench controller name or "
-                              f"one of {[*PPO_KINDS, 'shipped', 'student', 'estimated']} followed by ':'")
+                              f"one of {[*PPO_KINDS, 'shipped', 'student', 'estimated', 'banked']} followed by ':'")

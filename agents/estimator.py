@@ -52,7 +52,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from envs.core import N_INFO, OBS_DIM, OBS_POS, StartError, new_workspace
+from envs.core import N_INFO, OBS_DIM, OBS_POS, StartError, new_workspace, reference_deviation
 from envs.prediction import BenchState, step_state
 from envs.triplanar_shear_v1 import (
     B_RANGE,
@@ -188,13 +188,15 @@ class SpecimenBank:
         self.circular = np.concatenate([np.zeros(len(low), dtype=bool), gcircular])
         self.resolution = (self.high - self.low)[:N_REPORTED] / self.size
         self._rng = np.random.default_rng([self.seed, round(load_N * 1000)])
-        self.theta, self.states = [], []
+        self._applied, self._obs, self._inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
+        self.theta, self.states, observations = [], [], []
         for _ in range(self.max_rounds):  # until the bank is full of hypotheses that start, as the bench's did
             for theta in latin_hypercube(self._rng, self.size, low, high):
                 state, full = self._start(self._hypothesis(theta))
                 if state is not None:
                     self.theta.append(full)
                     self.states.append(state)
+                    observations.append(self._obs.copy())
                 if len(self.states) == self.size:
                     break
             if len(self.states) == self.size:
@@ -202,6 +204,7 @@ class SpecimenBank:
         if not self.states:
             raise StartError(f"no hypothesis of the prior starts at {load_N:g} N")
         self.theta = np.array(self.theta)
+        self.observations = np.array(observations)  # each hypothesis's own state observation now (its deviation)
         self.log_w = np.zeros(len(self.states))  # log weight: the likelihood since the last resampling
         self.ll = np.zeros(len(self.states))  # the whole history's log-likelihood (the move's target)
         self.alive = np.ones(len(self.states), dtype=bool)
@@ -210,7 +213,7 @@ class SpecimenBank:
         self.diverged = False
         self._history: list[tuple[np.ndarray, np.ndarray]] = []
         self._counted_from = 0  # measurements before a fallback no longer count
-        self._applied, self._obs, self._inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
+        self._predicted: np.ndarray | None = None   # the command predict() advanced the bank by, not yet weighed
         self._ws = new_workspace()
 
     def _hypothesis(self, theta: np.ndarray) -> Bench:
@@ -233,22 +236,27 @@ class SpecimenBank:
         return bench_of(self.prior, theta, self.load_N)
 
     def _start(self, bench: Bench) -> tuple[BenchState | None, np.ndarray]:
-        """The hypothesis's start (None if friction holds it at rest: the bench's block did start)."""
+        """The hypothesis's start (None if friction holds it at rest: the bench's block did start); its state
+        observation is left in ``_obs``, as :meth:`_advance` leaves each period's."""
         try:
-            self._env.reset(seed=0, options={"bench": bench})
+            obs, _ = self._env.reset(seed=0, options={"bench": bench})
         except StartError:
             return None, hypothesis_of(bench)
+        self._obs[:] = obs
         return self._env.get_state(), hypothesis_of(bench)
 
     def _advance(self, s: BenchState, raw: np.ndarray, measured: np.ndarray) -> float:
         """One period of hypothesis ``s``; the log-likelihood of ``measured`` (-inf if it ended the test)."""
         code = step_state(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, raw,
                           self._applied, self._obs, self._inf, self._ws)
-        self._residual = r = self._obs[OBS_POS:OBS_POS + 9] - measured
+        return self._log_likelihood(code != RUNNING or not np.all(np.isfinite(s.y)), self._obs, measured)
+
+    def _log_likelihood(self, ended: bool, obs: np.ndarray, measured: np.ndarray) -> float:
+        """The log-likelihood of ``measured`` for a hypothesis whose state observation is ``obs`` (-inf if it
+        ``ended`` the test); its residual is left in ``_residual``."""
+        self._residual = r = obs[OBS_POS:OBS_POS + 9] - measured
         ll = -0.5 * float(r @ r) / (self.sensor_noise_m ** 2 + self.model_error_m ** 2)
-        if code != RUNNING or not math.isfinite(ll) or not np.all(np.isfinite(s.y)):
-            return -math.inf
-        return ll
+        return -math.inf if ended or not math.isfinite(ll) else ll
 
     def _replay(self, s: BenchState) -> float:
         """Run a new hypothesis from its start with every command sent so far: its whole history's
@@ -307,7 +315,7 @@ class SpecimenBank:
         if -fit.cost <= self.ll[best]:
             return False
         n = len(self.states)
-        theta, states, ll = [], [], []
+        theta, states, ll, observations = [], [], [], []
         for z in fit.draw_inside(self._rng, 3 * n, float(self.refine_inflation)):
             state, full = self._start(self._bench_of(hypothesis(z)))
             if state is None:
@@ -315,6 +323,7 @@ class SpecimenBank:
             theta.append(full)
             states.append(state)
             ll.append(self._replay(state))
+            observations.append(self._obs.copy())
             if len(states) == n:
                 break
         ll = np.array(ll)
@@ -323,6 +332,7 @@ class SpecimenBank:
         z = (np.array(theta)[:, free] - low) / span
         log_w = ll - fit.log_density(z, float(self.refine_inflation))
         self.theta, self.states, self.ll = np.array(theta), states, ll
+        self.observations = np.array(observations)
         self.alive = np.isfinite(ll)
         self.log_w = np.where(self.alive, log_w - np.max(log_w, where=self.alive, initial=-math.inf), -math.inf)
         self.refined += 1
@@ -337,6 +347,18 @@ class SpecimenBank:
         """Every period so far: the command sent and the rangefinders' nine displacements measured after it."""
         return list(self._history)
 
+    def deviations(self) -> np.ndarray:
+        """Each hypothesis's deviation from its own case-C reference now and that reference's slope, ``(n, 12)``:
+        :func:`envs.core.reference_deviation` of its own state observation, as the env computes the truth's."""
+        refs = np.array([s.ref for s in self.states])
+        return reference_deviation(self.observations, refs, self._env.config.travel_m)
+
+    def deviation(self, min_ess: float = 1.0) -> np.ndarray:
+        """The bank's estimate of the bench's reference deviation (12 values): :meth:`deviations` averaged with the
+        bank's weights, tempered to an effective size of at least ``min_ess`` (as :meth:`best` tempers them: a
+        finite bank soon puts all its weight on one hypothesis, which is not the bench)."""
+        return self._tempered(float(min_ess)) @ self.deviations()
+
     def reference(self) -> np.ndarray:
         """The hypotheses' case-C reference (displacements of CP1-CP3 at equal steps of travel, the env's table),
         averaged with the bank's weights: what the bank believes the bench's own reference is."""
@@ -344,13 +366,40 @@ class SpecimenBank:
 
     def observe(self, raw: np.ndarray, measured: np.ndarray) -> None:
         """:meth:`update` with the command and the nine measured displacements given directly."""
-        self._history.append((raw, measured))
+        self.predict(raw)
+        self.weigh(measured)
+
+    def predict(self, raw: np.ndarray) -> None:
+        """:meth:`observe`'s first half, which needs no measurement: every live hypothesis advanced by the command
+        ``raw`` the bench is running (its observation kept); :meth:`weigh` then takes the period's measurement. A
+        controller runs it once the command is sent, in the period's slack, so that its next decision only weighs
+        (:meth:`observe` is the two halves)."""
+        self._predicted = np.array(raw, dtype=np.float64)
+        self._ended = np.zeros(len(self.states), dtype=bool)
         for i, s in enumerate(self.states):
             if self.alive[i]:
-                inc = self._advance(s, raw, measured)
-                self.log_w[i] += inc
-                self.ll[i] += inc
-                self.alive[i] = math.isfinite(self.log_w[i])
+                code = step_state(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue,
+                                  self._predicted, self._applied, self._obs, self._inf, self._ws)
+                self.observations[i] = self._obs
+                self._ended[i] = code != RUNNING or not np.all(np.isfinite(s.y))
+
+    def weigh(self, measured: np.ndarray) -> None:
+        """:meth:`observe`'s second half: weigh the hypotheses :meth:`predict` advanced by the nine displacements
+        ``measured`` after that period."""
+        if self._predicted is None:
+            raise RuntimeError("SpecimenBank.weigh: no predicted period to weigh (call predict(raw) first)")
+        measured = np.asarray(measured, dtype=float)
+        self._history.append((self._predicted, measured))
+        self._predicted = None
+        for i in np.flatnonzero(self.alive):
+            inc = self._log_likelihood(bool(self._ended[i]), self.observations[i], measured)
+            self.log_w[i] += inc
+            self.ll[i] += inc
+            self.alive[i] = math.isfinite(self.log_w[i])
+        self._settle()
+
+    def _settle(self) -> None:
+        """After a period's weighing: the refinement, the fallback to the prior if the bank diverged, or a move."""
         self.diverged = False
         moving = self.move_periods <= 0 or len(self._history) <= self.move_periods  # (module docstring)
         if moving and self.refine_every > 0 and len(self._history) % int(self.refine_every) == 0:
@@ -403,7 +452,7 @@ class SpecimenBank:
                     break
             if math.isfinite(ll) and (not self.alive[slot] or ll > self.log_w[slot]):
                 self.theta[slot], self.states[slot], self.log_w[slot], self.alive[slot] = full, state, ll, True
-                self.ll[slot] = ll
+                self.ll[slot], self.observations[slot] = ll, self._obs
         self.rejuvenations += 1
 
     def _proposal(self) -> np.ndarray:
@@ -444,6 +493,7 @@ class SpecimenBank:
         parents = np.minimum(np.searchsorted(np.cumsum(w), (np.arange(n) + self._rng.random()) / n), n - 1)
         theta, ll = self.theta[parents].copy(), self.ll[parents].copy()
         states = [self.states[i].copy() for i in parents]
+        observations = self.observations[parents]
         for _ in range(self.move_steps):
             for i in range(n):
                 new = theta[i] + factor @ self._rng.standard_normal(len(theta[i]))
@@ -456,9 +506,9 @@ class SpecimenBank:
                     continue  # friction holds it at rest: not in the prior (the bench's block started)
                 new_ll = self._replay(state)
                 if math.isfinite(new_ll) and math.log(self._rng.random()) < new_ll - ll[i]:
-                    theta[i], states[i], ll[i] = full, state, new_ll
+                    theta[i], states[i], ll[i], observations[i] = full, state, new_ll, self._obs
                     self.accepted += 1
-        self.theta, self.states, self.ll = theta, states, ll
+        self.theta, self.states, self.ll, self.observations = theta, states, ll, observations
         self.log_w, self.alive = np.zeros(n), np.ones(n, dtype=bool)
         self.rejuvenations += 1
 

@@ -137,6 +137,19 @@ class MPCController(Controller):
 
     def reset(self, load_N: float, config: ShearConfig) -> None:
         self.config, self.load_N = config, float(load_N)
+        self.bank = self.new_bank(load_N, config)
+        self.planner = CEMPlanner.with_settings_of(self)
+        self._periods = 0
+        self._widen()
+        self._plan: np.ndarray | None = None
+        self._age = 0
+        self._last = nominal_command(config)
+        self._first = True
+        self.info = {"estimator_fallback": False, "fallbacks": 0, "held": False, "cpu_s": 0.0}
+
+    def new_bank(self, load_N: float, config: ShearConfig) -> SpecimenBank:
+        """The estimator of an episode at ``load_N`` on the bench of ``config``, with this controller's settings
+        (its size, moves, refinement, the prior and the bench's known hardware), reset."""
         specimen, foundation = config.base_specimen()
         prior = self.prior if self.prior is not None else specimen
         intervals = {}
@@ -149,21 +162,13 @@ class MPCController(Controller):
         env_kwargs = {**shear, "specimen": prior, "foundation": foundation, "observation_mode": "state",
                       "stage_bandwidth_hz": self.stage_bandwidth_hz, "thrust_bandwidth_hz": self.thrust_bandwidth_hz,
                       "latency_s": self.latency_s, "sensor_noise_m": 0.0}
-        self.bank = SpecimenBank(prior, foundation, env_kwargs, int(self.bank_size), int(self.seed),
-                                 float(self.sensor_noise_m), float(self.model_error_m), intervals,
-                                 bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps),
-                                 refine_every=int(self.refine_every), refine_evaluations=int(self.refine_evaluations),
-                                 refine_inflation=float(self.refine_inflation),
-                                 move_periods=int(self.move_periods))
-        self.bank.reset(load_N)
-        self.planner = CEMPlanner.with_settings_of(self)
-        self._periods = 0
-        self._widen()
-        self._plan: np.ndarray | None = None
-        self._age = 0
-        self._last = nominal_command(config)
-        self._first = True
-        self.info = {"estimator_fallback": False, "fallbacks": 0, "held": False, "cpu_s": 0.0}
+        bank = SpecimenBank(prior, foundation, env_kwargs, int(self.bank_size), int(self.seed),
+                            float(self.sensor_noise_m), float(self.model_error_m), intervals,
+                            bool(self.vary_geometry), move=str(self.move), move_steps=int(self.move_steps),
+                            refine_every=int(self.refine_every), refine_evaluations=int(self.refine_evaluations),
+                            refine_inflation=float(self.refine_inflation), move_periods=int(self.move_periods))
+        bank.reset(load_N)
+        return bank
 
     def start_command(self, period: int, config: ShearConfig) -> np.ndarray:
         """The start's command at ``period`` (from 1): the nominal one, with the thrust at ``1 +- start_thrust`` times

@@ -18,7 +18,7 @@ from experiments.episodes import EpisodeBatch, controller_of
 SPECS = [cs.ScriptedSpec("pi_feedback", (("kp", -20.0), ("ki", 200.0))), cs.ScriptedSpec("mpc"),
          cs.PPOSpec("/runs/ppo/seed_0"), cs.PPOSpec("/runs/rec/seed_1", "ppo_recurrent"),
          cs.PPOSpec("/runs/v0", "ppo_state"), cs.ShippedSpec("ppo_robust", 2, "/zoo"), cs.StudentSpec("/s/student"),
-         cs.EstimatedSpec("/e/estimator")]
+         cs.EstimatedSpec("/e/estimator"), cs.BankedSpec("/d/run")]
 
 
 @pytest.mark.parametrize("spec", SPECS, ids=lambda s: type(s).__name__ + ":" + s.text)
@@ -40,7 +40,7 @@ def test_a_batch_from_a_spec_pickles_as_the_batch_written_by_hand_did():
     assert [pickle.dumps(b, protocol=5) for b in new] == [pickle.dumps(b, protocol=5) for b in old]
 
 
-@pytest.mark.parametrize("text, field", [("ppo:", "path"), ("shipped:", "name"), ("student:", "folder"),
+@pytest.mark.parametrize("text, field", [("ppo:", "path"), ("shipped:", "name"), ("student:", "folder"), ("banked:", "run"),
                                          ("no_such_controller", "ScriptedSpec.name"), ("sac:/run", "kind")])
 def test_a_bad_string_is_refused_naming_the_field(text, field):
     with pytest.raises(cs.ControllerSpecError, match=field):
