@@ -583,7 +583,7 @@ def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | 
     ev = _allow_implementation(ev)
     _allow_form_in_combination(ev)
     best, _ = rules.examined_entry(ev.ranked, ev.baseline_error_mm, ev.repeat_scatter_mm,
-                                   ev.systematic["p_value_all"])
+                                   ev.systematic["p_value_all"], ev.rigidity)
     stale = []
     if best is None and ev.best is not None:
         ev = _nothing_examined(ev)          # exactly what the diagnosis gathers then
