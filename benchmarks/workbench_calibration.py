@@ -10,10 +10,11 @@ naming both), ``none_missing`` (the model is the truth) and ``outside_library`` 
 ``benchmarks/calibration_plugins.py``), and the BEYOND part's kinds (issue 33: ``given_number``, a specimen number
 off its drawing, the audit expected to name it; two instrument gains; a logger clock running fast or slow). Each
 dataset comes from its stated seed (:data:`PARTS`): the TUNING part has seeds 1000-1033, 2000-2065, 3000-3065,
-4000-4065, 7000-7065, 8000-8065, 9000-9065 and 10000-10065 (the held-out parts of the first seven reports: looked at,
-so tuning data since) and the BEYOND parts 6000-6017, 6100-6135 and 6200-6235 (each reported once; alone:
-``beyond-tuning``), the HELD-OUT part 11000-11065, the next beyond part ``beyond-4``, 6300-6335 (``--part``;
-``--first-seed N`` numbers a part's datasets from N instead, for new seeds); choose rules on the tuning part only. ::
+4000-4065, 7000-7065, 8000-8065, 9000-9065, 10000-10065 and 11000-11065 (the held-out parts of the first eight
+reports: looked at, so tuning data since) and the BEYOND parts 6000-6017, 6100-6135, 6200-6235 and 6300-6335 (each
+reported once; alone: ``beyond-tuning``), the HELD-OUT part 12000-12065, the next beyond part ``beyond-5``, 6400-6435
+(``--part``; ``--first-seed N`` numbers a part's datasets from N instead, for new seeds); choose rules on the tuning
+part only. ::
 
     PYTHONPATH=. python benchmarks/workbench_calibration.py generate --part tuning [--out /work/calib]
     PYTHONPATH=. python benchmarks/workbench_calibration.py run --part tuning [--out /work/calib]
@@ -59,21 +60,22 @@ LOADS_NOTE = ("27.8 N is left out: with the smoothed law a block below its thres
               "the stiffer truths (end friction 12 deg, cohesion) put their threshold near it")
 #: The parts, each a list of seed ranges ``(first seed, mix)``; a range's datasets are numbered first seed + index.
 #: Seeds 2000-2065, 3000-3065, 4000-4065 and 7000-7065 were the held-out parts of the four reports of 2026-11-28,
-#: 8000-8065, 9000-9065 and 10000-10065 those of 2026-11-29 (``docs/notes/``): looked at, they tune since. The beyond
-#: parts, seeds 6000-6017 (reported 2026-11-28), 6100-6135 (``beyond-2``, the beyond mix twice over) and 6200-6235
-#: (``beyond-3``; both reported 2026-11-29), tune since too (``beyond-tuning``: those seeds alone); ``beyond-4``,
-#: 6300-6335, is the next report's, with the held-out part 11000-11065. Seeds 5000-5999 are left to ad hoc studies
-#: (``--first-seed``).
+#: 8000-8065, 9000-9065, 10000-10065 and 11000-11065 those of 2026-11-29 (``docs/notes/``): looked at, they tune
+#: since. The beyond parts, seeds 6000-6017 (reported 2026-11-28), 6100-6135 (``beyond-2``, the beyond mix twice
+#: over), 6200-6235 (``beyond-3``) and 6300-6335 (``beyond-4``; the three reported 2026-11-29), tune since too
+#: (``beyond-tuning``: those seeds alone); ``beyond-5``, 6400-6435, is the next report's, with the held-out part
+#: 12000-12065. Seeds 5000-5999 are left to ad hoc studies (``--first-seed``).
 PARTS = {"tuning": ((1000, "small"), (2000, "full"), (3000, "full"), (4000, "full"), (6000, "beyond"),
-                    (6100, "beyond-36"), (6200, "beyond-36"), (7000, "full"), (8000, "full"), (9000, "full"),
-                    (10000, "full")),
-         "held-out": ((11000, "full"),),
-         "beyond-tuning": ((6000, "beyond"), (6100, "beyond-36"), (6200, "beyond-36")),
+                    (6100, "beyond-36"), (6200, "beyond-36"), (6300, "beyond-36"), (7000, "full"), (8000, "full"),
+                    (9000, "full"), (10000, "full"), (11000, "full")),
+         "held-out": ((12000, "full"),),
+         "beyond-tuning": ((6000, "beyond"), (6100, "beyond-36"), (6200, "beyond-36"), (6300, "beyond-36")),
          "beyond-2": ((6100, "beyond-36"),),
          "beyond-3": ((6200, "beyond-36"),),
-         "beyond-4": ((6300, "beyond-36"),)}
+         "beyond-4": ((6300, "beyond-36"),),
+         "beyond-5": ((6400, "beyond-36"),)}
 #: The parts for reporting rules chosen on the others (``run`` asks ``--i-am-reporting``).
-REPORTING = ("held-out", "beyond-4")
+REPORTING = ("held-out", "beyond-5")
 
 
 def _u(rng: np.random.Generator, lo: float, hi: float, signed: bool = False) -> float:
@@ -583,7 +585,7 @@ def redecide_dataset(job: tuple[str, int, str, str | None]) -> dict[str, Any] | 
     ev = _allow_implementation(ev)
     _allow_form_in_combination(ev)
     best, _ = rules.examined_entry(ev.ranked, ev.baseline_error_mm, ev.repeat_scatter_mm,
-                                   ev.systematic["p_value_all"])
+                                   ev.systematic["p_value_all"], ev.rigidity)
     stale = []
     if best is None and ev.best is not None:
         ev = _nothing_examined(ev)          # exactly what the diagnosis gathers then
@@ -959,7 +961,7 @@ def main() -> None:
             p.add_argument("--limit", type=int, help="only the first N datasets")
         else:
             p.add_argument("--i-am-reporting", action="store_true", help="allow running a reporting part (held-out, "
-                           "beyond-2)")
+                           "beyond-5)")
             p.add_argument("--generate", action="store_true", help="make a missing dataset first (then diagnose it)")
             p.add_argument("--table-only", action="store_true", help="only tabulate the results kept so far")
             p.add_argument("--redecide", action="store_true", help="re-run today's rules.decide on each dataset's "

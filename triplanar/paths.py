@@ -88,9 +88,11 @@ def ran(result: Trajectory) -> bool:
 
 def model_at_travel(result: Trajectory, travel_m: np.ndarray) -> np.ndarray:
     """(m, 3, 3) model positions at CP1 travels ``travel_m``: below zero, the rest position; beyond the run's
-    reach, its last position (what a run that stopped short stands for)."""
+    reach, its last position (what a run that stopped short stands for). The reach is where the run ended: a block
+    that slid back at the end (a probe of ``locate`` pushing against the thrust) ends short of its farthest travel,
+    and the path by travel is read only up to its end (``Trajectory.time_at_travel``)."""
     travel_m = np.asarray(travel_m, dtype=float)
     if not ran(result):
         return np.repeat(result.contact_points[-1:], len(travel_m), axis=0)
-    reach = float(np.max(result.travel))
+    reach = float(result.travel[-1])
     return result.resample_by_travel(np.clip(travel_m, 0.0, reach))  # type: ignore[attr-defined]

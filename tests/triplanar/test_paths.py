@@ -49,3 +49,18 @@ def test_a_noisy_first_sample_does_not_shift_the_measured_travel() -> None:
     np.testing.assert_array_equal(a.dilation_error_mm, b.dilation_error_mm)
     assert a.rotation_error_deg == b.rotation_error_deg
     assert a.error_mm < 1e-3
+
+
+def test_model_at_travel_reads_a_run_that_slid_back_up_to_where_it_ended() -> None:
+    """A run whose block ends short of its farthest travel (its last row a few rows back along the path, as a
+    ``locate`` probe pushing against the thrust can end): travels beyond where it ended give its last position
+    instead of raising (the calibration's held-out report, seed 11037, 2026-11-29)."""
+    from dataclasses import replace
+    run = simulate(paper_model("A", 40.0), travel_m=0.03)
+    rows = [*range(len(run.t)), len(run.t) - 4]
+    back = replace(run, t=np.append(run.t, 2 * run.t[-1] - run.t[-2]), y=run.y[rows], dydt=run.dydt[rows],
+                   aux=run.aux[rows])
+    assert back.travel[-1] < np.max(back.travel)
+    out = model_at_travel(back, np.array([0.0, back.travel[-1], np.max(back.travel), 0.05]))
+    np.testing.assert_allclose(out[2], out[1], atol=0)
+    np.testing.assert_allclose(out[3], out[1], atol=0)

@@ -31,7 +31,7 @@ from .executor import ExecutorLike, TaskCheckpoint, run_tasks
 from .fit import discrepancies, errors_by_load, evaluate_spec, overall_error
 from .given import audit_given       # (imported here also so that kept Evidence holding a GivenAudit reads back)
 from .locate import locate           # (imported here also so that kept Evidence holding a LocatedResult reads back)
-from .rigidity import rigidity
+from .rigidity import RigidityResult, rigidity
 from .spec import ModelSpec, spec_with_values
 from .sweep import CandidateResult, CandidateTask, assemble, load_folds, profile_result, residual_of, run_candidate, \
     spec_of
@@ -140,9 +140,11 @@ class Diagnoser:
         by_label = {f"{t.key}/{k}": v for t, out in zip(tasks, outcomes) for k, v in out.items()}
         ranked = [assemble(t, by_label, len(folds), len(tests), baseline_error, scatter) for t in tasks]
         ranked.sort(key=lambda r: (not math.isfinite(r.cv_error_mm), r.cv_error_mm))
-        ev = self._gather(tests, user_base, base, refit, folds, baseline, scatter, ranked)
-        # instrument or specimen, from the rigid block (one rule reads it: no high for physics on an instrument fault)
-        ev = replace(ev, rigidity=rigidity(tests, user_base.rest_positions))
+        # instrument or specimen, from the rigid block (read by the rules: which entry is examined, no high for
+        # physics on an instrument fault, where forward selection starts, a contact point off the drawing)
+        rigid = rigidity(tests, user_base.rest_positions)
+        ev = replace(self._gather(tests, user_base, base, refit, folds, baseline, scatter, ranked, rigid),
+                     rigidity=rigid)
         if self.audit:      # the given numbers (specimen, instruments) beside the effects: screened, likely ones fitted
             ev = replace(ev, given_numbers=audit_given(ev, tasks, tests, self.executor, self.progress))
         if ev.best is not None and self.model_form:
@@ -228,7 +230,7 @@ class Diagnoser:
 
     def _gather(self, tests: list[MeasuredTest], user_base: ModelSpec, base: ModelSpec,
                 refit: dict[str, dict[str, float]], folds: list[list[float]], baseline: list[TestDiscrepancy],
-                scatter: float, ranked: list[CandidateResult]) -> Evidence:
+                scatter: float, ranked: list[CandidateResult], rigid: RigidityResult) -> Evidence:
         """Noise, expected scatter, the evidence in time and the examined entry's residual
         (:mod:`triplanar.workbench.evidence`)."""
         def evaluate(spec: ModelSpec, ts: Sequence[MeasuredTest]) -> list[TestDiscrepancy]:
@@ -238,7 +240,7 @@ class Diagnoser:
         noise = instrument_noise_mm(tests)
         baseline_error = overall_error(baseline)
         systematic = systematic_bias(baseline)
-        best, lookalikes = rules.examined_entry(ranked, baseline_error, scatter, systematic["p_value_all"])
+        best, lookalikes = rules.examined_entry(ranked, baseline_error, scatter, systematic["p_value_all"], rigid)
         after = residual_of(user_base, best, tests) if best is not None else None
         shown = after if after is not None else baseline
         return Evidence(user_base, base, refit, folds, baseline, baseline_error, errors_by_load(baseline), scatter,

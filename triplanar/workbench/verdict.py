@@ -161,7 +161,8 @@ class Evidence:
     #: (:func:`triplanar.workbench.given.audit_given`; empty: not audited)
     given_numbers: Sequence[GivenAudit] = ()
     #: the rigid-block test of the measured contact points (:func:`triplanar.workbench.rigidity.rigidity`; ``None``:
-    #: gathered before it); the rules read it only to keep physics alone from ``high`` on an instrument fault
+    #: gathered before it); the rules read it for which entry is examined, where forward selection starts, a
+    #: contact point off the drawing and no ``high`` for physics alone on an instrument fault (``rules``)
     rigidity: RigidityResult | None = None
     #: the cause outside the library located as one extra force (:func:`triplanar.workbench.locate.locate`; ``None``:
     #: the verdict is neither ``outside_library`` nor ``high``, or gathered before it); one rule reads it: a library
