@@ -31,7 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.deviation_estimator import FORMAT, SPEC, WEIGHTS, EstimatedDeviationPolicy, tensor_shapes
+from agents.deviation_estimator import FORMAT, SPEC, WEIGHTS, tensor_shapes
+from agents.estimated_policy import EstimatedDeviationPolicy
 from agents.heldout import TUNING_SEED
 from agents.robust_policy import DeviationPolicy, load_policy
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
@@ -55,8 +56,8 @@ def driver_of(policy_run: str, driver: str | None) -> Any:
     if driver is None:
         return teacher
     composed = EstimatedDeviationPolicy.load(driver)
-    if composed.estimator.spec["policy_run"] != str(policy_run):
-        raise ValueError(f"--driver {driver} feeds {composed.estimator.spec['policy_run']}, not --policy {policy_run}")
+    if composed.policy_run != str(policy_run):
+        raise ValueError(f"--driver {driver} feeds {composed.policy_run}, not --policy {policy_run}")
     return composed
 
 

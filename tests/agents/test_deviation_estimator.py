@@ -12,7 +12,8 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("stable_baselines3")
 
-from agents.deviation_estimator import DeviationEstimator, EstimatedDeviationPolicy
+from agents.deviation_estimator import DeviationEstimator
+from agents.estimated_policy import EstimatedDeviationPolicy
 from agents.heldout import nominal_benches, run_episode
 from agents.robust_policy import DeviationPolicy, RobustPolicy
 from experiments import deviation_estimator as E
@@ -84,3 +85,55 @@ def test_a_policy_trained_without_the_deviation_input_is_refused(trained, record
     recorder = recording_model(_act)
     with pytest.raises(ValueError, match="not a reference_deviation run"):
         EstimatedDeviationPolicy(RobustPolicy(recorder, recorder), DeviationEstimator.load(out / "est"))
+
+
+LOOP_ENV = {"observation_mode": "bench", "randomize": True, "frame_stack": 4, "reference_deviation": True}
+
+
+def test_in_the_loop_each_row_is_fed_its_estimator_over_its_own_observations_once_across_episode_ends(trained):
+    from agents import train_config
+    folder = str(trained[0] / "est")
+    env = train_config.make_vec_env({"env_id": train_config.V1, "n_envs": 2, "env": {
+        **LOOP_ENV, "reference_deviation_estimator": folder}}, seed=3)
+    mine = [DeviationEstimator.load(folder) for _ in range(2)]   # the run-time estimator, fed here by hand
+    obs, ends = env.reset(), 0
+    expected = np.array([m.update(o[45:60]) for m, o in zip(mine, obs)], dtype=np.float32)
+    for _ in range(400):
+        np.testing.assert_array_equal(obs[:, 60:], expected)
+        obs, _, done, infos = env.step(np.array([[0.3, -0.5], [0.6, 0.2]]))
+        for i in range(2):
+            if done[i]:   # the terminal observation's estimate, then a fresh state for the next episode's first
+                terminal = infos[i]["terminal_observation"]
+                np.testing.assert_array_equal(terminal[60:], mine[i].update(terminal[45:60]).astype(np.float32))
+                mine[i].reset()
+                ends += 1
+            expected[i] = mine[i].update(obs[i, 45:60])
+        if ends >= 3:
+            return
+    pytest.fail(f"{ends} episodes ended in 400 periods")
+
+
+@pytest.mark.parametrize("extra, message", [({"reference_deviation_estimator": "/no/such/folder"}, "expected an estimator folder"),
+                                            ({"reference_deviation_bias_mm": 0.1}, ".*and no reference_deviation_bias_mm")])
+def test_a_bad_estimator_in_the_loop_is_refused_by_name(trained, extra, message):
+    from agents import train_config
+    env = {**LOOP_ENV, "reference_deviation_estimator": str(trained[0] / "est"), **extra}
+    with pytest.raises(ValueError, match=f"reference_deviation_estimator: {message}"):
+        train_config.make_vec_env({"env_id": train_config.V1, "n_envs": 1, "env": env}, seed=0)
+
+
+def test_a_run_trained_in_the_loop_drives_on_the_estimator_it_was_trained_with(trained, tmp_path, monkeypatch,
+                                                                               recording_model):
+    import json
+
+    from agents import estimated_policy as D
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text(json.dumps({"env": {**LOOP_ENV, "reference_deviation_estimator":
+                                                         str(trained[0] / "est")}}))
+    recorder = recording_model(_act)
+    loaded = []
+    monkeypatch.setattr(D, "load_policy", lambda folder: loaded.append(folder) or DeviationPolicy(recorder, recorder))
+    composed = D.EstimatedDeviationPolicy.load(run)
+    assert loaded == [str(run)] and composed.policy_run == str(run)   # not the run the estimator's spec names
+    assert composed.estimator.spec["weights_sha256"] == DeviationEstimator.load(trained[0] / "est").spec["weights_sha256"]
