@@ -137,3 +137,36 @@ def test_a_run_trained_in_the_loop_drives_on_the_estimator_it_was_trained_with(t
     composed = D.EstimatedDeviationPolicy.load(run)
     assert loaded == [str(run)] and composed.policy_run == str(run)   # not the run the estimator's spec names
     assert composed.estimator.spec["weights_sha256"] == DeviationEstimator.load(trained[0] / "est").spec["weights_sha256"]
+
+
+def test_seed_loop_makes_a_checkpoint_of_the_exact_run_that_train_continues_with_the_estimator(trained, tmp_path):
+    import json
+
+    from stable_baselines3.common.vec_env import VecNormalize
+
+    from agents import train_config
+    from agents.checkpoint_files import read_normalizer
+    from agents.trainer import _refuse_another_configuration
+    run, folder = tmp_path / "exact", str(trained[0] / "est")
+    run.mkdir()
+    config = {"env_id": train_config.V1, "n_envs": 1, "env": LOOP_ENV, "train": {"total_timesteps": 4096}}
+    normalizer = VecNormalize(train_config.make_vec_env(config, seed=0))
+    normalizer.obs_rms.mean[:] = np.arange(72.0)   # statistics the copy must carry
+    normalizer.save(str(run / "vecnormalize.pkl"))
+    (run / "final_model.zip").write_bytes(b"the model's bytes")
+    (run / "config.json").write_text(json.dumps(config))
+    (run / "done.json").write_text(json.dumps({"timesteps": 4096}))
+    out = tmp_path / "loop" / "seed_0"
+    E.seed_loop(str(run), folder, out)
+    state = json.loads((out / "checkpoint" / "state.json").read_text())
+    assert state["timesteps"] == 4096
+    assert (out / "checkpoint" / state["model"]).read_bytes() == b"the model's bytes"
+    stats = read_normalizer(out / "checkpoint" / state["vecnormalize"])
+    np.testing.assert_array_equal(stats["obs_mean"], np.arange(72.0))
+    assert int(stats["timesteps"]) == 4096
+    loop = {**config, "env": {**LOOP_ENV, "reference_deviation_estimator": folder}}
+    _refuse_another_configuration(out, loop)   # the in-loop command continues it ...
+    with pytest.raises(ValueError, match="another env"):
+        _refuse_another_configuration(out, config)   # ... the exact one does not
+    with pytest.raises(ValueError, match="holds a run already"):
+        E.seed_loop(str(run), folder, out)
