@@ -24,6 +24,7 @@ than RUN's continues it). Results: docs/notes/student-experiments.md, findings 1
 from __future__ import annotations
 
 import argparse
+import csv
 import hashlib
 import json
 import math
@@ -253,7 +254,10 @@ def seed_loop(policy_run: str, estimator: str, out: str | Path) -> dict[str, Any
     write_atomic(out / "checkpoint" / model, lambda tmp: tmp.write_bytes((run / "final_model.zip").read_bytes()))
     save_normalizer(out / "checkpoint" / stats, load_untrusted_vecnormalize(run / "vecnormalize.pkl"), steps)
     write_atomic(out / "config.json", lambda tmp: tmp.write_text(json.dumps(config, indent=2)))
-    state = {"timesteps": steps, "wall_s": 0.0, "curve": [], "model": model, "vecnormalize": stats, "token": ""}
+    # the source's learning curve goes on (an empty one would make the trainer evaluate until it caught up)
+    with (run / "learning_curve.csv").open(newline="") as f:
+        curve = [{k: int(v) if v.isdigit() else float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+    state = {"timesteps": steps, "wall_s": 0.0, "curve": curve, "model": model, "vecnormalize": stats, "token": ""}
     write_atomic(out / "checkpoint" / "state.json", lambda tmp: tmp.write_text(json.dumps(state)))
     return {"run": str(out), "from": str(run), "timesteps": steps, "estimator": str(estimator)}
 

@@ -156,10 +156,12 @@ def test_seed_loop_makes_a_checkpoint_of_the_exact_run_that_train_continues_with
     (run / "final_model.zip").write_bytes(b"the model's bytes")
     (run / "config.json").write_text(json.dumps(config))
     (run / "done.json").write_text(json.dumps({"timesteps": 4096}))
+    (run / "learning_curve.csv").write_text("timesteps,wall_s,score\n16,0.5,7.5\n4096,9.0,1.25\n")
     out = tmp_path / "loop" / "seed_0"
     E.seed_loop(str(run), folder, out)
     state = json.loads((out / "checkpoint" / "state.json").read_text())
     assert state["timesteps"] == 4096
+    assert state["curve"][-1] == {"timesteps": 4096, "wall_s": 9.0, "score": 1.25}   # the next evaluation is later
     assert (out / "checkpoint" / state["model"]).read_bytes() == b"the model's bytes"
     stats = read_normalizer(out / "checkpoint" / state["vecnormalize"])
     np.testing.assert_array_equal(stats["obs_mean"], np.arange(72.0))
