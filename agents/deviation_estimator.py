@@ -95,6 +95,12 @@ class DeviationEstimator:
     def reset(self) -> None:
         self._g = np.zeros_like(self._g)
 
+    @property
+    def state(self) -> np.ndarray:
+        """The GRU's state after the last observation (a copy): what it keeps of the history, an input a policy
+        may read beside the estimate (``env: reference_deviation_estimator_state``)."""
+        return self._g.copy()
+
     def update(self, obs: np.ndarray) -> np.ndarray:
         """The estimate after ``obs`` (the GRU's state advanced by it)."""
         z = (np.asarray(obs, dtype=np.float32) - self._mean) * self._scale

@@ -15,7 +15,7 @@ from envs.core import REFERENCE_DEVIATION_DIM
 
 from .deviation_estimator import DeviationEstimator
 from .robust_policy import DeviationPolicy, RobustPolicy, load_policy
-from .train_config import deviation_estimator_of
+from .train_config import deviation_estimator_of, estimator_state_of
 
 
 class EstimatedDeviationPolicy(RobustPolicy):
@@ -24,7 +24,8 @@ class EstimatedDeviationPolicy(RobustPolicy):
 
     needs_env = False
 
-    def __init__(self, policy: DeviationPolicy, estimator: DeviationEstimator, name: str = "ppo_deviation_estimated"):
+    def __init__(self, policy: DeviationPolicy, estimator: DeviationEstimator, name: str = "ppo_deviation_estimated",
+                 with_state: bool = False):
         if not isinstance(policy, DeviationPolicy):
             raise ValueError(f"policy {policy.name!r}: not a reference_deviation run (its config.json has no "
                              "env.reference_deviation), so it has no deviation input to estimate")
@@ -32,6 +33,7 @@ class EstimatedDeviationPolicy(RobustPolicy):
         self.estimator = estimator
         self.estimate = np.zeros(REFERENCE_DEVIATION_DIM)
         self.policy_run = str(estimator.spec["policy_run"])   # the run it drives (load: the folder's)
+        self.with_state = with_state   # the GRU's state appended after the estimate, as the run was trained
 
     @classmethod
     def load(cls, folder: str | Path, name: str = "ppo_deviation_estimated") -> EstimatedDeviationPolicy:
@@ -42,7 +44,8 @@ class EstimatedDeviationPolicy(RobustPolicy):
         loop = deviation_estimator_of(json.loads(config.read_text())) if config.exists() else None
         estimator = DeviationEstimator.load(loop or folder)
         run = str(folder) if loop else estimator.spec["policy_run"]
-        composed = cls(load_policy(run), estimator, name)
+        with_state = bool(loop) and estimator_state_of(json.loads(config.read_text()))
+        composed = cls(load_policy(run), estimator, name, with_state)
         composed.policy_run = run
         return composed
 
@@ -52,4 +55,5 @@ class EstimatedDeviationPolicy(RobustPolicy):
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         self.estimate = self.estimator.update(obs)
-        return self._decide(np.concatenate([self._stack(obs), self.estimate.astype(np.float32)]))
+        state = [self.estimator.state] if self.with_state else []
+        return self._decide(np.concatenate([self._stack(obs), self.estimate.astype(np.float32), *state]))
