@@ -149,7 +149,7 @@ def test_a_run_trained_in_the_loop_drives_on_the_estimator_it_was_trained_with(t
     composed = D.EstimatedDeviationPolicy.load(run)
     assert loaded == [str(run)] and composed.policy_run == str(run)   # not the run the estimator's spec names
     assert composed.estimator.spec["weights_sha256"] == DeviationEstimator.load(trained[0] / "est").spec["weights_sha256"]
-    obs = np.linspace(0.1, 1.5, 15).astype(np.float32)
+    obs = E.load_shards([trained[0] / "data"])[0]["obs"][5]   # a bench observation the estimator was fitted on
     composed.reset(40e3, None)
     composed.act(obs)   # the run trained on the GRU's state reads it after the estimate
     np.testing.assert_array_equal(recorder.inputs[-1][60:72], composed.estimate.astype(np.float32))
