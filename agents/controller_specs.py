@@ -196,7 +196,7 @@ class EstimatedSpec:
         return f"estimated:{self.folder}"
 
     def build(self, label: str, env_kwargs: dict[str, Any], tip_friction_deg: float | None = None) -> Built:
-        from .deviation_estimator import EstimatedDeviationPolicy
+        from .estimated_policy import EstimatedDeviationPolicy
         return Built(EstimatedDeviationPolicy.load(self.folder, name=label), dict(env_kwargs), True)
 
 

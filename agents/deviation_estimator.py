@@ -1,6 +1,8 @@
 """A bench estimate of the reference deviation (:func:`envs.core.reference_deviation`: the block's deviation from
 its true case-C reference and the reference's slope, privileged) from the bench's observations alone, and the
-composed controller that drives a reference-deviation PPO (:class:`agents.robust_policy.DeviationPolicy`) on it:
+composed controller that drives a reference-deviation PPO (:class:`agents.robust_policy.DeviationPolicy`) on it
+(:class:`agents.estimated_policy.EstimatedDeviationPolicy`; this module stays free of the policies, so that the
+training batch, :class:`agents.sb3_vec_env.DeviationSB3VecEnv`, can run the estimator in the loop):
 the adaptation module of rapid motor adaptation (Kumar et al. 2021), trained by supervised learning on the
 teacher's own rollouts (:mod:`experiments.deviation_estimator`).
 
@@ -24,7 +26,6 @@ from envs.core import REFERENCE_DEVIATION_DIM
 from envs.triplanar_shear_v1 import BENCH_OBSERVATION
 
 from .numpy_networks import gru_step, read_network
-from .robust_policy import DeviationPolicy, RobustPolicy, load_policy
 
 WEIGHTS = "estimator.safetensors"
 SPEC = "estimator.json"
@@ -94,6 +95,12 @@ class DeviationEstimator:
     def reset(self) -> None:
         self._g = np.zeros_like(self._g)
 
+    @property
+    def state(self) -> np.ndarray:
+        """The GRU's state after the last observation (a copy): what it keeps of the history, an input a policy
+        may read beside the estimate (``env: reference_deviation_estimator_state``)."""
+        return self._g.copy()
+
     def update(self, obs: np.ndarray) -> np.ndarray:
         """The estimate after ``obs`` (the GRU's state advanced by it)."""
         z = (np.asarray(obs, dtype=np.float32) - self._mean) * self._scale
@@ -103,32 +110,3 @@ class DeviationEstimator:
         out = self._fixed.copy()
         out[self._targets] = (weight @ h + bias) * std + mean
         return out
-
-
-class EstimatedDeviationPolicy(RobustPolicy):
-    """A reference-deviation PPO driven on its estimator's deviation (module docstring): reads only the bench's
-    observations (``needs_env`` False). ``estimate`` holds the last decision's estimate."""
-
-    needs_env = False
-
-    def __init__(self, policy: DeviationPolicy, estimator: DeviationEstimator, name: str = "ppo_deviation_estimated"):
-        if not isinstance(policy, DeviationPolicy):
-            raise ValueError(f"policy {policy.name!r}: not a reference_deviation run (its config.json has no "
-                             "env.reference_deviation), so it has no deviation input to estimate")
-        super().__init__(policy.model, policy.normalizer, name, policy.n_frames)
-        self.estimator = estimator
-        self.estimate = np.zeros(REFERENCE_DEVIATION_DIM)
-
-    @classmethod
-    def load(cls, folder: str | Path, name: str = "ppo_deviation_estimated") -> EstimatedDeviationPolicy:
-        """The estimator in ``folder`` and the policy run its spec names (UNPICKLES that run: load only yours)."""
-        estimator = DeviationEstimator.load(folder)
-        return cls(load_policy(estimator.spec["policy_run"]), estimator, name)
-
-    def reset(self, load_N: float, config: Any) -> None:
-        super().reset(load_N, config)
-        self.estimator.reset()
-
-    def act(self, obs: np.ndarray) -> np.ndarray:
-        self.estimate = self.estimator.update(obs)
-        return self._decide(np.concatenate([self._stack(obs), self.estimate.astype(np.float32)]))

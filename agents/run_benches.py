@@ -24,7 +24,8 @@ from typing import Any
 from triplanar.atomic import write_atomic
 
 from .checkpoint_files import CheckpointError, load_normalizer, save_normalizer
-from .train_config import ALGOS, extra_input_of, frame_stack_of, single_env_kwargs
+from .train_config import (ALGOS, deviation_estimator_of, estimator_state_of, extra_input_of, frame_stack_of,
+                           single_env_kwargs)
 from .train_logging import record_evaluation
 
 CURVE_BENCHES = 10
@@ -95,6 +96,11 @@ class BenchesRun:
 
         policy = policy_of_model(self.model, self.model.get_vec_normalize_env(), self.algo, frame_stack_of(self.config),
                                  extra_input_of(self.config))
+        if deviation_estimator_of(self.config):   # trained on its estimator's output: judged on it, as it will drive
+            from .deviation_estimator import DeviationEstimator
+            from .estimated_policy import EstimatedDeviationPolicy
+            policy = EstimatedDeviationPolicy(policy, DeviationEstimator.load(deviation_estimator_of(self.config)),
+                                              with_state=estimator_state_of(self.config))
         stats = summarise(evaluate_policy_on(policy, self.curve_benches, single_env_kwargs(self.config), "tuning"))
         record_evaluation(self.model, stats)
         self.rows.append({"timesteps": self.model.num_timesteps, "wall_s": self.wall(), **stats})

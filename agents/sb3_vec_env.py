@@ -151,18 +151,50 @@ class DeviationSB3VecEnv(ShearSB3VecEnv):
 
     ``bias_mm`` (``env: reference_deviation_bias_mm``; default 0: exact) trains with an estimate's error: each
     episode's :data:`ESTIMATED_DEVIATION` values are off by a Gaussian bias of that standard deviation, drawn at its
-    start from the env's own stream (``[BIAS_STREAM, seed]``) and constant through it."""
+    start from the env's own stream (``[BIAS_STREAM, seed]``) and constant through it.
 
-    def __init__(self, num_envs: int, seed: int | None = None, *, batch: BenchBatch, bias_mm: float = 0.0):
+    ``estimator`` (``env: reference_deviation_estimator: FOLDER``) trains with the estimate in the loop: the 12
+    values are, instead of the truth, what the bench estimator in FOLDER (:class:`agents.deviation_estimator.
+    DeviationEstimator`, one per row, reset at each episode's start) makes of the row's observations so far, the
+    same arithmetic the composed controller (``estimated:``) runs at the bench; ``with_state`` (``env:
+    reference_deviation_estimator_state: true``) appends each row's GRU state after them."""
+
+    def __init__(self, num_envs: int, seed: int | None = None, *, batch: BenchBatch, bias_mm: float = 0.0,
+                 estimator: str | None = None, with_state: bool = False):
         self.bias_mm = float(bias_mm)
         self._rng = np.random.default_rng(None if seed is None else [BIAS_STREAM, seed])
         self._bias = np.zeros((num_envs, REFERENCE_DEVIATION_DIM))
         self._last_step = np.full(num_envs, np.inf)   # each row's control periods at the last observation
+        self._estimators = _row_estimators(estimator, num_envs)
+        self._estimate = np.zeros((num_envs, REFERENCE_DEVIATION_DIM))
+        self.with_state = bool(with_state and self._estimators)
+        self._state = np.zeros((num_envs, len(self._estimators[0].state) if self.with_state else 0), np.float32)
+        self._estimated_step = np.full(num_envs, np.inf)   # each row's control periods at its last estimate
         super().__init__(num_envs, seed=seed, batch=batch)
-        self.observation_space = _widened(self.observation_space, REFERENCE_DEVIATION_DIM)
+        self.observation_space = _widened(self.observation_space, REFERENCE_DEVIATION_DIM + self._state.shape[1])
+
+    def reset(self):
+        self._estimated_step[:] = np.inf   # every row starts an episode, even one reset at step 0 before
+        return super().reset()
+
+    def _estimates(self) -> np.ndarray:
+        """Each row's estimate after its current observation. Each observation is read once: ``step_wait`` asks
+        twice when rows end (the terminal observation, then the reset rows'), so a row whose period count has not
+        changed keeps its estimate, and one whose count fell (a new episode) restarts its estimator."""
+        steps = self.batch.ST[:, S.ST_STEP].copy()
+        frames = self.batch.observations()
+        current = frames[:, -1] if frames.ndim == 3 else frames
+        for i in np.flatnonzero(steps != self._estimated_step):
+            if steps[i] < self._estimated_step[i]:
+                self._estimators[i].reset()
+            self._estimate[i] = self._estimators[i].update(current[i])
+            if self.with_state:
+                self._state[i] = self._estimators[i].state
+        self._estimated_step = steps
+        return self._estimate.copy()
 
     def _flat_observations(self) -> np.ndarray:
-        deviations = self.batch.reference_deviations()
+        deviations = self._estimates() if self._estimators else self.batch.reference_deviations()
         if self.bias_mm:
             steps = self.batch.ST[:, S.ST_STEP].copy()
             new = steps < self._last_step   # fewer periods than at the last look: a new episode
@@ -170,7 +202,16 @@ class DeviationSB3VecEnv(ShearSB3VecEnv):
             self._bias[new, ESTIMATED_DEVIATION] = self._rng.normal(0.0, self.bias_mm, (int(new.sum()), width))
             self._last_step = steps
             deviations = deviations + self._bias
-        return np.concatenate([super()._flat_observations(), deviations.astype(np.float32)], axis=1)
+        return np.concatenate([super()._flat_observations(), deviations.astype(np.float32), self._state], axis=1)
+
+
+def _row_estimators(folder: str | None, n: int) -> list[Any]:
+    """``n`` run-time estimators of ``folder`` (one read of its files; each row keeps its own GRU state)."""
+    if folder is None:
+        return []
+    from .deviation_estimator import DeviationEstimator, read_estimator   # numpy only: no policy module
+    spec, tensors = read_estimator(folder)
+    return [DeviationEstimator(spec, tensors) for _ in range(n)]
 
 
 def _widened(space: spaces.Box, extra: int) -> spaces.Box:

@@ -10,7 +10,9 @@ the key, :mod:`agents.config_checks`):
   its policy reads them from the env it is bound to, :class:`agents.robust_policy.PrivilegedPolicy`; or
   ``reference_deviation: true``: each env's deviation from its true hydrostatic reference and the reference's slope,
   :func:`envs.core.reference_deviation`, read likewise by :class:`agents.robust_policy.DeviationPolicy`; with
-  ``reference_deviation_bias_mm: B``, trained off by a per-episode bias,
+  ``reference_deviation_bias_mm: B``, trained off by a per-episode bias, or with
+  ``reference_deviation_estimator: FOLDER``, on that bench estimator's output instead of the truth (the estimator
+  in the loop; ``reference_deviation_estimator_state: true`` appends that estimator's GRU state as well),
   :class:`agents.sb3_vec_env.DeviationSB3VecEnv`);
 * ``algo``: ``ppo`` (SB3 PPO) or ``recurrent`` (sb3-contrib ``RecurrentPPO``, v1), ``policy`` and ``hyperparams``
   (its keyword arguments); ``ppo:`` is the same pair in one section with ``policy`` inside (``agents/ppo.yaml``);
@@ -40,6 +42,8 @@ PRIVILEGED = "privileged"  # v1, algo ppo: the bench's true unknowns appended to
 REFERENCE_DEVIATION = "reference_deviation"  # v1, algo ppo: the deviation from the true case-C reference appended
 EXTRA_INPUTS = (PRIVILEGED, REFERENCE_DEVIATION)   # a frame-stack PPO's privileged inputs (at most one per run)
 DEVIATION_BIAS = "reference_deviation_bias_mm"   # training with an estimate's error (agents.sb3_vec_env)
+DEVIATION_ESTIMATOR = "reference_deviation_estimator"   # training on a bench estimator's output (the same module)
+ESTIMATOR_STATE = "reference_deviation_estimator_state"   # and on its GRU's state, appended after the estimate
 ALGOS = {"ppo": "ppo_robust", "recurrent": "ppo_recurrent"}  # algo -> v1 controller name in the tables
 POLICIES = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy"}
 EVALUATIONS = 20       # v1: points of the learning curve when neither the YAML nor the caller sets train.eval_freq
@@ -192,7 +196,7 @@ def frame_stack_of(config: dict[str, Any]) -> int:
 def single_env_kwargs(config: dict[str, Any]) -> dict[str, Any]:
     """v1: the single env's arguments (evaluation episodes): the batch's own keys left out."""
     return {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS and k not in EXTRA_INPUTS
-            and k != DEVIATION_BIAS}
+            and k not in (DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE)}
 
 
 def extra_input_of(config: dict[str, Any]) -> str | None:
@@ -216,7 +220,7 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     from envs.vector_v1 import BenchBatch
     env = dict(config.get("env") or {})
     known = ({f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | set(EXTRA_INPUTS)
-             | {DEVIATION_BIAS})
+             | {DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE})
     unknown = sorted(set(env) - known)
     if unknown:
         raise ValueError(f"unknown env argument(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
@@ -224,6 +228,8 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     if all(extras.values()):
         raise ValueError(f"{PRIVILEGED} and {REFERENCE_DEVIATION}: give one of them, not both")
     bias = _deviation_bias(env.pop(DEVIATION_BIAS, 0.0), extras[REFERENCE_DEVIATION])
+    estimator = _deviation_estimator(env.pop(DEVIATION_ESTIMATOR, None), extras[REFERENCE_DEVIATION], bias)
+    with_state = _estimator_state(env.pop(ESTIMATOR_STATE, False), estimator)
     batch_kwargs = {k: env.pop(k) for k in BATCH_KEYS if k in env}
     bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
     batch = BenchBatch(n_envs, make_config(None, **env), bench, **batch_kwargs)
@@ -231,8 +237,38 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
         return batch
     from .sb3_vec_env import DeviationSB3VecEnv, PrivilegedSB3VecEnv, ShearSB3VecEnv
     if extras[REFERENCE_DEVIATION]:
-        return DeviationSB3VecEnv(batch.num_envs, seed=seed, batch=batch, bias_mm=bias)
+        return DeviationSB3VecEnv(batch.num_envs, seed=seed, batch=batch, bias_mm=bias, estimator=estimator,
+                                  with_state=with_state)
     return (PrivilegedSB3VecEnv if extras[PRIVILEGED] else ShearSB3VecEnv)(batch.num_envs, seed=seed, batch=batch)
+
+
+def deviation_estimator_of(config: dict[str, Any]) -> str | None:
+    """The estimator folder a reference-deviation run was trained on (``env.reference_deviation_estimator``), if any."""
+    return (config.get("env") or {}).get(DEVIATION_ESTIMATOR)
+
+
+def estimator_state_of(config: dict[str, Any]) -> bool:
+    """Whether the run's policy reads its estimator's GRU state too (``env.reference_deviation_estimator_state``)."""
+    return bool((config.get("env") or {}).get(ESTIMATOR_STATE, False))
+
+
+def _estimator_state(value: Any, estimator: str | None) -> bool:
+    if not isinstance(value, bool) or (value and estimator is None):
+        raise ValueError(f"{ESTIMATOR_STATE}: expected true or false, and true only with {DEVIATION_ESTIMATOR}, "
+                         f"got {value!r:.80}")
+    return value
+
+
+def _deviation_estimator(value: Any, deviation: bool, bias: float) -> str | None:
+    """``env.reference_deviation_estimator``, checked: an existing folder's path, only with ``reference_deviation``
+    and without a bias (the estimate brings its own error)."""
+    if value is None:
+        return None
+    if not isinstance(value, str) or not Path(value).is_dir():
+        raise ValueError(f"{DEVIATION_ESTIMATOR}: expected an estimator folder, got {value!r:.200}")
+    if not deviation or bias:
+        raise ValueError(f"{DEVIATION_ESTIMATOR}: needs {REFERENCE_DEVIATION}: true and no {DEVIATION_BIAS}")
+    return value
 
 
 def _deviation_bias(value: Any, deviation: bool) -> float:

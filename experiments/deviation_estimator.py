@@ -15,12 +15,16 @@ fits the GRU by MSE on normalised targets (whole episodes, each cut before its f
 ``--outlier-mm``, 10; a seeded fifth of them held out for validation; the best validation epoch is written,
 atomically). ``measure --estimator EST --n 100 [--shadow]`` runs the composed controller on the judge's benches
 (``--shadow``: the exact-deviation teacher drives, the estimator follows) and prints the estimator's RMS error by
-decision span and the CPU time per decision. Results: docs/notes/student-experiments.md, finding 12.
+decision span and the CPU time per decision (EST: an estimator folder or a run trained with its estimator in the
+loop). ``seed-loop --policy RUN --estimator EST --out DIR/seed_S`` starts a fine-tuning of the exact-deviation run on
+the estimate (``triplanar train --out DIR --seed S --env-arg reference_deviation_estimator=EST --timesteps`` more
+than RUN's continues it). Results: docs/notes/student-experiments.md, findings 12-13.
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import hashlib
 import json
 import math
@@ -31,7 +35,8 @@ from typing import Any
 
 import numpy as np
 
-from agents.deviation_estimator import FORMAT, SPEC, WEIGHTS, EstimatedDeviationPolicy, tensor_shapes
+from agents.deviation_estimator import FORMAT, SPEC, WEIGHTS, tensor_shapes
+from agents.estimated_policy import EstimatedDeviationPolicy
 from agents.heldout import TUNING_SEED
 from agents.robust_policy import DeviationPolicy, load_policy
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
@@ -55,8 +60,8 @@ def driver_of(policy_run: str, driver: str | None) -> Any:
     if driver is None:
         return teacher
     composed = EstimatedDeviationPolicy.load(driver)
-    if composed.estimator.spec["policy_run"] != str(policy_run):
-        raise ValueError(f"--driver {driver} feeds {composed.estimator.spec['policy_run']}, not --policy {policy_run}")
+    if composed.policy_run != str(policy_run):
+        raise ValueError(f"--driver {driver} feeds {composed.policy_run}, not --policy {policy_run}")
     return composed
 
 
@@ -226,6 +231,37 @@ def train(args: argparse.Namespace, log: Any = None) -> dict[str, Any]:
     return spec
 
 
+def seed_loop(policy_run: str, estimator: str, out: str | Path) -> dict[str, Any]:
+    """A run folder ``out`` (``DIR/seed_S``) that ``triplanar train --out DIR --seed S`` with ``--env-arg
+    reference_deviation_estimator=ESTIMATOR`` and more ``--timesteps`` continues: the finished reference-deviation
+    run ``policy_run``'s model and normalisation statistics as its checkpoint, its configuration with ``estimator``
+    in the loop (fine-tuning the exact-deviation policy on the estimate, or an in-loop one on a retrained estimator:
+    co-training; UNPICKLES ``policy_run``: only yours)."""
+    from agents.checkpoint_files import save_normalizer
+    from agents.ppo_controller import load_untrusted_vecnormalize
+    from agents.robust_policy import run_config
+    from agents.train_config import DEVIATION_ESTIMATOR
+    run, out = Path(policy_run), Path(out)
+    config = run_config(run)
+    if not config.get("env", {}).get("reference_deviation"):
+        raise ValueError(f"--policy {policy_run}: not a reference_deviation run (no env.reference_deviation)")
+    if (out / "checkpoint" / "state.json").exists() or (out / "done.json").exists():
+        raise ValueError(f"--out {out}: holds a run already (continue it with triplanar train)")
+    steps = int(json.loads((run / "done.json").read_text())["timesteps"])
+    config["env"][DEVIATION_ESTIMATOR] = str(estimator)
+    (out / "checkpoint").mkdir(parents=True, exist_ok=True)
+    model, stats = f"model_{steps}.zip", f"vecnormalize_{steps}.npz"
+    write_atomic(out / "checkpoint" / model, lambda tmp: tmp.write_bytes((run / "final_model.zip").read_bytes()))
+    save_normalizer(out / "checkpoint" / stats, load_untrusted_vecnormalize(run / "vecnormalize.pkl"), steps)
+    write_atomic(out / "config.json", lambda tmp: tmp.write_text(json.dumps(config, indent=2)))
+    # the source's learning curve goes on (an empty one would make the trainer evaluate until it caught up)
+    with (run / "learning_curve.csv").open(newline="") as f:
+        curve = [{k: int(v) if v.isdigit() else float(v) for k, v in row.items()} for row in csv.DictReader(f)]
+    state = {"timesteps": steps, "wall_s": 0.0, "curve": curve, "model": model, "vecnormalize": stats, "token": ""}
+    write_atomic(out / "checkpoint" / "state.json", lambda tmp: tmp.write_text(json.dumps(state)))
+    return {"run": str(out), "from": str(run), "timesteps": steps, "estimator": str(estimator)}
+
+
 def measure(folder: str, n: int, shadow: bool = False) -> dict[str, Any]:
     """The composed controller on the first ``n`` judge benches: the estimator's RMS error (mm, the five estimated
     deviation values; slope, m/m) by decision span, and the CPU time of a whole decision (``time.thread_time``).
@@ -288,7 +324,11 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     m.add_argument("--estimator", required=True)
     m.add_argument("--n", type=int, default=100)
     m.add_argument("--shadow", action="store_true", help="the exact-deviation teacher drives, the estimator follows")
-    for p in (c, t, m):
+    s = sub.add_parser("seed-loop", help="a run folder fine-tuning --policy with --estimator in the loop")
+    s.add_argument("--policy", required=True)
+    s.add_argument("--estimator", required=True)
+    s.add_argument("--out", required=True, help="DIR/seed_S of the triplanar train run to continue")
+    for p in (c, t, m, s):
         p.add_argument("--json", help="also write the result here")
     return parser.parse_args(argv)
 
@@ -301,6 +341,8 @@ def main(argv: list[str] | None = None) -> int:
         elif args.command == "train":
             spec = train(args, log=sys.stdout)
             result = {k: v for k, v in spec["training"].items() if k != "history"}
+        elif args.command == "seed-loop":
+            result = seed_loop(args.policy, args.estimator, args.out)
         else:
             result = measure(args.estimator, args.n, args.shadow)
     except ValueError as error:
