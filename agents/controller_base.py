@@ -40,10 +40,13 @@ class Controller:
 
 def play(controller: Any, env: Any, obs: np.ndarray, load_N: float, *,
          on_step: Callable[[np.ndarray, dict], None] | None = None, max_steps: int | None = None,
-         prepared: bool = False) -> tuple[float, int, dict]:
+         prepared: bool = False,
+         on_decision: Callable[[np.ndarray, np.ndarray], None] | None = None) -> tuple[float, int, dict]:
     """Run ``controller`` on ``env`` from ``obs`` (the reset's observation) until the episode ends (or ``max_steps``):
-    ``bind`` (if it ``needs_env``) and ``reset(load_N, env.config)`` first unless ``prepared``; ``on_step(action,
-    info)`` after each step. Returns (return, steps, last info)."""
+    ``bind`` (if it ``needs_env``) and ``reset(load_N, env.config)`` first unless ``prepared``;
+    ``on_decision(obs, action)`` after each decision, before the env steps (the env still in the state decided on:
+    where a study reads the truth the controller did not see); ``on_step(action, info)`` after each step. Returns
+    (return, steps, last info)."""
     if not prepared:
         if getattr(controller, "needs_env", False):
             controller.bind(env)
@@ -51,6 +54,8 @@ def play(controller: Any, env: Any, obs: np.ndarray, load_N: float, *,
     total, steps = 0.0, 0
     while True:
         action = np.asarray(controller.act(obs), dtype=np.float32)
+        if on_decision is not None:
+            on_decision(obs, action)
         obs, reward, terminated, truncated, info = env.step(action)
         total += reward
         steps += 1

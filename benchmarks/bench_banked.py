@@ -19,6 +19,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from agents.banked_deviation import BANK_SIZE, BankedDeviationPolicy
+from agents.controller_base import play
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
 from experiments.train_student import judge_draws
 
@@ -35,16 +36,15 @@ def episode(controller: BankedDeviationPolicy, bench, seed: int) -> list[tuple[f
     """(decision CPU s, period CPU s, the estimate's error mm) of every decision of one episode."""
     env = TriPlanarShearV1Env()
     obs, _ = env.reset(seed=seed, options={"bench": bench})
-    controller.reset(bench.load_N, env.unwrapped.config)
     rows = []
-    while True:
-        action = controller.act(obs)
+
+    def record(decided_on: np.ndarray, action: np.ndarray) -> None:
         info = controller.info
         rows.append((info["decision_cpu_s"], info["period_cpu_s"],
                      estimate_error_mm(controller.estimate, env.unwrapped.reference_deviation())))
-        obs, _, terminated, truncated, _ = env.step(action)
-        if terminated or truncated:
-            return rows
+
+    play(controller, env, obs, bench.load_N, on_decision=record)
+    return rows
 
 
 def summary(rows: list[list[tuple[float, float, float]]]) -> dict:

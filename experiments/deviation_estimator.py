@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from agents.controller_base import play
 from agents.deviation_estimator import FORMAT, SPEC, WEIGHTS, tensor_shapes
 from agents.estimated_policy import EstimatedDeviationPolicy
 from agents.heldout import TUNING_SEED
@@ -70,17 +71,15 @@ def rollout(controller: Any, bench: Any, seed: int) -> dict[str, Any]:
     the controller reads the env only if it is the privileged teacher)."""
     env = TriPlanarShearV1Env()
     obs, _ = env.reset(seed=seed, options={"bench": bench})
-    if getattr(controller, "needs_env", False):
-        controller.bind(env)
-    controller.reset(bench.load_N, env.config)
     seen, deviation = [], []
-    while True:
-        seen.append(np.asarray(obs, dtype=np.float32))
+
+    def record(decided_on: np.ndarray, action: np.ndarray) -> None:
+        seen.append(np.asarray(decided_on, dtype=np.float32))
         deviation.append(env.unwrapped.reference_deviation())
-        obs, _, terminated, truncated, info = env.step(np.asarray(controller.act(obs), dtype=np.float32))
-        if terminated or truncated:
-            return {"obs": np.array(seen), "deviation": np.array(deviation), "success": bool(info["is_success"]),
-                    "mimicry_error_mm": float(info["mimicry_error_mm"])}
+
+    _, _, info = play(controller, env, obs, bench.load_N, on_decision=record)
+    return {"obs": np.array(seen), "deviation": np.array(deviation), "success": bool(info["is_success"]),
+            "mimicry_error_mm": float(info["mimicry_error_mm"])}
 
 
 def collect(policy_run: str, out: str | Path, first: int, n: int, driver: str | None = None) -> int:

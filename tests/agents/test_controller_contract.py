@@ -79,3 +79,30 @@ def test_a_student_runs_through_the_loop(tmp_path, student_files):
     env = TriPlanarShearV1Env()
     obs, _ = env.reset(seed=0, options={"bench": bench})
     _runs(StudentController.load(folder), env, obs, bench.load_N)
+
+
+def test_on_decision_sees_each_decision_before_the_env_steps():
+    """``play``'s ``on_decision(obs, action)``: the observation decided on and the action, with the env still in
+    the state decided on (a study reads the truth there), once per step, before ``on_step``."""
+    bench = nominal_benches([40.0])[0]
+    env = TriPlanarShearV1Env()
+    obs, _ = env.reset(seed=0, options={"bench": bench})
+    first, at_reset = obs.copy(), env.unwrapped.get_state().y
+    events, decided, stepped = [], [], []
+
+    def on_decision(decided_on, action):
+        events.append("decision")
+        decided.append((decided_on.copy(), action.copy(), env.unwrapped.get_state().y))
+
+    def on_step(action, info):
+        events.append("step")
+        stepped.append(env.unwrapped.get_state().y)
+
+    _, steps, _ = play(make_controller("pi_feedback"), env, obs, bench.load_N, on_decision=on_decision,
+                       on_step=on_step, max_steps=3)
+    assert events == ["decision", "step"] * steps
+    assert np.array_equal(decided[0][0], first)
+    for i, (_, action, y) in enumerate(decided):
+        assert np.array_equal(y, at_reset if i == 0 else stepped[i - 1])   # the state decided in ...
+        assert not np.array_equal(y, stepped[i])                           # ... not the one after its step
+        assert action.dtype == np.float32 and action.shape == (2,)
