@@ -18,7 +18,8 @@ atomically). ``measure --estimator EST --n 100 [--shadow]`` runs the composed co
 decision span and the CPU time per decision (EST: an estimator folder or a run trained with its estimator in the
 loop). ``seed-loop --policy RUN --estimator EST --out DIR/seed_S`` starts a fine-tuning of the exact-deviation run on
 the estimate (``triplanar train --out DIR --seed S --env-arg reference_deviation_estimator=EST --timesteps`` more
-than RUN's continues it). Results: docs/notes/student-experiments.md, findings 12-13.
+than RUN's continues it); ``--bank N`` instead of ``--estimator``: on a specimen bank's estimate (``banked:RUN``'s,
+``--env-arg reference_deviation_bank=N``). Results: docs/notes/student-experiments.md, findings 12-13c.
 """
 
 from __future__ import annotations
