@@ -36,15 +36,15 @@ from typing import Any
 import numpy as np
 
 from envs.core import REFERENCE_DEVIATION_DIM
-from envs.triplanar_shear_v1 import B_RANGE
 
+from .deviation_bank import BANK_SIZE, MIN_ESS, DeviationBank
 from .mpc import MPCController
-from .robust_policy import DeviationPolicy, RobustPolicy, load_policy
+from .robust_policy import DeviationPolicy, RobustPolicy, load_policy, run_config
 
-# The settings ``banked:RUN`` runs with (chosen on the judge draws: docs/notes/student-experiments.md, finding 13b)
-BANK_SIZE = 16
-MIN_ESS = 4.0
+# The settings ``banked:RUN`` runs with (chosen on the judge draws: docs/notes/student-experiments.md, finding 13b;
+# the bank's own, BANK_SIZE and MIN_ESS, are agents.deviation_bank's, which the in-loop training shares)
 START_PERIODS = 0
+__all__ = ["BANK_SIZE", "MIN_ESS", "START_PERIODS", "BankedDeviationPolicy", "NumpyActor"]
 
 
 _ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0)}
@@ -97,30 +97,40 @@ class BankedDeviationPolicy(RobustPolicy):
                              "env.reference_deviation), so it has no deviation input to estimate")
         if isinstance(start_periods, bool) or not isinstance(start_periods, int) or start_periods < 0:
             raise ValueError(f"start_periods must be a non-negative integer, got {start_periods!r}")
-        if not min_ess >= 1.0:
-            raise ValueError(f"min_ess must be a number >= 1 (an effective sample size), got {min_ess!r}")
+        self.deviation_bank = DeviationBank(bank_settings, moves=moves, min_ess=min_ess)
         super().__init__(policy.model, policy.normalizer, name, policy.n_frames)
         self.actor = NumpyActor(policy.model) if hasattr(policy.model, "policy") else None   # (a test's stand-in)
-        self.bank_settings, self.moves, self.min_ess = bank_settings, bool(moves), float(min_ess)
-        self.start_periods = start_periods
+        self.bank_settings, self.start_periods = bank_settings, start_periods
         self.estimate = np.zeros(REFERENCE_DEVIATION_DIM)
-        self.bank: Any = None
+
+    @property
+    def bank(self) -> Any:
+        """The episode's ``SpecimenBank`` (None before the first reset)."""
+        return self.deviation_bank.bank
+
+    @property
+    def min_ess(self) -> float:
+        """The effective size the estimate's weights are tempered to."""
+        return self.deviation_bank.min_ess
 
     @classmethod
-    def load(cls, run_dir: str | Path, bank_size: int = BANK_SIZE, name: str = "ppo_deviation_banked",
+    def load(cls, run_dir: str | Path, bank_size: int | None = None, name: str = "ppo_deviation_banked",
              **options: Any) -> BankedDeviationPolicy:
         """The reference-deviation run in ``run_dir`` (UNPICKLES it: load only yours) on a bank of ``bank_size``
-        (``mpc``'s other settings, no refinement)."""
-        return cls(load_policy(run_dir), MPCController(bank_size=int(bank_size), refine_every=0), name=name,
-                   **options)
+        (``mpc``'s other settings, no refinement): by default the size the run was trained on
+        (``env.reference_deviation_bank``, :mod:`agents.deviation_bank`), else :data:`BANK_SIZE`."""
+        from .train_config import deviation_bank_of
+        trained = deviation_bank_of(run_config(run_dir)) if (Path(run_dir) / "config.json").exists() else None
+        if bank_size is not None and trained is not None and int(bank_size) != trained:
+            raise ValueError(f"bank_size {bank_size}: run {run_dir} was trained on a bank of {trained} "
+                             "(env.reference_deviation_bank)")
+        size = int(bank_size if bank_size is not None else trained if trained is not None else BANK_SIZE)
+        return cls(load_policy(run_dir), MPCController(bank_size=size, refine_every=0), name=name, **options)
 
     def reset(self, load_N: float, config: Any) -> None:
         super().reset(load_N, config)
         self.config = config
-        self.bank = self.bank_settings.new_bank(load_N, config)
-        if not self.moves:
-            self.bank.rejuvenate_ess = 0.0   # (an effective size is never below zero: no resample-move)
-        self._periods = 0
+        self.deviation_bank.reset(load_N, config)
         self.info = {"decision_cpu_s": 0.0, "period_cpu_s": 0.0}
 
     def _decide(self, policy_input: np.ndarray) -> np.ndarray:
@@ -133,16 +143,13 @@ class BankedDeviationPolicy(RobustPolicy):
         the period's slack on a bench, after the command is sent). ``info``: the thread CPU to the decision and in
         all."""
         started = time.thread_time()
-        if self._periods:  # the measurement of the period the last command ran
-            self.bank.weigh(np.array(obs[B_RANGE:B_RANGE + 9], dtype=float))
-        self._periods += 1
-        self.estimate = self.bank.deviation(self.min_ess)
+        self.estimate = self.deviation_bank.estimate(obs)
         policy_input = np.concatenate([self._stack(obs), self.estimate.astype(np.float32)])
-        if self._periods <= self.start_periods:
-            action = self.bank_settings.start_command(self._periods, self.config).astype(np.float32)
+        if self.deviation_bank.periods <= self.start_periods:
+            action = self.bank_settings.start_command(self.deviation_bank.periods, self.config).astype(np.float32)
         else:
             action = self._decide(policy_input)
         decided = time.thread_time()
-        self.bank.predict(np.asarray(action, dtype=np.float64))   # the command the bench runs (float32, exactly)
+        self.deviation_bank.advance(action)   # the command the bench runs (float32, exactly)
         self.info = {"decision_cpu_s": decided - started, "period_cpu_s": time.thread_time() - started}
         return action

@@ -157,15 +157,20 @@ class DeviationSB3VecEnv(ShearSB3VecEnv):
     values are, instead of the truth, what the bench estimator in FOLDER (:class:`agents.deviation_estimator.
     DeviationEstimator`, one per row, reset at each episode's start) makes of the row's observations so far, the
     same arithmetic the composed controller (``estimated:``) runs at the bench; ``with_state`` (``env:
-    reference_deviation_estimator_state: true``) appends each row's GRU state after them."""
+    reference_deviation_estimator_state: true``) appends each row's GRU state after them.
+
+    ``bank_size`` (``env: reference_deviation_bank: N``) trains on a specimen bank's estimate instead: one
+    :class:`agents.deviation_bank.DeviationBank` of N hypotheses per row, reset at each episode's start with the
+    row's load and the batch's config, weighed by each observation and advanced by the command the batch ran: what
+    ``banked:RUN`` feeds its policy at the bench."""
 
     def __init__(self, num_envs: int, seed: int | None = None, *, batch: BenchBatch, bias_mm: float = 0.0,
-                 estimator: str | None = None, with_state: bool = False):
+                 estimator: str | None = None, with_state: bool = False, bank_size: int | None = None):
         self.bias_mm = float(bias_mm)
         self._rng = np.random.default_rng(None if seed is None else [BIAS_STREAM, seed])
         self._bias = np.zeros((num_envs, REFERENCE_DEVIATION_DIM))
         self._last_step = np.full(num_envs, np.inf)   # each row's control periods at the last observation
-        self._estimators = _row_estimators(estimator, num_envs)
+        self._estimators = _row_estimators(estimator, num_envs) or _row_banks(bank_size, num_envs, batch)
         self._estimate = np.zeros((num_envs, REFERENCE_DEVIATION_DIM))
         self.with_state = bool(with_state and self._estimators)
         self._state = np.zeros((num_envs, len(self._estimators[0].state) if self.with_state else 0), np.float32)
@@ -187,6 +192,8 @@ class DeviationSB3VecEnv(ShearSB3VecEnv):
         for i in np.flatnonzero(steps != self._estimated_step):
             if steps[i] < self._estimated_step[i]:
                 self._estimators[i].reset()
+            elif steps[i] > 0 and hasattr(self._estimators[i], "advance"):
+                self._estimators[i].advance(self._actions[i])   # a bank's: the command the row ran since
             self._estimate[i] = self._estimators[i].update(current[i])
             if self.with_state:
                 self._state[i] = self._estimators[i].state
@@ -212,6 +219,31 @@ def _row_estimators(folder: str | None, n: int) -> list[Any]:
     from .deviation_estimator import DeviationEstimator, read_estimator   # numpy only: no policy module
     spec, tensors = read_estimator(folder)
     return [DeviationEstimator(spec, tensors) for _ in range(n)]
+
+
+class _RowBank:
+    """A training row's :class:`agents.deviation_bank.DeviationBank` with the GRU estimator's interface (``reset``,
+    ``update``) plus ``advance``: reset with the row's episode load and the batch's config."""
+
+    def __init__(self, bank: Any, batch: BenchBatch, row: int):
+        self.bank, self.batch, self.row = bank, batch, row
+
+    def reset(self) -> None:
+        self.bank.reset(self.batch.benches[self.row].load_N, self.batch.config)
+
+    def update(self, obs: np.ndarray) -> np.ndarray:
+        return self.bank.estimate(obs)
+
+    def advance(self, action: np.ndarray) -> None:
+        self.bank.advance(action)
+
+
+def _row_banks(bank_size: int | None, n: int, batch: BenchBatch) -> list[Any]:
+    """``n`` specimen-bank estimators of ``bank_size`` hypotheses, one per row (``banked:RUN``'s settings)."""
+    if bank_size is None:
+        return []
+    from .deviation_bank import DeviationBank   # imports mpc: only for a bank-trained run
+    return [_RowBank(DeviationBank.of_size(int(bank_size)), batch, i) for i in range(n)]
 
 
 def _widened(space: spaces.Box, extra: int) -> spaces.Box:

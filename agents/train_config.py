@@ -12,7 +12,9 @@ the key, :mod:`agents.config_checks`):
   :func:`envs.core.reference_deviation`, read likewise by :class:`agents.robust_policy.DeviationPolicy`; with
   ``reference_deviation_bias_mm: B``, trained off by a per-episode bias, or with
   ``reference_deviation_estimator: FOLDER``, on that bench estimator's output instead of the truth (the estimator
-  in the loop; ``reference_deviation_estimator_state: true`` appends that estimator's GRU state as well),
+  in the loop; ``reference_deviation_estimator_state: true`` appends that estimator's GRU state as well), or with
+  ``reference_deviation_bank: N``, on the estimate of a specimen bank of N hypotheses (``banked:RUN``'s,
+  :mod:`agents.deviation_bank`),
   :class:`agents.sb3_vec_env.DeviationSB3VecEnv`);
 * ``algo``: ``ppo`` (SB3 PPO) or ``recurrent`` (sb3-contrib ``RecurrentPPO``, v1), ``policy`` and ``hyperparams``
   (its keyword arguments); ``ppo:`` is the same pair in one section with ``policy`` inside (``agents/ppo.yaml``);
@@ -44,6 +46,7 @@ EXTRA_INPUTS = (PRIVILEGED, REFERENCE_DEVIATION)   # a frame-stack PPO's privile
 DEVIATION_BIAS = "reference_deviation_bias_mm"   # training with an estimate's error (agents.sb3_vec_env)
 DEVIATION_ESTIMATOR = "reference_deviation_estimator"   # training on a bench estimator's output (the same module)
 ESTIMATOR_STATE = "reference_deviation_estimator_state"   # and on its GRU's state, appended after the estimate
+DEVIATION_BANK = "reference_deviation_bank"   # training on a specimen bank's estimate of N hypotheses (banked:RUN's)
 ALGOS = {"ppo": "ppo_robust", "recurrent": "ppo_recurrent"}  # algo -> v1 controller name in the tables
 POLICIES = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy"}
 EVALUATIONS = 20       # v1: points of the learning curve when neither the YAML nor the caller sets train.eval_freq
@@ -196,7 +199,7 @@ def frame_stack_of(config: dict[str, Any]) -> int:
 def single_env_kwargs(config: dict[str, Any]) -> dict[str, Any]:
     """v1: the single env's arguments (evaluation episodes): the batch's own keys left out."""
     return {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS and k not in EXTRA_INPUTS
-            and k not in (DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE)}
+            and k not in (DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE, DEVIATION_BANK)}
 
 
 def extra_input_of(config: dict[str, Any]) -> str | None:
@@ -220,7 +223,7 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     from envs.vector_v1 import BenchBatch
     env = dict(config.get("env") or {})
     known = ({f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | set(EXTRA_INPUTS)
-             | {DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE})
+             | {DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE, DEVIATION_BANK})
     unknown = sorted(set(env) - known)
     if unknown:
         raise ValueError(f"unknown env argument(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
@@ -230,6 +233,7 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     bias = _deviation_bias(env.pop(DEVIATION_BIAS, 0.0), extras[REFERENCE_DEVIATION])
     estimator = _deviation_estimator(env.pop(DEVIATION_ESTIMATOR, None), extras[REFERENCE_DEVIATION], bias)
     with_state = _estimator_state(env.pop(ESTIMATOR_STATE, False), estimator)
+    bank_size = _deviation_bank(env.pop(DEVIATION_BANK, None), extras[REFERENCE_DEVIATION], bias, estimator)
     batch_kwargs = {k: env.pop(k) for k in BATCH_KEYS if k in env}
     bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
     batch = BenchBatch(n_envs, make_config(None, **env), bench, **batch_kwargs)
@@ -238,13 +242,31 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     from .sb3_vec_env import DeviationSB3VecEnv, PrivilegedSB3VecEnv, ShearSB3VecEnv
     if extras[REFERENCE_DEVIATION]:
         return DeviationSB3VecEnv(batch.num_envs, seed=seed, batch=batch, bias_mm=bias, estimator=estimator,
-                                  with_state=with_state)
+                                  with_state=with_state, bank_size=bank_size)
     return (PrivilegedSB3VecEnv if extras[PRIVILEGED] else ShearSB3VecEnv)(batch.num_envs, seed=seed, batch=batch)
 
 
 def deviation_estimator_of(config: dict[str, Any]) -> str | None:
     """The estimator folder a reference-deviation run was trained on (``env.reference_deviation_estimator``), if any."""
     return (config.get("env") or {}).get(DEVIATION_ESTIMATOR)
+
+
+def deviation_bank_of(config: dict[str, Any]) -> int | None:
+    """The specimen bank's size a reference-deviation run was trained on (``env.reference_deviation_bank``), if any."""
+    return (config.get("env") or {}).get(DEVIATION_BANK)
+
+
+def _deviation_bank(value: Any, deviation: bool, bias: float, estimator: str | None) -> int | None:
+    """``env.reference_deviation_bank``, checked: a positive integer, only with ``reference_deviation``, without a
+    bias or an estimator (the bank's estimate is the input)."""
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+        raise ValueError(f"{DEVIATION_BANK}: expected a number of hypotheses (an integer >= 1), got {value!r:.80}")
+    if not deviation or bias or estimator is not None:
+        raise ValueError(f"{DEVIATION_BANK}: needs {REFERENCE_DEVIATION}: true, no {DEVIATION_BIAS} and no "
+                         f"{DEVIATION_ESTIMATOR}")
+    return value
 
 
 def estimator_state_of(config: dict[str, Any]) -> bool:
