@@ -40,11 +40,12 @@ class EstimatedDeviationPolicy(RobustPolicy):
         """The estimator in ``folder`` and the policy run its spec names, or, ``folder`` being a run trained with its
         estimator in the loop (``env.reference_deviation_estimator``), that run and that estimator (UNPICKLES the
         run: load only yours). ``policy_run`` is the run's folder."""
-        config = Path(folder) / "config.json"
-        loop = deviation_estimator_of(json.loads(config.read_text())) if config.exists() else None
+        path = Path(folder) / "config.json"
+        config = json.loads(path.read_text()) if path.exists() else {}
+        loop = deviation_estimator_of(config)
         estimator = DeviationEstimator.load(loop or folder)
         run = str(folder) if loop else estimator.spec["policy_run"]
-        with_state = bool(loop) and estimator_state_of(json.loads(config.read_text()))
+        with_state = bool(loop) and estimator_state_of(config)
         composed = cls(load_policy(run), estimator, name, with_state)
         composed.policy_run = run
         return composed

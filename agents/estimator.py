@@ -247,9 +247,14 @@ class SpecimenBank:
 
     def _advance(self, s: BenchState, raw: np.ndarray, measured: np.ndarray) -> float:
         """One period of hypothesis ``s``; the log-likelihood of ``measured`` (-inf if it ended the test)."""
+        return self._log_likelihood(self._step(s, raw), self._obs, measured)
+
+    def _step(self, s: BenchState, raw: np.ndarray) -> bool:
+        """One period of hypothesis ``s`` under command ``raw`` (its state observation left in ``_obs``): whether it
+        ended the test (or its state is not finite)."""
         code = step_state(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, raw,
                           self._applied, self._obs, self._inf, self._ws)
-        return self._log_likelihood(code != RUNNING or not np.all(np.isfinite(s.y)), self._obs, measured)
+        return code != RUNNING or not np.all(np.isfinite(s.y))
 
     def _log_likelihood(self, ended: bool, obs: np.ndarray, measured: np.ndarray) -> float:
         """The log-likelihood of ``measured`` for a hypothesis whose state observation is ``obs`` (-inf if it
@@ -378,10 +383,8 @@ class SpecimenBank:
         self._ended = np.zeros(len(self.states), dtype=bool)
         for i, s in enumerate(self.states):
             if self.alive[i]:
-                code = step_state(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue,
-                                  self._predicted, self._applied, self._obs, self._inf, self._ws)
+                self._ended[i] = self._step(s, self._predicted)
                 self.observations[i] = self._obs
-                self._ended[i] = code != RUNNING or not np.all(np.isfinite(s.y))
 
     def weigh(self, measured: np.ndarray) -> None:
         """:meth:`observe`'s second half: weigh the hypotheses :meth:`predict` advanced by the nine displacements
