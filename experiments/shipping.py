@@ -1,10 +1,12 @@
-"""Ship trained robust PPO runs as an agent of ``agents/zoo`` (the format is :mod:`agents.zoo`'s): convert each
+"""Ship trained PPO runs as an agent of ``agents/zoo`` (the format is :mod:`agents.zoo`'s): convert each
 seed's SB3 model and normalisation statistics into the zoo's data files (safetensors weights, JSON statistics),
 check that the converted policy acts bitwise as the run's own on a few hundred steps, evaluate the runs on the
 held-out and stress benches, write the model card, and print the pins to add to ``agents.zoo.SHIPPED``.
 
 ``python -m experiments.shipping --name NAME --algo ppo --runs RUN/seed_0 RUN/seed_1 ... --command "how they were
-trained" [--env-kwargs JSON] [--n 200] [--zoo DIR]``. The runs' own files are SB3 pickles, unpickled here (the runs
+trained" [--env-kwargs JSON] [--n 200] [--zoo DIR]`` (``--algo recurrent``: RecurrentPPO runs; ``--algo banked``:
+``reference_deviation`` runs trained with a specimen bank in their loop, shipped with the bank beside the policy,
+:mod:`agents.zoo.banked_agent`). The runs' own files are SB3 pickles, unpickled here (the runs
 are the ones you name and trained). The card's figures come from the runs' files; ``triplanar evaluate --controller
 NAME`` on the shipped copies reproduces them. The agent's directory is written under a temporary name and renamed,
 so a shipped agent is complete or absent.
@@ -27,7 +29,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from agents.controller_specs import PPOSpec
+from agents.controller_specs import BankedSpec, PPOSpec
 from agents.heldout import FAILURE_SCORE_MM
 
 from agents.zoo import CARD, ZOO_DIR, card_markdown, load_shipped, model_files, observation_layout, parse_card
@@ -62,21 +64,20 @@ def check_converted(agent: Any, model: Any, normalizer: Any, steps: int = CHECK_
     """Roll the original (unpickled) policy out on the card's env and feed the same observations to the converted
     agent: every action must be bitwise equal (refused otherwise, naming the step). Also checks the rebuilt policy's
     spaces and arguments against the model's. Returns the number of steps compared."""
-    from agents.robust_policy import RecurrentPolicy, RobustPolicy
     card = agent.card
     for attr in ("observation_space", "action_space"):
         want, have = getattr(model.policy, attr), getattr(agent.policy, attr)
         if not (want.shape == have.shape and np.array_equal(want.low, have.low)
                 and np.array_equal(want.high, have.high)):
             raise ValueError(f"{card['name']} seed {agent.seed}: the card env's {attr} differs from the model's")
-    original = (RecurrentPolicy(model, normalizer) if card["algo"] == "recurrent"
-                else RobustPolicy(model, normalizer, frames=agent.frames))
+    original = _original(card, model, normalizer, agent.frames)
     env, compared, episode = agent.make_env(), 0, 0
     try:
         while compared < steps:
             obs, _ = env.reset(seed=episode)
-            original.reset(0.0, None)
-            agent.reset()
+            bench = (env.unwrapped.episode_bench.load_N, env.unwrapped.config)   # (a banked agent's bank needs it)
+            original.reset(*bench)
+            agent.reset(*bench)
             done = False
             while not done and compared < steps:
                 want, have = original.act(obs), agent.predict(obs)[0]
@@ -89,6 +90,20 @@ def check_converted(agent: Any, model: Any, normalizer: Any, steps: int = CHECK_
     finally:
         env.close()
     return compared
+
+
+def _original(card: dict[str, Any], model: Any, normalizer: Any, frames: int) -> Any:
+    """The run's own controller of the card's kind, on the unpickled model and statistics."""
+    from agents.robust_policy import DeviationPolicy, RecurrentPolicy, RobustPolicy
+    if card["algo"] == "recurrent":
+        return RecurrentPolicy(model, normalizer)
+    if card["algo"] == "banked":
+        from agents.banked_deviation import BankedDeviationPolicy
+        from agents.mpc import MPCController
+        from agents.zoo.banked_agent import bank_size_of
+        return BankedDeviationPolicy(DeviationPolicy(model, normalizer, frames=frames),
+                                     MPCController(bank_size=bank_size_of(card), refine_every=0))
+    return RobustPolicy(model, normalizer, frames=frames)
 
 
 def pins_of(agent_dir: Path) -> dict[str, str]:
@@ -140,12 +155,13 @@ def _run_seed(run_dir: Path) -> tuple[int, int]:
 def figures(run_dirs: Sequence[Path], algo: str, env_kwargs: dict[str, Any], n: int,
             executor: ExecutorLike = None) -> dict[str, dict[str, Any]]:
     """Held-out and stress statistics of the runs (one seed each), as the card gives them."""
-    kind = "ppo_recurrent" if algo == "recurrent" else "ppo"
+    kind = {"recurrent": "ppo_recurrent", "banked": "banked"}.get(algo, "ppo")
     kwargs = tuple(sorted((k, v) for k, v in env_kwargs.items() if k != "randomize"))
     tip = env_kwargs.get("tip_friction_deg")
     out = {}
     for bench_set in SHIPPED_SETS:
-        batches = [EpisodeBatch.of(PPOSpec(str(run), kind), kind, bench_set, n, tip, kwargs, _run_seed(run)[0])
+        batches = [EpisodeBatch.of(BankedSpec(str(run)) if algo == "banked" else PPOSpec(str(run), kind), kind,
+                                   bench_set, n, tip, kwargs, _run_seed(run)[0])
                    for run in run_dirs]
         results = run_tasks(run_batch, batches, executor=executor, progress=True, desc=f"card: {bench_set}")
         out[bench_set] = row_stats(*outcome_table(batches, results), FAILURE_SCORE_MM)
@@ -240,7 +256,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m experiments.shipping", description=__doc__.splitlines()[0])
     parser.add_argument("--name")
     parser.add_argument("--convert", metavar="NAME", help="convert a zoo agent of the earlier pickled format")
-    parser.add_argument("--algo", choices=("ppo", "recurrent"), default="ppo")
+    parser.add_argument("--algo", choices=("ppo", "recurrent", "banked"), default="ppo",
+                        help="banked: reference_deviation runs trained with a specimen bank (env.reference_deviation_bank)")
     parser.add_argument("--runs", nargs="+", help="finished run directories (OUT/seed_S)")
     parser.add_argument("--command", help="the command that trained the runs (for the card)")
     parser.add_argument("--env-kwargs", default="{}", help="JSON: the TriPlanarShear-v1 arguments of the training")

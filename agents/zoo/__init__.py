@@ -8,7 +8,8 @@ Format (one directory per agent, ``agents/zoo/NAME/``)::
     seed_S/normalizer.json        its observation normalisation (VecNormalize's statistics and settings)
 
 ``card.json`` holds: ``name``, ``env_id`` and ``env_kwargs`` (what it was trained on), ``algo`` (``ppo``: frame
-stack; ``recurrent``: RecurrentPPO) and ``hyperparameters``, ``timesteps`` (per seed), ``seeds``, ``observation``
+stack; ``recurrent``: RecurrentPPO; ``banked``: a frame-stack PPO with a specimen bank beside it,
+:mod:`agents.zoo.banked_agent`) and ``hyperparameters``, ``timesteps`` (per seed), ``seeds``, ``observation``
 (the observation layout it expects: mode, fields with sizes, frames), ``figures`` (held-out and stress statistics
 with their intervals, :func:`experiments.stats.row_stats`, with the number of benches), ``date``, ``command`` (what
 trained it), and ``files`` (the SHA-256 of every model file). Cards are read strictly (:func:`cards.parse_card`).
@@ -152,4 +153,7 @@ def load_shipped(name: str, seed: int, zoo_dir: Path | None = None, pins: Pins |
     policy = build_policy(card, state_dict)
     size = policy.observation_space.shape[0]
     normalizer = ObsNormalizer.from_json(read_pinned(name, norm_rel, zoo_dir, pins), size, f"{name}/{norm_rel}")
+    if card["algo"] == "banked":
+        from .banked_agent import BankedAgent
+        return BankedAgent(card, seed, policy, normalizer)
     return ShippedAgent(card, seed, policy, normalizer)

@@ -27,7 +27,7 @@ from .cards import ShippedAgentError, bench_arguments_of_env, check_bench
 
 POLICY = "policy.safetensors"
 NORMALIZER = "normalizer.json"
-POLICY_CLASSES = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy"}
+POLICY_CLASSES = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy", "banked": "MlpPolicy"}
 # The policy constructor arguments a card may set (what the shipped agents' YAML files use), each checked.
 POLICY_KWARGS = {"net_arch": list, "log_std_init": float, "ortho_init": bool, "lstm_hidden_size": int,
                  "n_lstm_layers": int, "enable_critic_lstm": bool, "shared_lstm": bool}
@@ -102,7 +102,8 @@ def _policy_kwargs(card: dict[str, Any]) -> dict[str, Any]:
 
 def policy_spaces(card: dict[str, Any]) -> tuple[Any, Any]:
     """(observation space, action space) of the policy: the card's env's, its observation stacked ``frames``
-    times (as the training's frame stack concatenates them)."""
+    times (as the training's frame stack concatenates them); a ``banked`` agent's then widened by its bank's
+    estimate of the reference deviation (unbounded, as its training env appended it)."""
     from gymnasium import spaces
     env = card_env(card)
     try:
@@ -110,8 +111,12 @@ def policy_spaces(card: dict[str, Any]) -> tuple[Any, Any]:
     finally:
         env.close()
     frames = int(card["observation"]["frames"])
-    stacked = spaces.Box(np.tile(single.low, frames), np.tile(single.high, frames), dtype=single.dtype)
-    return stacked, action
+    low, high = np.tile(single.low, frames), np.tile(single.high, frames)
+    if card["algo"] == "banked":
+        from envs.core import REFERENCE_DEVIATION_DIM
+        unbounded = np.full(REFERENCE_DEVIATION_DIM, np.inf, dtype=single.dtype)
+        low, high = np.concatenate([low, -unbounded]), np.concatenate([high, unbounded])
+    return spaces.Box(low, high, dtype=single.dtype), action
 
 
 def build_policy(card: dict[str, Any], state_dict: dict[str, Any]) -> Any:

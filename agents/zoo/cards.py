@@ -12,7 +12,7 @@ from typing import Any
 
 CARD_KEYS = ("name", "env_id", "env_kwargs", "algo", "hyperparameters", "timesteps", "seeds", "observation",
              "figures", "date", "command", "files")
-ALGOS = ("ppo", "recurrent")
+ALGOS = ("ppo", "recurrent", "banked")   # banked: a PPO with a specimen bank (agents.zoo.banked_agent)
 MAX_DEPTH = 8            # the shipped cards nest 5 deep (hyperparameters.hyperparams.policy_kwargs.net_arch)
 MAX_CARD_BYTES = 1 << 20
 MAX_SEEDS = 100

@@ -1,0 +1,103 @@
+"""A shipped agent that runs a specimen bank beside its policy (model card ``algo: banked``): the controller of
+:mod:`agents.banked_deviation` (``banked:RUN``) from the zoo's data files.
+
+Each period the bank (:class:`agents.deviation_bank.DeviationBank`: ``mpc``'s bank of the card's
+``hyperparameters.env.reference_deviation_bank`` hypotheses, no resample-move, weights tempered to an effective size
+of 4) is weighed by the new observation; its estimate of the block's deviation from its case-C reference (12
+values) is appended to the frame stack; the policy (a flat MLP, run in numpy: :class:`agents.banked_deviation.
+NumpyActor`) decides; then the bank advances every hypothesis by the command decided (on a bench: after the command
+is sent, in the period's slack). ``agent.info`` holds the last period's thread CPU to the decision
+(``decision_cpu_s``) and in all (``period_cpu_s``).
+
+**Memory.** The frame stack and the bank are one episode's, kept by the agent: ``predict`` takes one observation at
+a time (not a batch: a bank is one bench's) and returns ``state`` None. An episode starts at :meth:`reset`, at an
+``episode_start`` flag, or at an observation whose ``TIME`` is not later than the last one's; its bank starts at the
+load ``reset(load_N, config)`` gave (what the project's episode loop passes), else at the observation's ``LOAD``
+field on the card's bench. Deterministic only (the Gaussian's mean, as ``deterministic=True``).
+"""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from .agent import ObsNormalizer, ShippedAgent, card_env
+from .cards import ShippedAgentError
+
+
+def bank_size_of(card: dict[str, Any]) -> int:
+    """The card's bank size (``hyperparameters.env.reference_deviation_bank``), refused naming the field."""
+    size = (card["hyperparameters"].get("env") or {}).get("reference_deviation_bank")
+    if isinstance(size, bool) or not isinstance(size, int) or not 1 <= size <= 256:
+        raise ShippedAgentError(f"{card['name']}: field 'hyperparameters.env.reference_deviation_bank' must be the "
+                                f"bank's size, an integer 1-256, got {size!r}")
+    return size
+
+
+class BankedAgent(ShippedAgent):
+    """One training seed of a ``banked`` shipped agent (module docstring)."""
+
+    def __init__(self, card: dict[str, Any], seed: int, policy: Any, normalizer: ObsNormalizer):
+        from ..banked_deviation import BankedDeviationPolicy
+        from ..mpc import MPCController
+        from ..robust_policy import DeviationPolicy
+        model = SimpleNamespace(policy=policy, action_space=policy.action_space)   # what NumpyActor reads
+        frames = int(card["observation"]["frames"])
+        self.controller = BankedDeviationPolicy(DeviationPolicy(model, normalizer, card["name"], frames),
+                                                MPCController(bank_size=bank_size_of(card), refine_every=0),
+                                                name=card["name"])
+        self._card_config: Any = None
+        super().__init__(card, seed, policy, normalizer)
+        names = [name for name, _ in card["observation"]["fields"]]
+        offsets = np.cumsum([0] + [size for _, size in card["observation"]["fields"]])
+        self._load_index = int(offsets[names.index("LOAD")]) if "LOAD" in names else None
+
+    @property
+    def info(self) -> dict[str, float]:
+        """The last period's thread CPU: to the decision, and in all (the bank's advance included)."""
+        return self.controller.info
+
+    def reset(self, *bench: Any) -> None:
+        """Start a new episode at the next observation; ``reset(load_N, config)`` (the project's episode loop)
+        gives the bench's load and config for its bank."""
+        super().reset()
+        self._bench = (float(bench[0]), bench[1]) if len(bench) == 2 and bench[1] is not None else None
+
+    def predict(self, observation: np.ndarray, state: Any = None, episode_start: Any = None,
+                deterministic: bool = True) -> tuple[np.ndarray, Any]:
+        """SB3's ``predict`` for one observation of :meth:`make_env`'s env: ``(action, None)`` (module docstring)."""
+        obs = np.asarray(observation, dtype=np.float32)
+        if obs.shape != (self.obs_size,):
+            raise ShippedAgentError(f"shipped agent {self.name!r} runs one bench at a time (its specimen bank is one "
+                                    f"episode's): give one observation of {self.obs_size} values, got shape {obs.shape}")
+        if state is not None:
+            raise ShippedAgentError(f"shipped agent {self.name!r} keeps its memory itself (frames and specimen bank): "
+                                    "pass state=None (predict returns None)")
+        if not deterministic:
+            raise ShippedAgentError(f"shipped agent {self.name!r} acts deterministically only: deterministic=False "
+                                    "is not offered")
+        now = float(obs[self._time_index]) if self._time_index is not None else None
+        flagged = episode_start is not None and bool(np.any(np.asarray(episode_start, dtype=bool)))
+        started = self._last_time is None or flagged or (now is not None and now <= self._last_time)
+        self._last_time = now if now is not None else -math.inf   # (no clock: only reset and the flag start one)
+        if started:
+            self.controller.reset(*self._episode_bench(obs))
+        return self.controller.act(obs), None
+
+    def _episode_bench(self, obs: np.ndarray) -> tuple[float, Any]:
+        """(load, config) of the episode starting at ``obs``: :meth:`reset`'s if given, else the observation's load
+        on the card's bench."""
+        if self._bench is not None:
+            bench, self._bench = self._bench, None
+            return bench
+        if self._load_index is None:
+            raise ShippedAgentError(f"shipped agent {self.name!r}: the observation has no LOAD field; call "
+                                    "reset(load_N, config) before each episode")
+        if self._card_config is None:
+            env = card_env(self.card)
+            self._card_config = env.unwrapped.config
+            env.close()
+        return float(obs[self._load_index]), self._card_config

@@ -1,0 +1,121 @@
+"""A shipped ``banked`` agent (:mod:`agents.zoo.banked_agent`): shipped from a bank-trained run, it acts bitwise as the
+run's own ``banked:RUN`` controller through the episode loop; SB3's predict loop (``episode_start`` flags, no
+``reset``) runs an episode from the observation's load and repeats itself; a new episode restarts its bank; a batch,
+a state, a stochastic call and a card without its bank size are refused by name; ``evaluate`` on the shipped copy
+reproduces the card's figures."""
+
+from __future__ import annotations
+
+import json
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+pytest.importorskip("stable_baselines3")
+
+import envs  # noqa: F401  (registers the ids)
+from agents import zoo
+from agents.controller_base import play
+from agents.heldout import nominal_benches
+from agents.zoo import ShippedAgentError, load_shipped, read_card
+
+NAME, SEED, BANK = "tiny_banked", 5, 4
+
+
+@pytest.fixture(scope="module")
+def banked_zoo(tmp_path_factory):
+    """A reference-deviation PPO trained 1,024 steps with a bank of 4 in its loop, shipped to a temporary zoo with
+    its card's figures on 3 benches: (zoo folder, run folder)."""
+    from agents.train_robust import RobustTask, train_robust
+    from experiments.shipping import ship
+    root = tmp_path_factory.mktemp("banked")
+    run = train_robust(RobustTask(str(root / "runs"), SEED, 1024, eval_freq=10**9,
+                                  env_kwargs=(("reference_deviation", True), ("reference_deviation_bank", BANK)),
+                                  overrides=(("hyperparams.n_steps", 64),)))
+    path = ship(NAME, [run["run_dir"]], algo="banked", command="(test) 1,024 steps with a bank of 4", n=3,
+                zoo_dir=root / "zoo", executor="serial")
+    return path.parent, run["run_dir"]
+
+
+@pytest.fixture
+def pinned(banked_zoo, monkeypatch):
+    """The temporary zoo made the package's, its agent pinned (as agents.zoo.SHIPPED pins the shipped ones)."""
+    from experiments.shipping import pins_of
+    folder, run = banked_zoo
+    monkeypatch.setattr(zoo, "ZOO_DIR", folder)
+    monkeypatch.setattr(zoo, "SHIPPED", {**zoo.SHIPPED, NAME: pins_of(folder / NAME)})
+    return run
+
+
+def _episode(controller, bench, seed):
+    env = gym.make("TriPlanarShear-v1", observation_mode="bench")
+    obs, _ = env.reset(seed=seed, options={"bench": bench})
+    actions = []
+    play(controller, env, obs, bench.load_N, on_decision=lambda o, a: actions.append(a.copy()))
+    return np.array(actions)
+
+
+def test_the_shipped_agent_acts_bitwise_as_its_runs_banked_controller(pinned):
+    from agents.banked_deviation import BankedDeviationPolicy
+    card = read_card(NAME)
+    assert card["algo"] == "banked" and card["hyperparameters"]["env"]["reference_deviation_bank"] == BANK
+    agent, original = load_shipped(NAME, SEED), BankedDeviationPolicy.load(pinned)
+    assert agent.controller.bank_settings.bank_size == original.bank_settings.bank_size == BANK
+    for i, bench in enumerate(nominal_benches([35.0, 45.0])):
+        mine, theirs = _episode(agent, bench, i), _episode(original, bench, i)
+        assert len(mine) > 5 and mine.tobytes() == theirs.tobytes()
+        assert agent.controller.estimate.tobytes() == original.estimate.tobytes()
+    assert set(agent.info) == {"decision_cpu_s", "period_cpu_s"}
+
+
+def test_sb3s_predict_loop_runs_from_the_observations_load_and_a_new_episode_restarts_the_bank(pinned):
+    agent = load_shipped(NAME, SEED)
+    env = agent.make_env()
+    obs, _ = env.reset(seed=2)
+    observations, actions, episode_start, state = [], [], np.ones(1, dtype=bool), None
+    while True:
+        action, state = agent.predict(obs, state=state, episode_start=episode_start, deterministic=True)
+        assert state is None
+        observations.append(obs)
+        actions.append(action)
+        obs, _, terminated, truncated, _ = env.step(action)
+        episode_start = np.array([terminated or truncated])
+        if terminated or truncated:
+            break
+    bank = agent.controller.bank
+    assert bank.load_N == float(observations[0][agent._load_index]) and len(bank.history) == len(actions) - 1
+    assert [agent(o).tobytes() for o in observations] == [a.tobytes() for a in actions]   # the clock went back
+    agent(observations[0])   # and once more from the start: a new bank, weighed by nothing yet
+    assert agent.controller.deviation_bank.periods == 1 and not agent.controller.bank.history
+
+
+def test_a_batch_a_state_a_stochastic_call_and_a_card_without_its_bank_are_refused_by_name(pinned):
+    from agents.zoo.banked_agent import bank_size_of
+    agent = load_shipped(NAME, SEED)
+    obs, _ = agent.make_env().reset(seed=0)
+    with pytest.raises(ShippedAgentError, match="one bench at a time.*got shape \\(2, 15\\)"):
+        agent.predict(np.stack([obs, obs]))
+    with pytest.raises(ShippedAgentError, match="pass state=None"):
+        agent.predict(obs, state=np.zeros(3))
+    with pytest.raises(ShippedAgentError, match="deterministic=False"):
+        agent.predict(obs, deterministic=False)
+    card = json.loads(json.dumps(read_card(NAME)))
+    del card["hyperparameters"]["env"]["reference_deviation_bank"]
+    with pytest.raises(ShippedAgentError, match="'hyperparameters.env.reference_deviation_bank'"):
+        bank_size_of(card)
+
+
+@pytest.mark.slow
+def test_evaluate_on_the_shipped_copy_reproduces_its_card(pinned, tmp_path):
+    """The card's figures come from the run's own ``banked:RUN``; the shipped copy acts bitwise as it, so evaluate
+    gives the same figures on the same benches."""
+    from triplanar import cli
+    want = read_card(NAME)["figures"]["heldout"]
+    assert cli.main(["evaluate", "--controller", NAME, "--n", "3", "--executor", "serial", "--out",
+                     str(tmp_path)]) == 0
+    got = json.loads((tmp_path / "heldout.json").read_text())
+    assert got["n_episodes"] == want["n_episodes"] == 3
+    assert got["success_rate"] == want["success_rate"]
+    assert got["mimicry_error_mm"] == want["mimicry_error_mm"] or (np.isnan(got["mimicry_error_mm"])
+                                                                   and np.isnan(want["mimicry_error_mm"]))
