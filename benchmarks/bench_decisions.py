@@ -39,12 +39,16 @@ from experiments.train_student import judge_draws
 
 
 class _Timed:
-    """A controller whose every ``act`` is timed (thread CPU and wall, ns); the rest passes through."""
+    """A controller whose every ``act`` is timed (thread CPU and wall, ns); the rest passes through. A controller
+    that splits its period (``info["decision_cpu_s"]``: the CPU from the measurement to the command, the rest of its
+    ``act`` running after the command is sent, as ``banked:RUN`` and a shipped ``banked`` agent advance their bank)
+    has that part recorded too."""
 
     def __init__(self, controller: Any) -> None:
         self._controller = controller
         self.cpu_ns: list[int] = []
         self.wall_ns: list[int] = []
+        self.decision_ns: list[int] = []
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._controller, name)
@@ -54,6 +58,9 @@ class _Timed:
         action = self._controller.act(obs)
         self.wall_ns.append(time.perf_counter_ns() - wall)
         self.cpu_ns.append(time.thread_time_ns() - cpu)
+        info = getattr(self._controller, "info", None)
+        if isinstance(info, dict) and "decision_cpu_s" in info:
+            self.decision_ns.append(round(1e9 * info["decision_cpu_s"]))
         return action
 
 
@@ -76,8 +83,9 @@ def bench_decisions(text: str, benches: int, first: int = 0) -> dict[str, Any]:
     load_before = os.getloadavg()
     outcomes = [run_episode(timed, draws[i], env_kwargs=built.env_kwargs, seed=i, bench_set="tuning", index=i)
                 for i in range(first, first + benches)]
+    split = {"to_command_thread_cpu": _summary_ms(timed.decision_ns)} if timed.decision_ns else {}
     return {"controller": text, "benches": [first, first + benches], "decisions": len(timed.cpu_ns),
-            "thread_cpu": _summary_ms(timed.cpu_ns), "wall": _summary_ms(timed.wall_ns),
+            "thread_cpu": _summary_ms(timed.cpu_ns), **split, "wall": _summary_ms(timed.wall_ns),
             "load_average_before_after": [round(load_before[0], 2), round(os.getloadavg()[0], 2)],
             "affinity": sorted(os.sched_getaffinity(0)),
             "outcomes": [{"bench": o.index, "success": bool(o.success), "steps": int(o.steps),

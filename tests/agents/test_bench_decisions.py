@@ -27,3 +27,17 @@ def test_a_bad_bench_range_or_controller_is_refused_by_name():
         bench_decisions("pi_feedback", benches=0)
     with pytest.raises(Exception, match="mpc"):   # the unknown name's message lists the valid ones
         bench_decisions("no_such_controller", benches=1)
+
+
+def test_a_controller_that_splits_its_period_has_the_part_before_its_command_recorded():
+    from bench_decisions import _Timed
+
+    class Split:
+        def act(self, obs):
+            self.info = {"decision_cpu_s": 2e-4, "period_cpu_s": 5e-4}
+            return obs
+
+    timed, plain = _Timed(Split()), _Timed(type("Plain", (), {"act": lambda self, obs: obs})())
+    timed.act(0.0)
+    plain.act(0.0)
+    assert timed.decision_ns == [200_000] and plain.decision_ns == [] and len(plain.cpu_ns) == 1
