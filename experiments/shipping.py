@@ -5,8 +5,8 @@ held-out and stress benches, write the model card, and print the pins to add to 
 
 ``python -m experiments.shipping --name NAME --algo ppo --runs RUN/seed_0 RUN/seed_1 ... --command "how they were
 trained" [--env-kwargs JSON] [--n 200] [--zoo DIR]`` (``--algo recurrent``: RecurrentPPO runs; ``--algo banked``:
-``reference_deviation`` runs trained with a specimen bank in their loop, shipped with the bank beside the policy,
-:mod:`agents.zoo.banked_agent`). The runs' own files are SB3 pickles, unpickled here (the runs
+``reference_deviation`` runs, shipped with a specimen bank beside the policy, :mod:`agents.zoo.banked_agent`: the
+size they were trained with in their loop, else ``banked:RUN``'s 16). The runs' own files are SB3 pickles, unpickled here (the runs
 are the ones you name and trained). The card's figures come from the runs' files; ``triplanar evaluate --controller
 NAME`` on the shipped copies reproduces them. The agent's directory is written under a temporary name and renamed,
 so a shipped agent is complete or absent.
@@ -100,9 +100,8 @@ def _original(card: dict[str, Any], model: Any, normalizer: Any, frames: int) ->
     if card["algo"] == "banked":
         from agents.banked_deviation import BankedDeviationPolicy
         from agents.mpc import MPCController
-        from agents.zoo.banked_agent import bank_size_of
         return BankedDeviationPolicy(DeviationPolicy(model, normalizer, frames=frames),
-                                     MPCController(bank_size=bank_size_of(card), refine_every=0))
+                                     MPCController(bank_size=card["bank_size"], refine_every=0))
     return RobustPolicy(model, normalizer, frames=frames)
 
 
@@ -141,6 +140,19 @@ def run_hyperparameters(runs: Sequence[Path]) -> dict[str, Any]:
     if any(c != configs[0] for c in configs[1:]):
         raise ValueError(f"runs {[str(r) for r in runs]} were trained with different configurations (config.json)")
     return configs[0]
+
+
+def bank_size(runs: Sequence[Path]) -> int:
+    """The specimen bank a ``banked`` agent runs: what its runs had in their training loop
+    (``env.reference_deviation_bank``), else ``banked:RUN``'s default (a run trained on the true deviation), as
+    :meth:`agents.banked_deviation.BankedDeviationPolicy.load` chooses; the runs must agree."""
+    from agents.banked_deviation import BANK_SIZE
+    from agents.robust_policy import run_config
+    from agents.train_config import deviation_bank_of
+    sizes = {deviation_bank_of(run_config(run)) or BANK_SIZE for run in runs}
+    if len(sizes) != 1:
+        raise ValueError(f"runs {[str(r) for r in runs]} were trained with different specimen banks: {sorted(sizes)}")
+    return sizes.pop()
 
 
 def _run_seed(run_dir: Path) -> tuple[int, int]:
@@ -201,6 +213,7 @@ def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
         hyperparameters = hyperparameters or run_hyperparameters(runs)
         frames = hyperparameters.get("env", {}).get("frame_stack")
         card = {"name": name, "env_id": ENV_ID, "env_kwargs": env_kwargs, "algo": algo,
+                **({"bank_size": bank_size(runs)} if algo == "banked" else {}),
                 "hyperparameters": hyperparameters,
                 "timesteps": max(steps), "timesteps_by_seed": {str(s): t for s, t in seeds},
                 "seeds": [s for s, _ in seeds], "observation": observation_layout(env_kwargs, algo, frames),
@@ -257,7 +270,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--name")
     parser.add_argument("--convert", metavar="NAME", help="convert a zoo agent of the earlier pickled format")
     parser.add_argument("--algo", choices=("ppo", "recurrent", "banked"), default="ppo",
-                        help="banked: reference_deviation runs trained with a specimen bank (env.reference_deviation_bank)")
+                        help="banked: reference_deviation runs, shipped with a specimen bank beside the policy")
     parser.add_argument("--runs", nargs="+", help="finished run directories (OUT/seed_S)")
     parser.add_argument("--command", help="the command that trained the runs (for the card)")
     parser.add_argument("--env-kwargs", default="{}", help="JSON: the TriPlanarShear-v1 arguments of the training")

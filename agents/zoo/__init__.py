@@ -12,7 +12,8 @@ stack; ``recurrent``: RecurrentPPO; ``banked``: a frame-stack PPO with a specime
 :mod:`agents.zoo.banked_agent`) and ``hyperparameters``, ``timesteps`` (per seed), ``seeds``, ``observation``
 (the observation layout it expects: mode, fields with sizes, frames), ``figures`` (held-out and stress statistics
 with their intervals, :func:`experiments.stats.row_stats`, with the number of benches), ``date``, ``command`` (what
-trained it), and ``files`` (the SHA-256 of every model file). Cards are read strictly (:func:`cards.parse_card`).
+trained it), ``files`` (the SHA-256 of every model file), and for a ``banked`` agent ``bank_size`` (its specimen bank's
+hypotheses). Cards are read strictly (:func:`cards.parse_card`).
 
 **What is loaded, and how.** Nothing of a shipped agent is unpickled: the weights are safetensors (a header and
 raw tensors, no code), the statistics and the card JSON, and :mod:`agents.zoo.agent` rebuilds the SB3 policy
@@ -45,6 +46,15 @@ Pins = dict[str, dict[str, str]]
 
 # The shipped agents and the SHA-256 of each of their files (written by `python -m experiments.shipping`).
 SHIPPED: Pins = {
+    "ppo_banked": {
+        "card.json": "e97b633cc79b2a17a78109dd07107a535b9f4f0b6838aa7a89c2f7f67dada0ad",
+        "seed_0/normalizer.json": "8f0e2e4e53110cde0086a48a2518ea653ea321d25718feb69d526410e5ad4dbd",
+        "seed_0/policy.safetensors": "f76c9e9a029aca445c3a2240cd2c04ceeeb39714d7fb90a625e3761313f239d1",
+        "seed_1/normalizer.json": "4b17c7077251deaf55165ca5541756257fbd3fdea010ec3f88391b49d129bb05",
+        "seed_1/policy.safetensors": "1bea28e5251cfed5994d1c7864737b9d78ad6f323ec9bae7014f4c16bc78a1f0",
+        "seed_2/normalizer.json": "72c6ead19ac8970d65aaa6035a3ae36bff67dbc7d52da2c772f14055d651a7eb",
+        "seed_2/policy.safetensors": "beb54e875ce014c5e81d46af0dd05766d02e81a30939e54be5b0862493deb352",
+    },
     "ppo_recurrent": {
         "card.json": "4e93a128182dcb0183b47b08a058c5e8c5ed08c928f29498ef122e046263e9d2",
         "seed_0/normalizer.json": "933fdf2be6a12c6eb5edcaa0a57e0ff27909c3bb0b848dcb287bef6b7a2c78a6",

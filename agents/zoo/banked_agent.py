@@ -1,9 +1,8 @@
 """A shipped agent that runs a specimen bank beside its policy (model card ``algo: banked``): the controller of
 :mod:`agents.banked_deviation` (``banked:RUN``) from the zoo's data files.
 
-Each period the bank (:class:`agents.deviation_bank.DeviationBank`: ``mpc``'s bank of the card's
-``hyperparameters.env.reference_deviation_bank`` hypotheses, no resample-move, weights tempered to an effective size
-of 4) is weighed by the new observation; its estimate of the block's deviation from its case-C reference (12
+Each period the bank (:class:`agents.deviation_bank.DeviationBank`: ``mpc``'s bank of the card's ``bank_size``
+hypotheses, no resample-move, weights tempered to an effective size of 4) is weighed by the new observation; its estimate of the block's deviation from its case-C reference (12
 values) is appended to the frame stack; the policy (a flat MLP, run in numpy: :class:`agents.banked_deviation.
 NumpyActor`) decides; then the bank advances every hypothesis by the command decided (on a bench: after the command
 is sent, in the period's slack). ``agent.info`` holds the last period's thread CPU to the decision
@@ -28,15 +27,6 @@ from .agent import ObsNormalizer, ShippedAgent, card_env
 from .cards import ShippedAgentError
 
 
-def bank_size_of(card: dict[str, Any]) -> int:
-    """The card's bank size (``hyperparameters.env.reference_deviation_bank``), refused naming the field."""
-    size = (card["hyperparameters"].get("env") or {}).get("reference_deviation_bank")
-    if isinstance(size, bool) or not isinstance(size, int) or not 1 <= size <= 256:
-        raise ShippedAgentError(f"{card['name']}: field 'hyperparameters.env.reference_deviation_bank' must be the "
-                                f"bank's size, an integer 1-256, got {size!r}")
-    return size
-
-
 class BankedAgent(ShippedAgent):
     """One training seed of a ``banked`` shipped agent (module docstring)."""
 
@@ -47,7 +37,7 @@ class BankedAgent(ShippedAgent):
         model = SimpleNamespace(policy=policy, action_space=policy.action_space)   # what NumpyActor reads
         frames = int(card["observation"]["frames"])
         self.controller = BankedDeviationPolicy(DeviationPolicy(model, normalizer, card["name"], frames),
-                                                MPCController(bank_size=bank_size_of(card), refine_every=0),
+                                                MPCController(bank_size=card["bank_size"], refine_every=0),
                                                 name=card["name"])
         self._card_config: Any = None
         super().__init__(card, seed, policy, normalizer)

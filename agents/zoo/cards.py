@@ -16,6 +16,7 @@ ALGOS = ("ppo", "recurrent", "banked")   # banked: a PPO with a specimen bank (a
 MAX_DEPTH = 8            # the shipped cards nest 5 deep (hyperparameters.hyperparams.policy_kwargs.net_arch)
 MAX_CARD_BYTES = 1 << 20
 MAX_SEEDS = 100
+MAX_BANK = 256           # a banked agent's specimen bank (its hypotheses)
 SHA256 = re.compile(r"[0-9a-f]{64}")
 # Env arguments that say what an episode draws (the specimen, the load), not the bench the agent acts on: they may
 # differ from the card's (the bench sets give the specimen).
@@ -108,6 +109,16 @@ def _check_collections(card: dict[str, Any], source: str) -> None:
           source, "files", "an object of file -> SHA-256 (64 hex digits)", files)
 
 
+def _check_bank(card: dict[str, Any], source: str) -> None:
+    """``bank_size``: the hypotheses of a ``banked`` agent's specimen bank, and no other agent's."""
+    bank = card.get("bank_size")
+    if card["algo"] == "banked":
+        _need(_is_int(bank) and 1 <= bank <= MAX_BANK, source, "bank_size",
+              f"the specimen bank's size, an integer 1-{MAX_BANK}", bank)
+    else:
+        _need(bank is None, source, "bank_size", "absent (only a banked agent runs a specimen bank)", bank)
+
+
 def parse_card(text: str | bytes, source: str = "card.json") -> dict[str, Any]:
     """A model card from its JSON text, every field checked (refused with :class:`ShippedAgentError` naming the
     field: a missing key, a wrong type, an out-of-range value, nesting deeper than :data:`MAX_DEPTH`)."""
@@ -128,6 +139,7 @@ def parse_card(text: str | bytes, source: str = "card.json") -> dict[str, Any]:
         raise ShippedAgentError(f"{source}: model card lacks {missing}")
     _check_scalars(card, source)
     _check_collections(card, source)
+    _check_bank(card, source)
     _check_observation(card["observation"], source)
     _check_figures(card["figures"], source)
     return card
@@ -209,6 +221,8 @@ def card_markdown(card: dict[str, Any]) -> str:
              f"* env: `{card['env_id']}` with `{json.dumps(card['env_kwargs'])}`",
              f"* algorithm: {card['algo']}; hyperparameters `{json.dumps(card['hyperparameters'])}`",
              f"* {card['timesteps']:,} steps per seed; seeds {card['seeds']}",
+             *([f"* specimen bank beside the policy: {card['bank_size']} hypotheses (`agents/zoo/banked_agent.py`)"]
+               if card["algo"] == "banked" else []),
              f"* observation: {card['observation']['observation_mode']} mode, {card['observation']['frames']} "
              "frame(s)", "", "| bench set | benches | episodes | success (95 % CI) | mimicry error over successes, "
              "mm (95 % CI) | CVaR 10 %, mm | score, mm (95 % CI) |", "|---|---|---|---|---|---|---|"]

@@ -59,7 +59,7 @@ def _episode(controller, bench, seed):
 def test_the_shipped_agent_acts_bitwise_as_its_runs_banked_controller(pinned):
     from agents.banked_deviation import BankedDeviationPolicy
     card = read_card(NAME)
-    assert card["algo"] == "banked" and card["hyperparameters"]["env"]["reference_deviation_bank"] == BANK
+    assert card["algo"] == "banked" and card["bank_size"] == BANK
     agent, original = load_shipped(NAME, SEED), BankedDeviationPolicy.load(pinned)
     assert agent.controller.bank_settings.bank_size == original.bank_settings.bank_size == BANK
     for i, bench in enumerate(nominal_benches([35.0, 45.0])):
@@ -91,7 +91,7 @@ def test_sb3s_predict_loop_runs_from_the_observations_load_and_a_new_episode_res
 
 
 def test_a_batch_a_state_a_stochastic_call_and_a_card_without_its_bank_are_refused_by_name(pinned):
-    from agents.zoo.banked_agent import bank_size_of
+    from agents.zoo import parse_card
     agent = load_shipped(NAME, SEED)
     obs, _ = agent.make_env().reset(seed=0)
     with pytest.raises(ShippedAgentError, match="one bench at a time.*got shape \\(2, 15\\)"):
@@ -100,10 +100,27 @@ def test_a_batch_a_state_a_stochastic_call_and_a_card_without_its_bank_are_refus
         agent.predict(obs, state=np.zeros(3))
     with pytest.raises(ShippedAgentError, match="deterministic=False"):
         agent.predict(obs, deterministic=False)
-    card = json.loads(json.dumps(read_card(NAME)))
-    del card["hyperparameters"]["env"]["reference_deviation_bank"]
-    with pytest.raises(ShippedAgentError, match="'hyperparameters.env.reference_deviation_bank'"):
-        bank_size_of(card)
+    card = read_card(NAME)
+    for bad in ({k: v for k, v in card.items() if k != "bank_size"}, {**card, "bank_size": 0},
+                {**card, "bank_size": True}):
+        with pytest.raises(ShippedAgentError, match="field 'bank_size' must be the specimen bank's size"):
+            parse_card(json.dumps(bad))
+    with pytest.raises(ShippedAgentError, match="field 'bank_size' must be absent"):
+        parse_card(json.dumps({**card, "algo": "ppo"}))
+
+
+def test_the_bank_shipped_is_the_one_the_runs_trained_with_else_banked_runs_default(tmp_path):
+    from agents.banked_deviation import BANK_SIZE
+    from experiments.shipping import bank_size
+    runs = []
+    for i, env in enumerate(({"reference_deviation": True, "reference_deviation_bank": 5},
+                             {"reference_deviation": True})):
+        runs.append(tmp_path / f"seed_{i}")
+        runs[-1].mkdir()
+        (runs[-1] / "config.json").write_text(json.dumps({"env": env}))
+    assert bank_size(runs[:1]) == 5 and bank_size(runs[1:]) == BANK_SIZE == 16
+    with pytest.raises(ValueError, match="different specimen banks: \\[5, 16\\]"):
+        bank_size(runs)
 
 
 @pytest.mark.slow

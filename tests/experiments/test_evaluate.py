@@ -168,6 +168,24 @@ def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.long
+def test_the_shipped_banked_ppo_reproduces_its_card_seed_by_seed(tmp_path):
+    """The shipped PPO with a specimen bank beside it (agents/zoo/ppo_banked, issue 34's real-time candidate): one
+    training seed on the card's 200 held-out benches gives that seed's error and score on the card (its bank is
+    numpy and numba float64 arithmetic, its policy a numpy forward pass: deterministic on one machine; the tolerance
+    as the recurrent agent's above, for another CPU's kernels)."""
+    card = zoo.read_card("ppo_banked")
+    want = card["figures"]["heldout"]
+    seed = card["seeds"][-1]
+    assert cli.main(["evaluate", "--controller", "ppo_banked", "--benches", "heldout", "--n",
+                     str(want["n_benches"]), "--seeds", str(seed), "--out", str(tmp_path)]) == 0
+    got = json.loads((tmp_path / "heldout.json").read_text())
+    assert got["n_episodes"] == want["n_benches"]
+    assert got["mimicry_error_mm"] == pytest.approx(want["seed_errors_mm"][-1], rel=1e-6)
+    assert got["score"] == pytest.approx(want["seed_scores_mm"][-1], rel=1e-6)
+
+
+@pytest.mark.slow
 @pytest.mark.xdist_group("tiny_zoo")  # one worker trains the module's tiny zoo, once
 def test_a_shipped_agent_is_refused_on_another_observation_layout_or_altered_files(tiny_zoo, monkeypatch, tmp_path,
                                                                                      capsys):
