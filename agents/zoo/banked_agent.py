@@ -10,9 +10,10 @@ is sent, in the period's slack). ``agent.info`` holds the last period's thread C
 
 **Memory.** The frame stack and the bank are one episode's, kept by the agent: ``predict`` takes one observation at
 a time (not a batch: a bank is one bench's) and returns ``state`` None. An episode starts at :meth:`reset`, at an
-``episode_start`` flag, or at an observation whose ``TIME`` is not later than the last one's; its bank starts at the
-load ``reset(load_N, config)`` gave (what the project's episode loop passes), else at the observation's ``LOAD``
-field on the card's bench. Deterministic only (the Gaussian's mean, as ``deterministic=True``).
+``episode_start`` flag, or at an observation whose ``TIME`` is not later than the last one's. Its bank starts in
+``reset(load_N, config)`` when given (what the project's episode loop passes: the bench's load, before the test),
+else at the episode's first observation, from its ``LOAD`` field on the card's bench. Deterministic only (the
+Gaussian's mean, as ``deterministic=True``).
 """
 
 from __future__ import annotations
@@ -51,10 +52,13 @@ class BankedAgent(ShippedAgent):
         return self.controller.info
 
     def reset(self, *bench: Any) -> None:
-        """Start a new episode at the next observation; ``reset(load_N, config)`` (the project's episode loop)
-        gives the bench's load and config for its bank."""
+        """Start a new episode at the next observation; ``reset(load_N, config)`` (the project's episode loop) gives
+        the bench's load and config, and the bank's hypotheses are started here, before the test (tens of ms: a
+        bench's setup, not a period's work)."""
         super().reset()
-        self._bench = (float(bench[0]), bench[1]) if len(bench) == 2 and bench[1] is not None else None
+        self._prepared = len(bench) == 2 and bench[1] is not None
+        if self._prepared:
+            self.controller.reset(float(bench[0]), bench[1])
 
     def predict(self, observation: np.ndarray, state: Any = None, episode_start: Any = None,
                 deterministic: bool = True) -> tuple[np.ndarray, Any]:
@@ -73,16 +77,14 @@ class BankedAgent(ShippedAgent):
         flagged = episode_start is not None and bool(np.any(np.asarray(episode_start, dtype=bool)))
         started = self._last_time is None or flagged or (now is not None and now <= self._last_time)
         self._last_time = now if now is not None else -math.inf   # (no clock: only reset and the flag start one)
-        if started:
+        if started and not self._prepared:
             self.controller.reset(*self._episode_bench(obs))
+        self._prepared = False
         return self.controller.act(obs), None
 
     def _episode_bench(self, obs: np.ndarray) -> tuple[float, Any]:
-        """(load, config) of the episode starting at ``obs``: :meth:`reset`'s if given, else the observation's load
-        on the card's bench."""
-        if self._bench is not None:
-            bench, self._bench = self._bench, None
-            return bench
+        """(load, config) of an episode starting at ``obs`` without :meth:`reset`'s: the observation's load on the
+        card's bench."""
         if self._load_index is None:
             raise ShippedAgentError(f"shipped agent {self.name!r}: the observation has no LOAD field; call "
                                     "reset(load_N, config) before each episode")
