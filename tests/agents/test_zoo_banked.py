@@ -1,6 +1,6 @@
 """A shipped ``banked`` agent (:mod:`agents.zoo.banked_agent`): shipped from a bank-trained run, it acts bitwise as the
-run's own ``banked:RUN`` controller through the episode loop; SB3's predict loop (``episode_start`` flags, no
-``reset``) runs an episode from the observation's load and repeats itself; a new episode restarts its bank; a batch,
+run's own ``banked:RUN`` controller through the episode loop; without ``reset`` its bank starts at the observation's
+load and a new episode restarts it; a batch,
 a state, a stochastic call and a card without its bank size are refused by name; ``evaluate`` on the shipped copy
 reproduces the card's figures."""
 
@@ -69,22 +69,20 @@ def test_the_shipped_agent_acts_bitwise_as_its_runs_banked_controller(pinned):
     assert set(agent.info) == {"decision_cpu_s", "period_cpu_s"}
 
 
-def test_sb3s_predict_loop_runs_from_the_observations_load_and_a_new_episode_restarts_the_bank(pinned):
+def test_without_reset_the_bank_starts_at_the_observations_load_and_a_new_episode_restarts_it(pinned):
+    """SB3's habit, ``agent(obs)`` with no ``reset(load_N, config)``: the bank starts at the observation's LOAD on the
+    card's bench, and the clock going back starts a new bank (the SB3 loop with ``episode_start`` flags:
+    test_zoo_sb3_contract.py, on the shipped ``ppo_banked``)."""
     agent = load_shipped(NAME, SEED)
     env = agent.make_env()
     obs, _ = env.reset(seed=2)
-    observations, actions, episode_start, state = [], [], np.ones(1, dtype=bool), None
-    while True:
-        action, state = agent.predict(obs, state=state, episode_start=episode_start, deterministic=True)
-        assert state is None
+    observations, actions = [], []
+    for _ in range(8):
         observations.append(obs)
-        actions.append(action)
-        obs, _, terminated, truncated, _ = env.step(action)
-        episode_start = np.array([terminated or truncated])
-        if terminated or truncated:
-            break
+        actions.append(agent(obs))
+        obs, *_ = env.step(actions[-1])
     bank = agent.controller.bank
-    assert bank.load_N == float(observations[0][agent._load_index]) and len(bank.history) == len(actions) - 1
+    assert bank.load_N == float(observations[0][agent._load_index]) and len(bank.history) == 7
     assert [agent(o).tobytes() for o in observations] == [a.tobytes() for a in actions]   # the clock went back
     agent(observations[0])   # and once more from the start: a new bank, weighed by nothing yet
     assert agent.controller.deviation_bank.periods == 1 and not agent.controller.bank.history

@@ -26,9 +26,12 @@ def _observations(env, n: int, seed: int = 0) -> list[np.ndarray]:
 
 
 @pytest.mark.slow
-def test_an_episode_in_sb3s_recurrent_loop_equals_the_agents_own_memory(agent):
+@pytest.mark.parametrize("name", ["ppo_robust", "ppo_recurrent", "ppo_banked"])
+def test_an_episode_in_sb3s_recurrent_loop_equals_the_agents_own_memory(name):
     """The loop of SB3's docs (RecurrentPPO's: state and episode_start passed back) on gym.make(card env) runs a
-    whole episode; its actions are bitwise the actions of agent(obs), the agent keeping its memory itself."""
+    whole episode; its actions are bitwise the actions of agent(obs), the agent keeping its memory itself (a banked
+    agent returns state None and starts its bank at the observation's load)."""
+    agent = load_shipped(name, 0)
     env = gym.make(agent.card["env_id"], **agent.card["env_kwargs"])
     agent.check_env(env)
     obs, _ = env.reset(seed=3)

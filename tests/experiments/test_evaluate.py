@@ -148,36 +148,19 @@ def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, name, bench_set):
 
 @pytest.mark.slow
 @pytest.mark.long
-def test_the_shipped_recurrent_ppo_reproduces_its_card_seed_by_seed(tmp_path):
-    """The repository's shipped LSTM policy (agents/zoo/ppo_recurrent): one training seed on the card's 200
-    held-out benches gives that seed's error and score on the card to float32 precision (an episode's noise seed is
-    its bench index, so the evaluation is deterministic on one machine; on another CPU it is not to the last bit:
-    on one with AVX-512 and AMX, 2026-11-27, the error came out 0.8030794879 mm against the card's 0.8030794800,
-    1e-8 relative, likely torch's float32 kernels chosen by the instruction set, while a changed policy, bench or
-    success count moves it by far more than 1e-6); one seed of five keeps the test to about a fifth of the full
-    card's time."""
-    card = zoo.read_card("ppo_recurrent")
+@pytest.mark.parametrize("name", ["ppo_recurrent", "ppo_banked"])
+def test_the_shipped_recurrent_and_banked_ppo_reproduce_their_cards_seed_by_seed(tmp_path, name):
+    """The repository's shipped LSTM policy (agents/zoo/ppo_recurrent) and its PPO with a specimen bank beside it
+    (agents/zoo/ppo_banked, issue 34's real-time candidate): one training seed on the card's 200 held-out benches
+    gives that seed's error and score on the card to float32 precision (an episode's noise seed is its bench index,
+    so the evaluation is deterministic on one machine; on another CPU it is not to the last bit: on one with AVX-512
+    and AMX, 2026-11-27, the recurrent error came out 0.8030794879 mm against the card's 0.8030794800, 1e-8
+    relative, likely torch's float32 kernels chosen by the instruction set, while a changed policy, bench or success
+    count moves it by far more than 1e-6); one seed keeps the test to a fraction of the full card's time."""
+    card = zoo.read_card(name)
     want = card["figures"]["heldout"]
     seed = card["seeds"][-1]
-    assert cli.main(["evaluate", "--controller", "ppo_recurrent", "--benches", "heldout", "--n",
-                     str(want["n_benches"]), "--seeds", str(seed), "--out", str(tmp_path)]) == 0
-    got = json.loads((tmp_path / "heldout.json").read_text())
-    assert got["n_episodes"] == want["n_benches"]
-    assert got["mimicry_error_mm"] == pytest.approx(want["seed_errors_mm"][-1], rel=1e-6)
-    assert got["score"] == pytest.approx(want["seed_scores_mm"][-1], rel=1e-6)
-
-
-@pytest.mark.slow
-@pytest.mark.long
-def test_the_shipped_banked_ppo_reproduces_its_card_seed_by_seed(tmp_path):
-    """The shipped PPO with a specimen bank beside it (agents/zoo/ppo_banked, issue 34's real-time candidate): one
-    training seed on the card's 200 held-out benches gives that seed's error and score on the card (its bank is
-    numpy and numba float64 arithmetic, its policy a numpy forward pass: deterministic on one machine; the tolerance
-    as the recurrent agent's above, for another CPU's kernels)."""
-    card = zoo.read_card("ppo_banked")
-    want = card["figures"]["heldout"]
-    seed = card["seeds"][-1]
-    assert cli.main(["evaluate", "--controller", "ppo_banked", "--benches", "heldout", "--n",
+    assert cli.main(["evaluate", "--controller", name, "--benches", "heldout", "--n",
                      str(want["n_benches"]), "--seeds", str(seed), "--out", str(tmp_path)]) == 0
     got = json.loads((tmp_path / "heldout.json").read_text())
     assert got["n_episodes"] == want["n_benches"]
