@@ -2,11 +2,11 @@
 :mod:`agents.banked_deviation` (``banked:RUN``) from the zoo's data files.
 
 Each period the bank (:class:`agents.deviation_bank.DeviationBank`: ``mpc``'s bank of the card's ``bank_size``
-hypotheses, no resample-move, weights tempered to an effective size of 4) is weighed by the new observation; its estimate of the block's deviation from its case-C reference (12
-values) is appended to the frame stack; the policy (a flat MLP, run in numpy: :class:`agents.banked_deviation.
-NumpyActor`) decides; then the bank advances every hypothesis by the command decided (on a bench: after the command
-is sent, in the period's slack). ``agent.info`` holds the last period's thread CPU to the decision
-(``decision_cpu_s``) and in all (``period_cpu_s``).
+hypotheses, no resample-move, weights tempered to an effective size of 4) is weighed by the new observation; its
+estimate of the block's deviation from its case-C reference (12 values) is appended to the frame stack; the policy
+(a flat MLP, run in numpy: :class:`agents.banked_deviation.NumpyActor`) decides; then the bank advances every
+hypothesis by the command decided (on a bench: after the command is sent, in the period's slack). ``agent.info``
+holds the last period's thread CPU to the decision (``decision_cpu_s``) and in all (``period_cpu_s``).
 
 **Memory.** The frame stack and the bank are one episode's, kept by the agent: ``predict`` takes one observation at
 a time (not a batch: a bank is one bench's) and returns ``state`` None. An episode starts at :meth:`reset`, at an
