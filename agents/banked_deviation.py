@@ -37,14 +37,14 @@ import numpy as np
 
 from envs.core import REFERENCE_DEVIATION_DIM
 
-from .deviation_bank import BANK_SIZE, MIN_ESS, DeviationBank
+from .deviation_bank import BANK_SIZE, MIN_ESS, DeviationBank, bank_settings
 from .mpc import MPCController
 from .robust_policy import DeviationPolicy, RobustPolicy, load_policy, run_config
 
 # The settings ``banked:RUN`` runs with (chosen on the judge draws: docs/notes/student-experiments.md, finding 13b;
 # the bank's own, BANK_SIZE and MIN_ESS, are agents.deviation_bank's, which the in-loop training shares)
 START_PERIODS = 0
-__all__ = ["BANK_SIZE", "MIN_ESS", "START_PERIODS", "BankedDeviationPolicy", "NumpyActor"]
+__all__ = ["BANK_SIZE", "MIN_ESS", "START_PERIODS", "BankedDeviationPolicy", "NumpyActor", "run_bank_size"]
 
 
 _ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0)}
@@ -114,18 +114,16 @@ class BankedDeviationPolicy(RobustPolicy):
         return self.deviation_bank.min_ess
 
     @classmethod
+    def with_bank(cls, policy: DeviationPolicy, bank_size: int, **options: Any) -> BankedDeviationPolicy:
+        """``policy`` on a bank of ``bank_size`` hypotheses (:func:`agents.deviation_bank.bank_settings`)."""
+        return cls(policy, bank_settings(int(bank_size)), **options)
+
+    @classmethod
     def load(cls, run_dir: str | Path, bank_size: int | None = None, name: str = "ppo_deviation_banked",
              **options: Any) -> BankedDeviationPolicy:
-        """The reference-deviation run in ``run_dir`` (UNPICKLES it: load only yours) on a bank of ``bank_size``
-        (``mpc``'s other settings, no refinement): by default the size the run was trained on
-        (``env.reference_deviation_bank``, :mod:`agents.deviation_bank`), else :data:`BANK_SIZE`."""
-        from .train_config import deviation_bank_of
-        trained = deviation_bank_of(run_config(run_dir)) if (Path(run_dir) / "config.json").exists() else None
-        if bank_size is not None and trained is not None and int(bank_size) != trained:
-            raise ValueError(f"bank_size {bank_size}: run {run_dir} was trained on a bank of {trained} "
-                             "(env.reference_deviation_bank)")
-        size = int(bank_size if bank_size is not None else trained if trained is not None else BANK_SIZE)
-        return cls(load_policy(run_dir), MPCController(bank_size=size, refine_every=0), name=name, **options)
+        """The reference-deviation run in ``run_dir`` (UNPICKLES it: load only yours) on a bank of
+        :func:`run_bank_size` hypotheses."""
+        return cls.with_bank(load_policy(run_dir), run_bank_size(run_dir, bank_size), name=name, **options)
 
     def reset(self, load_N: float, config: Any) -> None:
         super().reset(load_N, config)
@@ -153,3 +151,15 @@ class BankedDeviationPolicy(RobustPolicy):
         self.deviation_bank.advance(action)   # the command the bench runs (float32, exactly)
         self.info = {"decision_cpu_s": decided - started, "period_cpu_s": time.thread_time() - started}
         return action
+
+
+def run_bank_size(run_dir: str | Path, bank_size: int | None = None) -> int:
+    """The bank a reference-deviation run is driven on: ``bank_size`` if given, by default the size the run was
+    trained on (``env.reference_deviation_bank``, :mod:`agents.deviation_bank`), else :data:`BANK_SIZE`; a
+    ``bank_size`` other than the trained one is refused."""
+    from .train_config import deviation_bank_of
+    trained = deviation_bank_of(run_config(run_dir)) if (Path(run_dir) / "config.json").exists() else None
+    if bank_size is not None and trained is not None and int(bank_size) != trained:
+        raise ValueError(f"bank_size {bank_size}: run {run_dir} was trained on a bank of {trained} "
+                         "(env.reference_deviation_bank)")
+    return int(bank_size if bank_size is not None else trained if trained is not None else BANK_SIZE)

@@ -26,6 +26,13 @@ BANK_SIZE = 16
 MIN_ESS = 4.0
 
 
+def bank_settings(bank_size: int = BANK_SIZE) -> MPCController:
+    """The bank's settings: ``mpc``'s, with ``bank_size`` hypotheses and no refinement."""
+    if isinstance(bank_size, bool) or not isinstance(bank_size, int) or bank_size < 1:
+        raise ValueError(f"bank_size must be a positive integer, got {bank_size!r}")
+    return MPCController(bank_size=bank_size, refine_every=0)
+
+
 class DeviationBank:
     """One episode's specimen-bank estimate of the reference deviation (module docstring). ``settings``: the
     ``MPCController`` whose bank is built (its size, prior, seed); ``moves`` True lets the bank resample-move as
@@ -40,10 +47,8 @@ class DeviationBank:
 
     @classmethod
     def of_size(cls, bank_size: int = BANK_SIZE, **options: Any) -> DeviationBank:
-        """``mpc``'s other settings, ``bank_size`` hypotheses, no refinement."""
-        if isinstance(bank_size, bool) or not isinstance(bank_size, int) or bank_size < 1:
-            raise ValueError(f"bank_size must be a positive integer, got {bank_size!r}")
-        return cls(MPCController(bank_size=bank_size, refine_every=0), **options)
+        """:func:`bank_settings` of ``bank_size``."""
+        return cls(bank_settings(bank_size), **options)
 
     def reset(self, load_N: float, config: Any) -> None:
         """A new episode at ``load_N`` on the bench of ``config`` (a ``ShearConfig``)."""

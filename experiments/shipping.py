@@ -99,9 +99,7 @@ def _original(card: dict[str, Any], model: Any, normalizer: Any, frames: int) ->
         return RecurrentPolicy(model, normalizer)
     if card["algo"] == "banked":
         from agents.banked_deviation import BankedDeviationPolicy
-        from agents.mpc import MPCController
-        return BankedDeviationPolicy(DeviationPolicy(model, normalizer, frames=frames),
-                                     MPCController(bank_size=card["bank_size"], refine_every=0))
+        return BankedDeviationPolicy.with_bank(DeviationPolicy(model, normalizer, frames=frames), card["bank_size"])
     return RobustPolicy(model, normalizer, frames=frames)
 
 
@@ -143,13 +141,10 @@ def run_hyperparameters(runs: Sequence[Path]) -> dict[str, Any]:
 
 
 def bank_size(runs: Sequence[Path]) -> int:
-    """The specimen bank a ``banked`` agent runs: what its runs had in their training loop
-    (``env.reference_deviation_bank``), else ``banked:RUN``'s default (a run trained on the true deviation), as
-    :meth:`agents.banked_deviation.BankedDeviationPolicy.load` chooses; the runs must agree."""
-    from agents.banked_deviation import BANK_SIZE
-    from agents.robust_policy import run_config
-    from agents.train_config import deviation_bank_of
-    sizes = {deviation_bank_of(run_config(run)) or BANK_SIZE for run in runs}
+    """The specimen bank a ``banked`` agent runs: each run's as ``banked:RUN`` drives it
+    (:func:`agents.banked_deviation.run_bank_size`); the runs must agree."""
+    from agents.banked_deviation import run_bank_size
+    sizes = {run_bank_size(run) for run in runs}
     if len(sizes) != 1:
         raise ValueError(f"runs {[str(r) for r in runs]} were trained with different specimen banks: {sorted(sizes)}")
     return sizes.pop()

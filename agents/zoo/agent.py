@@ -148,9 +148,10 @@ class ShippedAgent(Controller):
         self.recurrent = card["algo"] == "recurrent"
         self.frames = 1 if self.recurrent else int(card["observation"]["frames"])
         offsets = np.cumsum([0] + [size for _, size in card["observation"]["fields"]])
-        names = [name for name, _ in card["observation"]["fields"]]
         self.obs_size = int(offsets[-1])
-        self._time_index = int(offsets[names.index("TIME")]) if "TIME" in names else None
+        # where each field of one observation starts (a frame's TIME tells a new episode; a banked agent's LOAD)
+        self.field_offsets = {name: int(start) for (name, _), start in zip(card["observation"]["fields"], offsets)}
+        self._time_index = self.field_offsets.get("TIME")
         self.reset()
 
     # -- SB3's contract ---------------------------------------------------------------------------------------

@@ -33,18 +33,14 @@ class BankedAgent(ShippedAgent):
 
     def __init__(self, card: dict[str, Any], seed: int, policy: Any, normalizer: ObsNormalizer):
         from ..banked_deviation import BankedDeviationPolicy
-        from ..mpc import MPCController
         from ..robust_policy import DeviationPolicy
         model = SimpleNamespace(policy=policy, action_space=policy.action_space)   # what NumpyActor reads
         frames = int(card["observation"]["frames"])
-        self.controller = BankedDeviationPolicy(DeviationPolicy(model, normalizer, card["name"], frames),
-                                                MPCController(bank_size=card["bank_size"], refine_every=0),
-                                                name=card["name"])
+        self.controller = BankedDeviationPolicy.with_bank(DeviationPolicy(model, normalizer, card["name"], frames),
+                                                          card["bank_size"], name=card["name"])
         self._card_config: Any = None
         super().__init__(card, seed, policy, normalizer)
-        names = [name for name, _ in card["observation"]["fields"]]
-        offsets = np.cumsum([0] + [size for _, size in card["observation"]["fields"]])
-        self._load_index = int(offsets[names.index("LOAD")]) if "LOAD" in names else None
+        self._load_index = self.field_offsets.get("LOAD")
 
     @property
     def info(self) -> dict[str, float]:
