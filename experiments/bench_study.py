@@ -36,7 +36,7 @@ from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 
 from . import tables
 from .designs import DESIGNS, Design
-from .episodes import EpisodeBatch, outcome_table, run_batch
+from .episodes import BatchPart, EpisodeBatch, benches_of, outcome_table, run_batch, run_part
 from .evaluate import MODEL_BASED, SCRIPTED, runs_in_real_time, scripted_batch
 from .stats import indistinguishable, row_stats
 
@@ -55,6 +55,9 @@ DESIGN_PPO_TIMESTEPS = 1_000_000
 # Benches per design for the model-based controllers (limit: ~10 s of CPU per episode; 14 designs x 200 benches would
 # take ~8 h on 2 cores); the default bench's rows use all N_HELDOUT.
 N_MODEL_BASED = 50
+# Benches per checkpointed part of a model-based batch (mpc, limit: ~10 s of CPU per episode; a whole 200-bench batch
+# was one task of up to an hour, lost whenever the study was interrupted).
+PART_BENCHES = 10
 SCRIPTED_SEEDS = (0, 1, 2)
 PI_GRID = [(kp, ki) for kp in (-20.0, -5.0, -1.0, 1.0, 5.0, 20.0, 50.0) for ki in (0.0, 50.0, 200.0)]
 ADAPTIVE_GRID = (-5e5, -1e5, -2e4, 2e4, 1e5, 5e5)
@@ -112,11 +115,39 @@ def evaluation_batches(pi: dict[str, float], adaptive: dict[str, float], n: int,
     return batches
 
 
-def _checkpoint(out_dir: Path, batches: Sequence[EpisodeBatch], rerun: Sequence[str]) -> TaskCheckpoint:
-    """The study's task store, with the stored batches of the controllers named in ``rerun`` removed."""
+def run_batches(batches: Sequence[EpisodeBatch], out_dir: Path, executor: ExecutorLike, desc: str,
+                rerun: Sequence[str] = (), in_parts: Sequence[str] = tuple(MODEL_BASED),
+                part_benches: int = PART_BENCHES) -> list[list[Any]]:
+    """Each batch's outcomes, every task checkpointed in the study's task store: the batches of the controllers named
+    in ``in_parts`` (seconds of planning per episode) run as parts of ``part_benches`` benches, the others whole (as
+    they always did, so that their stored results keep their keys). The stored results of the controllers named in
+    ``rerun`` are removed first (their code changed)."""
     checkpoint = TaskCheckpoint(out_dir / "tasks")
-    checkpoint.forget(run_batch, [b for b in batches if b.label.split("|")[-1] in rerun])
-    return checkpoint
+    redo = [b.label.split("|")[-1] in rerun for b in batches]
+    checkpoint.forget(run_batch, [b for b, r in zip(batches, redo) if r])
+    # (a model-based batch stored whole by an earlier version of the study is kept whole)
+    whole = [i for i, b in enumerate(batches)
+             if b.controller not in in_parts or checkpoint.load(checkpoint.key(run_batch, b))[0]]
+    parts = []
+    kept_whole = set(whole)
+    for i, b in enumerate(batches):
+        if i not in kept_whole:
+            count = len(benches_of(b))
+            parts += [(i, BatchPart(b, start, min(start + part_benches, count)))
+                      for start in range(0, count, part_benches)]
+    checkpoint.forget(run_part, [p for i, p in parts if redo[i]])
+    from tqdm import tqdm
+    with tqdm(total=len(whole) + len(parts), desc=desc, unit="task") as bar:
+        done = run_tasks(run_batch, [batches[i] for i in whole], executor=executor, progress=bar,
+                         checkpoint=checkpoint)
+        done_parts = run_tasks(run_part, [p for _, p in parts], executor=executor, progress=bar,
+                               checkpoint=checkpoint)
+    results: list[list[Any]] = [[] for _ in batches]
+    for i, outcomes in zip(whole, done):
+        results[i] = outcomes
+    for (i, _), outcomes in zip(parts, done_parts):
+        results[i] = results[i] + list(outcomes)
+    return results
 
 
 def evaluate_default_bench(out_dir: Path, pi, adaptive, n: int, runs, scripted_seeds, in_sample_run,
@@ -124,8 +155,7 @@ def evaluate_default_bench(out_dir: Path, pi, adaptive, n: int, runs, scripted_s
                            rerun: Sequence[str] = ()) -> list[dict[str, Any]]:
     """Step 3: the held-out tables (CSV, episodes CSV, plot); returns the rows."""
     batches = evaluation_batches(pi, adaptive, n, runs, scripted_seeds, in_sample_run, model_based)
-    results = run_tasks(run_batch, batches, executor=executor, progress=True, desc="held-out and stress evaluation",
-                        checkpoint=_checkpoint(out_dir, batches, rerun))
+    results = run_batches(batches, out_dir, executor, "held-out and stress evaluation", rerun)
     grouped = _rows(batches, results, lambda b: (b.label, b.bench_set))
     rows = [{"controller": c, "bench_set": s, **g["stats"], "_outcomes": g["outcomes"]}
             for (c, s), g in grouped.items()]
@@ -158,8 +188,7 @@ def design_sweep(out_dir: Path, pi, adaptive, n: int, designs: Sequence[Design],
     for (_, design, _, seed), run in zip(tasks, design_runs):
         batches.append(EpisodeBatch.of(PPOSpec(str(run["run_dir"])), f"{design.name}|ppo_robust", "heldout", n,
                                        design.tip_friction_deg, kwargs_of[design.name], seed))
-    results = run_tasks(run_batch, batches, executor=executor, progress=True, desc="design sweep",
-                        checkpoint=_checkpoint(out_dir, batches, rerun))
+    results = run_batches(batches, out_dir, executor, "design sweep", rerun)
     grouped = _rows(batches, results, lambda b: b.label)
     rows = []
     for label, g in grouped.items():

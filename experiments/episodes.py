@@ -72,17 +72,34 @@ def controller_of(batch: EpisodeBatch) -> tuple[Any, dict[str, Any], bool]:
     return built.controller, built.env_kwargs, built.learned
 
 
-def run_batch(batch: EpisodeBatch) -> list[Outcome]:
-    """The batch's episodes; ``information_bound``'s outcome carries the bound, not its episode's error."""
+@dataclass(frozen=True)
+class BatchPart:
+    """Episodes ``start`` to ``stop - 1`` of ``batch`` (numbered as in the whole batch, so their sensor noise is the
+    whole batch's): a model-based batch costs seconds of planning per episode, and the bench study checkpoints it
+    part by part so that an interrupted run loses at most one part."""
+
+    batch: EpisodeBatch
+    start: int
+    stop: int
+
+
+def run_part(part: BatchPart) -> list[Outcome]:
+    """The part's episodes; ``information_bound``'s outcome carries the bound, not its episode's error."""
+    batch = part.batch
     controller, env_kwargs, learned = controller_of(batch)
     out = []
-    for i, b in enumerate(benches_of(batch)):
+    for i, b in enumerate(benches_of(batch)[part.start:part.stop], start=part.start):
         played = run_episode(controller, b, env_kwargs=env_kwargs, seed=i if learned else noise_seed(i, batch.seed),
                              bench_set=batch.bench_set, index=i)
         if isinstance(controller, InformationBound):   # (the tip the design knows is not an unknown)
             played = controller.outcome(played, b, env_kwargs, batch.tip_friction_deg)
         out.append(played)
     return out
+
+
+def run_batch(batch: EpisodeBatch) -> list[Outcome]:
+    """The batch's episodes (:func:`run_part` of all of them)."""
+    return run_part(BatchPart(batch, 0, len(benches_of(batch))))
 
 
 def outcome_table(batches: list[EpisodeBatch], results: list[list[Outcome]]) -> tuple[np.ndarray, np.ndarray]:

@@ -12,6 +12,9 @@ from agents import bench_controllers
 from agents.limit import LimitController
 from agents.mpc import MPCController
 from experiments import bench_study as bs
+from experiments.episodes import run_batch
+from experiments.evaluate import scripted_batch
+from triplanar.executor import TaskCheckpoint
 
 
 def _row(design, demand, controller, success, error, low, high):
@@ -97,8 +100,9 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     stored = {p.name: p.stat().st_mtime_ns for p in (tmp_path / "tasks").glob("*.npz")}
     bs.run_bench_study(tmp_path, **kwargs, rerun=["steel_tip", "mpc"])   # their code changed: run them again
     redone = [p.name for p in (tmp_path / "tasks").glob("*.npz") if p.stat().st_mtime_ns != stored.get(p.name)]
-    # steel_tip: 3 bench sets x 2 noise seeds + the design's 2; mpc: 3 bench sets + the design's 1
-    assert len(redone) == 12
+    # steel_tip: 3 bench sets x 2 noise seeds + the design's 2; mpc, in parts of PART_BENCHES benches: the nominal
+    # bench's 12 loads in 2, held-out and stress 1 each + the design's 1
+    assert bs.PART_BENCHES == 10 and len(redone) == 8 + 5
     assert (tmp_path / "heldout.csv").read_text() == table   # the same code gives the same rows
 
 
@@ -146,3 +150,26 @@ def test_the_references_are_reported_per_design_and_only_real_time_controllers_r
            "the limit (mpc, not real time: 0.60 mm)" in text
     assert "b: limit 0.30 mm (score, 50 benches); bound 0.45 mm (score, 50 benches); best real-time controller " \
            "ppo_robust 0.90 mm = 3.00 x the limit, 2.00 x the bound (mpc, not real time: 0.50 mm)" in text
+
+
+def test_model_based_batches_run_in_checkpointed_parts_with_the_whole_batch_outcomes(tmp_path, monkeypatch):
+    # A model-based batch is checkpointed part by part (an interrupted study loses at most a part); its parts
+    # together are the whole batch, episode for episode (numbered, seeded and planned as in one task).
+    monkeypatch.setattr(bench_controllers, "MPCController",
+                        functools.partial(MPCController, horizon=16, samples=24, iterations=2, refine_every=0))
+    batches = [scripted_batch("mpc", None, "heldout", 3, 0), scripted_batch("steel_tip", None, "heldout", 3, 0)]
+    whole = [run_batch(b) for b in batches]
+    in_parts = bs.run_batches(batches, tmp_path, "serial", "test", part_benches=2)
+    assert [repr(r) for r in in_parts] == [repr(r) for r in whole]
+    stored = sorted((tmp_path / "tasks").glob("*.npz"))
+    assert len(stored) == 3   # mpc's benches 0-1 and 2, steel_tip whole
+    stored[0].unlink()   # an interruption lost one task: it alone runs again
+    kept = {p.name: p.stat().st_mtime_ns for p in stored[1:]}
+    assert [repr(r) for r in bs.run_batches(batches, tmp_path, "serial", "test", part_benches=2)] == \
+        [repr(r) for r in whole]
+    assert all((tmp_path / "tasks" / name).stat().st_mtime_ns == t for name, t in kept.items())
+    # a model-based batch an earlier study stored whole is read whole, not run again in parts
+    earlier = TaskCheckpoint(tmp_path / "earlier" / "tasks")
+    earlier.save(earlier.key(run_batch, batches[0]), whole[0])
+    assert repr(bs.run_batches(batches[:1], tmp_path / "earlier", "serial", "test", part_benches=2)) == repr(whole[:1])
+    assert len(list((tmp_path / "earlier" / "tasks").glob("*.npz"))) == 1
