@@ -227,7 +227,8 @@ class TaskCheckpoint:
     written (atomically) as ``<directory>/<key>.npz`` when its task finishes, the key being a hash of the
     function and the task. The files are plain data (:mod:`triplanar.plain_data`: JSON and arrays, never pickle),
     so a file planted there can at worst stand for a result, never run code; a result that plain data cannot hold
-    is not kept, and a file that does not load (a damaged write) is ignored and its task run again."""
+    is not kept, and a file that does not load (a damaged write) is ignored and its task run again (the new result
+    replaces it)."""
 
     def __init__(self, directory: str | os.PathLike[str]):
         self.directory = Path(directory)
@@ -248,8 +249,10 @@ class TaskCheckpoint:
             return True, plain_data.load(path)
         except FileNotFoundError:
             return False, None
-        except plain_data.PlainDataError:  # damaged: run the task again
-            path.unlink(missing_ok=True)
+        except plain_data.PlainDataError:
+            # Damaged, or naming a dataclass whose module this process has not imported: the task runs again and
+            # its save replaces the file; it is not deleted here, so that a reader lacking a module (a script
+            # looking at a study's store) never destroys a result the study itself can read.
             return False, None
 
     def save(self, key: str | None, result: Any) -> None:

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import math
 import pickle
+import sys
 from pathlib import Path
 
 import numpy as np
+
 import pytest
 
 from triplanar import plain_data
@@ -83,6 +85,20 @@ def test_planted_pickles_in_a_task_checkpoint_never_run(tmp_path) -> None:
     torn = partial / f"{checkpoint.key(abs, 2)}.npz"
     torn.write_bytes(torn.read_bytes()[:100])   # a torn write: the task runs again
     assert run_tasks(abs, tasks, "serial", checkpoint=checkpoint) == [1, 2, 3]
+    assert checkpoint.load(checkpoint.key(abs, 2)) == (True, 2)   # and its result replaced the torn file
+
+
+def test_a_checkpoint_file_naming_a_module_not_imported_is_left_in_place(tmp_path, monkeypatch):
+    # A reader that has not imported the module of a stored dataclass (a script looking at a study's store) sees
+    # the task as not stored; the file stays for the process that can read it.
+    checkpoint = TaskCheckpoint(tmp_path)
+    key = checkpoint.key(abs, 1)
+    checkpoint.save(key, outcome())
+    monkeypatch.delitem(sys.modules, FitOutcome.__module__)
+    assert checkpoint.load(key) == (False, None)
+    assert (tmp_path / f"{key}.npz").exists()
+    monkeypatch.undo()
+    assert checkpoint.load(key)[0] is True
 
 
 def test_a_field_added_since_the_file_was_written_reads_as_its_default() -> None:
