@@ -173,3 +173,15 @@ def test_model_based_batches_run_in_checkpointed_parts_with_the_whole_batch_outc
     earlier.save(earlier.key(run_batch, batches[0]), whole[0])
     assert repr(bs.run_batches(batches[:1], tmp_path / "earlier", "serial", "test", part_benches=2)) == repr(whole[:1])
     assert len(list((tmp_path / "earlier" / "tasks").glob("*.npz"))) == 1
+
+
+def test_the_study_command_runs_the_study_at_its_own_defaults():
+    # `triplanar study --bench` declares its options without importing experiments; its defaults must be the
+    # study's (the command once left information_bound, the tables' bound column, out of every run).
+    from triplanar.cli import build_parser
+
+    from experiments.evaluate import MODEL_BASED
+    args = build_parser().parse_args(["study", "--bench", "--out", "x"])
+    assert args.model_based == list(MODEL_BASED)
+    assert (args.design_seeds, args.design_timesteps, args.n_heldout, args.n_model_based) == \
+        (list(bs.DESIGN_SEEDS), bs.DESIGN_PPO_TIMESTEPS, bs.N_HELDOUT, bs.N_MODEL_BASED)

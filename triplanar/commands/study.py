@@ -14,6 +14,8 @@ from . import require
 from .train import positive_int
 
 NAME = "study"
+# experiments.evaluate.MODEL_BASED's names (a test keeps them equal; experiments is not imported to build the CLI)
+MODEL_BASED = ("mpc", "limit", "information_bound")
 HELP = "actuator design study: train PPO, evaluate every controller at the 12 loads, write tables, plots, report"
 
 
@@ -48,9 +50,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with --bench: held-out benches, and as many stress benches (default 200)")
     parser.add_argument("--in-sample-run", help="with --bench: a finished v0 PPO run directory (OUT/seed_S of "
                         "`triplanar train`) to evaluate on the held-out benches as ppo_in_sample")
-    parser.add_argument("--model-based", nargs="*", default=["mpc", "limit"], choices=["mpc", "limit"],
-                        help="with --bench: the model-based controllers to evaluate (default: mpc limit; give the option "
-                             "alone to leave them out)")
+    parser.add_argument("--model-based", nargs="*", default=list(MODEL_BASED), choices=list(MODEL_BASED),
+                        help="with --bench: the model-based controllers and references to evaluate (default: "
+                             f"{' '.join(MODEL_BASED)}; give the option alone to leave them out)")
     parser.add_argument("--n-model-based", type=positive_int, default=50,
                         help="with --bench: benches per design of the sweep for the model-based controllers (default "
                              "50: limit costs ~10 s of CPU per episode)")
