@@ -91,13 +91,17 @@ class BankedDeviationPolicy(RobustPolicy):
     needs_env = False
 
     def __init__(self, policy: DeviationPolicy, bank_settings: MPCController, *, moves: bool = False,
-                 min_ess: float = MIN_ESS, start_periods: int = START_PERIODS, name: str = "ppo_deviation_banked"):
+                 min_ess: float = MIN_ESS, start_periods: int = START_PERIODS, name: str = "ppo_deviation_banked",
+                 estimator: Any = None):
         if not isinstance(policy, DeviationPolicy):
             raise ValueError(f"policy {policy.name!r}: not a reference_deviation run (its config.json has no "
                              "env.reference_deviation), so it has no deviation input to estimate")
         if isinstance(start_periods, bool) or not isinstance(start_periods, int) or start_periods < 0:
             raise ValueError(f"start_periods must be a non-negative integer, got {start_periods!r}")
-        self.deviation_bank = DeviationBank(bank_settings, moves=moves, min_ess=min_ess)
+        # ``estimator``: another estimate with DeviationBank's interface (reset, estimate, advance, periods, bank,
+        # min_ess), e.g. experiments.gn_tracker's; by default the bank itself
+        self.deviation_bank = estimator if estimator is not None else DeviationBank(bank_settings, moves=moves,
+                                                                                     min_ess=min_ess)
         super().__init__(policy.model, policy.normalizer, name, policy.n_frames)
         self.actor = NumpyActor(policy.model) if hasattr(policy.model, "policy") else None   # (a test's stand-in)
         self.bank_settings, self.start_periods = bank_settings, start_periods

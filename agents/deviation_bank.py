@@ -68,3 +68,10 @@ class DeviationBank:
     def advance(self, action: np.ndarray) -> None:
         """Every hypothesis advanced by ``action``, the command the bench runs this period."""
         self.bank.predict(np.asarray(action, dtype=np.float64))
+
+
+def estimate_error_mm(estimate: np.ndarray, truth: np.ndarray) -> float:
+    """An estimate's error against the true deviation (:func:`envs.core.reference_deviation`'s 12 values): the mean
+    over the three contact points of the x-z distance between their first six values."""
+    d = (np.asarray(estimate)[:6] - np.asarray(truth)[:6]).reshape(3, 2)
+    return float(np.mean(np.hypot(d[:, 0], d[:, 1])))

@@ -245,6 +245,23 @@ class SpecimenBank:
         self._obs[:] = obs
         return self._env.get_state(), hypothesis_of(bench)
 
+    def start_hypothesis(self, theta: np.ndarray) -> tuple[BenchState | None, np.ndarray]:
+        """The start of the hypothesis vector ``theta`` (:func:`hypothesis_of`'s layout) on this episode's bench and
+        load, and its state observation (None and the last one if friction holds it at rest)."""
+        state, _ = self._start(self._bench_of(theta))
+        return state, self._obs.copy()
+
+    def step_hypothesis(self, state: BenchState, raw: np.ndarray) -> tuple[bool, np.ndarray]:
+        """One period of a hypothesis's ``state`` (run in place) under command ``raw``: whether it ended the test,
+        and its state observation."""
+        ended = self._step(state, raw)
+        return ended, self._obs.copy()
+
+    @property
+    def travel_m(self) -> float:
+        """The bench's travel (the case-C reference's span)."""
+        return float(self._env.config.travel_m)
+
     def _advance(self, s: BenchState, raw: np.ndarray, measured: np.ndarray) -> float:
         """One period of hypothesis ``s``; the log-likelihood of ``measured`` (-inf if it ended the test)."""
         return self._log_likelihood(self._step(s, raw), self._obs, measured)

@@ -28,18 +28,12 @@ from threadpoolctl import threadpool_limits
 
 from agents.banked_deviation import BANK_SIZE, BankedDeviationPolicy
 from agents.controller_base import play
-from agents.deviation_bank import DeviationBank
+from agents.deviation_bank import DeviationBank, estimate_error_mm
 from agents.mpc import MPCController
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
 from experiments.train_student import judge_draws
 
 SPANS = ((0, 8), (8, 16), (16, 32), (32, 10_000))   # decision indices
-
-
-def estimate_error_mm(estimate: np.ndarray, truth: np.ndarray) -> float:
-    """The mean over the three contact points of the x-z distance between two deviations' first six values."""
-    d = (np.asarray(estimate)[:6] - np.asarray(truth)[:6]).reshape(3, 2)
-    return float(np.mean(np.hypot(d[:, 0], d[:, 1])))
 
 
 def episode(controller: BankedDeviationPolicy, bench, seed: int, shadow: DeviationBank | None = None
