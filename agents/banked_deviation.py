@@ -38,13 +38,15 @@ import numpy as np
 from envs.core import REFERENCE_DEVIATION_DIM
 
 from .deviation_bank import BANK_SIZE, MIN_ESS, DeviationBank, bank_settings
+from .deviation_tracker import deviation_estimator
 from .mpc import MPCController
 from .robust_policy import DeviationPolicy, RobustPolicy, load_policy, run_config
 
 # The settings ``banked:RUN`` runs with (chosen on the judge draws: docs/notes/student-experiments.md, finding 13b;
 # the bank's own, BANK_SIZE and MIN_ESS, are agents.deviation_bank's, which the in-loop training shares)
 START_PERIODS = 0
-__all__ = ["BANK_SIZE", "MIN_ESS", "START_PERIODS", "BankedDeviationPolicy", "NumpyActor", "run_bank_size"]
+__all__ = ["BANK_SIZE", "MIN_ESS", "START_PERIODS", "BankedDeviationPolicy", "NumpyActor", "run_bank_size",
+           "run_tracker"]
 
 
 _ACTIVATIONS = {"Tanh": np.tanh, "ReLU": lambda x: np.maximum(x, 0.0)}
@@ -126,8 +128,12 @@ class BankedDeviationPolicy(RobustPolicy):
     def load(cls, run_dir: str | Path, bank_size: int | None = None, name: str = "ppo_deviation_banked",
              **options: Any) -> BankedDeviationPolicy:
         """The reference-deviation run in ``run_dir`` (UNPICKLES it: load only yours) on a bank of
-        :func:`run_bank_size` hypotheses."""
-        return cls.with_bank(load_policy(run_dir), run_bank_size(run_dir, bank_size), name=name, **options)
+        :func:`run_bank_size` hypotheses, with the bank's Gauss-Newton tracker if the run was trained on it
+        (``env.reference_deviation_tracker``; another ``estimator`` may be given instead)."""
+        size = run_bank_size(run_dir, bank_size)
+        if "estimator" not in options and run_tracker(run_dir):
+            options["estimator"] = deviation_estimator(size, tracker=True)
+        return cls.with_bank(load_policy(run_dir), size, name=name, **options)
 
     def reset(self, load_N: float, config: Any) -> None:
         super().reset(load_N, config)
@@ -167,3 +173,10 @@ def run_bank_size(run_dir: str | Path, bank_size: int | None = None) -> int:
         raise ValueError(f"bank_size {bank_size}: run {run_dir} was trained on a bank of {trained} "
                          "(env.reference_deviation_bank)")
     return int(bank_size if bank_size is not None else trained if trained is not None else BANK_SIZE)
+
+
+def run_tracker(run_dir: str | Path) -> bool:
+    """Whether a reference-deviation run was trained on its bank's Gauss-Newton tracker."""
+    from .train_config import deviation_tracker_of
+    return (Path(run_dir) / "config.json").exists() and deviation_tracker_of(run_config(run_dir))
+

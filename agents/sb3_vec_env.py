@@ -162,15 +162,17 @@ class DeviationSB3VecEnv(ShearSB3VecEnv):
     ``bank_size`` (``env: reference_deviation_bank: N``) trains on a specimen bank's estimate instead: one
     :class:`agents.deviation_bank.DeviationBank` of N hypotheses per row, reset at each episode's start with the
     row's load and the batch's config, weighed by each observation and advanced by the command the batch ran: what
-    ``banked:RUN`` feeds its policy at the bench."""
+    ``banked:RUN`` feeds its policy at the bench; with ``tracker`` (``env: reference_deviation_tracker: true``), that
+    bank's Gauss-Newton tracker's estimate (:mod:`agents.deviation_tracker`), as ``banked:RUN`` then runs."""
 
     def __init__(self, num_envs: int, seed: int | None = None, *, batch: BenchBatch, bias_mm: float = 0.0,
-                 estimator: str | None = None, with_state: bool = False, bank_size: int | None = None):
+                 estimator: str | None = None, with_state: bool = False, bank_size: int | None = None,
+                 tracker: bool = False):
         self.bias_mm = float(bias_mm)
         self._rng = np.random.default_rng(None if seed is None else [BIAS_STREAM, seed])
         self._bias = np.zeros((num_envs, REFERENCE_DEVIATION_DIM))
         self._last_step = np.full(num_envs, np.inf)   # each row's control periods at the last observation
-        self._estimators = _row_estimators(estimator, num_envs) or _row_banks(bank_size, num_envs, batch)
+        self._estimators = _row_estimators(estimator, num_envs) or _row_banks(bank_size, num_envs, batch, tracker)
         self._estimate = np.zeros((num_envs, REFERENCE_DEVIATION_DIM))
         self.with_state = bool(with_state and self._estimators)
         self._state = np.zeros((num_envs, len(self._estimators[0].state) if self.with_state else 0), np.float32)
@@ -238,12 +240,13 @@ class _RowBank:
         self.bank.advance(action)
 
 
-def _row_banks(bank_size: int | None, n: int, batch: BenchBatch) -> list[Any]:
-    """``n`` specimen-bank estimators of ``bank_size`` hypotheses, one per row (``banked:RUN``'s settings)."""
+def _row_banks(bank_size: int | None, n: int, batch: BenchBatch, tracker: bool = False) -> list[Any]:
+    """``n`` specimen-bank estimators of ``bank_size`` hypotheses, one per row (``banked:RUN``'s settings), each
+    with its Gauss-Newton tracker if ``tracker``."""
     if bank_size is None:
         return []
-    from .deviation_bank import DeviationBank   # imports mpc: only for a bank-trained run
-    return [_RowBank(DeviationBank.of_size(int(bank_size)), batch, i) for i in range(n)]
+    from .deviation_tracker import deviation_estimator   # imports mpc: only for a bank-trained run
+    return [_RowBank(deviation_estimator(int(bank_size), tracker), batch, i) for i in range(n)]
 
 
 def _widened(space: spaces.Box, extra: int) -> spaces.Box:

@@ -14,7 +14,8 @@ the key, :mod:`agents.config_checks`):
   ``reference_deviation_estimator: FOLDER``, on that bench estimator's output instead of the truth (the estimator
   in the loop; ``reference_deviation_estimator_state: true`` appends that estimator's GRU state as well), or with
   ``reference_deviation_bank: N``, on the estimate of a specimen bank of N hypotheses (``banked:RUN``'s,
-  :mod:`agents.deviation_bank`),
+  :mod:`agents.deviation_bank`; with ``reference_deviation_tracker: true``, on that bank's Gauss-Newton tracker's,
+  :mod:`agents.deviation_tracker`),
   :class:`agents.sb3_vec_env.DeviationSB3VecEnv`);
 * ``algo``: ``ppo`` (SB3 PPO) or ``recurrent`` (sb3-contrib ``RecurrentPPO``, v1), ``policy`` and ``hyperparams``
   (its keyword arguments); ``ppo:`` is the same pair in one section with ``policy`` inside (``agents/ppo.yaml``);
@@ -47,6 +48,8 @@ DEVIATION_BIAS = "reference_deviation_bias_mm"   # training with an estimate's e
 DEVIATION_ESTIMATOR = "reference_deviation_estimator"   # training on a bench estimator's output (the same module)
 ESTIMATOR_STATE = "reference_deviation_estimator_state"   # and on its GRU's state, appended after the estimate
 DEVIATION_BANK = "reference_deviation_bank"   # training on a specimen bank's estimate of N hypotheses (banked:RUN's)
+DEVIATION_TRACKER = "reference_deviation_tracker"   # and on its Gauss-Newton tracker's (agents.deviation_tracker)
+DEVIATION_OPTIONS = (DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE, DEVIATION_BANK, DEVIATION_TRACKER)
 ALGOS = {"ppo": "ppo_robust", "recurrent": "ppo_recurrent"}  # algo -> v1 controller name in the tables
 POLICIES = {"ppo": "MlpPolicy", "recurrent": "MlpLstmPolicy"}
 EVALUATIONS = 20       # v1: points of the learning curve when neither the YAML nor the caller sets train.eval_freq
@@ -199,7 +202,7 @@ def frame_stack_of(config: dict[str, Any]) -> int:
 def single_env_kwargs(config: dict[str, Any]) -> dict[str, Any]:
     """v1: the single env's arguments (evaluation episodes): the batch's own keys left out."""
     return {k: v for k, v in (config.get("env") or {}).items() if k not in BATCH_KEYS and k not in EXTRA_INPUTS
-            and k not in (DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE, DEVIATION_BANK)}
+            and k not in DEVIATION_OPTIONS}
 
 
 def extra_input_of(config: dict[str, Any]) -> str | None:
@@ -223,7 +226,7 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     from envs.vector_v1 import BenchBatch
     env = dict(config.get("env") or {})
     known = ({f.name for f in fields(ShearConfig)} | set(BENCH_FIELDS) | set(BATCH_KEYS) | set(EXTRA_INPUTS)
-             | {DEVIATION_BIAS, DEVIATION_ESTIMATOR, ESTIMATOR_STATE, DEVIATION_BANK})
+             | set(DEVIATION_OPTIONS))
     unknown = sorted(set(env) - known)
     if unknown:
         raise ValueError(f"unknown env argument(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
@@ -234,6 +237,7 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     estimator = _deviation_estimator(env.pop(DEVIATION_ESTIMATOR, None), extras[REFERENCE_DEVIATION], bias)
     with_state = _estimator_state(env.pop(ESTIMATOR_STATE, False), estimator)
     bank_size = _deviation_bank(env.pop(DEVIATION_BANK, None), extras[REFERENCE_DEVIATION], bias, estimator)
+    tracker = _deviation_tracker(env.pop(DEVIATION_TRACKER, False), bank_size)
     batch_kwargs = {k: env.pop(k) for k in BATCH_KEYS if k in env}
     bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
     batch = BenchBatch(n_envs, make_config(None, **env), bench, **batch_kwargs)
@@ -242,7 +246,7 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
     from .sb3_vec_env import DeviationSB3VecEnv, PrivilegedSB3VecEnv, ShearSB3VecEnv
     if extras[REFERENCE_DEVIATION]:
         return DeviationSB3VecEnv(batch.num_envs, seed=seed, batch=batch, bias_mm=bias, estimator=estimator,
-                                  with_state=with_state, bank_size=bank_size)
+                                  with_state=with_state, bank_size=bank_size, tracker=tracker)
     return (PrivilegedSB3VecEnv if extras[PRIVILEGED] else ShearSB3VecEnv)(batch.num_envs, seed=seed, batch=batch)
 
 
@@ -266,6 +270,18 @@ def _deviation_bank(value: Any, deviation: bool, bias: float, estimator: str | N
     if not deviation or bias or estimator is not None:
         raise ValueError(f"{DEVIATION_BANK}: needs {REFERENCE_DEVIATION}: true, no {DEVIATION_BIAS} and no "
                          f"{DEVIATION_ESTIMATOR}")
+    return value
+
+
+def deviation_tracker_of(config: dict[str, Any]) -> bool:
+    """Whether a bank-trained run was trained on the bank's Gauss-Newton tracker (``env.reference_deviation_tracker``)."""
+    return bool((config.get("env") or {}).get(DEVIATION_TRACKER, False))
+
+
+def _deviation_tracker(value: Any, bank_size: int | None) -> bool:
+    if not isinstance(value, bool) or (value and bank_size is None):
+        raise ValueError(f"{DEVIATION_TRACKER}: expected true or false, and true only with {DEVIATION_BANK}, "
+                         f"got {value!r:.80}")
     return value
 
 

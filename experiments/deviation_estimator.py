@@ -18,7 +18,8 @@ atomically). ``measure --estimator EST --n 100 [--shadow]`` runs the composed co
 decision span and the CPU time per decision (EST: an estimator folder or a run trained with its estimator in the
 loop). ``seed-loop --policy RUN --estimator EST --out DIR/seed_S`` starts a fine-tuning of the exact-deviation run on
 the estimate (``triplanar train --out DIR --seed S --env-arg reference_deviation_estimator=EST --timesteps`` more
-than RUN's continues it); ``--bank N`` instead of ``--estimator``: on a specimen bank's estimate (``banked:RUN``'s,
+than RUN's continues it); ``--bank N`` instead of ``--estimator``: on a specimen bank's estimate (``banked:RUN``'s;
+with ``--tracker``, on that bank's Gauss-Newton tracker's, :mod:`agents.deviation_tracker`,
 ``--env-arg reference_deviation_bank=N``). Results: docs/notes/student-experiments.md, findings 12-13c.
 """
 
@@ -231,19 +232,23 @@ def train(args: argparse.Namespace, log: Any = None) -> dict[str, Any]:
     return spec
 
 
-def seed_loop(policy_run: str, estimator: str | None, out: str | Path, bank: int | None = None) -> dict[str, Any]:
+def seed_loop(policy_run: str, estimator: str | None, out: str | Path, bank: int | None = None,
+              tracker: bool = False) -> dict[str, Any]:
     """A run folder ``out`` (``DIR/seed_S``) that ``triplanar train --out DIR --seed S`` with ``--env-arg
     reference_deviation_estimator=ESTIMATOR`` and more ``--timesteps`` continues: the finished reference-deviation
     run ``policy_run``'s model and normalisation statistics as its checkpoint, its configuration with ``estimator``
     in the loop (fine-tuning the exact-deviation policy on the estimate, or an in-loop one on a retrained estimator:
     co-training; UNPICKLES ``policy_run``: only yours). ``bank`` instead of ``estimator``: a specimen bank of that
-    many hypotheses in the loop (``env.reference_deviation_bank``, ``banked:RUN``'s estimate)."""
+    many hypotheses in the loop (``env.reference_deviation_bank``, ``banked:RUN``'s estimate); ``tracker``: that
+    bank's Gauss-Newton tracker (``env.reference_deviation_tracker``)."""
     from agents.checkpoint_files import save_normalizer
     from agents.ppo_controller import load_untrusted_vecnormalize
     from agents.robust_policy import run_config
-    from agents.train_config import DEVIATION_BANK, DEVIATION_ESTIMATOR
+    from agents.train_config import DEVIATION_BANK, DEVIATION_ESTIMATOR, DEVIATION_TRACKER
     if (estimator is None) == (bank is None):
         raise ValueError(f"seed-loop: give one of --estimator and --bank, got {estimator!r} and {bank!r}")
+    if tracker and bank is None:
+        raise ValueError("seed-loop: --tracker needs --bank (the tracker runs beside a bank)")
     run, out = Path(policy_run), Path(out)
     config = run_config(run)
     if not config.get("env", {}).get("reference_deviation"):
@@ -255,6 +260,8 @@ def seed_loop(policy_run: str, estimator: str | None, out: str | Path, bank: int
         config["env"][DEVIATION_ESTIMATOR] = str(estimator)
     else:
         config["env"][DEVIATION_BANK] = int(bank)
+        if tracker:
+            config["env"][DEVIATION_TRACKER] = True
     (out / "checkpoint").mkdir(parents=True, exist_ok=True)
     model, stats = f"model_{steps}.zip", f"vecnormalize_{steps}.npz"
     write_atomic(out / "checkpoint" / model, lambda tmp: tmp.write_bytes((run / "final_model.zip").read_bytes()))
@@ -265,7 +272,8 @@ def seed_loop(policy_run: str, estimator: str | None, out: str | Path, bank: int
         curve = [{k: int(v) if v.isdigit() else float(v) for k, v in row.items()} for row in csv.DictReader(f)]
     state = {"timesteps": steps, "wall_s": 0.0, "curve": curve, "model": model, "vecnormalize": stats, "token": ""}
     write_atomic(out / "checkpoint" / "state.json", lambda tmp: tmp.write_text(json.dumps(state)))
-    return {"run": str(out), "from": str(run), "timesteps": steps, "estimator": estimator, "bank": bank}
+    return {"run": str(out), "from": str(run), "timesteps": steps, "estimator": estimator, "bank": bank,
+            "tracker": tracker}
 
 
 def measure(folder: str, n: int, shadow: bool = False) -> dict[str, Any]:
@@ -334,6 +342,7 @@ def parse_args(argv: list[str] | None = None) -> argparse.Namespace:
     s.add_argument("--policy", required=True)
     s.add_argument("--estimator", help="a bench estimator's folder in the loop")
     s.add_argument("--bank", type=int, help="or a specimen bank of this many hypotheses in the loop (banked:RUN's)")
+    s.add_argument("--tracker", action="store_true", help="with --bank: the bank's Gauss-Newton tracker's estimate")
     s.add_argument("--out", required=True, help="DIR/seed_S of the triplanar train run to continue")
     for p in (c, t, m, s):
         p.add_argument("--json", help="also write the result here")
@@ -349,7 +358,7 @@ def main(argv: list[str] | None = None) -> int:
             spec = train(args, log=sys.stdout)
             result = {k: v for k, v in spec["training"].items() if k != "history"}
         elif args.command == "seed-loop":
-            result = seed_loop(args.policy, args.estimator, args.out, args.bank)
+            result = seed_loop(args.policy, args.estimator, args.out, args.bank, args.tracker)
         else:
             result = measure(args.estimator, args.n, args.shadow)
     except ValueError as error:

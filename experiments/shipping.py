@@ -142,8 +142,13 @@ def run_hyperparameters(runs: Sequence[Path]) -> dict[str, Any]:
 
 def bank_size(runs: Sequence[Path]) -> int:
     """The specimen bank a ``banked`` agent runs: each run's as ``banked:RUN`` drives it
-    (:func:`agents.banked_deviation.run_bank_size`); the runs must agree."""
-    from agents.banked_deviation import run_bank_size
+    (:func:`agents.banked_deviation.run_bank_size`); the runs must agree. A run trained on the bank's Gauss-Newton
+    tracker is refused: the tracker's refits do not yet run within a period, and the zoo's agent has no tracker."""
+    from agents.banked_deviation import run_bank_size, run_tracker
+    tracked = [str(run) for run in runs if run_tracker(run)]
+    if tracked:
+        raise ValueError(f"runs {tracked} were trained on the bank's Gauss-Newton tracker "
+                         "(env.reference_deviation_tracker), which does not run in real time yet: not shippable")
     sizes = {run_bank_size(run) for run in runs}
     if len(sizes) != 1:
         raise ValueError(f"runs {[str(r) for r in runs]} were trained with different specimen banks: {sorted(sizes)}")

@@ -1,7 +1,8 @@
-"""The specimen bank in the PPO training loop (``env: reference_deviation_bank: N``, :mod:`agents.deviation_bank`):
-each training row is fed the estimate ``banked:RUN`` computes at the bench (a bank of N hypotheses reset at each
+"""The specimen bank in the PPO training loop (``env: reference_deviation_bank: N``, :mod:`agents.deviation_bank`;
+with ``reference_deviation_tracker: true``, the bank's Gauss-Newton tracker, :mod:`agents.deviation_tracker`): each
+training row is fed the estimate ``banked:RUN`` computes at the bench (a bank of N hypotheses reset at each
 episode's start, weighed by each observation, advanced by the command the row ran), not the truth; ``banked:RUN``
-runs a bank-trained run on the bank size it was trained with; bad settings are refused by name."""
+runs a bank-trained run on the bank size (and tracker) it was trained with; bad settings are refused by name."""
 
 from __future__ import annotations
 
@@ -11,18 +12,19 @@ import pytest
 pytest.importorskip("stable_baselines3")
 
 from agents import train_config
-from agents.deviation_bank import DeviationBank
+from agents.deviation_tracker import deviation_estimator
 
 LOOP_ENV = {"observation_mode": "bench", "randomize": True, "frame_stack": 4, "reference_deviation": True}
 ACTIONS = np.array([[0.3, -0.5], [0.6, 0.2]])
 
 
-def test_each_training_row_is_fed_its_own_banks_estimate_reset_at_each_episode_start():
+@pytest.mark.parametrize("tracker", [False, True])
+def test_each_training_row_is_fed_its_own_banks_estimate_reset_at_each_episode_start(tracker):
     env = train_config.make_vec_env({"env_id": train_config.V1, "n_envs": 2, "env": {
-        **LOOP_ENV, "reference_deviation_bank": 3}}, seed=3)
+        **LOOP_ENV, "reference_deviation_bank": 3, "reference_deviation_tracker": tracker}}, seed=3)
     assert env.observation_space.shape == (60 + 12,)
     batch = env.batch
-    mine = [DeviationBank.of_size(3) for _ in range(2)]   # banked:RUN's estimate, fed here by hand
+    mine = [deviation_estimator(3, tracker) for _ in range(2)]   # banked:RUN's estimate, fed here by hand
 
     def fresh(i: int, obs: np.ndarray) -> np.ndarray:
         mine[i].reset(batch.benches[i].load_N, batch.config)
@@ -45,6 +47,7 @@ def test_each_training_row_is_fed_its_own_banks_estimate_reset_at_each_episode_s
                 expected[i] = mine[i].estimate(obs[i, 45:60]).astype(np.float32)
         if ends >= 3:
             assert off_truth > 1e-4   # the bank's estimate, not the true deviation (which is not a hypothesis)
+            assert not tracker or sum(m.counts["refits"] for m in mine) > 0   # (the tracker ran, not just its bank)
             return
     pytest.fail(f"{ends} episodes ended in 400 periods")
 
@@ -53,7 +56,9 @@ def test_each_training_row_is_fed_its_own_banks_estimate_reset_at_each_episode_s
     ({"reference_deviation_bank": 0}, "reference_deviation_bank: expected a number of hypotheses"),
     ({"reference_deviation_bank": True}, "reference_deviation_bank: expected a number of hypotheses"),
     ({"reference_deviation_bank": 4, "reference_deviation_bias_mm": 0.1}, "reference_deviation_bank: needs"),
-    ({"reference_deviation_bank": 4, "reference_deviation": False}, "reference_deviation_bank: needs")])
+    ({"reference_deviation_bank": 4, "reference_deviation": False}, "reference_deviation_bank: needs"),
+    ({"reference_deviation_tracker": True}, "reference_deviation_tracker: expected true or false, and true only"),
+    ({"reference_deviation_bank": 4, "reference_deviation_tracker": "yes"}, "reference_deviation_tracker")])
 def test_a_bad_bank_in_the_loop_is_refused_by_name(extra, message):
     with pytest.raises(ValueError, match=message):
         train_config.make_vec_env({"env_id": train_config.V1, "n_envs": 1, "env": {**LOOP_ENV, **extra}}, seed=0)
@@ -74,3 +79,11 @@ def test_banked_runs_a_bank_trained_run_on_the_bank_size_it_was_trained_with(tmp
         B.BankedDeviationPolicy.load(run, bank_size=16)
     (run / "config.json").write_text(json.dumps({"env": LOOP_ENV}))   # a run trained on the truth: the default
     assert B.BankedDeviationPolicy.load(run).bank_settings.bank_size == B.BANK_SIZE
+    (run / "config.json").write_text(json.dumps({"env": {**LOOP_ENV, "reference_deviation_bank": 5,
+                                                         "reference_deviation_tracker": True}}))
+    tracked = B.BankedDeviationPolicy.load(run)   # a tracker-trained run drives on its tracker
+    assert type(tracked.deviation_bank).__name__ == "GaussNewtonTracker"
+    assert tracked.deviation_bank.deviation_bank.settings.bank_size == 5
+    from experiments.shipping import bank_size
+    with pytest.raises(ValueError, match="tracker .* not shippable"):
+        bank_size([run])

@@ -190,3 +190,8 @@ def test_seed_loop_makes_a_checkpoint_of_the_exact_run_that_train_continues_with
         _refuse_another_configuration(out, config)   # ... the exact one does not
     with pytest.raises(ValueError, match="holds a run already"):
         E.seed_loop(str(run), folder, out)
+    with pytest.raises(ValueError, match="--tracker needs --bank"):
+        E.seed_loop(str(run), folder, tmp_path / "loop" / "seed_1", tracker=True)
+    tracked = E.seed_loop(str(run), None, tmp_path / "loop" / "seed_2", bank=16, tracker=True)
+    assert tracked["tracker"] and json.loads((tmp_path / "loop" / "seed_2" / "config.json").read_text())["env"][
+        "reference_deviation_tracker"] is True
