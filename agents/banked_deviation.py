@@ -101,7 +101,7 @@ class BankedDeviationPolicy(RobustPolicy):
         if isinstance(start_periods, bool) or not isinstance(start_periods, int) or start_periods < 0:
             raise ValueError(f"start_periods must be a non-negative integer, got {start_periods!r}")
         # ``estimator``: another estimate with DeviationBank's interface (reset, estimate, advance, periods, bank,
-        # min_ess), e.g. experiments.gn_tracker's; by default the bank itself
+        # min_ess), e.g. agents.deviation_tracker's; by default the bank itself
         self.deviation_bank = estimator if estimator is not None else DeviationBank(bank_settings, moves=moves,
                                                                                      min_ess=min_ess)
         super().__init__(policy.model, policy.normalizer, name, policy.n_frames)
@@ -179,4 +179,3 @@ def run_tracker(run_dir: str | Path) -> bool:
     """Whether a reference-deviation run was trained on its bank's Gauss-Newton tracker."""
     from .train_config import deviation_tracker_of
     return (Path(run_dir) / "config.json").exists() and deviation_tracker_of(run_config(run_dir))
-
