@@ -15,9 +15,12 @@ diagonal, adapted: /3 on a success, x10 on a failure) on the kept Jacobian each 
 cost is lower (the first failure ends the refit); every ``rebuild``-th refit replays the perturbations around the
 centre. The estimate is the centre's own deviation from its own case-C reference (as the env computes the truth's).
 
-**Not yet real time.** A refit runs at once, in the period it falls on (tens of ms at the 99th percentile; 5-6 ms
-a period on average): a bench would spread its replays over the periods' slack. Measured, and the policies driven
-with it: :mod:`experiments.gn_tracker`.
+**Spread over the slack.** By default a refit runs at once, in the period it falls on (tens of ms at the 99th
+percentile; 5-6 ms a period on average). With ``budget`` > 0 it runs after each command, ``budget`` work units a
+period (:data:`START_UNITS` a fresh start, one a period stepped; a unit runs only if it fits, so the budget is never
+exceeded unless one start is larger), the trajectories it has replayed stepped with the bench meanwhile, and the
+next refit is due at the first multiple of ``every`` after it ends: fewer refits, each applied later. Measured, and
+the policies driven with it: :mod:`experiments.gn_tracker`.
 """
 
 from __future__ import annotations
@@ -34,9 +37,13 @@ from envs.core import OBS_POS, reference_deviation
 from .deviation_bank import DeviationBank
 
 FAILED_ROW = 30.0   # a residual row, in noise units, of a trajectory that ended the test (the estimator's)
+# A hypothesis's fresh start costs as much CPU as ~120 periods stepped (1.5-1.9 ms against 13-16 us, ratio 115-130,
+# on this machine loaded: benchmarks/bench_tracker_units.py): the refits' work is counted in periods stepped, so that
+# a spread refit does the same arithmetic whatever the machine's speed.
+START_UNITS = 120
 
 
-@dataclass
+@dataclass(eq=False)   # (compared by identity: one trajectory is in a list or not)
 class Trajectory:
     """One hypothesis run with the bench's commands: its state, unknowns, last state observation and residual rows."""
 
@@ -53,25 +60,33 @@ class Trajectory:
 
 @dataclass(frozen=True)
 class TrackerSettings:
+    """The tracker's schedule (module docstring); ``budget`` > 0 spreads each refit over the periods' slack,
+    :data:`START_UNITS` units a fresh start, one a period stepped."""
+
     start: int = 6
     every: int = 4
     chord: int = 2
     rebuild: int = 2
     step: float = 1e-3
     damping: float = 1e-2
+    budget: int = 0   # work units a period for a refit, run after the command (0: a refit runs at once)
 
     def __post_init__(self):
         for name in ("start", "every", "chord", "rebuild"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"TrackerSettings.{name} must be a positive integer, got {value!r}")
+        if isinstance(self.budget, bool) or not isinstance(self.budget, int) or self.budget < 0:
+            raise ValueError(f"TrackerSettings.budget must be a non-negative integer, got {self.budget!r}")
         if not 0.0 < self.step < 0.5 or not self.damping > 0.0:
             raise ValueError(f"TrackerSettings: step in (0, 0.5) and damping > 0, got {self.step!r}, "
                              f"{self.damping!r}")
 
 
 class GaussNewtonTracker:
-    """The tracker (module docstring), with :class:`agents.deviation_bank.DeviationBank`'s interface."""
+    """The tracker (module docstring), with :class:`agents.deviation_bank.DeviationBank`'s interface. A refit is a
+    job (a generator yielding its work units): run to its end when due (``budget`` 0) or ``budget`` units a period
+    after the command (:meth:`advance`), the trajectories it has replayed stepped with the bench meanwhile."""
 
     def __init__(self, settings: TrackerSettings = TrackerSettings(), bank: DeviationBank | None = None):
         self.settings = settings
@@ -79,6 +94,7 @@ class GaussNewtonTracker:
         self.cpu = {"step_s": 0.0, "replay_s": 0.0}
         self.counts = {"refits": 0, "accepted": 0, "replays": 0}
         self.costs: list[tuple[float, float]] = []   # (before, after) of every accepted step
+        self.units: list[int] = []   # the refit work done in each period's slack (budget > 0)
 
     @property
     def bank(self) -> Any:
@@ -96,42 +112,68 @@ class GaussNewtonTracker:
         self.deviation_bank.reset(load_N, config)
         self.centre: Trajectory | None = None
         self.base: list[Trajectory] = []   # the Jacobian's: its centre, then one perturbation per free unknown
+        self.building: list[Trajectory] = []   # a rebuild's trajectories replayed so far
         self.signed_steps: list[float] = []
         self.damping = self.settings.damping
+        self.job: Any = None
+        self.next_cost: int | None = None   # the work unit the job announced and will do next
+        self.pending: np.ndarray | None = None   # the command advanced by, not yet measured
         b = self.bank
         self.sigma = math.sqrt(b.sensor_noise_m ** 2 + b.model_error_m ** 2)
         self.free = (b.high > b.low) & ~b.circular
         self.low, self.span = b.low[self.free], (b.high - b.low)[self.free]
 
     def estimate(self, obs: np.ndarray) -> np.ndarray:
-        """The bank weighed by the period just measured; every trajectory's residual row; the tracker started or
-        refitted when due; the centre's deviation once it runs (the bank's before)."""
+        """The bank weighed by the period just measured; every trajectory's residual row; a refit started when due
+        (and run to its end without a budget); the centre's deviation once it runs (the bank's before)."""
         estimate = self.deviation_bank.estimate(obs)
+        self.pending = None
         history = len(self.bank.history)
-        if self.centre is not None and history:
+        if history:
             measured = self.bank.history[-1][1]
             for t in self._live():
                 t.rows.append(self._row(t, measured))
-        if self.centre is None and history == self.settings.start:
-            self._rebuild(self._likeliest())
-        elif self.centre is not None and history > self.settings.start and history % self.settings.every == 0:
-            self._refit()
+        if self.job is None:
+            if self.centre is None and history == self.settings.start:
+                self.job = self._rebuild_job(self._likeliest())
+            elif self.centre is not None and history > self.settings.start and history % self.settings.every == 0:
+                self.job = self._refit_job()
+        if self.job is not None and not self.settings.budget:
+            self._work(math.inf)
         if self.centre is None or self.centre.ended:
             return estimate
         return reference_deviation(self.centre.obs, self.centre.state.ref, self.bank.travel_m)
 
     def advance(self, action: np.ndarray) -> None:
+        """The bank and every trajectory advanced by ``action``; then, with a budget, that much of the refit."""
         self.deviation_bank.advance(action)
         started = time.thread_time()
-        raw = np.asarray(action, dtype=np.float64)
+        self.pending = np.asarray(action, dtype=np.float64)
         for t in self._live():
-            self._step(t, raw)
+            self._step(t, self.pending)
         self.cpu["step_s"] += time.thread_time() - started
+        if self.job is not None and self.settings.budget:
+            self.units.append(self._work(self.settings.budget))
+
+    def _work(self, budget: float) -> int:
+        """The refit job run for up to ``budget`` units (a unit announced by the job runs only if it fits, or if it
+        is the period's first); the units done."""
+        started, done = time.thread_time(), 0
+        try:
+            if self.next_cost is None:   # a new job: to its first announcement (no work yet)
+                self.next_cost = next(self.job)
+            while done == 0 or done + self.next_cost <= budget:
+                done += self.next_cost
+                self.next_cost = next(self.job)   # the announced unit done, the next announced
+        except StopIteration:
+            self.job, self.next_cost = None, None
+        self.cpu["replay_s"] += time.thread_time() - started
+        return done
 
     def _live(self) -> list[Trajectory]:
-        if self.centre is None:
-            return []
-        return self.base + ([self.centre] if self.centre is not self.base[0] else [])
+        """Every trajectory stepped with the bench: the Jacobian's, the centre, a rebuild's replayed so far."""
+        live = self.base + self.building
+        return live + ([self.centre] if self.centre is not None and self.centre not in live else [])
 
     def _step(self, t: Trajectory, raw: np.ndarray) -> None:
         if not t.ended:
@@ -155,45 +197,67 @@ class GaussNewtonTracker:
     def _z(self, theta: np.ndarray) -> np.ndarray:
         return (theta[self.free] - self.low) / self.span
 
-    def _replay(self, theta: np.ndarray) -> Trajectory | None:
-        """A trajectory from its start through the history (None if it does not start)."""
-        started = time.thread_time()
+    def _replay_job(self, theta: np.ndarray) -> Any:
+        """A trajectory from its start through every period so far, the history growing while it runs, and the
+        command advanced by but not yet measured (it then steps with the bench): returns it (None if it does not
+        start). Yields the cost of each unit of work before doing it (that last step uncounted)."""
+        yield START_UNITS
         state, obs = self.bank.start_hypothesis(theta)
         self.counts["replays"] += 1
         if state is None:
             return None
         t = Trajectory(state, theta, obs)
-        for raw, measured in self.bank.history:
+        history = self.bank.history
+        while True:
+            if len(t.rows) == len(history):   # caught up with the copy: the periods measured meanwhile, if any
+                history = self.bank.history
+                if len(t.rows) == len(history):
+                    break
+            yield 1
+            raw, measured = history[len(t.rows)]
             self._step(t, raw)
             t.rows.append(self._row(t, measured))
-        self.cpu["replay_s"] += time.thread_time() - started
+        if self.pending is not None:   # (with the return, not after a yield: no period may pass in between)
+            self._step(t, self.pending)
         return t
 
-    def _rebuild(self, theta: np.ndarray) -> None:
+    def _replay(self, theta: np.ndarray) -> Trajectory | None:
+        """:meth:`_replay_job` run to its end."""
+        job = self._replay_job(theta)
+        while True:
+            try:
+                next(job)
+            except StopIteration as end:
+                return end.value
+
+    def _rebuild_job(self, theta: np.ndarray) -> Any:
         """The centre at ``theta`` and its perturbations, replayed (the tracker stays as it was if one does not
         start)."""
         z = self._z(theta)
         steps = [self.settings.step if z[j] + self.settings.step <= 1.0 else -self.settings.step
                  for j in range(len(z))]
-        thetas = [theta] + [self._theta(z + s * np.eye(len(z))[j], theta) for j, s in enumerate(steps)]
-        built = [self._replay(th) for th in thetas]
-        if any(t is None for t in built):
-            return
-        self.base, self.signed_steps, self.centre = built, steps, built[0]
+        self.building = []
+        for th in [theta] + [self._theta(z + s * np.eye(len(z))[j], theta) for j, s in enumerate(steps)]:
+            t = yield from self._replay_job(th)
+            if t is None:
+                self.building = []
+                return
+            self.building.append(t)
+        self.base, self.signed_steps, self.centre, self.building = self.building, steps, self.building[0], []
 
-    def _refit(self) -> None:
+    def _refit_job(self) -> Any:
         self.counts["refits"] += 1
         if self.centre.ended or any(t.ended for t in self.base):
-            self._rebuild(self.centre.theta if not self.centre.ended else self.base[0].theta)
+            yield from self._rebuild_job(self.centre.theta if not self.centre.ended else self.base[0].theta)
             return
-        r0 = np.concatenate(self.base[0].rows)
-        jac = np.stack([(np.concatenate(t.rows) - r0) / s for t, s in zip(self.base[1:], self.signed_steps)], axis=1)
-        normal = jac.T @ jac
         for _ in range(self.settings.chord):
-            r = np.concatenate(self.centre.rows)
+            r0 = np.concatenate(self.base[0].rows)
+            jac = np.stack([(np.concatenate(t.rows) - r0) / s for t, s in zip(self.base[1:], self.signed_steps)],
+                           axis=1)
+            normal = jac.T @ jac
             damped = normal + self.damping * np.diag(np.diag(normal)) + 1e-9 * np.eye(len(normal))
-            z = self._z(self.centre.theta) - np.linalg.solve(damped, jac.T @ r)
-            new = self._replay(self._theta(z, self.centre.theta))
+            z = self._z(self.centre.theta) - np.linalg.solve(damped, jac.T @ np.concatenate(self.centre.rows))
+            new = yield from self._replay_job(self._theta(z, self.centre.theta))
             if new is None or new.ended or not new.cost() < self.centre.cost():
                 self.damping = min(self.damping * 10.0, 1e4)
                 break
@@ -202,7 +266,7 @@ class GaussNewtonTracker:
             self.counts["accepted"] += 1
             self.damping = max(self.damping / 3.0, 1e-4)
         if self.counts["refits"] % self.settings.rebuild == 0:
-            self._rebuild(self.centre.theta)
+            yield from self._rebuild_job(self.centre.theta)
 
 
 def deviation_estimator(bank_size: int, tracker: bool = False) -> DeviationBank | GaussNewtonTracker:

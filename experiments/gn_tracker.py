@@ -4,7 +4,7 @@ FROM,TO`` feeds the true deviation on those decisions instead, to see which part
 costs).
 
 ``python -m experiments.gn_tracker shadow --run RUN [--n 20] [--skip 100] [--start 6 --every 4 --chord 2
---rebuild 2]`` and ``python -m experiments.gn_tracker judge --run RUN [--n 100] [--truth FROM,TO] [--out FILE]``
+--rebuild 2] [--budget UNITS]`` and ``python -m experiments.gn_tracker judge --run RUN [--n 100] [--truth FROM,TO] [--out FILE]``
 (judge draws of the tuning stream, :func:`experiments.train_student.judge_draws`; RUN is UNPICKLED: only yours).
 """
 
@@ -82,7 +82,9 @@ def shadow(run: str, settings: TrackerSettings, n: int, skip: int) -> dict[str, 
 
         play(controller, env, obs, bench.load_N, on_decision=record)
     table = np.array(rows)
+    units = np.array(tracker.units or [0])
     out: dict[str, Any] = {"run": run, "n": n, "skip": skip, "decisions": len(table), **tracker.counts,
+                           "refit_units_per_period_max": int(units.max()), "refit_units_mean_while_refitting": float(units.mean()),
                            "tracker_cpu_mean_ms": 1e3 * float(table[:, 3].mean()),
                            "tracker_cpu_p99_ms": 1e3 * float(np.percentile(table[:, 3], 99))}
     for lo, hi in SPANS:
@@ -117,13 +119,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--n", type=int, default=20)
     parser.add_argument("--skip", type=int, default=0)
     defaults = TrackerSettings()
-    for name in ("start", "every", "chord", "rebuild"):
+    for name in ("start", "every", "chord", "rebuild", "budget"):
         parser.add_argument(f"--{name}", type=int, default=getattr(defaults, name))
     parser.add_argument("--truth", metavar="FIRST,LAST", help="judge: the true deviation on these decisions")
     parser.add_argument("--out", help="also write the JSON here")
     args = parser.parse_args(argv)
     try:
-        settings = TrackerSettings(args.start, args.every, args.chord, args.rebuild)
+        settings = TrackerSettings(args.start, args.every, args.chord, args.rebuild, budget=args.budget)
         truth = tuple(int(v) for v in args.truth.split(",")) if args.truth else None
     except ValueError as error:
         parser.error(str(error))

@@ -1,0 +1,71 @@
+"""The Gauss-Newton tracker's unit of work (:data:`agents.deviation_tracker.START_UNITS`): how many periods stepped
+one fresh start of a hypothesis costs.
+
+``PYTHONPATH=. taskset -c 0 python benchmarks/bench_tracker_units.py [--benches 3] [--starts 20]`` runs the tracker
+beside the first judge benches (:func:`experiments.train_student.judge_draws`) under the nominal command until it
+has a centre, then times (thread CPU) ``--starts`` fresh starts of hypotheses drawn around the centre (1 % of each
+unknown's range: distinct hypotheses, which the env's start cache does not serve) and up to 30 periods stepped from
+each; prints, as JSON, per bench the mean start and step in ms and their ratio, and the machine's load average.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+from threadpoolctl import threadpool_limits
+
+from agents.deviation_tracker import GaussNewtonTracker, TrackerSettings
+from agents.mpc import nominal_command
+from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+from experiments.train_student import judge_draws
+
+
+def bench_units(bench, starts: int, rng: np.random.Generator) -> dict[str, float]:
+    env = TriPlanarShearV1Env()
+    obs, _ = env.reset(seed=0, options={"bench": bench})
+    tracker = GaussNewtonTracker(TrackerSettings(start=4))
+    tracker.reset(bench.load_N, env.unwrapped.config)
+    action = nominal_command(env.unwrapped.config).astype(np.float64)
+    while tracker.centre is None:
+        tracker.estimate(obs)
+        tracker.advance(action)
+        obs, *_ = env.step(action)
+    centre = tracker.centre.theta
+    start_s, step_s, steps = 0.0, 0.0, 0
+    for _ in range(starts):
+        z = tracker._z(centre) + rng.normal(0.0, 0.01, int(tracker.free.sum()))
+        started = time.thread_time()
+        state, _ = tracker.bank.start_hypothesis(tracker._theta(z, centre))
+        began = time.thread_time()
+        start_s += began - started
+        for _ in range(30 if state is not None else 0):
+            ended, _ = tracker.bank.step_hypothesis(state, action)
+            steps += 1
+            if ended:
+                break
+        step_s += time.thread_time() - began
+    start_ms, step_ms = 1e3 * start_s / starts, 1e3 * step_s / max(steps, 1)
+    return {"start_ms": start_ms, "step_ms": step_ms, "steps": steps, "ratio": start_ms / step_ms}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--benches", type=int, default=3)
+    parser.add_argument("--starts", type=int, default=20)
+    args = parser.parse_args(argv)
+    if args.benches < 1 or args.starts < 1:
+        parser.error(f"--benches and --starts must be >= 1, got {args.benches}, {args.starts}")
+    rng = np.random.default_rng(0)
+    with threadpool_limits(1):
+        rows = [bench_units(bench, args.starts, rng) for _, bench in judge_draws(args.benches, {})]
+    with open("/proc/loadavg") as f:
+        load = f.read().split()[:3]
+    print(json.dumps({"benches": rows, "load": load}, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
