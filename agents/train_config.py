@@ -274,7 +274,8 @@ def _deviation_bank(value: Any, deviation: bool, bias: float, estimator: str | N
 
 
 def deviation_tracker_of(config: dict[str, Any]) -> bool:
-    """Whether a bank-trained run was trained on the bank's Gauss-Newton tracker (``env.reference_deviation_tracker``)."""
+    """Whether a bank-trained run was trained on its bank's Gauss-Newton tracker
+    (``env.reference_deviation_tracker``)."""
     return bool((config.get("env") or {}).get(DEVIATION_TRACKER, False))
 
 

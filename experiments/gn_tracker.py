@@ -4,8 +4,9 @@ FROM,TO`` feeds the true deviation on those decisions instead, to see which part
 costs).
 
 ``python -m experiments.gn_tracker shadow --run RUN [--n 20] [--skip 100] [--start 6 --every 4 --chord 2
---rebuild 2] [--budget UNITS]`` and ``python -m experiments.gn_tracker judge --run RUN [--n 100] [--truth FROM,TO] [--out FILE]``
-(judge draws of the tuning stream, :func:`experiments.train_student.judge_draws`; RUN is UNPICKLED: only yours).
+--rebuild 2] [--budget UNITS]`` and ``python -m experiments.gn_tracker judge --run RUN [--n 100] [--truth FROM,TO]
+[--out FILE]`` (the same settings; judge draws of the tuning stream, :func:`experiments.train_student.judge_draws`;
+RUN is UNPICKLED: only yours).
 """
 
 from __future__ import annotations
@@ -84,7 +85,8 @@ def shadow(run: str, settings: TrackerSettings, n: int, skip: int) -> dict[str, 
     table = np.array(rows)
     units = np.array(tracker.units or [0])
     out: dict[str, Any] = {"run": run, "n": n, "skip": skip, "decisions": len(table), **tracker.counts,
-                           "refit_units_per_period_max": int(units.max()), "refit_units_mean_while_refitting": float(units.mean()),
+                           "refit_units_per_period_max": int(units.max()),
+                           "refit_units_mean_while_refitting": float(units.mean()),
                            "tracker_cpu_mean_ms": 1e3 * float(table[:, 3].mean()),
                            "tracker_cpu_p99_ms": 1e3 * float(np.percentile(table[:, 3], 99))}
     for lo, hi in SPANS:
