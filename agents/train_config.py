@@ -235,9 +235,9 @@ def make_vec_env(config: dict[str, Any], seed: int, env_id: str | None = None, c
         raise ValueError(f"{PRIVILEGED} and {REFERENCE_DEVIATION}: give one of them, not both")
     bias = _deviation_bias(env.pop(DEVIATION_BIAS, 0.0), extras[REFERENCE_DEVIATION])
     estimator = _deviation_estimator(env.pop(DEVIATION_ESTIMATOR, None), extras[REFERENCE_DEVIATION], bias)
-    with_state = _estimator_state(env.pop(ESTIMATOR_STATE, False), estimator)
+    with_state = _flag_with(env.pop(ESTIMATOR_STATE, False), ESTIMATOR_STATE, estimator, DEVIATION_ESTIMATOR)
     bank_size = _deviation_bank(env.pop(DEVIATION_BANK, None), extras[REFERENCE_DEVIATION], bias, estimator)
-    tracker = _deviation_tracker(env.pop(DEVIATION_TRACKER, False), bank_size)
+    tracker = _flag_with(env.pop(DEVIATION_TRACKER, False), DEVIATION_TRACKER, bank_size, DEVIATION_BANK)
     batch_kwargs = {k: env.pop(k) for k in BATCH_KEYS if k in env}
     bench = BenchConfig(**{k: env.pop(k) for k in BENCH_FIELDS if k in env})
     batch = BenchBatch(n_envs, make_config(None, **env), bench, **batch_kwargs)
@@ -279,22 +279,15 @@ def deviation_tracker_of(config: dict[str, Any]) -> bool:
     return bool((config.get("env") or {}).get(DEVIATION_TRACKER, False))
 
 
-def _deviation_tracker(value: Any, bank_size: int | None) -> bool:
-    if not isinstance(value, bool) or (value and bank_size is None):
-        raise ValueError(f"{DEVIATION_TRACKER}: expected true or false, and true only with {DEVIATION_BANK}, "
-                         f"got {value!r:.80}")
-    return value
-
-
 def estimator_state_of(config: dict[str, Any]) -> bool:
     """Whether the run's policy reads its estimator's GRU state too (``env.reference_deviation_estimator_state``)."""
     return bool((config.get("env") or {}).get(ESTIMATOR_STATE, False))
 
 
-def _estimator_state(value: Any, estimator: str | None) -> bool:
-    if not isinstance(value, bool) or (value and estimator is None):
-        raise ValueError(f"{ESTIMATOR_STATE}: expected true or false, and true only with {DEVIATION_ESTIMATOR}, "
-                         f"got {value!r:.80}")
+def _flag_with(value: Any, key: str, needed: Any, needed_key: str) -> bool:
+    """A true/false env option ``key`` that may be true only when ``needed_key`` is given (``needed`` not None)."""
+    if not isinstance(value, bool) or (value and needed is None):
+        raise ValueError(f"{key}: expected true or false, and true only with {needed_key}, got {value!r:.80}")
     return value
 
 
