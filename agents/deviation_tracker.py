@@ -35,8 +35,8 @@ import numpy as np
 from envs.core import OBS_POS, reference_deviation
 
 from .deviation_bank import DeviationBank
+from .estimator import FAILED_RESIDUAL
 
-FAILED_ROW = 30.0   # a residual row, in noise units, of a trajectory that ended the test (the estimator's)
 # A hypothesis's fresh start costs as much CPU as ~120 periods stepped (1.5-1.9 ms against 13-16 us, ratio 115-130,
 # on this machine loaded: benchmarks/bench_tracker_units.py): the refits' work is counted in periods stepped, so that
 # a spread refit does the same arithmetic whatever the machine's speed.
@@ -128,9 +128,10 @@ class GaussNewtonTracker:
         (and run to its end without a budget); the centre's deviation once it runs (the bank's before)."""
         estimate = self.deviation_bank.estimate(obs)
         self.pending = None
-        history = len(self.bank.history)
+        periods = self.bank.history   # (a copy: read once a period)
+        history = len(periods)
         if history:
-            measured = self.bank.history[-1][1]
+            measured = periods[-1][1]
             for t in self._live():
                 t.rows.append(self._row(t, measured))
         if self.job is None:
@@ -181,7 +182,7 @@ class GaussNewtonTracker:
 
     def _row(self, t: Trajectory, measured: np.ndarray) -> np.ndarray:
         if t.ended:
-            return np.full(9, FAILED_ROW)
+            return np.full(9, FAILED_RESIDUAL)
         return (t.obs[OBS_POS:OBS_POS + 9] - measured) / self.sigma
 
     def _likeliest(self) -> np.ndarray:
