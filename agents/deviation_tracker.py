@@ -20,7 +20,7 @@ percentile; 5-6 ms a period on average). With ``budget`` > 0 it runs after each 
 period (:data:`START_UNITS` a fresh start, one a period stepped; a unit runs only if it fits, so the budget is never
 exceeded unless one start is larger), the trajectories it has replayed stepped with the bench meanwhile, and the
 next refit is due at the first multiple of ``every`` after it ends: fewer refits, each applied later. Measured, and
-the policies driven with it: :mod:`experiments.gn_tracker`.
+the policies driven with it: ``benchmarks/bench_banked.py --shadow tracker`` and :mod:`experiments.gn_tracker`.
 """
 
 from __future__ import annotations
@@ -118,10 +118,8 @@ class GaussNewtonTracker:
         self.job: Any = None
         self.next_cost: int | None = None   # the work unit the job announced and will do next
         self.pending: np.ndarray | None = None   # the command advanced by, not yet measured
-        b = self.bank
-        self.sigma = math.sqrt(b.sensor_noise_m ** 2 + b.model_error_m ** 2)
-        self.free = (b.high > b.low) & ~b.circular
-        self.low, self.span = b.low[self.free], (b.high - b.low)[self.free]
+        self.sigma = self.bank.noise_m
+        self.free, self.low, self.span = self.bank.free_unknowns()
 
     def estimate(self, obs: np.ndarray) -> np.ndarray:
         """The bank weighed by the period just measured; every trajectory's residual row; a refit started when due
@@ -136,7 +134,8 @@ class GaussNewtonTracker:
                 t.rows.append(self._row(t, measured))
         if self.job is None:
             if self.centre is None and history == self.settings.start:
-                self.job = self._rebuild_job(self._likeliest())
+                best = self.bank.likeliest()
+                self.job = None if best is None else self._rebuild_job(self.bank.theta[best].copy())
             elif self.centre is not None and history > self.settings.start and history % self.settings.every == 0:
                 self.job = self._refit_job()
         if self.job is not None and not self.settings.budget:
@@ -184,11 +183,6 @@ class GaussNewtonTracker:
         if t.ended:
             return np.full(9, FAILED_RESIDUAL)
         return (t.obs[OBS_POS:OBS_POS + 9] - measured) / self.sigma
-
-    def _likeliest(self) -> np.ndarray:
-        b = self.bank
-        alive = np.flatnonzero(b.alive)
-        return b.theta[alive[np.argmax(b.ll[alive])]].copy()
 
     def _theta(self, z: np.ndarray, like: np.ndarray) -> np.ndarray:
         theta = like.copy()

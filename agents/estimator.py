@@ -296,7 +296,7 @@ class SpecimenBank:
         """Hypothesis ``theta``'s residuals against every counted measurement so far, in units of the likelihood's
         noise, so that half their sum of squares is the negative log-likelihood; from where it does not start, ends
         the test or goes non-finite, :data:`FAILED_RESIDUAL`."""
-        sigma = math.sqrt(self.sensor_noise_m ** 2 + self.model_error_m ** 2)
+        sigma = self.noise_m
         out = np.full(9 * (len(self._history) - self._counted_from), FAILED_RESIDUAL)
         state, _ = self._start(self._bench_of(theta))
         if state is None:
@@ -309,20 +309,35 @@ class SpecimenBank:
                 out[9 * j:9 * j + 9] = self._residual / sigma
         return out
 
+    @property
+    def noise_m(self) -> float:
+        """The likelihood's noise (m): the rangefinders' and the model's error in quadrature."""
+        return math.sqrt(self.sensor_noise_m ** 2 + self.model_error_m ** 2)
+
+    def likeliest(self) -> int | None:
+        """The index of the likeliest live hypothesis (None if none is alive)."""
+        alive = np.flatnonzero(self.alive)
+        return int(alive[np.argmax(self.ll[alive])]) if len(alive) else None
+
+    def free_unknowns(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """What a fit moves: the mask of the unknowns with a range (not the horizontal planes' dip directions, and
+        none of the geometry without ``vary_geometry``), and their box's low ends and spans."""
+        free = (self.high > self.low) & ~self.circular
+        if not self.vary_geometry:
+            free[len(PARAMETERS):] = False
+        return free, self.low[free], (self.high - self.low)[free]
+
     def refine(self) -> bool:
         """Replace the bank by an importance sample of the posterior from a Laplace proposal (:mod:`agents.refine`):
         the unknowns fitted by least squares to every measurement so far from the likeliest hypothesis, the
         horizontal planes' dip directions held at its values. Each draw that starts is weighed by its likelihood
         over the proposal's density. Returns False (the bank unchanged) if the fit is no likelier than that
         hypothesis or too few draws start."""
-        alive = np.flatnonzero(self.alive)
-        if not len(alive) or not self._history:
+        best = self.likeliest()
+        if best is None or not self._history:
             return False
-        best = alive[np.argmax(self.ll[alive])]
-        free = (self.high > self.low) & ~self.circular
-        if not self.vary_geometry:
-            free[len(PARAMETERS):] = False
-        base, low, span = self.theta[best], self.low[free], (self.high - self.low)[free]
+        free, low, span = self.free_unknowns()
+        base = self.theta[best]
 
         def hypothesis(z: np.ndarray) -> np.ndarray:
             theta = base.copy()

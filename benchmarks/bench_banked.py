@@ -10,11 +10,14 @@ estimate's error against the env's true deviation (:meth:`envs.base.ShearEnvBase
 over the three contact points of the x-z distance, mm) by span of decisions. The issue's target: 1 ms at the 99th
 percentile on one pinned core with nothing else running. numpy's BLAS and torch are held to one thread.
 
-``--shadow`` runs a second bank beside the controller's, which does not drive (the episodes are the controller's
-own): ``N`` hypotheses, ``mpc``'s refinement every ``REFINE_EVERY`` periods (0: none), resample-moves in the first
-``MOVE_PERIODS`` periods (0: the whole episode; -1: none); its estimate's error by the same spans and its thread CPU
-per period, to see what a richer bank would know and cost on the same closed loop (finding 13d of
-``docs/notes/student-experiments.md``). ``--skip M`` starts at the M-th judge draw.
+``--shadow`` runs a second estimator beside the controller's, which does not drive (the episodes are the
+controller's own): ``N,REFINE_EVERY,MOVE_PERIODS`` a bank of ``N`` hypotheses, ``mpc``'s refinement every
+``REFINE_EVERY`` periods (0: none), resample-moves in the first ``MOVE_PERIODS`` periods (0: the whole episode; -1:
+none); ``tracker[:START,EVERY,CHORD,REBUILD,BUDGET]`` the Gauss-Newton tracker of
+:mod:`agents.deviation_tracker` on a ``--bank-size`` bank (its default settings, or these). Its estimate's error by
+the same spans and its thread CPU per period (and a tracker's refit counts and work units), to see what a richer
+estimate would know and cost on the same closed loop (findings 13d and 14 of ``docs/notes/student-experiments.md``).
+``--skip M`` starts at the M-th judge draw.
 """
 
 from __future__ import annotations
@@ -29,6 +32,7 @@ from threadpoolctl import threadpool_limits
 from agents.banked_deviation import BANK_SIZE, BankedDeviationPolicy
 from agents.controller_base import play
 from agents.deviation_bank import DeviationBank, estimate_error_mm
+from agents.deviation_tracker import GaussNewtonTracker, TrackerSettings
 from agents.mpc import MPCController
 from envs.triplanar_shear_v1 import TriPlanarShearV1Env
 from experiments.train_student import judge_draws
@@ -36,8 +40,8 @@ from experiments.train_student import judge_draws
 SPANS = ((0, 8), (8, 16), (16, 32), (32, 10_000))   # decision indices
 
 
-def episode(controller: BankedDeviationPolicy, bench, seed: int, shadow: DeviationBank | None = None
-            ) -> list[tuple[float, ...]]:
+def episode(controller: BankedDeviationPolicy, bench, seed: int,
+            shadow: DeviationBank | GaussNewtonTracker | None = None) -> list[tuple[float, ...]]:
     """(decision CPU s, period CPU s, the estimate's error mm[, the shadow's error mm, its CPU s]) of every decision
     of one episode."""
     env = TriPlanarShearV1Env()
@@ -82,10 +86,30 @@ def summary(rows: list[list[tuple[float, float, float]]]) -> dict:
     return out
 
 
-def shadow_bank(text: str | None) -> DeviationBank | None:
-    """The ``--shadow N,REFINE_EVERY,MOVE_PERIODS`` bank (module docstring), or None."""
+def tracker_counts(shadow: DeviationBank | GaussNewtonTracker | None) -> dict:
+    """A tracker shadow's refits, accepted steps and replays over the run, and the refit work units done in a
+    period's slack (largest, and mean over the periods that refitted; spread refits only); {} for a bank."""
+    if not isinstance(shadow, GaussNewtonTracker):
+        return {}
+    units = np.array(shadow.units or [0])
+    return {**shadow.counts, "refit_units_per_period_max": int(units.max()),
+            "refit_units_mean_while_refitting": float(units.mean())}
+
+
+def shadow_bank(text: str | None, bank_size: int = BANK_SIZE) -> DeviationBank | GaussNewtonTracker | None:
+    """The ``--shadow`` estimator (module docstring; a tracker on a bank of ``bank_size``), or None."""
     if text is None:
         return None
+    if text == "tracker" or text.startswith("tracker:"):
+        try:
+            settings = TrackerSettings()
+            if ":" in text:
+                start, every, chord, rebuild, budget = (int(v) for v in text[len("tracker:"):].split(","))
+                settings = TrackerSettings(start, every, chord, rebuild, budget=budget)
+        except ValueError as error:
+            raise ValueError(f"--shadow: expected tracker or tracker:START,EVERY,CHORD,REBUILD,BUDGET (five "
+                             f"integers), got {text!r}: {error}") from None
+        return GaussNewtonTracker(settings, DeviationBank.of_size(bank_size))
     try:
         size, refine_every, move_periods = (int(v) for v in text.split(","))
     except ValueError:
@@ -103,10 +127,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--n", type=int, default=20, help="the first N judge draws (default 20)")
     parser.add_argument("--skip", type=int, default=0, help="start at the M-th judge draw (default 0)")
     parser.add_argument("--bank-size", type=int, default=BANK_SIZE)
-    parser.add_argument("--shadow", metavar="N,REFINE_EVERY,MOVE_PERIODS", help="a second bank beside, not driving")
+    parser.add_argument("--shadow", metavar="N,REFINE_EVERY,MOVE_PERIODS|tracker[:START,EVERY,CHORD,REBUILD,BUDGET]",
+                        help="a second estimator beside, not driving (module docstring)")
     args = parser.parse_args(argv)
     try:
-        shadow = shadow_bank(args.shadow)
+        shadow = shadow_bank(args.shadow, args.bank_size)
     except ValueError as error:
         parser.error(str(error))
     if args.n < 1 or args.skip < 0:
@@ -120,7 +145,7 @@ def main(argv: list[str] | None = None) -> int:
     with open("/proc/loadavg") as f:
         load = f.read().split()[:3]
     print(json.dumps({"run": args.run, "bank_size": args.bank_size, "skip": args.skip, "shadow": args.shadow,
-                      **summary(rows), "load": load}, indent=1))
+                      **summary(rows), **tracker_counts(shadow), "load": load}, indent=1))
     return 0
 
 

@@ -1,6 +1,6 @@
 """benchmarks/bench_banked.py: a shadow bank beside ``banked:RUN``'s (``--shadow``) sees the same closed loop; one
 with the controller's own settings estimates exactly as the controller's, a richer one differently; bad shadow
-settings are refused by name."""
+settings are refused by name; a tracker shadow follows the same loop, its bank's estimate until it starts."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
 
-from bench_banked import episode, shadow_bank, summary
+from bench_banked import episode, shadow_bank, summary, tracker_counts
 
 from agents.banked_deviation import BankedDeviationPolicy
 from agents.heldout import nominal_benches
@@ -39,7 +39,20 @@ def test_a_shadow_with_the_controllers_settings_estimates_as_the_controller_and_
     assert out["shadow_error_mm_decisions_0_8"] is not None
 
 
-@pytest.mark.parametrize("text", ["3,0", "a,b,c", "0,0,-1", "3,-1,0", "3,0,-2"])
+def test_a_tracker_shadow_follows_the_same_loop_and_counts_its_refits(recording_model):
+    bench = nominal_benches((40.0,))[0]
+    plain = episode(_controller(recording_model), bench, 1, shadow_bank("3,0,-1"))
+    tracker = shadow_bank("tracker:4,3,2,2,0", bank_size=3)
+    tracked = episode(_controller(recording_model), bench, 1, tracker)
+    assert [r[2] for r in tracked] == [r[2] for r in plain]   # the shadow does not drive
+    assert [r[3] for r in tracked[:4]] == [r[3] for r in plain[:4]]   # its bank's estimate until it starts
+    assert [r[3] for r in tracked] != [r[3] for r in plain]
+    counts = tracker_counts(tracker)
+    assert counts["refits"] >= 1 and counts["replays"] >= 4 and tracker_counts(shadow_bank("3,0,-1")) == {}
+
+
+@pytest.mark.parametrize("text", ["3,0", "a,b,c", "0,0,-1", "3,-1,0", "3,0,-2", "tracker:6,4,2", "tracker:0,4,2,2,0",
+                                  "tracker:6,4,2,2,-1", "tracker:a"])
 def test_bad_shadow_settings_are_refused_naming_the_option(text):
     with pytest.raises(ValueError, match="--shadow"):
         shadow_bank(text)
