@@ -5,22 +5,24 @@ least-squares fit (:mod:`agents.refine`), recomputed from fresh starts at every 
 carried forward instead.
 
 **The tracker.** :class:`GaussNewtonTracker` runs :mod:`agents.deviation_bank`'s plain bank (16 hypotheses, its
-estimate until the tracker starts). After ``start`` periods the bank's likeliest hypothesis becomes the *centre*; the
-centre and one perturbation per free unknown (``step`` in the unit coordinates of :mod:`agents.refine`, one-sided
-into the prior's box) are replayed from their starts through the history and then stepped with the bench every
-period, so their residuals against every measurement (in units of the likelihood's noise, as
-:meth:`agents.estimator.SpecimenBank._residuals`) and the Jacobian between them accumulate at ``n_free + 1`` steps a
-period. Every ``every`` periods up to ``chord`` damped Gauss-Newton steps (Levenberg-Marquardt damping on the
-diagonal, adapted: /3 on a success, x10 on a failure) on the kept Jacobian each replay one new centre, kept if its
-cost is lower (the first failure ends the refit); every ``rebuild``-th refit replays the perturbations around the
-centre. The estimate is the centre's own deviation from its own case-C reference (as the env computes the truth's).
+estimate until the tracker starts). After ``start`` periods the bank's likeliest hypothesis becomes the *centre*;
+the centre and one perturbation per free unknown (``step`` in the unit coordinates of :mod:`agents.refine`,
+one-sided into the prior's box; a perturbation started without its case-C reference, whose positions alone count)
+are replayed from their starts through the history and then stepped with the bench every period, so their residuals
+against every measurement (in units of the likelihood's noise, as :meth:`agents.estimator.SpecimenBank._residuals`)
+and the Jacobian between them accumulate at ``n_free + 1`` steps a period. Every ``every`` periods up to ``chord``
+damped Gauss-Newton steps (Levenberg-Marquardt damping on the diagonal, adapted: /3 on a success, x10 on a failure)
+on the kept Jacobian each replay one new centre, kept if its cost is lower (the first failure ends the refit); every
+``rebuild``-th refit replays the perturbations around the centre. The estimate is the centre's own deviation from
+its own case-C reference (as the env computes the truth's).
 
 **Spread over the slack.** By default a refit runs at once, in the period it falls on (tens of ms at the 99th
 percentile; 5-6 ms a period on average). With ``budget`` > 0 it runs after each command, ``budget`` work units a
-period (:data:`START_UNITS` a fresh start, one a period stepped; a unit runs only if it fits, so the budget is never
-exceeded unless one start is larger), the trajectories it has replayed stepped with the bench meanwhile, and the
-next refit is due at the first multiple of ``every`` after it ends: fewer refits, each applied later. Measured, and
-the policies driven with it: ``benchmarks/bench_banked.py --shadow tracker`` and :mod:`experiments.gn_tracker`.
+period (:data:`START_UNITS` a fresh start, :data:`BARE_START_UNITS` a perturbation's, one a period stepped; a unit
+runs only if it fits, so the budget is never exceeded unless one start is larger), the trajectories it has replayed
+stepped with the bench meanwhile, and the next refit is due at the first multiple of ``every`` after it ends: fewer
+refits, each applied later. Measured, and the policies driven with it: ``benchmarks/bench_banked.py --shadow
+tracker`` and :mod:`experiments.gn_tracker`.
 """
 
 from __future__ import annotations
@@ -38,9 +40,11 @@ from .deviation_bank import DeviationBank
 from .estimator import FAILED_RESIDUAL
 
 # A hypothesis's fresh start costs as much CPU as ~120 periods stepped (1.5-1.9 ms against 13-16 us, ratio 115-130,
-# on this machine loaded: benchmarks/bench_tracker_units.py): the refits' work is counted in periods stepped, so that
-# a spread refit does the same arithmetic whatever the machine's speed.
+# on this machine loaded: benchmarks/bench_tracker_units.py), ~65 without its case-C reference (0.7-1.0 ms, ratio
+# 59-72: a perturbation's, whose positions alone count): the refits' work is counted in periods stepped, so that a spread refit
+# does the same arithmetic whatever the machine's speed.
 START_UNITS = 120
+BARE_START_UNITS = 65
 
 
 @dataclass(eq=False)   # (compared by identity: one trajectory is in a list or not)
@@ -192,12 +196,13 @@ class GaussNewtonTracker:
     def _z(self, theta: np.ndarray) -> np.ndarray:
         return (theta[self.free] - self.low) / self.span
 
-    def _replay_job(self, theta: np.ndarray) -> Any:
+    def _replay_job(self, theta: np.ndarray, reference: bool = True) -> Any:
         """A trajectory from its start through every period so far, the history growing while it runs, and the
         command advanced by but not yet measured (it then steps with the bench): returns it (None if it does not
-        start). Yields the cost of each unit of work before doing it (that last step uncounted)."""
-        yield START_UNITS
-        state, obs = self.bank.start_hypothesis(theta)
+        start). Yields the cost of each unit of work before doing it (that last step uncounted). ``reference``
+        False: a perturbation's, without its case-C reference (its positions only: not an estimate)."""
+        yield START_UNITS if reference else BARE_START_UNITS
+        state, obs = self.bank.start_hypothesis(theta, reference)
         self.counts["replays"] += 1
         if state is None:
             return None
@@ -232,8 +237,8 @@ class GaussNewtonTracker:
         steps = [self.settings.step if z[j] + self.settings.step <= 1.0 else -self.settings.step
                  for j in range(len(z))]
         self.building = []
-        for th in [theta] + [self._theta(z + s * np.eye(len(z))[j], theta) for j, s in enumerate(steps)]:
-            t = yield from self._replay_job(th)
+        for k, th in enumerate([theta] + [self._theta(z + s * np.eye(len(z))[j], theta) for j, s in enumerate(steps)]):
+            t = yield from self._replay_job(th, reference=k == 0)
             if t is None:
                 self.building = []
                 return

@@ -235,9 +235,17 @@ class SpecimenBank:
             return Bench(with_parameters(self.prior, theta), self.foundation, self.load_N)
         return bench_of(self.prior, theta, self.load_N)
 
-    def _start(self, bench: Bench) -> tuple[BenchState | None, np.ndarray]:
+    def _start(self, bench: Bench, reference: bool = True) -> tuple[BenchState | None, np.ndarray]:
         """The hypothesis's start (None if friction holds it at rest: the bench's block did start); its state
-        observation is left in ``_obs``, as :meth:`_advance` leaves each period's."""
+        observation is left in ``_obs``, as :meth:`_advance` leaves each period's. ``reference`` False: without its
+        case-C reference (:meth:`TriPlanarShearV1Env.start_state`: its positions and outcomes, not its deviation;
+        ``_obs`` in float64)."""
+        if not reference:
+            try:
+                state, self._obs[:] = self._env.start_state(bench, reference=False)
+            except StartError:
+                return None, hypothesis_of(bench)
+            return state, hypothesis_of(bench)
         try:
             obs, _ = self._env.reset(seed=0, options={"bench": bench})
         except StartError:
@@ -245,10 +253,11 @@ class SpecimenBank:
         self._obs[:] = obs
         return self._env.get_state(), hypothesis_of(bench)
 
-    def start_hypothesis(self, theta: np.ndarray) -> tuple[BenchState | None, np.ndarray]:
+    def start_hypothesis(self, theta: np.ndarray, reference: bool = True) -> tuple[BenchState | None, np.ndarray]:
         """The start of the hypothesis vector ``theta`` (:func:`hypothesis_of`'s layout) on this episode's bench and
-        load, and its state observation (None and the last one if friction holds it at rest)."""
-        state, _ = self._start(self._bench_of(theta))
+        load, and its state observation (None and the last one if friction holds it at rest); ``reference`` False:
+        without its case-C reference (:meth:`_start`: for residuals of positions, not a deviation)."""
+        state, _ = self._start(self._bench_of(theta), reference)
         return state, self._obs.copy()
 
     def step_hypothesis(self, state: BenchState, raw: np.ndarray) -> tuple[bool, np.ndarray]:
@@ -298,7 +307,7 @@ class SpecimenBank:
         the test or goes non-finite, :data:`FAILED_RESIDUAL`."""
         sigma = self.noise_m
         out = np.full(9 * (len(self._history) - self._counted_from), FAILED_RESIDUAL)
-        state, _ = self._start(self._bench_of(theta))
+        state, _ = self._start(self._bench_of(theta), reference=False)
         if state is None:
             return out
         for k, (raw, measured) in enumerate(self._history):

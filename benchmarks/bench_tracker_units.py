@@ -1,11 +1,12 @@
-"""The Gauss-Newton tracker's unit of work (:data:`agents.deviation_tracker.START_UNITS`): how many periods stepped
-one fresh start of a hypothesis costs.
+"""The Gauss-Newton tracker's units of work (:data:`agents.deviation_tracker.START_UNITS`, ``BARE_START_UNITS``): how
+many periods stepped one fresh start of a hypothesis costs, with and without its case-C reference.
 
 ``PYTHONPATH=. taskset -c 0 python benchmarks/bench_tracker_units.py [--benches 3] [--starts 20]`` runs the tracker
 beside the first judge benches (:func:`experiments.train_student.judge_draws`) under the nominal command until it
 has a centre, then times (thread CPU) ``--starts`` fresh starts of hypotheses drawn around the centre (1 % of each
 unknown's range: distinct hypotheses, which the env's start cache does not serve) and up to 30 periods stepped from
-each; prints, as JSON, per bench the mean start and step in ms and their ratio, and the machine's load average.
+each, and as many starts without the reference (other hypotheses); prints, as JSON, per bench the mean start, bare
+start and step in ms and the starts' ratios to a step, and the machine's load average.
 """
 
 from __future__ import annotations
@@ -34,9 +35,13 @@ def bench_units(bench, starts: int, rng: np.random.Generator) -> dict[str, float
         tracker.advance(action)
         obs, *_ = env.step(action)
     centre = tracker.centre.theta
-    start_s, step_s, steps = 0.0, 0.0, 0
+    start_s, bare_s, step_s, steps = 0.0, 0.0, 0.0, 0
     for _ in range(starts):
         z = tracker._z(centre) + rng.normal(0.0, 0.01, int(tracker.free.sum()))
+        bare = tracker._theta(tracker._z(centre) + rng.normal(0.0, 0.01, int(tracker.free.sum())), centre)
+        started = time.thread_time()
+        tracker.bank.start_hypothesis(bare, reference=False)
+        bare_s += time.thread_time() - started
         started = time.thread_time()
         state, _ = tracker.bank.start_hypothesis(tracker._theta(z, centre))
         began = time.thread_time()
@@ -47,8 +52,9 @@ def bench_units(bench, starts: int, rng: np.random.Generator) -> dict[str, float
             if ended:
                 break
         step_s += time.thread_time() - began
-    start_ms, step_ms = 1e3 * start_s / starts, 1e3 * step_s / max(steps, 1)
-    return {"start_ms": start_ms, "step_ms": step_ms, "steps": steps, "ratio": start_ms / step_ms}
+    start_ms, bare_ms, step_ms = 1e3 * start_s / starts, 1e3 * bare_s / starts, 1e3 * step_s / max(steps, 1)
+    return {"start_ms": start_ms, "bare_start_ms": bare_ms, "step_ms": step_ms, "steps": steps,
+            "ratio": start_ms / step_ms, "bare_ratio": bare_ms / step_ms}
 
 
 def main(argv: list[str] | None = None) -> int:

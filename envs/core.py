@@ -340,25 +340,30 @@ def specimen_key(specimen: Specimen, foundation: Foundation) -> tuple:
 
 
 def episode_start(config: ShearConfig, draw: EpisodeDraw, specimen: Specimen, foundation: Foundation,
-                  base_key: tuple | None = None, cache: StartCache | None = None) -> EpisodeStart:
+                  base_key: tuple | None = None, cache: StartCache | None = None, *,
+                  reference: bool = True) -> EpisodeStart:
     """The starting state for ``draw`` (StartError if the block cannot start), from ``cache`` if it holds it, else
     computed (and kept there).
 
     ``specimen`` and ``foundation`` are :meth:`ShearConfig.base_specimen`'s; ``base_key`` their
-    :func:`specimen_key` (pass it to save recomputing it)."""
+    :func:`specimen_key` (pass it to save recomputing it). ``reference`` False skips the hydrostatic reference run
+    (a third of a start's CPU; the reference is zeros, ``reference_status`` ``"none"``): the motion, the contact
+    points and the outcome of every later period are the episode's, its rewards and ``OBS_REF`` are not; for a fit
+    to measured positions (:meth:`agents.estimator.SpecimenBank._residuals`), never an episode."""
     base_key = base_key if base_key is not None else specimen_key(specimen, foundation)
     key = (base_key, draw, config.end_friction, config.tip_offset_m, config.control_hz, config.substeps,
            config.travel_m, config.thrust_scale, config.offset_range_m, config.stage_speed_m_s, config.time_limit_s)
+    key += () if reference else ("no reference",)
     entry = cache.get(key) if cache is not None else None
     if entry is None:
-        entry = _compute_start(key, config, draw, specimen, foundation)
+        entry = _compute_start(key, config, draw, specimen, foundation, reference)
         if cache is not None:
             cache.put(key, entry)
     return entry
 
 
 def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen: Specimen,
-                   foundation: Foundation) -> EpisodeStart:
+                   foundation: Foundation, reference: bool = True) -> EpisodeStart:
     specimen = replace(specimen, friction_deg=draw.friction_deg, tip_friction_deg=draw.tip_friction_deg)
     model = Model(Loading(draw.load_N, "actuator", config.end_friction, config.tip_offset_m), specimen, foundation)
     model.validate()
@@ -392,6 +397,8 @@ def _compute_start(key: tuple, config: ShearConfig, draw: EpisodeDraw, specimen:
     if code != RUNNING:
         raise StartError(f"the block's first {1e3 * config.dt:g} ms already ended the test: "
                          f"{Outcome(code).label} (specimen {specimen.name!r}, {draw.load_N:g} N)")
+    if not reference:   # (the period just run is the start: only its reward and OBS_REF used the zero reference)
+        return EpisodeStart(key, model, y, p, modes, armed, st, np.zeros((REFERENCE_POINTS, 9)), "none", obs, inf)
     y, p, modes, armed, st = before
     reference_run = simulate(paper_model("C", draw.load_N, specimen, foundation), travel_m=config.travel_m)
     grid = np.linspace(0.0, config.travel_m, REFERENCE_POINTS)

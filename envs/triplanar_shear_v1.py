@@ -314,13 +314,15 @@ def draw_bench_for(rng: np.random.Generator, config: ShearConfig, randomize: boo
                  foundation, draw.load_N)
 
 
-def bench_start(config: ShearConfig, bench: Bench, cache: StartCache | None = None) -> EpisodeStart:
+def bench_start(config: ShearConfig, bench: Bench, cache: StartCache | None = None, *,
+                reference: bool = True) -> EpisodeStart:
     """The start of ``bench`` (:func:`envs.core.episode_start`, kept in ``cache`` if given; StartError if it cannot
-    start)."""
+    start; ``reference`` False: without the case-C reference, as there)."""
     specimen = bench.specimen
     return episode_start(config, EpisodeDraw(bench.load_N, tuple(specimen.friction_deg),
                                              float(specimen.tip_friction_deg)),
-                         specimen, bench.foundation, specimen_key(specimen, bench.foundation), cache)
+                         specimen, bench.foundation, specimen_key(specimen, bench.foundation), cache,
+                         reference=reference)
 
 
 def can_start(config: ShearConfig, bench: Bench, cache: StartCache | None = None) -> bool:
@@ -467,7 +469,8 @@ class TriPlanarShearV1Env(ShearEnvBase):
     with it), mass centre +-5 mm on each body axis, each plane's dip +-0.5 deg and dip direction +-5 deg (the
     horizontal plane: dip 0-0.5 deg in any direction), load uniform in 27.8-55.6 N; a draw that friction holds at
     rest is drawn again. A ``tip_friction_deg`` given to ``gym.make`` is known hardware and is not drawn.
-    ``reset(options={"bench": Bench(...)})`` runs a given bench (the held-out set does).
+    ``reset(options={"bench": Bench(...)})`` runs a given bench (the held-out set does); ``start_state(bench)`` gives
+    the state it would begin from without beginning it (``get_state``/``set_state`` move a state between envs).
     ``info`` of reset and of every step has the same keys: v0's step keys plus the bench's (``mass_kg``,
     ``mass_centre_m``, ``plane_dips_deg``, ``friction_deg``, ``tip_friction_deg``).
 
@@ -602,6 +605,20 @@ class TriPlanarShearV1Env(ShearEnvBase):
         controller plans from."""
         return BenchState(**vars(super().get_state()), bc=self._bc.copy(), bs=self._bs.copy(),
                           queue=self._queue.copy())
+
+    def start_state(self, bench: Bench, *, reference: bool = True) -> tuple[BenchState, np.ndarray]:
+        """The state ``reset(options={"bench": bench})`` would begin from and its state observation (float64, as
+        ``observation_mode="state"`` observes it before float32), without beginning an episode (this env is left as
+        it was; StartError if the block cannot start). ``reference`` False: without the case-C reference run
+        (:func:`envs.core.episode_start`: the motion and outcomes are the episode's, not its rewards nor
+        ``OBS_REF``; what a fit to measured positions needs, :mod:`agents.estimator`)."""
+        start = bench_start(self.config, bench, self._start_cache if reference else None, reference=reference)
+        bs, queue = np.zeros_like(self._bs), np.zeros_like(self._queue)
+        reset_bench_state(self.config, start, bs, queue)
+        obs = start.obs.copy()
+        obs[OBS_PREV:OBS_PREV + 2] = bs[BS_PREV:BS_PREV + 2]
+        return BenchState(start.y.copy(), start.p.copy(), start.modes.copy(), start.armed.copy(), start.st.copy(),
+                          np.array(start.reference), self._cfg.copy(), bc=self._bc.copy(), bs=bs, queue=queue), obs
 
     def set_state(self, state: BenchState) -> None:
         """Continue the episode from ``state`` (:meth:`envs.base.ShearEnvBase.set_state`, the bench's state too)."""

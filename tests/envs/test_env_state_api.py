@@ -9,6 +9,7 @@ import pytest
 
 from agents.heldout import nominal_benches
 from envs.base import ShearState
+from envs.core import OBS_POS, OBS_REF
 from envs.triplanar_shear import TriPlanarShearEnv
 from envs.triplanar_shear_v1 import BenchState, TriPlanarShearV1Env
 
@@ -62,3 +63,32 @@ def test_set_state_refuses_another_bench_and_needs_an_episode():
     with pytest.raises(TypeError, match="BenchState"):
         env.set_state(ShearState(**{k: v for k, v in vars(other.get_state()).items()
                                     if k in ShearState.__dataclass_fields__}))
+
+
+def test_v1_start_state_is_the_resets_and_without_reference_moves_alike():
+    """``start_state`` is the state ``reset`` begins from, without an episode; without the case-C reference the
+    block moves, is observed in position and ends exactly as with it (what a fit to measured positions uses), only
+    the reference (zeros) and what is read against it differ."""
+    bench = nominal_benches([40.0])[0]
+    env = TriPlanarShearV1Env(observation_mode="state")
+    obs, _ = env.reset(seed=0, options={"bench": bench})
+    reset_state = env.get_state()
+    state, start_obs = env.start_state(bench)
+    for name in ("y", "p", "modes", "armed", "st", "ref", "cfg", "bc", "bs", "queue"):
+        np.testing.assert_array_equal(getattr(state, name), getattr(reset_state, name), err_msg=name)
+    np.testing.assert_array_equal(start_obs.astype(np.float32), obs)
+    bare, bare_obs = env.start_state(bench, reference=False)
+    assert not bare.ref.any() and reset_state.ref.any()
+    np.testing.assert_array_equal(bare.y, state.y)
+    np.testing.assert_array_equal(bare_obs[OBS_POS:OBS_POS + 9], start_obs[OBS_POS:OBS_POS + 9])
+    twin = TriPlanarShearV1Env(observation_mode="state")
+    twin.reset(seed=0, options={"bench": bench})
+    twin.set_state(bare)
+    for action in np.tile(ACTIONS, (4, 1)):
+        full, full_r, full_end = env.step(action)[:3]
+        moved, moved_r, moved_end = twin.step(action)[:3]
+        np.testing.assert_array_equal(moved[OBS_POS:OBS_POS + 18], full[OBS_POS:OBS_POS + 18])   # positions, speeds
+        assert moved_end == full_end
+        if full_end:
+            break
+    assert not np.array_equal(moved[OBS_REF:OBS_REF + 9], full[OBS_REF:OBS_REF + 9])
