@@ -269,9 +269,15 @@ class GaussNewtonTracker:
             yield from self._rebuild_job(self.centre.theta)
 
 
+# The tracker a bench runs: its refits spread over the periods' slack, 150 units a period (chosen on tuning draws
+# 100-119 beside a driving banked:RUN against budgets 100 and 200 and refits at once: error 0.20 mm against 0.24, 0.23
+# and 0.19, 2.0 ms of CPU a period on average, 4.4 ms at p99 loaded; finding 14c of docs/notes/student-experiments.md)
+BENCH_SETTINGS = TrackerSettings(budget=150)
+
+
 def deviation_estimator(bank_size: int, tracker: bool = False) -> DeviationBank | GaussNewtonTracker:
     """The estimate a bank-driven policy runs on (``banked:RUN``, a bank-trained run's training rows): a
-    :class:`agents.deviation_bank.DeviationBank` of ``bank_size`` hypotheses, or that bank's tracker (the module's
-    settings)."""
+    :class:`agents.deviation_bank.DeviationBank` of ``bank_size`` hypotheses, or that bank's tracker as a bench runs
+    it (:data:`BENCH_SETTINGS`)."""
     bank = DeviationBank.of_size(int(bank_size))
-    return GaussNewtonTracker(bank=bank) if tracker else bank
+    return GaussNewtonTracker(BENCH_SETTINGS, bank=bank) if tracker else bank
