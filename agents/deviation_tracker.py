@@ -41,8 +41,8 @@ from .estimator import FAILED_RESIDUAL
 
 # A hypothesis's fresh start costs as much CPU as ~120 periods stepped (1.5-1.9 ms against 13-16 us, ratio 115-130,
 # on this machine loaded: benchmarks/bench_tracker_units.py), ~65 without its case-C reference (0.7-1.0 ms, ratio
-# 59-72: a perturbation's, whose positions alone count): the refits' work is counted in periods stepped, so that a spread refit
-# does the same arithmetic whatever the machine's speed.
+# 59-72: a perturbation's, whose positions alone count): the refits' work is counted in periods stepped, so that a
+# spread refit does the same arithmetic whatever the machine's speed.
 START_UNITS = 120
 BARE_START_UNITS = 65
 

@@ -14,7 +14,8 @@ percentile on one pinned core with nothing else running. numpy's BLAS and torch 
 controller's own): ``N,REFINE_EVERY,MOVE_PERIODS`` a bank of ``N`` hypotheses, ``mpc``'s refinement every
 ``REFINE_EVERY`` periods (0: none), resample-moves in the first ``MOVE_PERIODS`` periods (0: the whole episode; -1:
 none); ``tracker[:START,EVERY,CHORD,REBUILD,BUDGET]`` the Gauss-Newton tracker of
-:mod:`agents.deviation_tracker` on a ``--bank-size`` bank (its default settings, or these). Its estimate's error by
+:mod:`agents.deviation_tracker` on a ``--bank-size`` bank (``TrackerSettings()``: refits at once; or these, e.g.
+``tracker:6,4,2,2,150``, the bench's ``BENCH_SETTINGS``). Its estimate's error by
 the same spans and its thread CPU per period (and a tracker's refit counts and work units), to see what a richer
 estimate would know and cost on the same closed loop (findings 13d and 14 of ``docs/notes/student-experiments.md``).
 ``--skip M`` starts at the M-th judge draw.
