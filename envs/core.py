@@ -347,7 +347,7 @@ def episode_start(config: ShearConfig, draw: EpisodeDraw, specimen: Specimen, fo
 
     ``specimen`` and ``foundation`` are :meth:`ShearConfig.base_specimen`'s; ``base_key`` their
     :func:`specimen_key` (pass it to save recomputing it). ``reference`` False skips the hydrostatic reference run
-    (a third of a start's CPU; the reference is zeros, ``reference_status`` ``"none"``): the motion, the contact
+    (about half of a start's CPU; the reference is zeros, ``reference_status`` ``"none"``): the motion, the contact
     points and the outcome of every later period are the episode's, its rewards and ``OBS_REF`` are not; for a fit
     to measured positions (:meth:`agents.estimator.SpecimenBank._residuals`), never an episode."""
     base_key = base_key if base_key is not None else specimen_key(specimen, foundation)

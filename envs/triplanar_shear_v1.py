@@ -612,6 +612,8 @@ class TriPlanarShearV1Env(ShearEnvBase):
         it was; StartError if the block cannot start). ``reference`` False: without the case-C reference run
         (:func:`envs.core.episode_start`: the motion and outcomes are the episode's, not its rewards nor
         ``OBS_REF``; what a fit to measured positions needs, :mod:`agents.estimator`)."""
+        if not isinstance(bench, Bench):
+            raise TypeError(f"start_state: bench must be an envs.triplanar_shear_v1.Bench, got {bench!r}")
         start = bench_start(self.config, bench, self._start_cache if reference else None, reference=reference)
         bs, queue = np.zeros_like(self._bs), np.zeros_like(self._queue)
         reset_bench_state(self.config, start, bs, queue)

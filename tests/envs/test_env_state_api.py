@@ -92,3 +92,5 @@ def test_v1_start_state_is_the_resets_and_without_reference_moves_alike():
         if full_end:
             break
     assert not np.array_equal(moved[OBS_REF:OBS_REF + 9], full[OBS_REF:OBS_REF + 9])
+    with pytest.raises(TypeError, match="start_state: bench"):
+        env.start_state("nominal")
