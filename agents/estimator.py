@@ -64,6 +64,7 @@ from envs.triplanar_shear_v1 import (
     draw_bench,
     unknown_bench,
 )
+from triplanar import kernel as K
 from triplanar.outcome import RUNNING
 from triplanar.specimen import Foundation, Plane, Specimen
 
@@ -189,6 +190,8 @@ class SpecimenBank:
         self.resolution = (self.high - self.low)[:N_REPORTED] / self.size
         self._rng = np.random.default_rng([self.seed, round(load_N * 1000)])
         self._applied, self._obs, self._inf = np.zeros(2), np.zeros(OBS_DIM), np.zeros(N_INFO)
+        self._ws = new_workspace()
+        self._stepped = self._starts = self._bare_starts = 0   # the work done (work_counts)
         self.theta, self.states, observations = [], [], []
         for _ in range(self.max_rounds):  # until the bank is full of hypotheses that start, as the bench's did
             for theta in latin_hypercube(self._rng, self.size, low, high):
@@ -214,7 +217,6 @@ class SpecimenBank:
         self._history: list[tuple[np.ndarray, np.ndarray]] = []
         self._counted_from = 0  # measurements before a fallback no longer count
         self._predicted: np.ndarray | None = None   # the command predict() advanced the bank by, not yet weighed
-        self._ws = new_workspace()
 
     def _hypothesis(self, theta: np.ndarray) -> Bench:
         """The prior with ``theta``'s friction and mass centre; with ``vary_geometry`` also a mass and plane tilts,
@@ -241,11 +243,13 @@ class SpecimenBank:
         case-C reference (:meth:`TriPlanarShearV1Env.start_state`: its positions and outcomes, not its deviation;
         ``_obs`` in float64)."""
         if not reference:
+            self._bare_starts += 1
             try:
                 state, self._obs[:] = self._env.start_state(bench, reference=False)
             except StartError:
                 return None, hypothesis_of(bench)
             return state, hypothesis_of(bench)
+        self._starts += 1
         try:
             obs, _ = self._env.reset(seed=0, options={"bench": bench})
         except StartError:
@@ -266,6 +270,12 @@ class SpecimenBank:
         ended = self._step(state, raw)
         return ended, self._obs.copy()
 
+    def work_counts(self) -> tuple[int, float, int, int]:
+        """The work done since :meth:`reset` began: hypothesis periods stepped, the kernel's right-hand-side
+        evaluations in them, fresh starts with and without the case-C reference (what
+        :class:`agents.estimate_worker.WorkPrices` prices)."""
+        return self._stepped, float(self._ws[K.W_COUNT, K.C_NFEV]), self._starts, self._bare_starts
+
     @property
     def travel_m(self) -> float:
         """The bench's travel (the case-C reference's span)."""
@@ -278,6 +288,7 @@ class SpecimenBank:
     def _step(self, s: BenchState, raw: np.ndarray) -> bool:
         """One period of hypothesis ``s`` under command ``raw`` (its state observation left in ``_obs``): whether it
         ended the test (or its state is not finite)."""
+        self._stepped += 1
         code = step_state(s.y, s.p, s.modes, s.armed, s.st, s.ref, s.cfg, s.bc, s.bs, s.queue, raw,
                           self._applied, self._obs, self._inf, self._ws)
         return code != RUNNING or not np.all(np.isfinite(s.y))

@@ -1,10 +1,11 @@
 """The policies driven by :mod:`agents.deviation_tracker` (finding 14 of ``docs/notes/student-experiments.md``):
 ``judge`` lets the tracker drive finding 11's policy (and ``--truth FROM,TO`` feeds the true deviation on those
-decisions instead, to see which part of the episode the estimate's error costs). The tracker's estimate and CPU
-beside a driving ``banked:RUN``: ``benchmarks/bench_banked.py --shadow tracker``.
+decisions instead, to see which part of the episode the estimate's error costs; ``--worker US`` runs the tracker
+behind the decision, :mod:`agents.estimate_worker`). The tracker's estimate and CPU beside a driving
+``banked:RUN``: ``benchmarks/bench_banked.py --shadow tracker``.
 
 ``python -m experiments.gn_tracker judge --run RUN [--n 100] [--skip 0] [--start 6 --every 4 --chord 2 --rebuild 2]
-[--budget UNITS] [--truth FROM,TO] [--out FILE]`` (judge draws of the tuning stream,
+[--budget UNITS] [--truth FROM,TO | --worker US] [--out FILE]`` (judge draws of the tuning stream,
 :func:`experiments.train_student.judge_draws`; RUN is UNPICKLED: only yours).
 """
 
@@ -35,11 +36,16 @@ class TruthWindow(GaussNewtonTracker):
         return estimate
 
 
-def tracked_policy(run: str, settings: TrackerSettings, truth: tuple[int, int] | None = None) -> Any:
-    """``banked:RUN``'s policy driven by the tracker (or by :class:`TruthWindow`; UNPICKLES ``run``)."""
+def tracked_policy(run: str, settings: TrackerSettings, truth: tuple[int, int] | None = None,
+                   worker_us: float | None = None) -> Any:
+    """``banked:RUN``'s policy driven by the tracker (behind the decision with a worker of ``worker_us`` of CPU a
+    period, :class:`agents.estimate_worker.EstimateWorker`; or by :class:`TruthWindow`; UNPICKLES ``run``)."""
     from agents.banked_deviation import BankedDeviationPolicy
+    from agents.estimate_worker import EstimateWorker
     if truth is None:
-        return BankedDeviationPolicy.load(run, estimator=GaussNewtonTracker(settings), name="ppo_deviation_tracked")
+        tracker = GaussNewtonTracker(settings)
+        estimator = tracker if worker_us is None else EstimateWorker(tracker, worker_us)
+        return BankedDeviationPolicy.load(run, estimator=estimator, name="ppo_deviation_tracked")
     window = TruthWindow(*truth, settings)
 
     class TruthFed(BankedDeviationPolicy):
@@ -50,16 +56,22 @@ def tracked_policy(run: str, settings: TrackerSettings, truth: tuple[int, int] |
     return TruthFed.load(run, estimator=window, name="ppo_deviation_truth_window")
 
 
-def judge(run: str, settings: TrackerSettings, n: int, skip: int, truth: tuple[int, int] | None) -> dict[str, Any]:
-    """The tracked policy on the judge draws: :func:`experiments.train_student.judged_stats`, each bench's score."""
+def judge(run: str, settings: TrackerSettings, n: int, skip: int, truth: tuple[int, int] | None,
+          worker_us: float | None = None) -> dict[str, Any]:
+    """The tracked policy on the judge draws: :func:`experiments.train_student.judged_stats`, each bench's score
+    (and with a worker, how many periods old the decisions' estimates were)."""
     from agents.heldout import FAILURE_SCORE_MM
 
     from .train_student import judge_outcomes, judged_stats
-    controller = tracked_policy(run, settings, truth)
+    controller = tracked_policy(run, settings, truth, worker_us)
     outcomes = judge_outcomes(controller, {}, n, skip)
     result = judged_stats([outcomes])
     result["bench_scores_mm"] = [o.mimicry_error_mm if o.success else FAILURE_SCORE_MM for o in outcomes]
-    result.update(run=run, truth=truth, counts=controller.deviation_bank.counts)
+    result.update(run=run, truth=truth, counts=controller.deviation_bank.counts, worker_us=worker_us)
+    lags = getattr(controller.deviation_bank, "lags", None)
+    if lags:
+        result["lag_periods"] = {"mean": float(np.mean(lags)), "p99": float(np.percentile(lags, 99)),
+                                 "max": int(np.max(lags))}
     return result
 
 
@@ -77,6 +89,8 @@ def main(argv: list[str] | None = None) -> int:
     for name in ("start", "every", "chord", "rebuild", "budget"):
         parser.add_argument(f"--{name}", type=int, default=getattr(defaults, name))
     parser.add_argument("--truth", metavar="FIRST,LAST", help="judge: the true deviation on these decisions")
+    parser.add_argument("--worker", type=float, metavar="US", help="the tracker behind the decision, US microseconds "
+                        "of CPU a period (agents.estimate_worker)")
     parser.add_argument("--out", help="also write the JSON here")
     args = parser.parse_args(argv)
     try:
@@ -86,11 +100,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(str(error))
     if truth is not None and (len(truth) != 2 or not 0 <= truth[0] < truth[1]):
         parser.error(f"--truth: FIRST,LAST with 0 <= FIRST < LAST, got {args.truth!r}")
+    if args.worker is not None and (truth is not None or not args.worker > 0):
+        parser.error(f"--worker: a positive number of microseconds, and not with --truth, got {args.worker!r}")
     if args.n < 1 or args.skip < 0:
         parser.error(f"--n must be >= 1 and --skip >= 0, got {args.n}, {args.skip}")
     torch.set_num_threads(1)
     with threadpool_limits(1):
-        result = judge(args.run, settings, args.n, args.skip, truth)
+        result = judge(args.run, settings, args.n, args.skip, truth, args.worker)
     result["settings"] = asdict(settings)
     text = json.dumps(result, indent=1, default=float)
     print(text)

@@ -1,0 +1,116 @@
+"""An estimator run behind the decision, as its own thread would run it at a bench (finding 14c of
+``docs/notes/student-experiments.md``).
+
+A specimen bank's or a tracker's work in a period is not bounded: a hypothesis period costs the kernel ~5
+right-hand-side evaluations where the block slides or sticks cleanly and thousands where a contact slips slowly at
+the edge of sticking (the env's energy-balance redo, ``docs/environment.md``). Run in the decision's path, such a
+stretch delays the command; at a bench the estimator runs on its own instead, and the decision takes the latest
+estimate it has finished. :class:`EstimateWorker` models that, deterministically.
+
+**Work, counted.** Each period's work is counted from what the estimator did
+(:meth:`agents.estimator.SpecimenBank.work_counts`: hypothesis periods stepped, the kernel's evaluations in them,
+fresh starts with and without the case-C reference) and priced in microseconds of this machine's CPU by
+:class:`WorkPrices` (``benchmarks/bench_tracker_units.py``), so that a run is the same on every machine and
+under any load.
+
+**The worker.** Period k's measurement arrives at ``k * period``. The worker takes the periods in order, each once
+the one before is done, at ``capacity_us`` of CPU per period (the slack the decision leaves it): the estimator's
+update with the measurement (``estimate``) and then with the command (``advance``, a tracker's refit work
+included). A decision finds the worker either idle, and then the update with the new measurement runs in the
+decision's path (as without a worker: the decision uses its own period's estimate), or busy, and then uses the
+latest period's estimate the worker had finished. In simulation every update runs at once; only when its result
+becomes visible is modelled. ``lags`` records how many periods old each decision's estimate was.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class WorkPrices:
+    """Microseconds of CPU per unit of an estimator's work on this machine: a hypothesis period stepped (its
+    overhead) and each kernel evaluation in it (a least-squares fit over 15,494 periods of judge episodes, loaded:
+    15.1 us + 0.84 us per evaluation), a fresh start with its case-C reference and one without (1.3-1.8 and
+    0.7-1.0 ms: ``benchmarks/bench_tracker_units.py``)."""
+
+    period_us: float = 15.0
+    evaluation_us: float = 0.84
+    start_us: float = 1500.0
+    bare_start_us: float = 850.0
+
+    def cost_us(self, periods: float, evaluations: float, starts: float, bare_starts: float) -> float:
+        return (periods * self.period_us + evaluations * self.evaluation_us + starts * self.start_us
+                + bare_starts * self.bare_start_us)
+
+
+class EstimateWorker:
+    """``inner`` (a :class:`agents.deviation_bank.DeviationBank` or a :class:`agents.deviation_tracker
+    .GaussNewtonTracker`: ``reset``, ``estimate``, ``advance`` and its ``bank``) run behind the decision with
+    ``capacity_us`` of CPU per control period (module docstring)."""
+
+    def __init__(self, inner: Any, capacity_us: float, prices: WorkPrices = WorkPrices()):
+        if not capacity_us > 0.0:
+            raise ValueError(f"EstimateWorker: capacity_us must be a positive number of microseconds, "
+                             f"got {capacity_us!r}")
+        self.inner, self.capacity_us, self.prices = inner, float(capacity_us), prices
+        self.lags: list[int] = []
+
+    @property
+    def bank(self) -> Any:
+        return self.inner.bank
+
+    @property
+    def periods(self) -> int:
+        return self.inner.periods
+
+    @property
+    def min_ess(self) -> float:
+        return self.inner.min_ess
+
+    @property
+    def counts(self) -> dict:
+        return getattr(self.inner, "counts", {})
+
+    def reset(self, load_N: float, config: Any) -> None:
+        self.inner.reset(load_N, config)
+        self.period_us = 1e6 * float(config.dt)
+        self.k = 0
+        self.busy_until = 0.0    # when the worker finishes what it has been given (us from the first measurement)
+        self.pending: list[tuple[float, int, np.ndarray]] = []   # (done at, period, estimate), in period order
+        self.current: tuple[int, np.ndarray] | None = None   # the latest visible (period, estimate)
+        self._counted = np.array(self.bank.work_counts(), dtype=float)   # (the bank's start-up is not charged)
+
+    def _spent_us(self) -> float:
+        """The worker's time for the work done since the last call: its CPU over its share of the period."""
+        counts = np.array(self.bank.work_counts(), dtype=float)
+        cost = self.prices.cost_us(*(counts - self._counted))
+        self._counted = counts
+        return cost * self.period_us / self.capacity_us
+
+    def estimate(self, obs: np.ndarray) -> np.ndarray:
+        """The estimate the decision of this period has: its own if the worker was idle, else the latest the
+        worker had finished."""
+        arrival = self.k * self.period_us
+        idle = self.busy_until <= arrival
+        start = arrival if idle else self.busy_until
+        estimate = self.inner.estimate(obs)
+        self.busy_until = start + self._spent_us()
+        self.pending.append((self.busy_until, self.k, estimate))
+        visible = [p for p in self.pending if p[0] <= arrival or (idle and p[1] == self.k)]
+        if visible:
+            self.current = visible[-1][1:]
+            self.pending = [p for p in self.pending if p[1] > self.current[0]]
+        if self.current is None:   # (the first measurement finds the worker idle: never)
+            raise RuntimeError("EstimateWorker: no estimate finished by the first decision")
+        self.lags.append(self.k - self.current[0])
+        self.k += 1
+        return self.current[1]
+
+    def advance(self, action: np.ndarray) -> None:
+        """The estimator advanced by the command sent, on the worker's time."""
+        self.inner.advance(action)
+        self.busy_until += self._spent_us()
