@@ -33,12 +33,14 @@ import numpy as np
 @dataclass(frozen=True)
 class WorkPrices:
     """Microseconds of CPU per unit of an estimator's work on this machine: a hypothesis period stepped (its
-    overhead) and each kernel evaluation in it (a least-squares fit over 15,494 periods of judge episodes, loaded:
-    15.1 us + 0.84 us per evaluation), a fresh start with its case-C reference and one without (1.3-1.8 and
-    0.7-1.0 ms: ``benchmarks/bench_tracker_units.py``)."""
+    overhead) and each kernel evaluation in it (the least-squares line through the 15,494 periods a tracker-driven
+    policy's estimator steps on 12 judge episodes: 15.1-17.8 us + 0.84-0.85 us per evaluation, two runs, load 5-8:
+    ``benchmarks/bench_tracker_units.py --prices RUN``), a fresh start with its case-C reference and one without
+    (1.3-1.8 and 0.7-1.0 ms: ``benchmarks/bench_tracker_units.py``). Loaded figures: a quiet core is faster, so a
+    worker priced so is slower than it would be."""
 
-    period_us: float = 15.0
-    evaluation_us: float = 0.84
+    period_us: float = 17.8
+    evaluation_us: float = 0.85
     start_us: float = 1500.0
     bare_start_us: float = 850.0
 

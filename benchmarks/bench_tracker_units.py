@@ -7,6 +7,11 @@ has a centre, then times (thread CPU) ``--starts`` fresh starts of hypotheses dr
 unknown's range: distinct hypotheses, which the env's start cache does not serve) and up to 30 periods stepped from
 each, and as many starts without the reference (other hypotheses); prints, as JSON, per bench the mean start, bare
 start and step in ms and the starts' ratios to a step, and the machine's load average.
+
+``--prices RUN [--episodes 12]`` instead fits what :class:`agents.estimate_worker.WorkPrices` charges a hypothesis
+period: ``banked:RUN`` (UNPICKLED: only yours) drives the first judge benches while every period its bank (and
+tracker) steps is timed (thread CPU) with its kernel evaluations; prints the least-squares line us = a + b *
+evaluations over them (the first 1,000 periods left out: numba's loading), their count and percentiles.
 """
 
 from __future__ import annotations
@@ -57,19 +62,55 @@ def bench_units(bench, starts: int, rng: np.random.Generator) -> dict[str, float
             "ratio": start_ms / step_ms, "bare_ratio": bare_ms / step_ms}
 
 
+def period_prices(run: str, episodes: int) -> dict:
+    """The line us = a + b * evaluations through every hypothesis period ``banked:RUN``'s estimator steps."""
+    from agents import estimator as E
+    from agents.banked_deviation import BankedDeviationPolicy
+    from agents.controller_base import play
+    from triplanar import kernel as K
+    timed: list[tuple[float, float]] = []
+    step = E.SpecimenBank._step
+
+    def timed_step(bank, state, raw):
+        evaluations, started = bank._ws[K.W_COUNT, K.C_NFEV], time.thread_time_ns()
+        ended = step(bank, state, raw)
+        timed.append((1e-3 * (time.thread_time_ns() - started), bank._ws[K.W_COUNT, K.C_NFEV] - evaluations))
+        return ended
+    controller = BankedDeviationPolicy.load(run)
+    E.SpecimenBank._step = timed_step
+    try:
+        for i, (_, bench) in enumerate(judge_draws(episodes, {})):
+            env = TriPlanarShearV1Env()
+            obs, _ = env.reset(seed=i, options={"bench": bench})
+            play(controller, env, obs, bench.load_N)
+    finally:
+        E.SpecimenBank._step = step
+    us, evaluations = np.array(timed[1000:]).T
+    (a, b), *_ = np.linalg.lstsq(np.stack([np.ones_like(evaluations), evaluations], axis=1), us, rcond=None)
+    return {"run": run, "periods": int(len(us)), "period_us": float(a), "evaluation_us": float(b),
+            "evaluations_p50_p99_max": np.percentile(evaluations, [50, 99, 100]).tolist(),
+            "us_p50_p99_max": np.percentile(us, [50, 99, 100]).tolist()}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--benches", type=int, default=3)
     parser.add_argument("--starts", type=int, default=20)
+    parser.add_argument("--prices", metavar="RUN", help="fit a hypothesis period's price instead (module docstring)")
+    parser.add_argument("--episodes", type=int, default=12)
     args = parser.parse_args(argv)
-    if args.benches < 1 or args.starts < 1:
-        parser.error(f"--benches and --starts must be >= 1, got {args.benches}, {args.starts}")
+    if args.benches < 1 or args.starts < 1 or args.episodes < 1:
+        parser.error(f"--benches, --starts and --episodes must be >= 1, got {args.benches}, {args.starts}, "
+                     f"{args.episodes}")
     rng = np.random.default_rng(0)
     with threadpool_limits(1):
-        rows = [bench_units(bench, args.starts, rng) for _, bench in judge_draws(args.benches, {})]
+        if args.prices:
+            result = period_prices(args.prices, args.episodes)
+        else:
+            result = {"benches": [bench_units(bench, args.starts, rng) for _, bench in judge_draws(args.benches, {})]}
     with open("/proc/loadavg") as f:
-        load = f.read().split()[:3]
-    print(json.dumps({"benches": rows, "load": load}, indent=1))
+        result["load"] = f.read().split()[:3]
+    print(json.dumps(result, indent=1))
     return 0
 
 
