@@ -67,14 +67,13 @@ def period_prices(run: str, episodes: int) -> dict:
     from agents import estimator as E
     from agents.banked_deviation import BankedDeviationPolicy
     from agents.controller_base import play
-    from triplanar import kernel as K
     timed: list[tuple[float, float]] = []
     step = E.SpecimenBank._step
 
     def timed_step(bank, state, raw):
-        evaluations, started = bank._ws[K.W_COUNT, K.C_NFEV], time.thread_time_ns()
+        evaluations, started = bank.work_counts()[1], time.thread_time_ns()
         ended = step(bank, state, raw)
-        timed.append((1e-3 * (time.thread_time_ns() - started), bank._ws[K.W_COUNT, K.C_NFEV] - evaluations))
+        timed.append((1e-3 * (time.thread_time_ns() - started), bank.work_counts()[1] - evaluations))
         return ended
     controller = BankedDeviationPolicy.load(run)
     E.SpecimenBank._step = timed_step
