@@ -63,3 +63,30 @@ def _limit_actions(steps: int = 6, **settings) -> np.ndarray:
         sent.append(controller.act(None))
         env.step(sent[-1])
     return np.array(sent)
+
+
+@pytest.fixture
+def nominal_drive():
+    """:func:`_nominal_drive` (a fixture: the test modules share it without importing one another)."""
+    return _nominal_drive
+
+
+def _nominal_drive(estimator, periods: int) -> list[np.ndarray]:
+    """``estimator`` (``reset``, ``estimate``, ``advance``: a bank, a tracker, a worker) beside the first judge bench
+    driven by the nominal command for ``periods`` periods, the test never ending; its ``periods + 1`` estimates."""
+    from agents.mpc import nominal_command
+    from envs.triplanar_shear_v1 import TriPlanarShearV1Env
+    from experiments.train_student import judge_draws
+    (_, bench), = judge_draws(1, {})
+    env = TriPlanarShearV1Env()
+    obs, _ = env.reset(seed=0, options={"bench": bench})
+    estimator.reset(bench.load_N, env.unwrapped.config)
+    action = nominal_command(env.unwrapped.config).astype(np.float32)
+    estimates = []
+    for _ in range(periods):
+        estimates.append(estimator.estimate(obs))
+        estimator.advance(action)
+        obs, _, terminated, truncated, _ = env.step(action)
+        assert not (terminated or truncated)
+    estimates.append(estimator.estimate(obs))
+    return estimates

@@ -6,33 +6,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from agents.mpc import nominal_command
 from envs.core import reference_deviation
-from envs.triplanar_shear_v1 import TriPlanarShearV1Env
 from agents.deviation_tracker import GaussNewtonTracker, TrackerSettings
-from experiments.train_student import judge_draws
 
 
-def run(settings: TrackerSettings, periods: int) -> tuple[GaussNewtonTracker, list[np.ndarray]]:
-    """The tracker beside the first judge bench driven by the nominal command for ``periods`` periods."""
-    (_, bench), = judge_draws(1, {})
-    env = TriPlanarShearV1Env()
-    obs, _ = env.reset(seed=0, options={"bench": bench})
-    tracker = GaussNewtonTracker(settings)
-    tracker.reset(bench.load_N, env.unwrapped.config)
-    action = nominal_command(env.unwrapped.config).astype(np.float32)
-    estimates = []
-    for _ in range(periods):
-        estimates.append(tracker.estimate(obs))
-        tracker.advance(action)
-        obs, _, terminated, truncated, _ = env.step(action)
-        assert not (terminated or truncated)
-    estimates.append(tracker.estimate(obs))
-    return tracker, estimates
-
-
-def test_the_tracker_carries_a_replay_forward_and_only_lowers_the_cost():
-    tracker, estimates = run(TrackerSettings(start=4, every=3, chord=2, rebuild=2), 16)
+def test_the_tracker_carries_a_replay_forward_and_only_lowers_the_cost(nominal_drive):
+    tracker = GaussNewtonTracker(TrackerSettings(start=4, every=3, chord=2, rebuild=2))
+    estimates = nominal_drive(tracker, 16)
     assert tracker.counts["refits"] >= 3 and tracker.counts["accepted"] >= 1
     assert all(after < before for before, after in tracker.costs)
     centre = tracker.centre
@@ -42,10 +22,11 @@ def test_the_tracker_carries_a_replay_forward_and_only_lowers_the_cost():
                                   reference_deviation(centre.obs, centre.state.ref, tracker.bank.travel_m))
 
 
-def test_a_spread_refit_keeps_to_its_budget_and_its_trajectories_are_replays():
+def test_a_spread_refit_keeps_to_its_budget_and_its_trajectories_are_replays(nominal_drive):
     # With a budget the refits run after the command, a part each period: no period's share exceeds the budget, and
     # what they leave running is what a replay from the start gives (every trajectory one row per period measured).
-    tracker, estimates = run(TrackerSettings(start=4, every=3, chord=2, rebuild=2, budget=200), 24)
+    tracker = GaussNewtonTracker(TrackerSettings(start=4, every=3, chord=2, rebuild=2, budget=200))
+    nominal_drive(tracker, 24)
     assert tracker.counts["refits"] >= 1 and tracker.counts["replays"] >= 15
     assert 0 < max(tracker.units) <= 200
     live = tracker._live()

@@ -9,48 +9,35 @@ import pytest
 
 from agents.deviation_tracker import GaussNewtonTracker, TrackerSettings
 from agents.estimate_worker import EstimateWorker, WorkPrices
-from agents.mpc import nominal_command
-from envs.triplanar_shear_v1 import TriPlanarShearV1Env
-from experiments.train_student import judge_draws
 
 PERIODS = 16
 
 
-def run(capacity_us: float | None) -> tuple[object, list[np.ndarray]]:
-    """A tracker (refits at once: the costly form) beside the first judge bench under the nominal command, bare or
-    behind a worker of ``capacity_us``; its estimates."""
-    (_, bench), = judge_draws(1, {})
-    env = TriPlanarShearV1Env()
-    obs, _ = env.reset(seed=0, options={"bench": bench})
+def run(drive, capacity_us: float | None) -> tuple[object, list[np.ndarray]]:
+    """A tracker (refits at once: the costly form), bare or behind a worker of ``capacity_us``, beside the nominal
+    drive; its estimates."""
     estimator = GaussNewtonTracker(TrackerSettings(start=4, every=3))
     if capacity_us is not None:
         estimator = EstimateWorker(estimator, capacity_us)
-    estimator.reset(bench.load_N, env.unwrapped.config)
-    action = nominal_command(env.unwrapped.config).astype(np.float32)
-    estimates = []
-    for _ in range(PERIODS):
-        estimates.append(estimator.estimate(obs))
-        estimator.advance(action)
-        obs, *_ = env.step(action)
-    return estimator, estimates
+    return estimator, drive(estimator, PERIODS)
 
 
-def test_a_worker_gives_the_estimators_own_estimates_late_when_it_cannot_keep_up():
-    _, bare = run(None)
-    fast, fast_estimates = run(1e9)
-    assert fast.lags == [0] * PERIODS
+def test_a_worker_gives_the_estimators_own_estimates_late_when_it_cannot_keep_up(nominal_drive):
+    _, bare = run(nominal_drive, None)
+    fast, fast_estimates = run(nominal_drive, 1e9)
+    assert fast.lags == [0] * (PERIODS + 1)
     assert all(np.array_equal(a, b) for a, b in zip(fast_estimates, bare))
-    slow, slow_estimates = run(2000.0)   # 2 ms of CPU a period: less than the tracker's refits at once need
+    slow, slow_estimates = run(nominal_drive, 2000.0)   # 2 ms of CPU a period: less than the tracker's refits at once need
     assert max(slow.lags) > 0 and slow.lags[0] == 0
     for k, (estimate, lag) in enumerate(zip(slow_estimates, slow.lags)):
         np.testing.assert_array_equal(estimate, bare[k - lag])   # the estimator's own, of period k - lag
     assert all(b <= a + 1 for a, b in zip(slow.lags, slow.lags[1:]))   # the estimate ages by a period at most
-    again, _ = run(2000.0)
+    again, _ = run(nominal_drive, 2000.0)
     assert again.lags == slow.lags
 
 
-def test_the_work_is_counted_from_what_the_bank_did():
-    tracker, _ = run(None)
+def test_the_work_is_counted_from_what_the_bank_did(nominal_drive):
+    tracker, _ = run(nominal_drive, None)
     periods, evaluations, starts, bare_starts = tracker.bank.work_counts()
     assert periods >= 16 * PERIODS and evaluations >= 4 * periods   # (an RK4 period: 4 evaluations at least)
     # the tracker's replays: its perturbations started bare, its centres with their reference (beside the bank's own
