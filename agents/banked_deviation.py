@@ -37,7 +37,7 @@ import numpy as np
 
 from envs.core import REFERENCE_DEVIATION_DIM
 
-from .deviation_bank import BANK_SIZE, MIN_ESS, DeviationBank, bank_settings
+from .deviation_bank import BANK_SIZE, MIN_ESS, DeviationBank, WrapsDeviationBank, bank_settings
 from .deviation_tracker import deviation_estimator
 from .mpc import MPCController
 from .robust_policy import DeviationPolicy, RobustPolicy, load_policy, run_config
@@ -84,7 +84,7 @@ class NumpyActor:
         return np.clip(x, self.low, self.high).astype(np.float32)
 
 
-class BankedDeviationPolicy(RobustPolicy):
+class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
     """A reference-deviation PPO on a specimen bank's deviation (module docstring): reads only the bench's
     observations (``needs_env`` False). ``moves`` False: the bank never resample-moves (a plain particle filter
     from its first period); ``min_ess``: the estimate's weights tempered to at least that effective size
@@ -108,16 +108,6 @@ class BankedDeviationPolicy(RobustPolicy):
         self.actor = NumpyActor(policy.model) if hasattr(policy.model, "policy") else None   # (a test's stand-in)
         self.bank_settings, self.start_periods = bank_settings, start_periods
         self.estimate = np.zeros(REFERENCE_DEVIATION_DIM)
-
-    @property
-    def bank(self) -> Any:
-        """The episode's ``SpecimenBank`` (None before the first reset)."""
-        return self.deviation_bank.bank
-
-    @property
-    def min_ess(self) -> float:
-        """The effective size the estimate's weights are tempered to."""
-        return self.deviation_bank.min_ess
 
     @classmethod
     def with_bank(cls, policy: DeviationPolicy, bank_size: int, **options: Any) -> BankedDeviationPolicy:

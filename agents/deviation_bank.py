@@ -33,6 +33,27 @@ def bank_settings(bank_size: int = BANK_SIZE) -> MPCController:
     return MPCController(bank_size=bank_size, refine_every=0)
 
 
+class WrapsDeviationBank:
+    """For an estimator built around another (``deviation_bank``: a :class:`DeviationBank`, or an estimator built
+    around one): the episode's ``SpecimenBank``, the periods seen and the estimate's tempering, the wrapped one's."""
+
+    deviation_bank: Any
+
+    @property
+    def bank(self) -> Any:
+        """The episode's ``SpecimenBank`` (None before the first reset)."""
+        return self.deviation_bank.bank
+
+    @property
+    def periods(self) -> int:
+        return self.deviation_bank.periods
+
+    @property
+    def min_ess(self) -> float:
+        """The effective size the estimate's weights are tempered to."""
+        return self.deviation_bank.min_ess
+
+
 class DeviationBank:
     """One episode's specimen-bank estimate of the reference deviation (module docstring). ``settings``: the
     ``MPCController`` whose bank is built (its size, prior, seed); ``moves`` True lets the bank resample-move as

@@ -36,7 +36,7 @@ import numpy as np
 
 from envs.core import OBS_POS, reference_deviation
 
-from .deviation_bank import DeviationBank
+from .deviation_bank import DeviationBank, WrapsDeviationBank
 from .estimator import FAILED_RESIDUAL
 
 # A hypothesis's fresh start costs as much CPU as ~120 periods stepped (1.5-1.9 ms against 13-16 us, ratio 115-130,
@@ -87,7 +87,7 @@ class TrackerSettings:
                              f"{self.damping!r}")
 
 
-class GaussNewtonTracker:
+class GaussNewtonTracker(WrapsDeviationBank):
     """The tracker (module docstring), with :class:`agents.deviation_bank.DeviationBank`'s interface. A refit is a
     job (a generator yielding its work units): run to its end when due (``budget`` 0) or ``budget`` units a period
     after the command (:meth:`advance`), the trajectories it has replayed stepped with the bench meanwhile."""
@@ -99,18 +99,6 @@ class GaussNewtonTracker:
         self.counts = {"refits": 0, "accepted": 0, "replays": 0}
         self.costs: list[tuple[float, float]] = []   # (before, after) of every accepted step
         self.units: list[int] = []   # the refit work done in each period's slack (budget > 0)
-
-    @property
-    def bank(self) -> Any:
-        return self.deviation_bank.bank
-
-    @property
-    def periods(self) -> int:
-        return self.deviation_bank.periods
-
-    @property
-    def min_ess(self) -> float:
-        return self.deviation_bank.min_ess
 
     def reset(self, load_N: float, config: Any) -> None:
         self.deviation_bank.reset(load_N, config)

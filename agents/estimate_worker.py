@@ -29,6 +29,8 @@ from typing import Any
 
 import numpy as np
 
+from .deviation_bank import WrapsDeviationBank
+
 
 @dataclass(frozen=True)
 class WorkPrices:
@@ -49,7 +51,7 @@ class WorkPrices:
                 + bare_starts * self.bare_start_us)
 
 
-class EstimateWorker:
+class EstimateWorker(WrapsDeviationBank):
     """``inner`` (a :class:`agents.deviation_bank.DeviationBank` or a :class:`agents.deviation_tracker
     .GaussNewtonTracker`: ``reset``, ``estimate``, ``advance`` and its ``bank``) run behind the decision with
     ``capacity_us`` of CPU per control period (module docstring)."""
@@ -58,27 +60,16 @@ class EstimateWorker:
         if not capacity_us > 0.0:
             raise ValueError(f"EstimateWorker: capacity_us must be a positive number of microseconds, "
                              f"got {capacity_us!r}")
-        self.inner, self.capacity_us, self.prices = inner, float(capacity_us), prices
+        self.deviation_bank, self.capacity_us, self.prices = inner, float(capacity_us), prices
         self.lags: list[int] = []
 
     @property
-    def bank(self) -> Any:
-        return self.inner.bank
-
-    @property
-    def periods(self) -> int:
-        return self.inner.periods
-
-    @property
-    def min_ess(self) -> float:
-        return self.inner.min_ess
-
-    @property
     def counts(self) -> dict:
-        return getattr(self.inner, "counts", {})
+        """The wrapped tracker's refit counts ({} for a bank)."""
+        return getattr(self.deviation_bank, "counts", {})
 
     def reset(self, load_N: float, config: Any) -> None:
-        self.inner.reset(load_N, config)
+        self.deviation_bank.reset(load_N, config)
         self.period_us = 1e6 * float(config.dt)
         self.k = 0
         self.busy_until = 0.0    # when the worker finishes what it has been given (us from the first measurement)
@@ -99,7 +90,7 @@ class EstimateWorker:
         arrival = self.k * self.period_us
         idle = self.busy_until <= arrival
         start = arrival if idle else self.busy_until
-        estimate = self.inner.estimate(obs)
+        estimate = self.deviation_bank.estimate(obs)
         self.busy_until = start + self._spent_us()
         self.pending.append((self.busy_until, self.k, estimate))
         visible = [p for p in self.pending if p[0] <= arrival or (idle and p[1] == self.k)]
@@ -114,5 +105,5 @@ class EstimateWorker:
 
     def advance(self, action: np.ndarray) -> None:
         """The estimator advanced by the command sent, on the worker's time."""
-        self.inner.advance(action)
+        self.deviation_bank.advance(action)
         self.busy_until += self._spent_us()
