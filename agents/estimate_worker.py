@@ -19,7 +19,8 @@ update with the measurement (``estimate``) and then with the command (``advance`
 included). A decision finds the worker either idle, and then the update with the new measurement runs in the
 decision's path (as without a worker: the decision uses its own period's estimate), or busy, and then uses the
 latest period's estimate the worker had finished. In simulation every update runs at once; only when its result
-becomes visible is modelled. ``lags`` records how many periods old each decision's estimate was.
+becomes visible is modelled. ``lags`` records how many periods old each decision's estimate was (every episode
+since the worker was made).
 """
 
 from __future__ import annotations
