@@ -112,6 +112,7 @@ class GaussNewtonTracker(WrapsDeviationBank):
         self.pending: np.ndarray | None = None   # the command advanced by, not yet measured
         self.sigma = self.bank.noise_m
         self.free, self.low, self.span = self.bank.free_unknowns()
+        self.paused, self.sheds = False, 0   # (set by a worker that has fallen behind: shed)
 
     def estimate(self, obs: np.ndarray) -> np.ndarray:
         """The bank weighed by the period just measured; every trajectory's residual row; a refit started when due
@@ -124,8 +125,9 @@ class GaussNewtonTracker(WrapsDeviationBank):
             measured = periods[-1][1]
             for t in self._live():
                 t.rows.append(self._row(t, measured))
-        if self.job is None:
-            if self.centre is None and history == self.settings.start:
+        if self.job is None and not self.paused:
+            start, every = self.settings.start, self.settings.every
+            if self.centre is None and (history == start or self.sheds and history > start and history % every == 0):
                 best = self.bank.likeliest()
                 self.job = None if best is None else self._rebuild_job(self.bank.theta[best].copy())
             elif self.centre is not None and history > self.settings.start and history % self.settings.every == 0:
@@ -135,6 +137,13 @@ class GaussNewtonTracker(WrapsDeviationBank):
         if self.centre is None or self.centre.ended:
             return estimate
         return reference_deviation(self.centre.obs, self.centre.state.ref, self.bank.travel_m)
+
+    def shed(self) -> None:
+        """Drop every trajectory and the refit under way, so that the estimate is the bank's again: what a worker
+        that has fallen behind gives up first (:mod:`agents.estimate_worker`). While :attr:`paused` no refit starts;
+        once it is lifted the tracker starts again from the bank's likeliest hypothesis at the next refit due."""
+        self.centre, self.base, self.building, self.job, self.next_cost = None, [], [], None, None
+        self.sheds += 1
 
     def advance(self, action: np.ndarray) -> None:
         """The bank and every trajectory advanced by ``action``; then, with a budget, that much of the refit."""

@@ -15,12 +15,14 @@ under any load.
 
 **The worker.** Period k's measurement arrives at ``k * period``. The worker takes the periods in order, each once
 the one before is done, at ``capacity_us`` of CPU per period (the slack the decision leaves it): the estimator's
-update with the measurement (``estimate``) and then with the command (``advance``, a tracker's refit work
-included). A decision finds the worker either idle, and then the update with the new measurement runs in the
-decision's path (as without a worker: the decision uses its own period's estimate), or busy, and then uses the
-latest period's estimate the worker had finished. In simulation every update runs at once; only when its result
-becomes visible is modelled. ``lags`` records how many periods old each decision's estimate was (every episode
-since the worker was made).
+update with the measurement (``estimate``) and then with the command (``advance``, a tracker's refit work included).
+A decision finds the worker either idle, and then the update with the new measurement runs in the decision's path
+(as without a worker: the decision uses its own period's estimate), or busy, and then uses the latest period's
+estimate the worker had finished. In simulation every update runs at once; only when its result becomes visible is
+modelled. With ``shed_after`` a worker more than that many periods behind at a decision sheds the optional work of a
+tracker (:meth:`agents.deviation_tracker.GaussNewtonTracker.shed`: its trajectories, its estimate the bank's again)
+and keeps it paused until it is idle again; a bank's own hypotheses are never shed. ``lags`` records how many
+periods old each decision's estimate was (every episode since the worker was made).
 """
 
 from __future__ import annotations
@@ -57,11 +59,17 @@ class EstimateWorker(WrapsDeviationBank):
     .GaussNewtonTracker`: ``reset``, ``estimate``, ``advance`` and its ``bank``) run behind the decision with
     ``capacity_us`` of CPU per control period (module docstring)."""
 
-    def __init__(self, inner: Any, capacity_us: float, prices: WorkPrices = WorkPrices()):
+    def __init__(self, inner: Any, capacity_us: float, prices: WorkPrices = WorkPrices(),
+                 shed_after: int | None = None):
         if not capacity_us > 0.0:
             raise ValueError(f"EstimateWorker: capacity_us must be a positive number of microseconds, "
                              f"got {capacity_us!r}")
+        if shed_after is not None and (isinstance(shed_after, bool) or not isinstance(shed_after, int)
+                                       or shed_after < 0):
+            raise ValueError(f"EstimateWorker: shed_after must be a non-negative integer (periods), got "
+                             f"{shed_after!r}")
         self.deviation_bank, self.capacity_us, self.prices = inner, float(capacity_us), prices
+        self.shed_after = shed_after if hasattr(inner, "shed") else None
         self.lags: list[int] = []
 
     @property
@@ -91,6 +99,8 @@ class EstimateWorker(WrapsDeviationBank):
         arrival = self.k * self.period_us
         idle = self.busy_until <= arrival
         start = arrival if idle else self.busy_until
+        if self.shed_after is not None:
+            self._shed_or_resume((start - arrival) / self.period_us)
         estimate = self.deviation_bank.estimate(obs)
         self.busy_until = start + self._spent_us()
         self.pending.append((self.busy_until, self.k, estimate))
@@ -103,6 +113,16 @@ class EstimateWorker(WrapsDeviationBank):
         self.lags.append(self.k - self.current[0])
         self.k += 1
         return self.current[1]
+
+    def _shed_or_resume(self, behind: float) -> None:
+        """The tracker shed and paused once the worker is more than ``shed_after`` periods ``behind``; resumed once
+        the worker is idle."""
+        tracker = self.deviation_bank
+        if not tracker.paused and behind > self.shed_after:
+            tracker.shed()
+            tracker.paused = True
+        elif tracker.paused and behind == 0.0:
+            tracker.paused = False
 
     def advance(self, action: np.ndarray) -> None:
         """The estimator advanced by the command sent, on the worker's time."""

@@ -5,8 +5,8 @@ behind the decision, :mod:`agents.estimate_worker`). The tracker's estimate and 
 ``banked:RUN``: ``benchmarks/bench_banked.py --shadow tracker``.
 
 ``python -m experiments.gn_tracker judge --run RUN [--n 100] [--skip 0] [--start 6 --every 4 --chord 2 --rebuild 2]
-[--budget UNITS] [--truth FROM,TO | --worker US] [--out FILE]`` (judge draws of the tuning stream,
-:func:`experiments.train_student.judge_draws`; RUN is UNPICKLED: only yours).
+[--budget UNITS] [--truth FROM,TO | --worker US [--shed-after PERIODS]] [--out FILE]`` (judge draws of the tuning
+stream, :func:`experiments.train_student.judge_draws`; RUN is UNPICKLED: only yours).
 """
 
 from __future__ import annotations
@@ -37,14 +37,15 @@ class TruthWindow(GaussNewtonTracker):
 
 
 def tracked_policy(run: str, settings: TrackerSettings, truth: tuple[int, int] | None = None,
-                   worker_us: float | None = None) -> Any:
+                   worker_us: float | None = None, shed_after: int | None = None) -> Any:
     """``banked:RUN``'s policy driven by the tracker (behind the decision with a worker of ``worker_us`` of CPU a
-    period, :class:`agents.estimate_worker.EstimateWorker`; or by :class:`TruthWindow`; UNPICKLES ``run``)."""
+    period shedding the tracker ``shed_after`` periods behind, :class:`agents.estimate_worker.EstimateWorker`; or by
+    :class:`TruthWindow`; UNPICKLES ``run``)."""
     from agents.banked_deviation import BankedDeviationPolicy
     from agents.estimate_worker import EstimateWorker
     if truth is None:
         tracker = GaussNewtonTracker(settings)
-        estimator = tracker if worker_us is None else EstimateWorker(tracker, worker_us)
+        estimator = tracker if worker_us is None else EstimateWorker(tracker, worker_us, shed_after=shed_after)
         return BankedDeviationPolicy.load(run, estimator=estimator, name="ppo_deviation_tracked")
     window = TruthWindow(*truth, settings)
 
@@ -57,17 +58,18 @@ def tracked_policy(run: str, settings: TrackerSettings, truth: tuple[int, int] |
 
 
 def judge(run: str, settings: TrackerSettings, n: int, skip: int, truth: tuple[int, int] | None,
-          worker_us: float | None = None) -> dict[str, Any]:
+          worker_us: float | None = None, shed_after: int | None = None) -> dict[str, Any]:
     """The tracked policy on the judge draws: :func:`experiments.train_student.judged_stats`, each bench's score
     (and with a worker, how many periods old the decisions' estimates were)."""
     from agents.heldout import FAILURE_SCORE_MM
 
     from .train_student import judge_outcomes, judged_stats
-    controller = tracked_policy(run, settings, truth, worker_us)
+    controller = tracked_policy(run, settings, truth, worker_us, shed_after)
     outcomes = judge_outcomes(controller, {}, n, skip)
     result = judged_stats([outcomes])
     result["bench_scores_mm"] = [o.mimicry_error_mm if o.success else FAILURE_SCORE_MM for o in outcomes]
-    result.update(run=run, truth=truth, counts=controller.deviation_bank.counts, worker_us=worker_us)
+    result.update(run=run, truth=truth, counts=controller.deviation_bank.counts, worker_us=worker_us,
+                  shed_after=shed_after, sheds=getattr(controller.deviation_bank.deviation_bank, "sheds", None))
     lags = getattr(controller.deviation_bank, "lags", None)
     if lags:
         result["lag_periods"] = {"mean": float(np.mean(lags)), "p99": float(np.percentile(lags, 99)),
@@ -91,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--truth", metavar="FIRST,LAST", help="judge: the true deviation on these decisions")
     parser.add_argument("--worker", type=float, metavar="US", help="the tracker behind the decision, US microseconds "
                         "of CPU a period (agents.estimate_worker)")
+    parser.add_argument("--shed-after", type=int, metavar="PERIODS", help="with --worker: shed the tracker's "
+                        "trajectories when the worker is more than PERIODS behind")
     parser.add_argument("--out", help="also write the JSON here")
     args = parser.parse_args(argv)
     try:
@@ -102,11 +106,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--truth: FIRST,LAST with 0 <= FIRST < LAST, got {args.truth!r}")
     if args.worker is not None and (truth is not None or not args.worker > 0):
         parser.error(f"--worker: a positive number of microseconds, and not with --truth, got {args.worker!r}")
+    if args.shed_after is not None and (args.worker is None or args.shed_after < 0):
+        parser.error(f"--shed-after: a non-negative number of periods, with --worker, got {args.shed_after!r}")
     if args.n < 1 or args.skip < 0:
         parser.error(f"--n must be >= 1 and --skip >= 0, got {args.n}, {args.skip}")
     torch.set_num_threads(1)
     with threadpool_limits(1):
-        result = judge(args.run, settings, args.n, args.skip, truth, args.worker)
+        result = judge(args.run, settings, args.n, args.skip, truth, args.worker, args.shed_after)
     result["settings"] = asdict(settings)
     text = json.dumps(result, indent=1, default=float)
     print(text)

@@ -13,8 +13,11 @@ def test_the_command_refuses_a_bad_truth_window(capsys):
     assert "--truth" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("argv", [["--worker", "0"], ["--worker", "3500", "--truth", "0,16"]])
-def test_the_command_refuses_a_bad_worker(capsys, argv):
+@pytest.mark.parametrize("argv, named", [(["--worker", "0"], "--worker"),
+                                         (["--worker", "3500", "--truth", "0,16"], "--worker"),
+                                         (["--shed-after", "2"], "--shed-after"),
+                                         (["--worker", "3500", "--shed-after", "-1"], "--shed-after")])
+def test_the_command_refuses_a_bad_worker(capsys, argv, named):
     with pytest.raises(SystemExit):
         main(["judge", "--run", "nowhere", *argv])
-    assert "--worker" in capsys.readouterr().err
+    assert named in capsys.readouterr().err
