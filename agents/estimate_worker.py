@@ -71,6 +71,7 @@ class EstimateWorker(WrapsDeviationBank):
         self.deviation_bank, self.capacity_us, self.prices = inner, float(capacity_us), prices
         self.shed_after = shed_after if hasattr(inner, "shed") else None
         self.lags: list[int] = []
+        self.sheds = 0   # (every episode's, as lags)
 
     @property
     def counts(self) -> dict:
@@ -121,6 +122,7 @@ class EstimateWorker(WrapsDeviationBank):
         if not tracker.paused and behind > self.shed_after:
             tracker.shed()
             tracker.paused = True
+            self.sheds += 1
         elif tracker.paused and behind == 0.0:
             tracker.paused = False
 

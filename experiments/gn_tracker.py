@@ -69,7 +69,7 @@ def judge(run: str, settings: TrackerSettings, n: int, skip: int, truth: tuple[i
     result = judged_stats([outcomes])
     result["bench_scores_mm"] = [o.mimicry_error_mm if o.success else FAILURE_SCORE_MM for o in outcomes]
     result.update(run=run, truth=truth, counts=controller.deviation_bank.counts, worker_us=worker_us,
-                  shed_after=shed_after, sheds=getattr(controller.deviation_bank.deviation_bank, "sheds", None))
+                  shed_after=shed_after, sheds=getattr(controller.deviation_bank, "sheds", None))
     lags = getattr(controller.deviation_bank, "lags", None)
     if lags:
         result["lag_periods"] = {"mean": float(np.mean(lags)), "p99": float(np.percentile(lags, 99)),
