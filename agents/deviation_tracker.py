@@ -37,6 +37,7 @@ import numpy as np
 from envs.core import OBS_POS, reference_deviation
 
 from .deviation_bank import DeviationBank, WrapsDeviationBank
+from .estimate_worker import EstimateWorker
 from .estimator import FAILED_RESIDUAL
 
 # A hypothesis's fresh start costs as much CPU as ~120 periods stepped (1.5-1.9 ms against 13-16 us, ratio 115-130,
@@ -268,13 +269,19 @@ class GaussNewtonTracker(WrapsDeviationBank):
 
 # The tracker a bench runs: its refits spread over the periods' slack, 150 units a period (chosen on tuning draws
 # 100-119 beside a driving banked:RUN against budgets 100 and 200 and refits at once: error 0.20 mm against 0.24, 0.23
-# and 0.19, 2.0 ms of CPU a period on average, 4.4 ms at p99 loaded; finding 14c of docs/notes/student-experiments.md)
+# and 0.19, 2.0 ms of CPU a period on average, 4.4 ms at p99 loaded), behind the decision on a worker with 3.5 ms of
+# CPU a period (the slack beside a decision of under 1 ms) that sheds the tracker when more than 2 periods behind (one
+# setting, tried on the judge draws: finding 14c of docs/notes/student-experiments.md)
 BENCH_SETTINGS = TrackerSettings(budget=150)
+BENCH_WORKER_US = 3500.0
+BENCH_SHED_AFTER = 2
 
 
-def deviation_estimator(bank_size: int, tracker: bool = False) -> DeviationBank | GaussNewtonTracker:
+def deviation_estimator(bank_size: int, tracker: bool = False) -> DeviationBank | EstimateWorker:
     """The estimate a bank-driven policy runs on (``banked:RUN``, a bank-trained run's training rows): a
     :class:`agents.deviation_bank.DeviationBank` of ``bank_size`` hypotheses, or that bank's tracker as a bench runs
-    it (:data:`BENCH_SETTINGS`)."""
+    it (:data:`BENCH_SETTINGS`, behind the decision: :class:`agents.estimate_worker.EstimateWorker`)."""
     bank = DeviationBank.of_size(int(bank_size))
-    return GaussNewtonTracker(BENCH_SETTINGS, bank=bank) if tracker else bank
+    if not tracker:
+        return bank
+    return EstimateWorker(GaussNewtonTracker(BENCH_SETTINGS, bank=bank), BENCH_WORKER_US, shed_after=BENCH_SHED_AFTER)

@@ -81,9 +81,10 @@ def test_banked_runs_a_bank_trained_run_on_the_bank_size_it_was_trained_with(tmp
     assert B.BankedDeviationPolicy.load(run).bank_settings.bank_size == B.BANK_SIZE
     (run / "config.json").write_text(json.dumps({"env": {**LOOP_ENV, "reference_deviation_bank": 5,
                                                          "reference_deviation_tracker": True}}))
-    tracked = B.BankedDeviationPolicy.load(run)   # a tracker-trained run drives on its tracker
-    assert type(tracked.deviation_bank).__name__ == "GaussNewtonTracker"
-    assert tracked.deviation_bank.deviation_bank.settings.bank_size == 5
+    tracked = B.BankedDeviationPolicy.load(run)   # a tracker-trained run drives on its tracker, behind the decision
+    worker = tracked.deviation_bank
+    assert type(worker).__name__ == "EstimateWorker" and type(worker.deviation_bank).__name__ == "GaussNewtonTracker"
+    assert worker.deviation_bank.deviation_bank.settings.bank_size == 5
     from experiments.shipping import bank_size
     with pytest.raises(ValueError, match="tracker .* not shippable"):
         bank_size([run])
