@@ -314,6 +314,14 @@ def draw_bench_for(rng: np.random.Generator, config: ShearConfig, randomize: boo
                  foundation, draw.load_N)
 
 
+def state_observation(obs: np.ndarray, bs: np.ndarray) -> np.ndarray:
+    """What ``observation_mode="state"`` observes (in float64, before its float32): the state observation ``obs``
+    with the previous action the bench's (``bs``, the command the agent sent, clipped), a copy."""
+    out = obs.copy()
+    out[OBS_PREV:OBS_PREV + 2] = bs[BS_PREV:BS_PREV + 2]
+    return out
+
+
 def bench_start(config: ShearConfig, bench: Bench, cache: StartCache | None = None, *,
                 reference: bool = True) -> EpisodeStart:
     """The start of ``bench`` (:func:`envs.core.episode_start`, kept in ``cache`` if given; StartError if it cannot
@@ -586,9 +594,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
     # -- helpers ---------------------------------------------------------------------------------
     def _observation(self) -> np.ndarray:
         if self.bench.observation_mode == "state":
-            obs = self._obs.copy()
-            obs[OBS_PREV:OBS_PREV + 2] = self._bs[BS_PREV:BS_PREV + 2]
-            return obs.astype(np.float32)
+            return state_observation(self._obs, self._bs).astype(np.float32)
         noise = self.np_random.normal(0.0, self.bench.sensor_noise_m, 9) if self.bench.sensor_noise_m > 0 \
             else self._no_noise
         return bench_observation(self._obs, noise, self._bs, self._y, self._st, BENCH_HIGH)
@@ -617,8 +623,7 @@ class TriPlanarShearV1Env(ShearEnvBase):
         start = bench_start(self.config, bench, self._start_cache if reference else None, reference=reference)
         bs, queue = np.zeros_like(self._bs), np.zeros_like(self._queue)
         reset_bench_state(self.config, start, bs, queue)
-        obs = start.obs.copy()
-        obs[OBS_PREV:OBS_PREV + 2] = bs[BS_PREV:BS_PREV + 2]
+        obs = state_observation(start.obs, bs)
         return BenchState(start.y.copy(), start.p.copy(), start.modes.copy(), start.armed.copy(), start.st.copy(),
                           np.array(start.reference), self._cfg.copy(), bc=self._bc.copy(), bs=bs, queue=queue), obs
 
