@@ -83,7 +83,8 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
         ppo = [r for r in csv.DictReader(f) if r["controller"] == "ppo_robust"]
     assert len(ppo) == 1 and ppo[0]["n_seeds"] == "2"
     with open(tmp_path / "designs.csv") as f:
-        assert {"mpc", "limit"} <= {r["controller"] for r in csv.DictReader(f)}
+        design_controllers = {r["controller"] for r in csv.DictReader(f)}
+    assert {"limit", "information_bound"} <= design_controllers and "mpc" not in design_controllers  # the default
     assert "x the limit" in (tmp_path / "recommendation.txt").read_text()
     report = (tmp_path / "bench_report.md").read_text()
     assert "95 % CI" in report and "wall time" in report and "2 seeds x 512 steps per design" in report
@@ -101,8 +102,8 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     bs.run_bench_study(tmp_path, **kwargs, rerun=["steel_tip", "mpc"])   # their code changed: run them again
     redone = [p.name for p in (tmp_path / "tasks").glob("*.npz") if p.stat().st_mtime_ns != stored.get(p.name)]
     # steel_tip: 3 bench sets x 2 noise seeds + the design's 2; mpc, in parts of PART_BENCHES benches: the nominal
-    # bench's 12 loads in 2, held-out and stress 1 each + the design's 1
-    assert bs.PART_BENCHES == 10 and len(redone) == 8 + 5
+    # bench's 12 loads in 2, held-out and stress 1 each (the design sweep leaves mpc out: DESIGN_MODEL_BASED)
+    assert bs.PART_BENCHES == 10 and len(redone) == 8 + 4
     assert (tmp_path / "heldout.csv").read_text() == table   # the same code gives the same rows
 
 
@@ -183,5 +184,6 @@ def test_the_study_command_runs_the_study_at_its_own_defaults():
     from experiments.evaluate import MODEL_BASED
     args = build_parser().parse_args(["study", "--bench", "--out", "x"])
     assert args.model_based == list(MODEL_BASED)
+    assert args.design_model_based == list(bs.DESIGN_MODEL_BASED)
     assert (args.design_seeds, args.design_timesteps, args.n_heldout, args.n_model_based) == \
         (list(bs.DESIGN_SEEDS), bs.DESIGN_PPO_TIMESTEPS, bs.N_HELDOUT, bs.N_MODEL_BASED)

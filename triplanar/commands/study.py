@@ -16,6 +16,7 @@ from .train import positive_int
 NAME = "study"
 # experiments.evaluate.MODEL_BASED's names (a test keeps them equal; experiments is not imported to build the CLI)
 MODEL_BASED = ("mpc", "limit", "information_bound")
+DESIGN_MODEL_BASED = ("limit", "information_bound")   # experiments.bench_study.DESIGN_MODEL_BASED (the same test)
 HELP = "actuator design study: train PPO, evaluate every controller at the 12 loads, write tables, plots, report"
 
 
@@ -53,6 +54,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--model-based", nargs="*", default=list(MODEL_BASED), choices=list(MODEL_BASED),
                         help="with --bench: the model-based controllers and references to evaluate (default: "
                              f"{' '.join(MODEL_BASED)}; give the option alone to leave them out)")
+    parser.add_argument("--design-model-based", nargs="*", default=list(DESIGN_MODEL_BASED),
+                        choices=list(MODEL_BASED),
+                        help="with --bench: the design sweep's model-based rows (default: "
+                             f"{' '.join(DESIGN_MODEL_BASED)}, the references; mpc does not run in real time and "
+                             "costs ~7 CPU-hours over the designs)")
     parser.add_argument("--n-model-based", type=positive_int, default=50,
                         help="with --bench: benches per design of the sweep for the model-based controllers (default "
                              "50: limit costs ~10 s of CPU per episode)")
@@ -93,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
                             recurrent_timesteps=recurrent or None,
                             design_seeds=args.design_seeds, design_ppo_timesteps=args.design_timesteps,
                             n_heldout=args.n_heldout, in_sample_run=args.in_sample_run, doc=args.doc,
-                            model_based=args.model_based, n_model_based=args.n_model_based, rerun=args.rerun,
+                            model_based=args.model_based, n_model_based=args.n_model_based,
+                            design_model_based=args.design_model_based, rerun=args.rerun,
                             executor=executor)
             return 0
         from experiments.study import run_study  # the RL stack, only when run
