@@ -37,7 +37,7 @@ from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 from . import tables
 from .designs import DESIGNS, Design
 from .episodes import BatchPart, EpisodeBatch, benches_of, outcome_table, run_batch, run_part
-from .evaluate import MODEL_BASED, REFERENCES, SCRIPTED, runs_in_real_time, scripted_batch
+from .evaluate import MODEL_BASED, REFERENCES, SCRIPTED, batches_for, runs_in_real_time, scripted_batch
 from .stats import indistinguishable, row_stats
 
 __all__ = ["DESIGNS", "Design", "EpisodeBatch", "recommend", "run_bench_study", "run_batch"]
@@ -60,6 +60,9 @@ N_MODEL_BASED = 50
 # recommendation counts only real-time ones), and on 14 designs x 50 benches it would cost ~7 CPU-hours (17-60 s an
 # episode) of the sweep's ~11. The default bench's held-out and stress rows keep it (``model_based``).
 DESIGN_MODEL_BASED = REFERENCES
+# Shipped agents of the default bench the study does not train itself (agents/zoo, their cards' seeds), evaluated
+# beside its own rows so that every controller a laboratory can run is in one table.
+SHIPPED_ROWS = ("ppo_banked",)
 # Benches per checkpointed part of a model-based batch (mpc, limit: ~10 s of CPU per episode; a whole 200-bench batch
 # was one task of up to an hour, lost whenever the study was interrupted).
 PART_BENCHES = 10
@@ -103,8 +106,11 @@ def _rows(batches: list[EpisodeBatch], results: list[list[Any]], key) -> dict[An
 
 def evaluation_batches(pi: dict[str, float], adaptive: dict[str, float], n: int, runs: list[dict[str, Any]],
                        scripted_seeds: Sequence[int], in_sample_run: str | Path | None,
-                       model_based: Sequence[str] = tuple(MODEL_BASED)) -> list[EpisodeBatch]:
-    """Every controller of the default bench on every bench set (one batch per seed)."""
+                       model_based: Sequence[str] = tuple(MODEL_BASED),
+                       shipped: Sequence[str] = ()) -> list[EpisodeBatch]:
+    """Every controller of the default bench on every bench set (one batch per seed; a shipped agent's: its card's
+    training seeds, from the project's zoo)."""
+    from agents.zoo import ZOO_DIR
     batches: list[EpisodeBatch] = []
     for bench_set in BENCH_SETS:
         for name in SCRIPTED:
@@ -115,6 +121,8 @@ def evaluation_batches(pi: dict[str, float], adaptive: dict[str, float], n: int,
             kind = "ppo" if r["algo"] == "ppo" else "ppo_recurrent"
             label = "ppo_robust" if r["algo"] == "ppo" else "ppo_recurrent"
             batches.append(EpisodeBatch.of(PPOSpec(str(r["run_dir"]), kind), label, bench_set, n, seed=r["seed"]))
+        for name in shipped:
+            batches += batches_for(name, None, bench_set, n, None, Path(ZOO_DIR), default_named=True)
         if in_sample_run is not None:
             batches.append(EpisodeBatch.of(PPOSpec(str(in_sample_run), "ppo_state"), "ppo_in_sample", bench_set, n))
     return batches
@@ -157,9 +165,9 @@ def run_batches(batches: Sequence[EpisodeBatch], out_dir: Path, executor: Execut
 
 def evaluate_default_bench(out_dir: Path, pi, adaptive, n: int, runs, scripted_seeds, in_sample_run,
                            executor: ExecutorLike, model_based: Sequence[str] = tuple(MODEL_BASED),
-                           rerun: Sequence[str] = ()) -> list[dict[str, Any]]:
+                           rerun: Sequence[str] = (), shipped: Sequence[str] = ()) -> list[dict[str, Any]]:
     """Step 3: the held-out tables (CSV, episodes CSV, plot); returns the rows."""
-    batches = evaluation_batches(pi, adaptive, n, runs, scripted_seeds, in_sample_run, model_based)
+    batches = evaluation_batches(pi, adaptive, n, runs, scripted_seeds, in_sample_run, model_based, shipped)
     results = run_batches(batches, out_dir, executor, "held-out and stress evaluation", rerun)
     grouped = _rows(batches, results, lambda b: (b.label, b.bench_set))
     rows = [{"controller": c, "bench_set": s, **g["stats"], "_outcomes": g["outcomes"]}
@@ -314,10 +322,11 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
                     scripted_seeds: Sequence[int] = SCRIPTED_SEEDS, in_sample_run: str | Path | None = None,
                     designs: Sequence[Design] = DESIGNS, executor: ExecutorLike = None, doc: str | Path | None = None,
                     model_based: Sequence[str] = tuple(MODEL_BASED), n_model_based: int = N_MODEL_BASED,
-                    design_model_based: Sequence[str] = DESIGN_MODEL_BASED, rerun: Sequence[str] = (),
-                    log=print) -> dict[str, Any]:
+                    design_model_based: Sequence[str] = DESIGN_MODEL_BASED, shipped: Sequence[str] = SHIPPED_ROWS,
+                    rerun: Sequence[str] = (), log=print) -> dict[str, Any]:
     """The whole study (resumable in ``out_dir``); ``recurrent_timesteps=None`` leaves the recurrent PPO out.
-    ``model_based`` are the default bench's model-based rows, ``design_model_based`` the design sweep's.
+    ``model_based`` are the default bench's model-based rows, ``design_model_based`` the design sweep's; ``shipped``
+    the shipped agents evaluated beside the default bench's rows.
     ``rerun`` names scripted or model-based controllers whose stored evaluation batches are run again (their code
     changed since they ran); pass it once: a run resumed with it again redoes them again."""
     from agents.trainer import seed_tasks, train_run
@@ -350,7 +359,7 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
 
     started = time.perf_counter()
     heldout_rows = evaluate_default_bench(out_dir, pi, adaptive, n, trained, scripted_seeds, in_sample_run, executor,
-                                          model_based, rerun)
+                                          model_based, rerun, shipped)
     timings["evaluation_s"] = time.perf_counter() - started
 
     started = time.perf_counter()
@@ -366,6 +375,7 @@ def run_bench_study(out_dir: str | Path, *, seeds: Sequence[int] = SEEDS, ppo_ti
                "design_seeds": list(design_seeds), "design_ppo_timesteps": design_ppo_timesteps,
                "scripted_seeds": list(scripted_seeds), "n_heldout": n, "n_stress": n,
                "model_based": list(model_based), "design_model_based": list(design_model_based),
+               "shipped": list(shipped),
                "n_model_based_per_design": min(n, n_model_based),
                "designs": [d.name for d in designs], "recommendation": recommendation}
     tables.write_json(out_dir / "bench_summary.json", summary)
@@ -396,6 +406,9 @@ def main(argv: Iterable[str] | None = None) -> int:
                         choices=list(MODEL_BASED),
                         help=f"the design sweep's model-based rows (default: {' '.join(DESIGN_MODEL_BASED)}; mpc "
                         "does not run in real time and costs ~7 CPU-hours over the designs)")
+    parser.add_argument("--shipped", nargs="*", default=list(SHIPPED_ROWS),
+                        help=f"shipped agents of the default bench to evaluate beside the study's own rows (default: "
+                        f"{' '.join(SHIPPED_ROWS)}; the option alone: none)")
     parser.add_argument("--n-model-based", type=int, default=N_MODEL_BASED,
                         help="benches per design for the model-based controllers")
     parser.add_argument("--rerun", nargs="+", default=[], choices=[*SCRIPTED, *MODEL_BASED],
@@ -414,7 +427,7 @@ def main(argv: Iterable[str] | None = None) -> int:
                     design_ppo_timesteps=args.design_ppo_timesteps, n_heldout=args.n_heldout,
                     scripted_seeds=args.scripted_seeds, in_sample_run=args.in_sample_run, doc=args.doc,
                     model_based=args.model_based, n_model_based=args.n_model_based,
-                    design_model_based=args.design_model_based, rerun=args.rerun)
+                    design_model_based=args.design_model_based, shipped=args.shipped, rerun=args.rerun)
     return 0
 
 

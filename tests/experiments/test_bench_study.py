@@ -71,7 +71,9 @@ def test_tiny_study_runs_and_resumes(tmp_path, monkeypatch):
     assert {r["bench_set"] for r in rows} == {"nominal", "heldout", "stress"}
     assert all(float(r["error_low_mm"]) <= float(r["error_high_mm"]) for r in rows if r["mimicry_error_mm"] != "nan")
     assert {"steel_tip", "frictionless_tip", "pi_feedback", "adaptive", "ppo_robust",
-            "ppo_recurrent", "mpc", "limit"} <= {r["controller"] for r in rows}
+            "ppo_recurrent", "mpc", "limit", *bs.SHIPPED_ROWS} <= {r["controller"] for r in rows}
+    banked = [r for r in rows if r["controller"] == "ppo_banked" and r["bench_set"] == "heldout"]
+    assert len(banked) == 1 and banked[0]["n_seeds"] == "3"   # the shipped agent's card's seeds
     recurrent = [r for r in rows if r["controller"] == "ppo_recurrent"]
     assert {r["bench_set"] for r in recurrent} == {"nominal", "heldout", "stress"}
     assert all(int(r["n_episodes"]) > 0 for r in recurrent)
@@ -185,5 +187,6 @@ def test_the_study_command_runs_the_study_at_its_own_defaults():
     args = build_parser().parse_args(["study", "--bench", "--out", "x"])
     assert args.model_based == list(MODEL_BASED)
     assert args.design_model_based == list(bs.DESIGN_MODEL_BASED)
+    assert args.shipped == list(bs.SHIPPED_ROWS)
     assert (args.design_seeds, args.design_timesteps, args.n_heldout, args.n_model_based) == \
         (list(bs.DESIGN_SEEDS), bs.DESIGN_PPO_TIMESTEPS, bs.N_HELDOUT, bs.N_MODEL_BASED)

@@ -17,6 +17,7 @@ NAME = "study"
 # experiments.evaluate.MODEL_BASED's names (a test keeps them equal; experiments is not imported to build the CLI)
 MODEL_BASED = ("mpc", "limit", "information_bound")
 DESIGN_MODEL_BASED = ("limit", "information_bound")   # experiments.bench_study.DESIGN_MODEL_BASED (the same test)
+SHIPPED_ROWS = ("ppo_banked",)                         # experiments.bench_study.SHIPPED_ROWS (the same test)
 HELP = "actuator design study: train PPO, evaluate every controller at the 12 loads, write tables, plots, report"
 
 
@@ -59,6 +60,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="with --bench: the design sweep's model-based rows (default: "
                              f"{' '.join(DESIGN_MODEL_BASED)}, the references; mpc does not run in real time and "
                              "costs ~7 CPU-hours over the designs)")
+    parser.add_argument("--shipped", nargs="*", default=list(SHIPPED_ROWS), metavar="AGENT",
+                        help="with --bench: shipped agents of the default bench (agents/zoo) to evaluate beside the "
+                             f"study's own rows (default: {' '.join(SHIPPED_ROWS)}; the option alone: none)")
     parser.add_argument("--n-model-based", type=positive_int, default=50,
                         help="with --bench: benches per design of the sweep for the model-based controllers (default "
                              "50: limit costs ~10 s of CPU per episode)")
@@ -100,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
                             design_seeds=args.design_seeds, design_ppo_timesteps=args.design_timesteps,
                             n_heldout=args.n_heldout, in_sample_run=args.in_sample_run, doc=args.doc,
                             model_based=args.model_based, n_model_based=args.n_model_based,
-                            design_model_based=args.design_model_based, rerun=args.rerun,
+                            design_model_based=args.design_model_based, shipped=args.shipped, rerun=args.rerun,
                             executor=executor)
             return 0
         from experiments.study import run_study  # the RL stack, only when run
