@@ -55,6 +55,35 @@ def budgets(summary: dict[str, Any]) -> list[str]:
     ]
 
 
+def answer(heldout_rows: Sequence[dict[str, Any]], recommendation: str) -> list[str]:
+    """The report's first section, what a laboratory reads first: the recommendation, then the default bench's
+    controllers by held-out score, those that run in real time first, each beside the information-limited bound
+    (what the bench's sensors allow: a bench controller's reference) and with its stress row."""
+    from .evaluate import runs_in_real_time
+    by = {(r["controller"], r["bench_set"]): r for r in heldout_rows}
+    bound = by.get(("information_bound", "heldout"))
+    held = sorted((r for r in heldout_rows if r["bench_set"] == "heldout"),
+                  key=lambda r: (not runs_in_real_time(r["controller"]), r["score"]))
+    lines = ["## The answer", "", recommendation, "",
+             "The default bench's controllers on the held-out benches (stress beside), those that run within the "
+             "bench's 5 ms period first, by score; the last column is the held-out score over the "
+             "information-limited bound's" + ("" if bound else " (no bound row in this run)") + ".", "",
+             "| controller | runs in real time | benches x seeds | success, % (95 % CI) | error over successes, mm "
+             "(95 % CI) | score, mm (95 % CI) | stress: success, % | stress: score, mm | score / bound's |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for r in held:
+        stress = by.get((r["controller"], "stress"))
+        ratio = f"{r['score'] / bound['score']:.2f}" if bound else "-"
+        lines.append(f"| `{r['controller']}` | {'yes' if runs_in_real_time(r['controller']) else 'no'} | "
+                     f"{r['n_benches']} x {r['n_seeds']} | {_pct(r)} | "
+                     f"{_mm(r['mimicry_error_mm'], r['error_low_mm'], r['error_high_mm'])} | "
+                     f"{_mm(r['score'], r['score_low'], r['score_high'])} | "
+                     f"{_pct(stress) if stress else '-'} | "
+                     f"{_mm(stress['score'], stress['score_low'], stress['score_high']) if stress else '-'} | "
+                     f"{ratio} |")
+    return lines + [""]
+
+
 def markdown(summary: dict[str, Any], heldout_rows: Sequence[dict[str, Any]],
              design_rows: Sequence[dict[str, Any]], images: str = "") -> str:
     """The report; ``images`` prefixes the PNGs' paths (the study's directory seen from where the report lies)."""
@@ -64,7 +93,8 @@ def markdown(summary: dict[str, Any], heldout_rows: Sequence[dict[str, Any]],
              "hierarchical bootstrap over seeds and benches, the success rate's as the union of Wilson's score interval "
              "and the hierarchical bootstrap's "
              "(`experiments/stats.py`). Errors are over successful episodes only; the score counts a failure as "
-             "10 mm.", "", "## Budgets and wall times", "", *budgets(summary), "",
+             "10 mm.", "", *answer(heldout_rows, summary["recommendation"]),
+             "## Budgets and wall times", "", *budgets(summary), "",
              "## Default bench: nominal, held-out and stress benches", "", f"![held-out]({images}heldout.png)", "",
              "| controller | bench set | benches x seeds " + HEADER, "|---|---|---" + "|---" * 5 + "|"]
     for r in heldout_rows:

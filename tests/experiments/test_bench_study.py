@@ -190,3 +190,21 @@ def test_the_study_command_runs_the_study_at_its_own_defaults():
     assert args.shipped == list(bs.SHIPPED_ROWS)
     assert (args.design_seeds, args.design_timesteps, args.n_heldout, args.n_model_based) == \
         (list(bs.DESIGN_SEEDS), bs.DESIGN_PPO_TIMESTEPS, bs.N_HELDOUT, bs.N_MODEL_BASED)
+
+
+def test_the_report_opens_with_the_real_time_controllers_beside_the_bound():
+    from experiments import bench_report
+
+    def row(controller, bench_set, score):
+        return {"controller": controller, "bench_set": bench_set, "score": score, "score_low": score - 0.1,
+                "score_high": score + 0.1, "mimicry_error_mm": score, "error_low_mm": score - 0.1,
+                "error_high_mm": score + 0.1, "success_rate": 1.0, "success_low": 0.98, "success_high": 1.0,
+                "n_benches": 200, "n_seeds": 1}
+    rows = [row("mpc", "heldout", 0.5), row("information_bound", "heldout", 0.4), row("adaptive", "heldout", 1.4),
+            row("ppo_banked", "heldout", 0.9), row("ppo_banked", "stress", 1.5)]
+    lines = bench_report.answer(rows, "Build x; run y.")
+    table = [line for line in lines if line.startswith("| `")]
+    # real-time controllers first, each by score, then mpc and the bound; the ratio is the score over the bound's
+    assert [line.split("`")[1] for line in table] == ["ppo_banked", "adaptive", "information_bound", "mpc"]
+    assert table[0].endswith("| 100.0 (98.0-100.0) | 1.50 (1.40-1.60) | 2.25 |") and "| yes |" in table[0]
+    assert "| no |" in table[3] and table[1].endswith("| - | - | 3.50 |") and lines[2] == "Build x; run y."
