@@ -373,6 +373,7 @@ def study_base(summary: dict, episodes_csv: Path) -> dict[str, tuple[list, list]
 
 
 def parse_args() -> argparse.Namespace:
+    from agents.mpc import MPCController
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--benches", type=int, default=50)
     parser.add_argument("--out", default="runs/bench_mpc")
@@ -382,7 +383,8 @@ def parse_args() -> argparse.Namespace:
                         help="for mpc, also how far a sharp bank given the whole episode's measurements places the "
                              "case-C reference (several CPU s per episode)")
     parser.add_argument("--replan-every", type=int, default=None,
-                        help="mpc replans every N control periods (default: the controller's, 2)")
+                        help="mpc replans every N control periods (default: the controller's, "
+                             f"{MPCController.replan_every})")
     parser.add_argument("--mpc", action="append", default=[], metavar="FIELD=VALUE",
                         help="an MPCController setting for mpc, mpc_true and mpc_given_*, e.g. --mpc start_periods=0 "
                              "(repeatable; the variants of docs/actuator-study.md)")
