@@ -608,6 +608,24 @@ class SpecimenBank:
         chosen, counts = np.unique(picks, return_counts=True)
         return [self.states[i].copy() for i in chosen], counts / counts.sum()
 
+    def ahead(self, states: list[BenchState], weights: np.ndarray,
+              commands: np.ndarray) -> tuple[list[BenchState], np.ndarray]:
+        """``states`` (copies, as :meth:`best` gives them; stepped in place) carried through ``commands`` (periods x
+        2: the commands already decided for the coming periods), with their ``weights``: where each hypothesis
+        will be when a plan made now takes over. One that ends the test on the way is dropped (nothing is left to
+        plan for it); if all do, the states are returned unstepped. Counted in :meth:`work_counts`."""
+        kept = []
+        for i, s in enumerate(states):
+            start = s.copy()
+            if not any(self._step(s, np.asarray(raw, dtype=float)) for raw in commands):
+                kept.append(i)
+            else:
+                states[i] = start
+        if not kept:
+            return states, weights
+        w = np.asarray(weights, dtype=float)[kept]
+        return [states[i] for i in kept], w / w.sum()
+
     def _tempered(self, min_ess: float) -> np.ndarray:
         w = self.weights()
         if min_ess <= 1.0 or 1.0 / float(w @ w) >= min_ess or self.alive.sum() <= 1:

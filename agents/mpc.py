@@ -32,7 +32,9 @@ of that choice, the variants tried and their numbers in ``docs/notes/mpc-tuning-
 * **Pace.** The block must keep up with the whole travel in ``pace_s`` (0.3 s): a slow block drifts from the
   hypotheses' paths for longer, and a short horizon lets it creep toward an arrest.
 * **The planner** is ``limit``'s (horizon 48 periods, longer than the rest of the travel once the first plan is made,
-  so no cost-to-go stands in for it; 64 candidates x 4 iterations), replanning every period.
+  so no cost-to-go stands in for it; 64 candidates x 4 iterations), replanning every period. ``plan_delay`` > 0
+  (off) models a planner run behind the decision: a plan made from a period's estimate takes over that many periods
+  later, the commands already decided running until then (:meth:`MPCController._replan`).
 
 * **Work budget** (``fev_budget`` 20,000 and ``decision_fev_budget`` 5e6 of the kernel's evaluations,
   :mod:`agents.planner`): a candidate's rollout ends once it has cost 20,000 evaluations (a period costs 13-70 where
@@ -103,6 +105,7 @@ class MPCController(Controller):
     elites: int = 6
     sigma0: float = 0.3
     replan_every: int = 1
+    plan_delay: int = 0
     start_periods: int = 8
     pace_s: float = 0.3
     thrust_envelope: float = 0.3
@@ -204,6 +207,19 @@ class MPCController(Controller):
         twin.p[K.P_TANEF] = max(twin.p[K.P_TANEF], math.tan(math.radians(self.bank.interval(0)[1])))
         return states + [twin], np.append((1.0 - self.guard_weight) * np.asarray(weights), self.guard_weight)
 
+    def _replan(self, states: list, weights: np.ndarray) -> np.ndarray:
+        """The plan from this period: at once (``plan_delay`` 0), or, for a planner that runs behind the decision,
+        the current plan's next ``plan_delay`` commands (already decided) and then a plan made from this period's
+        estimate for the period it takes over, each hypothesis carried there through those commands
+        (:meth:`SpecimenBank.ahead`): what a planner finishing ``plan_delay`` periods after its measurement sends."""
+        delay = 0 if self._plan is None else min(int(self.plan_delay), len(self._plan) - self._age)
+        if delay <= 0:
+            return self.planner.plan(states, weights, self._last)
+        committed = self._plan[self._age:self._age + delay]
+        states, weights = self.bank.ahead(states, weights, committed)
+        self.planner.advance(self._plan[self._age + delay - 1:])   # the warm start from the period it takes over
+        return np.concatenate([committed, self.planner.plan(states, weights, committed[-1])])
+
     def act(self, obs: np.ndarray) -> np.ndarray:
         start = time.process_time()
         if not self._first:  # the observation of the period the last action ran
@@ -218,7 +234,7 @@ class MPCController(Controller):
         elif planned:
             self._widen()
             states, weights = self._guarded(*self.bank.best(int(self.hypotheses), float(self.min_ess)))
-            self._plan = self.planner.plan(states, weights, self._last)
+            self._plan = self._replan(states, weights)
             self._age = 0
         action = self._plan[self._age]
         self.planner.advance(self._plan[self._age:])

@@ -137,7 +137,8 @@ class CEMPlanner:
 
     def advance(self, plan: np.ndarray) -> None:
         """Keep ``plan`` shifted by one period (its last action held) as the next decision's warm start."""
-        shifted = np.concatenate([plan[1:], np.repeat(plan[-1:], self.horizon - len(plan) + 1, axis=0)])
+        rest = plan[1:self.horizon + 1]   # (a plan longer than the horizon: mpc's delayed plans, its first part)
+        shifted = np.concatenate([rest, np.repeat(plan[-1:], self.horizon - len(rest), axis=0)])
         # back to knots: the value at each block's first period
         self._mean = shifted[::self.block][:self.knots].copy()
 

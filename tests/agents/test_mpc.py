@@ -169,3 +169,39 @@ def test_plane_distance_is_the_horizontal_distance_to_where_the_planes_meet():
     K.contact_points(state.y, p, cp)
     start = (K.plane_gap(cp, p, 2, 1, pair) - K.LEFT_PLANE_TOL) / K.crossing_slope(p, 2, 1)
     assert 0.0 <= start < 1e-4  # on the line, but for the tens of um the block has settled by at reset
+
+
+def test_a_delayed_plan_takes_over_after_the_commands_already_decided(monkeypatch):
+    # plan_delay models a planner run behind the decision: a plan made at period t from t's estimate plans from where
+    # each hypothesis will be at t + delay, and the commands in between are the ones the previous plan had decided.
+    from agents.controller_base import play
+    from agents.mpc import MPCController
+    from agents.planner import CEMPlanner
+    from envs.core import ST_T
+    delay, every = 2, 3
+    controller = MPCController(bank_size=4, hypotheses=2, samples=4, elites=2, iterations=1, horizon=8, start_periods=2,
+                               replan_every=every, plan_delay=delay, guard_weight=0.0, refine_every=0)
+    made, plans, actions = [], [], []
+    plan = CEMPlanner.plan
+
+    def spy(planner, states, weights, hold):
+        made.append((controller._periods, [float(s.st[ST_T]) for s in states], controller.bank.states[0].st[ST_T]))
+        plans.append(plan(planner, states, weights, hold))
+        return plans[-1]
+    monkeypatch.setattr(CEMPlanner, "plan", spy)
+    env = TriPlanarShearV1Env()
+    bench = nominal_benches()[5]
+    obs, _ = env.reset(seed=0, options={"bench": bench})
+    play(controller, env, obs, bench.load_N, max_steps=16, on_decision=lambda o, a: actions.append(a.copy()))
+    assert [m[0] for m in made] == [5, 8, 11, 14]   # the 2-period start is followed as a plan, then every 3 periods
+    for periods, times, now in made:
+        ahead = np.array(times) - now
+        assert np.allclose(ahead, delay * env.unwrapped.config.dt)   # every hypothesis carried `delay` periods ahead
+    # the two commands after each later replan are the previous plan's, then the new plan's own begin
+    for k in range(1, len(made) - 1):
+        t = made[k][0]
+        previous, since = plans[k - 1], made[k][0] - made[k - 1][0]   # the previous plan began `delay` after its replan
+        for j in range(delay):
+            np.testing.assert_array_equal(actions[t - 1 + j], np.clip(previous[since - delay + j], -1, 1)
+                                          .astype(np.float32))
+        np.testing.assert_array_equal(actions[t - 1 + delay], np.clip(plans[k][0], -1, 1).astype(np.float32))
