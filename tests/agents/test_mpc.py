@@ -185,7 +185,7 @@ def test_a_delayed_plan_takes_over_after_the_commands_already_decided(monkeypatc
     plan = CEMPlanner.plan
 
     def spy(planner, states, weights, hold):
-        made.append((controller._periods, [float(s.st[ST_T]) for s in states], controller.bank.states[0].st[ST_T]))
+        made.append((len(actions) + 1, [float(s.st[ST_T]) for s in states], controller.bank.states[0].st[ST_T]))
         plans.append(plan(planner, states, weights, hold))
         return plans[-1]
     monkeypatch.setattr(CEMPlanner, "plan", spy)
@@ -194,7 +194,7 @@ def test_a_delayed_plan_takes_over_after_the_commands_already_decided(monkeypatc
     obs, _ = env.reset(seed=0, options={"bench": bench})
     play(controller, env, obs, bench.load_N, max_steps=16, on_decision=lambda o, a: actions.append(a.copy()))
     assert [m[0] for m in made] == [5, 8, 11, 14]   # the 2-period start is followed as a plan, then every 3 periods
-    for periods, times, now in made:
+    for _, times, now in made:
         ahead = np.array(times) - now
         assert np.allclose(ahead, delay * env.unwrapped.config.dt)   # every hypothesis carried `delay` periods ahead
     # the two commands after each later replan are the previous plan's, then the new plan's own begin
