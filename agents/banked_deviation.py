@@ -110,8 +110,13 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
         self.estimate = np.zeros(REFERENCE_DEVIATION_DIM)
 
     @classmethod
-    def with_bank(cls, policy: DeviationPolicy, bank_size: int, **options: Any) -> BankedDeviationPolicy:
-        """``policy`` on a bank of ``bank_size`` hypotheses (:func:`agents.deviation_bank.bank_settings`)."""
+    def with_bank(cls, policy: DeviationPolicy, bank_size: int, tracker: bool = False,
+                  **options: Any) -> BankedDeviationPolicy:
+        """``policy`` on a bank of ``bank_size`` hypotheses (:func:`agents.deviation_bank.bank_settings`), with the
+        bank's Gauss-Newton tracker as a bench runs it if ``tracker`` (:func:`agents.deviation_tracker.
+        deviation_estimator`; another ``estimator`` may be given instead)."""
+        if tracker and "estimator" not in options:
+            options["estimator"] = deviation_estimator(int(bank_size), tracker=True)
         return cls(policy, bank_settings(int(bank_size)), **options)
 
     @classmethod
@@ -121,9 +126,7 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
         :func:`run_bank_size` hypotheses, with the bank's Gauss-Newton tracker if the run was trained on it
         (``env.reference_deviation_tracker``; another ``estimator`` may be given instead)."""
         size = run_bank_size(run_dir, bank_size)
-        if "estimator" not in options and run_tracker(run_dir):
-            options["estimator"] = deviation_estimator(size, tracker=True)
-        return cls.with_bank(load_policy(run_dir), size, name=name, **options)
+        return cls.with_bank(load_policy(run_dir), size, run_tracker(run_dir), name=name, **options)
 
     def reset(self, load_N: float, config: Any) -> None:
         super().reset(load_N, config)

@@ -99,7 +99,8 @@ def _original(card: dict[str, Any], model: Any, normalizer: Any, frames: int) ->
         return RecurrentPolicy(model, normalizer)
     if card["algo"] == "banked":
         from agents.banked_deviation import BankedDeviationPolicy
-        return BankedDeviationPolicy.with_bank(DeviationPolicy(model, normalizer, frames=frames), card["bank_size"])
+        return BankedDeviationPolicy.with_bank(DeviationPolicy(model, normalizer, frames=frames), card["bank_size"],
+                                               bool(card.get("tracker", False)))
     return RobustPolicy(model, normalizer, frames=frames)
 
 
@@ -140,19 +141,21 @@ def run_hyperparameters(runs: Sequence[Path]) -> dict[str, Any]:
     return configs[0]
 
 
-def bank_size(runs: Sequence[Path]) -> int:
-    """The specimen bank a ``banked`` agent runs: each run's as ``banked:RUN`` drives it
-    (:func:`agents.banked_deviation.run_bank_size`); the runs must agree. A run trained on the bank's Gauss-Newton
-    tracker is refused: the tracker's refits do not yet run within a period, and the zoo's agent has no tracker."""
+def bank_of(runs: Sequence[Path]) -> dict[str, Any]:
+    """The card's fields of the specimen bank a ``banked`` agent runs, each run's as ``banked:RUN`` drives it:
+    ``bank_size`` (:func:`agents.banked_deviation.run_bank_size`) and, for runs trained on the bank's Gauss-Newton
+    tracker, ``tracker`` true (the tracker behind the decision, as a bench runs it: its work priced and bounded
+    within the period's slack, :mod:`agents.estimate_worker`). The runs must agree on both."""
     from agents.banked_deviation import run_bank_size, run_tracker
-    tracked = [str(run) for run in runs if run_tracker(run)]
-    if tracked:
-        raise ValueError(f"runs {tracked} were trained on the bank's Gauss-Newton tracker "
-                         "(env.reference_deviation_tracker), which does not run in real time yet: not shippable")
+    names = [str(r) for r in runs]
     sizes = {run_bank_size(run) for run in runs}
     if len(sizes) != 1:
-        raise ValueError(f"runs {[str(r) for r in runs]} were trained with different specimen banks: {sorted(sizes)}")
-    return sizes.pop()
+        raise ValueError(f"runs {names} were trained with different specimen banks: {sorted(sizes)}")
+    tracked = {run_tracker(run) for run in runs}
+    if len(tracked) != 1:
+        raise ValueError(f"runs {names}: some were trained on the bank's Gauss-Newton tracker "
+                         "(env.reference_deviation_tracker) and some not: ship them apart")
+    return {"bank_size": sizes.pop(), **({"tracker": True} if tracked.pop() else {})}
 
 
 def _run_seed(run_dir: Path) -> tuple[int, int]:
@@ -213,7 +216,7 @@ def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
         hyperparameters = hyperparameters or run_hyperparameters(runs)
         frames = hyperparameters.get("env", {}).get("frame_stack")
         card = {"name": name, "env_id": ENV_ID, "env_kwargs": env_kwargs, "algo": algo,
-                **({"bank_size": bank_size(runs)} if algo == "banked" else {}),
+                **(bank_of(runs) if algo == "banked" else {}),
                 "hyperparameters": hyperparameters,
                 "timesteps": max(steps), "timesteps_by_seed": {str(s): t for s, t in seeds},
                 "seeds": [s for s, _ in seeds], "observation": observation_layout(env_kwargs, algo, frames),

@@ -13,7 +13,8 @@ stack; ``recurrent``: RecurrentPPO; ``banked``: a frame-stack PPO with a specime
 (the observation layout it expects: mode, fields with sizes, frames), ``figures`` (held-out and stress statistics
 with their intervals, :func:`experiments.stats.row_stats`, with the number of benches), ``date``, ``command`` (what
 trained it), ``files`` (the SHA-256 of every model file), and for a ``banked`` agent ``bank_size`` (its specimen bank's
-hypotheses). Cards are read strictly (:func:`cards.parse_card`).
+hypotheses) and, if it was trained on that bank's Gauss-Newton tracker, ``tracker`` true (the tracker run behind the
+decision as a bench runs it). Cards are read strictly (:func:`cards.parse_card`).
 
 **What is loaded, and how.** Nothing of a shipped agent is unpickled: the weights are safetensors (a header and
 raw tensors, no code), the statistics and the card JSON, and :mod:`agents.zoo.agent` rebuilds the SB3 policy

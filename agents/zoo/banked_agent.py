@@ -3,7 +3,9 @@
 
 Each period the bank (:class:`agents.deviation_bank.DeviationBank`: ``mpc``'s bank of the card's ``bank_size``
 hypotheses, no resample-move, weights tempered to an effective size of 4) is weighed by the new observation; its
-estimate of the block's deviation from its case-C reference (12 values) is appended to the frame stack; the policy
+estimate of the block's deviation from its case-C reference (12 values; with the card's ``tracker``, the bank's
+Gauss-Newton tracker's, run behind the decision as a bench runs it: :func:`agents.deviation_tracker.
+deviation_estimator`) is appended to the frame stack; the policy
 (a flat MLP, run in numpy: :class:`agents.banked_deviation.NumpyActor`) decides; then the bank advances every
 hypothesis by the command decided (on a bench: after the command is sent, in the period's slack). ``agent.info``
 holds the last period's thread CPU to the decision (``decision_cpu_s``) and in all (``period_cpu_s``).
@@ -37,7 +39,8 @@ class BankedAgent(ShippedAgent):
         model = SimpleNamespace(policy=policy, action_space=policy.action_space)   # what NumpyActor reads
         frames = int(card["observation"]["frames"])
         self.controller = BankedDeviationPolicy.with_bank(DeviationPolicy(model, normalizer, card["name"], frames),
-                                                          card["bank_size"], name=card["name"])
+                                                          card["bank_size"], bool(card.get("tracker", False)),
+                                                          name=card["name"])
         self._card_config: Any = None
         super().__init__(card, seed, policy, normalizer)
         self._load_index = self.field_offsets.get("LOAD")

@@ -110,13 +110,17 @@ def _check_collections(card: dict[str, Any], source: str) -> None:
 
 
 def _check_bank(card: dict[str, Any], source: str) -> None:
-    """``bank_size``: the hypotheses of a ``banked`` agent's specimen bank, and no other agent's."""
+    """``bank_size``: the hypotheses of a ``banked`` agent's specimen bank, and no other agent's; ``tracker``: whether
+    its bank's Gauss-Newton tracker runs beside it (a banked agent's only; absent: no)."""
     bank = card.get("bank_size")
     if card["algo"] == "banked":
         _need(_is_int(bank) and 1 <= bank <= MAX_BANK, source, "bank_size",
               f"the specimen bank's size, an integer 1-{MAX_BANK}", bank)
     else:
         _need(bank is None, source, "bank_size", "absent (only a banked agent runs a specimen bank)", bank)
+    tracker = card.get("tracker")
+    _need(tracker is None or (card["algo"] == "banked" and isinstance(tracker, bool)), source, "tracker",
+          "true or false on a banked agent (its bank's Gauss-Newton tracker), absent on any other", tracker)
 
 
 def parse_card(text: str | bytes, source: str = "card.json") -> dict[str, Any]:
@@ -221,7 +225,9 @@ def card_markdown(card: dict[str, Any]) -> str:
              f"* env: `{card['env_id']}` with `{json.dumps(card['env_kwargs'])}`",
              f"* algorithm: {card['algo']}; hyperparameters `{json.dumps(card['hyperparameters'])}`",
              f"* {card['timesteps']:,} steps per seed; seeds {card['seeds']}",
-             *([f"* specimen bank beside the policy: {card['bank_size']} hypotheses (`agents/zoo/banked_agent.py`)"]
+             *([f"* specimen bank beside the policy: {card['bank_size']} hypotheses (`agents/zoo/banked_agent.py`)"
+                + ("; its Gauss-Newton tracker behind the decision (`agents/deviation_tracker.py`, "
+                   "`agents/estimate_worker.py`)" if card.get("tracker") else "")]
                if card["algo"] == "banked" else []),
              f"* observation: {card['observation']['observation_mode']} mode, {card['observation']['frames']} "
              "frame(s)", "", "| bench set | benches | episodes | success (95 % CI) | mimicry error over successes, "

@@ -105,20 +105,27 @@ def test_a_batch_a_state_a_stochastic_call_and_a_card_without_its_bank_are_refus
             parse_card(json.dumps(bad))
     with pytest.raises(ShippedAgentError, match="field 'bank_size' must be absent"):
         parse_card(json.dumps({**card, "algo": "ppo"}))
+    with pytest.raises(ShippedAgentError, match="field 'tracker' must be true or false on a banked agent"):
+        parse_card(json.dumps({**card, "tracker": "yes"}))
 
 
 def test_the_bank_shipped_is_the_one_the_runs_trained_with_else_banked_runs_default(tmp_path):
     from agents.banked_deviation import BANK_SIZE
-    from experiments.shipping import bank_size
+    from experiments.shipping import bank_of
     runs = []
     for i, env in enumerate(({"reference_deviation": True, "reference_deviation_bank": 5},
-                             {"reference_deviation": True})):
+                             {"reference_deviation": True},
+                             {"reference_deviation": True, "reference_deviation_bank": 5,
+                              "reference_deviation_tracker": True})):
         runs.append(tmp_path / f"seed_{i}")
         runs[-1].mkdir()
         (runs[-1] / "config.json").write_text(json.dumps({"env": env}))
-    assert bank_size(runs[:1]) == 5 and bank_size(runs[1:]) == BANK_SIZE == 16
+    assert bank_of(runs[:1]) == {"bank_size": 5} and bank_of(runs[1:2]) == {"bank_size": BANK_SIZE} == {"bank_size": 16}
+    assert bank_of(runs[2:]) == {"bank_size": 5, "tracker": True}   # its tracker, behind the decision, as it trained
     with pytest.raises(ValueError, match="different specimen banks: \\[5, 16\\]"):
-        bank_size(runs)
+        bank_of(runs[:2])
+    with pytest.raises(ValueError, match="some were trained on the bank's Gauss-Newton tracker"):
+        bank_of([runs[0], runs[2]])
 
 
 @pytest.mark.slow
@@ -134,3 +141,27 @@ def test_evaluate_on_the_shipped_copy_reproduces_its_card(pinned, tmp_path):
     assert got["success_rate"] == want["success_rate"]
     assert got["mimicry_error_mm"] == want["mimicry_error_mm"] or (np.isnan(got["mimicry_error_mm"])
                                                                    and np.isnan(want["mimicry_error_mm"]))
+
+
+@pytest.mark.slow   # a run trained with the tracker in its loop (~1 min), shipped with its card's figures on 3 benches
+def test_a_tracker_trained_run_ships_with_its_tracker_and_acts_bitwise_as_its_banked_controller(tmp_path,
+                                                                                                 monkeypatch):
+    from agents.banked_deviation import BankedDeviationPolicy
+    from agents.train_robust import RobustTask, train_robust
+    from experiments.shipping import pins_of, ship
+    run = train_robust(RobustTask(str(tmp_path / "runs"), SEED, 1024, eval_freq=10**9,
+                                  env_kwargs=(("reference_deviation", True), ("reference_deviation_bank", BANK),
+                                              ("reference_deviation_tracker", True)),
+                                  overrides=(("hyperparams.n_steps", 64),)))["run_dir"]
+    path = ship("tiny_tracked", [run], algo="banked", command="(test) 1,024 steps with a tracked bank of 4", n=3,
+                zoo_dir=tmp_path / "zoo", executor="serial")
+    monkeypatch.setattr(zoo, "ZOO_DIR", path.parent)
+    monkeypatch.setattr(zoo, "SHIPPED", {**zoo.SHIPPED, "tiny_tracked": pins_of(path)})
+    card = read_card("tiny_tracked")
+    assert card["bank_size"] == BANK and card["tracker"] is True and "Gauss-Newton tracker" in (
+        path / "README.md").read_text()
+    agent, original = load_shipped("tiny_tracked", SEED), BankedDeviationPolicy.load(run)
+    assert type(agent.controller.deviation_bank).__name__ == "EstimateWorker"
+    bench = nominal_benches([40.0])[0]
+    mine, theirs = _episode(agent, bench, 1), _episode(original, bench, 1)
+    assert len(mine) > 5 and mine.tobytes() == theirs.tobytes()
