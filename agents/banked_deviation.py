@@ -18,7 +18,11 @@ weights and early moves, finding 13b). ``moves`` True lets the bank resample-mov
 ``move_periods`` periods; each move replays the history from a fresh start of every hypothesis (~2 ms each on this
 machine), tens of ms per move, so it does not fit a period. ``start_periods`` > 0 plays ``mpc``'s designed excitation
 (:meth:`MPCController.start_command`) first, whatever the policy would do (the policy still sees these
-observations in its frame stack); it cost accuracy here (the policy was not trained after it).
+observations in its frame stack, and the bank advances by the command sent); it cost accuracy here (the policy was
+not trained after it). With a ``starter`` (another controller: e.g. the shipped ``ppo_recurrent``, which fails
+less in the first decisions) the start is that controller's, fed every observation of those periods: finding 16 of
+``docs/notes/student-experiments.md`` (20 periods of ``ppo_recurrent``, then a tracker-trained policy: the best
+real-time score on the judge draws so far).
 
 **Cost.** A decision weighs the bank by the new measurement (:meth:`SpecimenBank.weigh`), takes the tempered
 weighted mean and runs the policy; advancing every hypothesis by the command just decided (the env's compiled step,
@@ -94,7 +98,7 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
 
     def __init__(self, policy: DeviationPolicy, bank_settings: MPCController, *, moves: bool = False,
                  min_ess: float = MIN_ESS, start_periods: int = START_PERIODS, name: str = "ppo_deviation_banked",
-                 estimator: Any = None):
+                 estimator: Any = None, starter: Any = None):
         if not isinstance(policy, DeviationPolicy):
             raise ValueError(f"policy {policy.name!r}: not a reference_deviation run (its config.json has no "
                              "env.reference_deviation), so it has no deviation input to estimate")
@@ -106,7 +110,7 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
                                                                                      min_ess=min_ess)
         super().__init__(policy.model, policy.normalizer, name, policy.n_frames)
         self.actor = NumpyActor(policy.model) if hasattr(policy.model, "policy") else None   # (a test's stand-in)
-        self.bank_settings, self.start_periods = bank_settings, start_periods
+        self.bank_settings, self.start_periods, self.starter = bank_settings, start_periods, starter
         self.estimate = np.zeros(REFERENCE_DEVIATION_DIM)
 
     @classmethod
@@ -132,6 +136,8 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
         super().reset(load_N, config)
         self.config = config
         self.deviation_bank.reset(load_N, config)
+        if self.starter is not None:
+            self.starter.reset(load_N, config)
         self.info = {"decision_cpu_s": 0.0, "period_cpu_s": 0.0}
 
     def _decide(self, policy_input: np.ndarray) -> np.ndarray:
@@ -146,7 +152,9 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
         started = time.thread_time()
         self.estimate = self.deviation_bank.estimate(obs)
         policy_input = np.concatenate([self._stack(obs), self.estimate.astype(np.float32)])
-        if self.deviation_bank.periods <= self.start_periods:
+        if self.deviation_bank.periods <= self.start_periods and self.starter is not None:
+            action = np.asarray(self.starter.act(obs), dtype=np.float32)
+        elif self.deviation_bank.periods <= self.start_periods:
             action = self.bank_settings.start_command(self.deviation_bank.periods, self.config).astype(np.float32)
         else:
             action = self._decide(policy_input)

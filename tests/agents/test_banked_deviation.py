@@ -154,3 +154,30 @@ def test_the_numpy_actor_is_sb3s_deterministic_predict_and_refuses_a_layout_it_d
     assert (got == 1.0).any()   # the clip to the action space was exercised
     with pytest.raises(ValueError, match="'ELU'"):
         NumpyActor(_sb3_model(nn.ELU))
+
+
+def test_a_starter_controller_plays_the_start_and_the_bank_advances_by_its_commands(recording_model):
+    # finding 16: another controller (there the shipped ppo_recurrent) for the first decisions, fed their observations
+    class Starter:
+        def reset(self, load_N, config):
+            self.seen, self.load_N = [], load_N
+
+        def act(self, obs):
+            self.seen.append(np.array(obs))
+            return np.array([0.3 + 0.01 * len(self.seen), -0.05], dtype=np.float64)
+    bench = nominal_benches((40.0,))[0]
+    recorder, starter = recording_model(_act), Starter()
+    composed = _Recorded(DeviationPolicy(recorder, recorder), MPCController(bank_size=4), start_periods=3,
+                         starter=starter)
+    outcome = run_episode(composed, bench, seed=3)
+    inputs, sent, settings = np.array(recorder.inputs), composed.sent, composed.bank_settings
+    assert starter.load_N == 40.0 and len(starter.seen) == 3 and len(inputs) == outcome.steps - 3
+    np.testing.assert_array_equal(starter.seen, composed.seen[:3])
+    np.testing.assert_array_equal(sent[:3], [np.float32([0.3 + 0.01 * k, -0.05]) for k in (1, 2, 3)])
+    bank = settings.new_bank(bench.load_N, TriPlanarShearV1Env().unwrapped.config)   # advanced by the starter's
+    bank.rejuvenate_ess = 0.0
+    for k, obs in enumerate(composed.seen[:6]):
+        if k:
+            bank.update(np.asarray(sent[k - 1], dtype=np.float64), obs)
+        if k >= 3:
+            np.testing.assert_array_equal(inputs[k - 3, 60:], bank.deviation(composed.min_ess).astype(np.float32))
