@@ -152,9 +152,10 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
         started = time.thread_time()
         self.estimate = self.deviation_bank.estimate(obs)
         policy_input = np.concatenate([self._stack(obs), self.estimate.astype(np.float32)])
-        if self.deviation_bank.periods <= self.start_periods and self.starter is not None:
+        start = self.deviation_bank.periods <= self.start_periods
+        if start and self.starter is not None:
             action = np.asarray(self.starter.act(obs), dtype=np.float32)
-        elif self.deviation_bank.periods <= self.start_periods:
+        elif start:   # mpc's designed excitation
             action = self.bank_settings.start_command(self.deviation_bank.periods, self.config).astype(np.float32)
         else:
             action = self._decide(policy_input)

@@ -610,21 +610,21 @@ class SpecimenBank:
 
     def ahead(self, states: list[BenchState], weights: np.ndarray,
               commands: np.ndarray) -> tuple[list[BenchState], np.ndarray]:
-        """``states`` (copies, as :meth:`best` gives them; stepped in place) carried through ``commands`` (periods x
-        2: the commands already decided for the coming periods), with their ``weights``: where each hypothesis
+        """Copies of ``states`` (as :meth:`best` gives them; left as they were) carried through ``commands`` (periods
+        x 2: the commands already decided for the coming periods), with their ``weights``: where each hypothesis
         will be when a plan made now takes over. One that ends the test on the way is dropped (nothing is left to
-        plan for it); if all do, the states are returned unstepped. Counted in :meth:`work_counts`."""
-        kept = []
-        for i, s in enumerate(states):
-            start = s.copy()
-            if not any(self._step(s, np.asarray(raw, dtype=float)) for raw in commands):
-                kept.append(i)
-            else:
-                states[i] = start
-        if not kept:
+        plan for it); if all do, ``states`` and ``weights`` are returned as given. Counted in :meth:`work_counts`."""
+        raws = np.asarray(commands, dtype=float)
+        moved, kept = [], []
+        for s, w in zip(states, weights):
+            ahead = s.copy()
+            if not any(self._step(ahead, raw) for raw in raws):
+                moved.append(ahead)
+                kept.append(w)
+        if not moved:
             return states, weights
-        w = np.asarray(weights, dtype=float)[kept]
-        return [states[i] for i in kept], w / w.sum()
+        w = np.asarray(kept, dtype=float)
+        return moved, w / w.sum()
 
     def _tempered(self, min_ess: float) -> np.ndarray:
         w = self.weights()
