@@ -13,8 +13,9 @@ spec               canonical string            builds
 ``StudentSpec``    ``student:FOLDER``          a distilled student (:mod:`agents.student`)
 ``EstimatedSpec``  ``estimated:FOLDER``        a reference-deviation PPO on a bench estimate of its deviation
                                                (:mod:`agents.deviation_estimator`)
-``BankedSpec``     ``banked:RUN``              a reference-deviation PPO run on a specimen bank's estimate of
-                                               its deviation (:mod:`agents.banked_deviation`)
+``BankedSpec``     ``banked:RUN``,             a reference-deviation PPO run on a specimen bank's estimate of
+                   ``banked:RUN?starter=NAME   its deviation (:mod:`agents.banked_deviation`); with a shipped
+                   &periods=N``                agent (its seed ``seed``) driving the first N decisions
 =================  ==========================  =============================================================
 
 :func:`parse_controller` is the one place a user's string becomes a spec (``--driver`` of
@@ -41,6 +42,7 @@ import numpy as np
 from .controller_base import Controller
 
 PPO_KINDS = ("ppo", "ppo_recurrent", "ppo_state")   # frame stack, LSTM, v0 on the exact state
+STARTER_MARK = "?"   # banked:RUN?starter=NAME&periods=N (BankedSpec)
 
 
 class ControllerSpecError(ValueError):
@@ -202,20 +204,55 @@ class EstimatedSpec:
 
 @dataclass(frozen=True)
 class BankedSpec:
-    """A reference-deviation PPO run on a specimen bank's estimate of its deviation, at the module's settings."""
+    """A reference-deviation PPO run on a specimen bank's estimate of its deviation, at the module's settings; with
+    a ``starter`` (a shipped agent's name), that agent's training seed ``seed`` drives the first ``start_periods``
+    decisions (:class:`agents.banked_deviation.BankedDeviationPolicy`'s ``starter``): the canonical string
+    ``banked:RUN?starter=NAME&periods=N``."""
 
     run: str
+    starter: str | None = None
+    start_periods: int = 0
+    seed: int = 0
 
     def __post_init__(self):
         _nonempty("BankedSpec", "run", self.run)
+        if self.starter is None:
+            if self.start_periods or self.seed:
+                raise ControllerSpecError("BankedSpec: start_periods and seed are a starter's; give the starter")
+            return
+        _nonempty("BankedSpec", "starter", self.starter)
+        for field, least in (("start_periods", 1), ("seed", 0)):
+            value = getattr(self, field)
+            if isinstance(value, bool) or not isinstance(value, int) or value < least:
+                raise ControllerSpecError(f"BankedSpec.{field}: expected an integer >= {least}, got {value!r}")
 
     @property
     def text(self) -> str:
-        return f"banked:{self.run}"
+        if self.starter is None:
+            return f"banked:{self.run}"
+        return f"banked:{self.run}{STARTER_MARK}starter={self.starter}&periods={self.start_periods}"
+
+    @classmethod
+    def parse(cls, rest: str, seed: int) -> BankedSpec:
+        """The spec of ``banked:REST`` (``REST`` = ``RUN`` or ``RUN?starter=NAME&periods=N``; the row's ``seed`` is
+        the starter's training seed)."""
+        run, mark, query = rest.partition(STARTER_MARK)
+        if not mark:
+            return cls(rest)
+        fields = dict(part.partition("=")[::2] for part in query.split("&"))
+        if set(fields) != {"starter", "periods"} or not fields["periods"].isdigit():
+            raise ControllerSpecError(f"controller 'banked:{rest}': after {STARTER_MARK!r} expected "
+                                      "starter=NAME&periods=N (a shipped agent, a positive number of decisions)")
+        return cls(run, fields["starter"], int(fields["periods"]), seed)
 
     def build(self, label: str, env_kwargs: dict[str, Any], tip_friction_deg: float | None = None) -> Built:
         from .banked_deviation import BankedDeviationPolicy
-        return Built(BankedDeviationPolicy.load(self.run, name=label), dict(env_kwargs), True)
+        if self.starter is None:
+            return Built(BankedDeviationPolicy.load(self.run, name=label), dict(env_kwargs), True)
+        from .zoo import load_shipped
+        starter = load_shipped(self.starter, self.seed)
+        return Built(BankedDeviationPolicy.load(self.run, name=label, starter=starter,
+                                                start_periods=self.start_periods), dict(env_kwargs), True)
 
 
 ControllerSpec = Union[ScriptedSpec, PPOSpec, ShippedSpec, StudentSpec, EstimatedSpec, BankedSpec]
@@ -223,7 +260,8 @@ ControllerSpec = Union[ScriptedSpec, PPOSpec, ShippedSpec, StudentSpec, Estimate
 
 def parse_controller(text: str, *, params: tuple = (), seed: int = 0, zoo_dir: str | None = None) -> ControllerSpec:
     """The spec of a controller string (module docstring's table). ``params``: a scripted controller's numbers;
-    ``seed``, ``zoo_dir``: a shipped agent's (another kind's row seed is not part of the controller)."""
+    ``seed``, ``zoo_dir``: a shipped agent's (``seed`` also a banked run's starter's; another kind's row seed is
+    not part of the controller)."""
     if not isinstance(text, str) or not text:
         raise ControllerSpecError(f"controller: expected a non-empty string, got {text!r}")
     kind, sep, rest = text.partition(":")
@@ -245,6 +283,6 @@ def parse_controller(text: str, *, params: tuple = (), seed: int = 0, zoo_dir: s
     if kind == "estimated":
         return EstimatedSpec(rest)
     if kind == "banked":
-        return BankedSpec(rest)
+        return BankedSpec.parse(rest, seed)
     raise ControllerSpecError(f"controller {text!r}: unknown kind {kind!r}; expected a bench controller name or "
                               f"one of {[*PPO_KINDS, 'shipped', 'student', 'estimated', 'banked']} followed by ':'")

@@ -6,7 +6,8 @@ held-out and stress benches, write the model card, and print the pins to add to 
 ``python -m experiments.shipping --name NAME --algo ppo --runs RUN/seed_0 RUN/seed_1 ... --command "how they were
 trained" [--env-kwargs JSON] [--n 200] [--zoo DIR]`` (``--algo recurrent``: RecurrentPPO runs; ``--algo banked``:
 ``reference_deviation`` runs, shipped with a specimen bank beside the policy, :mod:`agents.zoo.banked_agent`: the
-size they were trained with in their loop, else ``banked:RUN``'s 16). The runs' own files are SB3 pickles, unpickled here (the runs
+size they were trained with in their loop, else ``banked:RUN``'s 16; ``--starter AGENT:N``: the project's shipped
+AGENT, its seed of each run's number, drives the first N decisions, named in the card). The runs' own files are SB3 pickles, unpickled here (the runs
 are the ones you name and trained). The card's figures come from the runs' files; ``triplanar evaluate --controller
 NAME`` on the shipped copies reproduces them. The agent's directory is written under a temporary name and renamed,
 so a shipped agent is complete or absent.
@@ -32,7 +33,9 @@ import numpy as np
 from agents.controller_specs import BankedSpec, PPOSpec
 from agents.heldout import FAILURE_SCORE_MM
 
-from agents.zoo import CARD, ZOO_DIR, card_markdown, load_shipped, model_files, observation_layout, parse_card
+import agents.zoo as zoo_package
+from agents.zoo import (CARD, ZOO_DIR, card_markdown, load_shipped, model_files, observation_layout, parse_card,
+                        read_card, read_pinned)
 from triplanar.workbench.executor import ExecutorLike, run_tasks
 
 from .episodes import EpisodeBatch, outcome_table, run_batch
@@ -70,7 +73,7 @@ def check_converted(agent: Any, model: Any, normalizer: Any, steps: int = CHECK_
         if not (want.shape == have.shape and np.array_equal(want.low, have.low)
                 and np.array_equal(want.high, have.high)):
             raise ValueError(f"{card['name']} seed {agent.seed}: the card env's {attr} differs from the model's")
-    original = _original(card, model, normalizer, agent.frames)
+    original = _original(card, model, normalizer, agent.frames, agent.seed)
     env, compared, episode = agent.make_env(), 0, 0
     try:
         while compared < steps:
@@ -92,15 +95,18 @@ def check_converted(agent: Any, model: Any, normalizer: Any, steps: int = CHECK_
     return compared
 
 
-def _original(card: dict[str, Any], model: Any, normalizer: Any, frames: int) -> Any:
-    """The run's own controller of the card's kind, on the unpickled model and statistics."""
+def _original(card: dict[str, Any], model: Any, normalizer: Any, frames: int, seed: int) -> Any:
+    """The run's own controller of the card's kind, on the unpickled model and statistics (a card's ``starter``:
+    the project's shipped agent of that name, its seed ``seed``)."""
     from agents.robust_policy import DeviationPolicy, RecurrentPolicy, RobustPolicy
     if card["algo"] == "recurrent":
         return RecurrentPolicy(model, normalizer)
     if card["algo"] == "banked":
         from agents.banked_deviation import BankedDeviationPolicy
+        named = card.get("starter")
+        start = {"starter": load_shipped(named["agent"], seed), "start_periods": named["periods"]} if named else {}
         return BankedDeviationPolicy.with_bank(DeviationPolicy(model, normalizer, frames=frames), card["bank_size"],
-                                               bool(card.get("tracker", False)))
+                                               bool(card.get("tracker", False)), **start)
     return RobustPolicy(model, normalizer, frames=frames)
 
 
@@ -113,14 +119,22 @@ def pins_of(agent_dir: Path) -> dict[str, str]:
 def _finish_card(card: dict[str, Any], agent_dir: Path, sources: dict[int, tuple[Any, Any]],
                  zoo_tmp: Path) -> dict[str, str]:
     """Write the card and its README into ``agent_dir`` (the card listing the new files' hashes), load each seed
-    back through the zoo's loader and check it against its source model bitwise; returns the pins."""
+    back through the zoo's loader and check it against its source model bitwise (a starter copied beside it from
+    the project's zoo, its pinned files); returns the pins."""
     card["files"] = {rel: hashlib.sha256((agent_dir / rel).read_bytes()).hexdigest()
                      for seed in card["seeds"] for rel in model_files(seed)}
     (agent_dir / CARD).write_text(json.dumps(card, indent=2, default=float) + "\n")
     (agent_dir / "README.md").write_text(card_markdown(card))
     pins = pins_of(agent_dir)
+    loaded = {card["name"]: pins}
+    if card.get("starter"):
+        starter = card["starter"]["agent"]
+        loaded[starter] = zoo_package.SHIPPED[starter]
+        for rel in zoo_package.SHIPPED[starter]:
+            (zoo_tmp / starter / rel).parent.mkdir(parents=True, exist_ok=True)
+            (zoo_tmp / starter / rel).write_bytes(read_pinned(starter, rel))
     for seed, (model, normalizer) in sources.items():
-        agent = load_shipped(card["name"], seed, zoo_tmp, {card["name"]: pins})
+        agent = load_shipped(card["name"], seed, zoo_tmp, loaded)
         steps = check_converted(agent, model, normalizer)
         print(f"{card['name']} seed {seed}: converted policy bitwise equal to the original on {steps} steps",
               file=sys.stderr)
@@ -168,25 +182,46 @@ def _run_seed(run_dir: Path) -> tuple[int, int]:
 
 
 def figures(run_dirs: Sequence[Path], algo: str, env_kwargs: dict[str, Any], n: int,
-            executor: ExecutorLike = None) -> dict[str, dict[str, Any]]:
-    """Held-out and stress statistics of the runs (one seed each), as the card gives them."""
+            executor: ExecutorLike = None, starter: tuple[str, int] | None = None) -> dict[str, dict[str, Any]]:
+    """Held-out and stress statistics of the runs (one seed each), as the card gives them (``starter``: a banked
+    agent's, the shipped agent and the decisions it drives)."""
     kind = {"recurrent": "ppo_recurrent", "banked": "banked"}.get(algo, "ppo")
     kwargs = tuple(sorted((k, v) for k, v in env_kwargs.items() if k != "randomize"))
     tip = env_kwargs.get("tip_friction_deg")
+
+    def spec(run: Path) -> Any:
+        if algo != "banked":
+            return PPOSpec(str(run), kind)
+        return BankedSpec(str(run), *starter, _run_seed(run)[0]) if starter else BankedSpec(str(run))
     out = {}
     for bench_set in SHIPPED_SETS:
-        batches = [EpisodeBatch.of(BankedSpec(str(run)) if algo == "banked" else PPOSpec(str(run), kind), kind,
-                                   bench_set, n, tip, kwargs, _run_seed(run)[0])
-                   for run in run_dirs]
+        batches = [EpisodeBatch.of(spec(run), kind, bench_set, n, tip, kwargs, _run_seed(run)[0]) for run in run_dirs]
         results = run_tasks(run_batch, batches, executor=executor, progress=True, desc=f"card: {bench_set}")
         out[bench_set] = row_stats(*outcome_table(batches, results), FAILURE_SCORE_MM)
     return out
 
 
+def starter_of(agent: str, periods: int, seeds: Sequence[int]) -> dict[str, Any]:
+    """The card's ``starter`` of a banked agent whose first ``periods`` decisions the project's shipped ``agent``
+    drives (its seed of each of ``seeds``); refused naming what does not fit."""
+    if isinstance(periods, bool) or not isinstance(periods, int) or periods < 1:
+        raise ValueError(f"starter periods: a positive number of decisions, got {periods!r}")
+    card = read_card(agent)
+    missing = sorted(set(seeds) - set(card["seeds"]))
+    if missing:
+        raise ValueError(f"starter {agent!r} has no seed {missing} (its seeds: {card['seeds']}); the runs' seeds "
+                         "are matched to the starter's of the same number")
+    if card.get("starter") is not None:
+        raise ValueError(f"starter {agent!r} has a starter of its own")
+    return {"agent": agent, "periods": periods, "card_sha256": zoo_package.SHIPPED[agent][CARD]}
+
+
 def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
          env_kwargs: dict[str, Any] | None = None, hyperparameters: dict[str, Any] | None = None, n: int = 200,
-         zoo_dir: Path | None = None, executor: ExecutorLike = None, overwrite: bool = False) -> Path:
-    """Copy the runs into ``zoo_dir/name`` with a model card; returns the agent's directory."""
+         zoo_dir: Path | None = None, executor: ExecutorLike = None, overwrite: bool = False,
+         starter: tuple[str, int] | None = None) -> Path:
+    """Copy the runs into ``zoo_dir/name`` with a model card; returns the agent's directory. ``starter``
+    (``algo`` banked only): (a shipped agent, N) drives the first N decisions (:func:`starter_of`)."""
     if not name.isidentifier():
         raise ValueError(f"agent name {name!r}: letters, digits and underscores only")
     runs = [Path(r) for r in run_dirs]
@@ -196,6 +231,9 @@ def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
     if len({s for s, _ in seeds}) != len(seeds):
         raise ValueError(f"runs {runs}: two runs have the same seed")
     steps = {t for _, t in seeds}
+    if starter is not None and algo != "banked":
+        raise ValueError(f"a starter is a banked agent's (algo {algo!r})")
+    started = starter_of(*starter, [s for s, _ in seeds]) if starter is not None else None
     env_kwargs = {"observation_mode": "bench", "randomize": True, **(env_kwargs or {})}
     zoo = Path(zoo_dir or ZOO_DIR)
     final = zoo / name
@@ -216,11 +254,11 @@ def ship(name: str, run_dirs: Sequence[str | Path], *, algo: str, command: str,
         hyperparameters = hyperparameters or run_hyperparameters(runs)
         frames = hyperparameters.get("env", {}).get("frame_stack")
         card = {"name": name, "env_id": ENV_ID, "env_kwargs": env_kwargs, "algo": algo,
-                **(bank_of(runs) if algo == "banked" else {}),
+                **(bank_of(runs) if algo == "banked" else {}), **({"starter": started} if started else {}),
                 "hyperparameters": hyperparameters,
                 "timesteps": max(steps), "timesteps_by_seed": {str(s): t for s, t in seeds},
                 "seeds": [s for s, _ in seeds], "observation": observation_layout(env_kwargs, algo, frames),
-                "figures": figures(runs, algo, env_kwargs, n, executor),
+                "figures": figures(runs, algo, env_kwargs, n, executor, starter),
                 "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"), "command": command,
                 "files": {}}
         pins = _finish_card(card, tmp, sources, zoo_tmp)
@@ -279,12 +317,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--env-kwargs", default="{}", help="JSON: the TriPlanarShear-v1 arguments of the training")
     parser.add_argument("--n", type=int, default=200, help="held-out and stress benches for the card's figures")
     parser.add_argument("--zoo", help="zoo directory (default: the repository's agents/zoo)")
+    parser.add_argument("--starter", metavar="AGENT:N",
+                        help="banked: the project's shipped AGENT (its seed of each run's number) drives the first N "
+                        "decisions")
     parser.add_argument("--overwrite", action="store_true")
     args = parser.parse_args(None if argv is None else list(argv))
     if args.n <= 0:
         parser.error("--n must be positive")
     if not args.convert and not (args.name and args.runs and args.command):
         parser.error("--name, --runs and --command are needed to ship runs (or --convert NAME)")
+    starter = None
+    if args.starter:
+        agent, _, periods = args.starter.rpartition(":")
+        if not agent or not periods.isdigit():
+            parser.error(f"--starter: expected AGENT:N (a shipped agent, a number of decisions), got {args.starter!r}")
+        starter = (agent, int(periods))
     try:
         if args.convert:
             pins = convert(args.convert, Path(args.zoo) if args.zoo else None)
@@ -292,7 +339,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             return 0
         path = ship(args.name, args.runs, algo=args.algo, command=args.command,
                     env_kwargs=json.loads(args.env_kwargs), n=args.n, zoo_dir=Path(args.zoo) if args.zoo else None,
-                    overwrite=args.overwrite)
+                    overwrite=args.overwrite, starter=starter)
     except (ValueError, OSError) as err:    # a named refusal (a bad card, run, file), not a traceback
         print(f"python -m experiments.shipping: error: {err}", file=sys.stderr)
         return 2

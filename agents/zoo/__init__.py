@@ -13,8 +13,10 @@ stack; ``recurrent``: RecurrentPPO; ``banked``: a frame-stack PPO with a specime
 (the observation layout it expects: mode, fields with sizes, frames), ``figures`` (held-out and stress statistics
 with their intervals, :func:`experiments.stats.row_stats`, with the number of benches), ``date``, ``command`` (what
 trained it), ``files`` (the SHA-256 of every model file), and for a ``banked`` agent ``bank_size`` (its specimen bank's
-hypotheses) and, if it was trained on that bank's Gauss-Newton tracker, ``tracker`` true (the tracker run behind the
-decision as a bench runs it). Cards are read strictly (:func:`cards.parse_card`).
+hypotheses), if it was trained on that bank's Gauss-Newton tracker, ``tracker`` true (the tracker run behind the
+decision as a bench runs it), and if another shipped agent drives its first decisions, ``starter`` (that agent's
+name, the number of decisions, the SHA-256 of its card; its seed of the same number is loaded from the same zoo).
+Cards are read strictly (:func:`cards.parse_card`).
 
 **What is loaded, and how.** Nothing of a shipped agent is unpickled: the weights are safetensors (a header and
 raw tensors, no code), the statistics and the card JSON, and :mod:`agents.zoo.agent` rebuilds the SB3 policy
@@ -39,7 +41,7 @@ from .cards import (ShippedAgentError, bench_arguments, card_markdown, check_ben
                     parse_card)
 
 __all__ = ["ShippedAgentError", "bench_arguments", "card_markdown", "check_bench", "check_layout", "load_shipped",
-           "model_files", "observation_layout", "parse_card", "read_card", "shipped_names", "SHIPPED", "ZOO_DIR"]
+           "model_files", "observation_layout", "parse_card", "read_card", "read_pinned", "shipped_names", "SHIPPED", "ZOO_DIR"]
 
 ZOO_DIR = Path(__file__).parent
 CARD = "card.json"
@@ -166,5 +168,25 @@ def load_shipped(name: str, seed: int, zoo_dir: Path | None = None, pins: Pins |
     normalizer = ObsNormalizer.from_json(read_pinned(name, norm_rel, zoo_dir, pins), size, f"{name}/{norm_rel}")
     if card["algo"] == "banked":
         from .banked_agent import BankedAgent
-        return BankedAgent(card, seed, policy, normalizer)
+        return BankedAgent(card, seed, policy, normalizer, _starter(card, seed, zoo_dir, pins))
     return ShippedAgent(card, seed, policy, normalizer)
+
+
+def _starter(card: dict[str, Any], seed: int, zoo_dir: Path | None, pins: Pins | None) -> Any:
+    """The shipped agent that drives a ``banked`` agent's first decisions (its card's ``starter``; None if it has
+    none): its seed ``seed``, from the same zoo and pins, refused unless its card is the one the agent's card names
+    (the figures were measured with that one) and it has no starter of its own."""
+    named = card.get("starter")
+    if named is None:
+        return None
+    agent = named["agent"]
+    if _agent_pins(agent, pins).get(CARD) != named["card_sha256"]:
+        raise ShippedAgentError(f"shipped agent {card['name']!r}: its starter {agent!r} is not the one its card names "
+                                "(field 'starter.card_sha256' differs from the pinned card's SHA-256)")
+    starter_card = read_card(agent, zoo_dir, pins)
+    if starter_card.get("starter") is not None:
+        raise ShippedAgentError(f"shipped agent {card['name']!r}: its starter {agent!r} has a starter of its own")
+    check_layout(starter_card, card["env_kwargs"])    # (the starter sees the agent's observations, on its bench)
+    check_bench(starter_card, bench_arguments(card["env_kwargs"]), f"{card['name']!r}'s card",
+                "a starter runs on the bench of the agent it starts")
+    return load_shipped(agent, seed, zoo_dir, pins)

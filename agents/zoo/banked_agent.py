@@ -8,7 +8,9 @@ Gauss-Newton tracker's, run behind the decision as a bench runs it: :func:`agent
 deviation_estimator`) is appended to the frame stack; the policy
 (a flat MLP, run in numpy: :class:`agents.banked_deviation.NumpyActor`) decides; then the bank advances every
 hypothesis by the command decided (on a bench: after the command is sent, in the period's slack). ``agent.info``
-holds the last period's thread CPU to the decision (``decision_cpu_s``) and in all (``period_cpu_s``).
+holds the last period's thread CPU to the decision (``decision_cpu_s``) and in all (``period_cpu_s``). With the
+card's ``starter``, that shipped agent (``starter``: loaded by :func:`agents.zoo.load_shipped`) decides the first
+``starter.periods`` periods instead of the policy; the bank and the frame stack see those periods all the same.
 
 **Memory.** The frame stack and the bank are one episode's, kept by the agent: ``predict`` takes one observation at
 a time (not a batch: a bank is one bench's) and returns ``state`` None. An episode starts at :meth:`reset`, at an
@@ -33,14 +35,16 @@ from .cards import ShippedAgentError
 class BankedAgent(ShippedAgent):
     """One training seed of a ``banked`` shipped agent (module docstring)."""
 
-    def __init__(self, card: dict[str, Any], seed: int, policy: Any, normalizer: ObsNormalizer):
+    def __init__(self, card: dict[str, Any], seed: int, policy: Any, normalizer: ObsNormalizer,
+                 starter: Any = None):
         from ..banked_deviation import BankedDeviationPolicy
         from ..robust_policy import DeviationPolicy
         model = SimpleNamespace(policy=policy, action_space=policy.action_space)   # what NumpyActor reads
         frames = int(card["observation"]["frames"])
+        start = {"starter": starter, "start_periods": int(card["starter"]["periods"])} if starter is not None else {}
         self.controller = BankedDeviationPolicy.with_bank(DeviationPolicy(model, normalizer, card["name"], frames),
                                                           card["bank_size"], bool(card.get("tracker", False)),
-                                                          name=card["name"])
+                                                          name=card["name"], **start)
         self._card_config: Any = None
         super().__init__(card, seed, policy, normalizer)
         self._load_index = self.field_offsets.get("LOAD")

@@ -17,6 +17,8 @@ MAX_DEPTH = 8            # the shipped cards nest 5 deep (hyperparameters.hyperp
 MAX_CARD_BYTES = 1 << 20
 MAX_SEEDS = 100
 MAX_BANK = 256           # a banked agent's specimen bank (its hypotheses)
+STARTER_KEYS = ("agent", "periods", "card_sha256")   # a banked agent's starter: who drives its first decisions
+MAX_START_PERIODS = 10_000
 SHA256 = re.compile(r"[0-9a-f]{64}")
 # Env arguments that say what an episode draws (the specimen, the load), not the bench the agent acts on: they may
 # differ from the card's (the bench sets give the specimen).
@@ -111,7 +113,9 @@ def _check_collections(card: dict[str, Any], source: str) -> None:
 
 def _check_bank(card: dict[str, Any], source: str) -> None:
     """``bank_size``: the hypotheses of a ``banked`` agent's specimen bank, and no other agent's; ``tracker``: whether
-    its bank's Gauss-Newton tracker runs beside it (a banked agent's only; absent: no)."""
+    its bank's Gauss-Newton tracker runs beside it (a banked agent's only; absent: no); ``starter``: the shipped
+    agent (its seed of the same number) that drives a banked agent's first ``periods`` decisions, named with the
+    SHA-256 of its card (a banked agent's only; absent: none)."""
     bank = card.get("bank_size")
     if card["algo"] == "banked":
         _need(_is_int(bank) and 1 <= bank <= MAX_BANK, source, "bank_size",
@@ -121,6 +125,19 @@ def _check_bank(card: dict[str, Any], source: str) -> None:
     tracker = card.get("tracker")
     _need(tracker is None or (card["algo"] == "banked" and isinstance(tracker, bool)), source, "tracker",
           "true or false on a banked agent (its bank's Gauss-Newton tracker), absent on any other", tracker)
+    starter = card.get("starter")
+    if starter is None:
+        return
+    _need(card["algo"] == "banked", source, "starter", "absent (only a banked agent's start is another agent's)",
+          starter)
+    _need(isinstance(starter, dict) and set(starter) == set(STARTER_KEYS), source, "starter",
+          f"an object of {list(STARTER_KEYS)}", starter)
+    _need(isinstance(starter["agent"], str) and starter["agent"].isidentifier() and starter["agent"] != card["name"],
+          source, "starter.agent", "another shipped agent's name", starter["agent"])
+    _need(_is_int(starter["periods"]) and 1 <= starter["periods"] <= MAX_START_PERIODS, source, "starter.periods",
+          f"an integer 1-{MAX_START_PERIODS} (the decisions it drives)", starter["periods"])
+    _need(isinstance(starter["card_sha256"], str) and bool(SHA256.fullmatch(starter["card_sha256"])), source,
+          "starter.card_sha256", "the SHA-256 of the starter's card (64 hex digits)", starter["card_sha256"])
 
 
 def parse_card(text: str | bytes, source: str = "card.json") -> dict[str, Any]:
@@ -229,6 +246,8 @@ def card_markdown(card: dict[str, Any]) -> str:
                 + ("; its Gauss-Newton tracker behind the decision (`agents/deviation_tracker.py`, "
                    "`agents/estimate_worker.py`)" if card.get("tracker") else "")]
                if card["algo"] == "banked" else []),
+             *([f"* the first {card['starter']['periods']} decisions are the shipped `{card['starter']['agent']}`'s "
+                "(its seed of the same number; the bank and the frame stack see them)"] if card.get("starter") else []),
              f"* observation: {card['observation']['observation_mode']} mode, {card['observation']['frames']} "
              "frame(s)", "", "| bench set | benches | episodes | success (95 % CI) | mimicry error over successes, "
              "mm (95 % CI) | CVaR 10 %, mm | score, mm (95 % CI) |", "|---|---|---|---|---|---|---|"]

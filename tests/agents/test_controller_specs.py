@@ -18,7 +18,7 @@ from experiments.episodes import EpisodeBatch, controller_of
 SPECS = [cs.ScriptedSpec("pi_feedback", (("kp", -20.0), ("ki", 200.0))), cs.ScriptedSpec("mpc"),
          cs.PPOSpec("/runs/ppo/seed_0"), cs.PPOSpec("/runs/rec/seed_1", "ppo_recurrent"),
          cs.PPOSpec("/runs/v0", "ppo_state"), cs.ShippedSpec("ppo_robust", 2, "/zoo"), cs.StudentSpec("/s/student"),
-         cs.EstimatedSpec("/e/estimator"), cs.BankedSpec("/d/run")]
+         cs.EstimatedSpec("/e/estimator"), cs.BankedSpec("/d/run"), cs.BankedSpec("/d/run", "ppo_recurrent", 20, 2)]
 
 
 @pytest.mark.parametrize("spec", SPECS, ids=lambda s: type(s).__name__ + ":" + s.text)
@@ -54,6 +54,14 @@ def test_a_bad_field_is_refused_naming_it():
         cs.ShippedSpec("ppo_robust", -1)
     with pytest.raises(cs.ControllerSpecError, match="params"):
         cs.parse_controller("ppo:/run", params=(("kp", 1.0),))
+    for text in ("banked:/run?starter=ppo_recurrent", "banked:/run?starter=ppo_recurrent&periods=-2",
+                 "banked:/run?periods=3&seed=1"):
+        with pytest.raises(cs.ControllerSpecError, match="expected starter=NAME&periods=N"):
+            cs.parse_controller(text)
+    for args, field in (((None, 3), "give the starter"), (("", 3), "BankedSpec.starter"),
+                        (("ppo_recurrent", 0), "BankedSpec.start_periods"), (("ppo_recurrent", True), "start_periods")):
+        with pytest.raises(cs.ControllerSpecError, match=field):
+            cs.BankedSpec("/run", *args)
 
 
 def test_scripted_and_shipped_specs_build_controllers():

@@ -2,11 +2,13 @@
 run's own ``banked:RUN`` controller through the episode loop; without ``reset`` its bank starts at the observation's
 load and a new episode restarts it; a batch,
 a state, a stochastic call and a card without its bank size are refused by name; ``evaluate`` on the shipped copy
-reproduces the card's figures."""
+reproduces the card's figures; shipped with a starter (another shipped agent driving the first decisions), it acts
+bitwise as ``banked:RUN`` with that starter, and a starter other than the card's is refused."""
 
 from __future__ import annotations
 
 import json
+import shutil
 
 import gymnasium as gym
 import numpy as np
@@ -20,7 +22,7 @@ from agents.controller_base import play
 from agents.heldout import nominal_benches
 from agents.zoo import ShippedAgentError, load_shipped, read_card
 
-NAME, SEED, BANK = "tiny_banked", 5, 4
+NAME, SEED, BANK = "tiny_banked", 3, 4   # (seed 3: the shipped ppo_recurrent has one, for a starter)
 
 
 @pytest.fixture(scope="module")
@@ -107,6 +109,14 @@ def test_a_batch_a_state_a_stochastic_call_and_a_card_without_its_bank_are_refus
         parse_card(json.dumps({**card, "algo": "ppo"}))
     with pytest.raises(ShippedAgentError, match="field 'tracker' must be true or false on a banked agent"):
         parse_card(json.dumps({**card, "tracker": "yes"}))
+    starter = {"agent": "ppo_recurrent", "periods": 20, "card_sha256": "0" * 64}
+    assert parse_card(json.dumps({**card, "starter": starter}))["starter"] == starter
+    for bad, field in (({**starter, "periods": 0}, "starter.periods"), ({**starter, "agent": NAME}, "starter.agent"),
+                       ({**starter, "card_sha256": "x"}, "starter.card_sha256"), ({"agent": "a"}, "starter")):
+        with pytest.raises(ShippedAgentError, match=f"field '{field}' must be"):
+            parse_card(json.dumps({**card, "starter": bad}))
+    with pytest.raises(ShippedAgentError, match="field 'starter' must be absent"):
+        parse_card(json.dumps({**card, "algo": "ppo", "starter": starter, "bank_size": None}))
 
 
 def test_the_bank_shipped_is_the_one_the_runs_trained_with_else_banked_runs_default(tmp_path):
@@ -165,3 +175,34 @@ def test_a_tracker_trained_run_ships_with_its_tracker_and_acts_bitwise_as_its_ba
     bench = nominal_benches([40.0])[0]
     mine, theirs = _episode(agent, bench, 1), _episode(original, bench, 1)
     assert len(mine) > 5 and mine.tobytes() == theirs.tobytes()
+
+
+@pytest.mark.slow   # ships the run again with the shipped ppo_recurrent as its starter (card figures on 3 benches)
+def test_a_starter_drives_the_first_decisions_bitwise_as_banked_run_with_it_and_only_the_cards_starter_loads(
+        banked_zoo, tmp_path, monkeypatch):
+    from agents.banked_deviation import BankedDeviationPolicy
+    from experiments.shipping import pins_of, ship
+    _, run = banked_zoo
+    with pytest.raises(ValueError, match="has no seed \\[7\\]"):
+        from experiments.shipping import starter_of
+        starter_of("ppo_recurrent", 5, [SEED, 7])
+    path = ship("tiny_started", [run], algo="banked", command="(test) tiny_banked with a starter", n=3,
+                zoo_dir=tmp_path, executor="serial", starter=("ppo_recurrent", 5))
+    shutil.copytree(zoo.ZOO_DIR / "ppo_recurrent", tmp_path / "ppo_recurrent")   # the starter, from the same zoo
+    monkeypatch.setattr(zoo, "ZOO_DIR", tmp_path)
+    monkeypatch.setattr(zoo, "SHIPPED", {**zoo.SHIPPED, "tiny_started": pins_of(path)})
+    card = read_card("tiny_started")
+    assert card["starter"] == {"agent": "ppo_recurrent", "periods": 5,
+                               "card_sha256": zoo.SHIPPED["ppo_recurrent"]["card.json"]}
+    assert "first 5 decisions are the shipped `ppo_recurrent`'s" in (path / "README.md").read_text()
+    agent = load_shipped("tiny_started", SEED)
+    original = BankedDeviationPolicy.load(run, starter=load_shipped("ppo_recurrent", SEED), start_periods=5)
+    plain = BankedDeviationPolicy.load(run)
+    bench = nominal_benches([40.0])[0]
+    mine, theirs, alone = _episode(agent, bench, 1), _episode(original, bench, 1), _episode(plain, bench, 1)
+    assert len(mine) > 5 and mine.tobytes() == theirs.tobytes()
+    assert mine[:5].tobytes() != alone[:5].tobytes()   # (the starter did drive)
+    other = {**zoo.SHIPPED["ppo_recurrent"], "card.json": zoo.SHIPPED["ppo_robust"]["card.json"]}
+    monkeypatch.setattr(zoo, "SHIPPED", {**zoo.SHIPPED, "ppo_recurrent": other})
+    with pytest.raises(ShippedAgentError, match="its starter 'ppo_recurrent' is not the one its card names"):
+        load_shipped("tiny_started", SEED)
