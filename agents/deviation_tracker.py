@@ -114,6 +114,7 @@ class GaussNewtonTracker(WrapsDeviationBank):
         self.sigma = self.bank.noise_m
         self.free, self.low, self.span = self.bank.free_unknowns()
         self.paused, self.sheds = False, 0   # (set by a worker that has fallen behind: shed)
+        self.refits = 0   # this episode's, which time the rebuilds (counts: every episode's, for reports only)
 
     def estimate(self, obs: np.ndarray) -> np.ndarray:
         """The bank weighed by the period just measured; every trajectory's residual row; a refit started when due
@@ -245,6 +246,7 @@ class GaussNewtonTracker(WrapsDeviationBank):
 
     def _refit_job(self) -> Any:
         self.counts["refits"] += 1
+        self.refits += 1
         if self.centre.ended or any(t.ended for t in self.base):
             yield from self._rebuild_job(self.centre.theta if not self.centre.ended else self.base[0].theta)
             return
@@ -263,7 +265,7 @@ class GaussNewtonTracker(WrapsDeviationBank):
             self.centre = new
             self.counts["accepted"] += 1
             self.damping = max(self.damping / 3.0, 1e-4)
-        if self.counts["refits"] % self.settings.rebuild == 0:
+        if self.refits % self.settings.rebuild == 0:
             yield from self._rebuild_job(self.centre.theta)
 
 

@@ -20,7 +20,7 @@ from triplanar.workbench.executor import ExecutorLike, run_tasks
 
 from . import tables
 from .designs import Design, design_by_name
-from .episodes import EpisodeBatch, outcome_table, run_batch
+from .episodes import BatchPart, EpisodeBatch, benches_of, outcome_table, run_part
 from .stats import return_stats, row_stats
 
 DEFAULT_DESIGN = "default"
@@ -49,6 +49,7 @@ RETURN_FIELDS = ("mean_return", "return_low", "return_high")   # the summary's m
 
 
 MAX_BENCHES = 100_000   # --n: about a day of CPU for a scripted controller; more is a typo
+PART_BENCHES = 50       # benches per task: 3 seeds x 200 benches make 12 tasks, which two workers share evenly
 MAX_SEED = 2**32 - 1
 
 
@@ -161,12 +162,23 @@ def evaluate(controller: str, *, design: str | None = None, bench_set: str = "he
     chosen = None if design in (None, DEFAULT_DESIGN) else design_by_name(design)
     batches = batches_for(controller, chosen, bench_set, n, seeds, zoo_dir, default_named=design == DEFAULT_DESIGN)
     started = time.perf_counter()
-    results = run_tasks(run_batch, batches, executor=executor, progress=progress, desc=f"{controller} on {bench_set}")
+    results = run_in_parts(batches, executor, progress, f"{controller} on {bench_set}")
     errors, success = outcome_table(batches, results)
     returns = [[o.episode_return for o in r] for r in results]
     return Evaluation(controller, design or DEFAULT_DESIGN, bench_set, [b.seed for b in batches],
                       {**row_stats(errors, success, FAILURE_SCORE_MM), **return_stats(returns)}, results,
                       time.perf_counter() - started)
+
+
+def run_in_parts(batches: Sequence[EpisodeBatch], executor: ExecutorLike, progress: bool,
+                 desc: str) -> list[list[Any]]:
+    """Each batch's outcomes, run as parts of :data:`PART_BENCHES` benches (one task per part: a batch per seed
+    would leave a worker idle whenever the seeds do not divide among the workers; a part's episodes are numbered
+    as in its whole batch, so the outcomes are the whole batch's)."""
+    parts = [BatchPart(b, start, min(start + PART_BENCHES, count))
+             for b in batches for count in [len(benches_of(b))] for start in range(0, count, PART_BENCHES)]
+    done = run_tasks(run_part, parts, executor=executor, progress=progress, desc=desc)
+    return [[o for part, outcomes in zip(parts, done) if part.batch is b for o in outcomes] for b in batches]
 
 
 def write(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:

@@ -93,6 +93,15 @@ SHIPPED: Pins = {
         "seed_2/normalizer.json": "a8e2f1346ea69a828594617b7b3f16705a44dba40da05d4fd2bc903389afb88c",
         "seed_2/policy.safetensors": "fe5e27b0c68d6a3f0631563573787531b27879e00d8697097e80091f4306ae7b",
     },
+    "ppo_tracked": {
+        "card.json": "5d6df4246ac21524eaf50e56a33bf58ac2cc20cd3dfc44714602f46a4741c79e",
+        "seed_0/normalizer.json": "2c2b2ec77dbc6290ec4e9722aea99fcdcbdb4d5507d1c3280c78c79c67eb3d77",
+        "seed_0/policy.safetensors": "c30d5ed1d2c502edb429f5ad0163b10ac62d4b5fcadb8e6fd64e6521912bf3aa",
+        "seed_1/normalizer.json": "c33702411356b43ae840a35875da47f78af892b0b4ff204820c3c652149423f9",
+        "seed_1/policy.safetensors": "6766df93f85ebfdf69a33b263e4b6c64df8f7cde8629ba3eb77449ea320cdd13",
+        "seed_2/normalizer.json": "c0d8417d385418e97d4288786edd08417affaef1fdc513cc0cc62ae9a32eacfa",
+        "seed_2/policy.safetensors": "81ee02a7b7bdb80807a4c134b56f2434f461982d77d309970b4582eb9dd574c7",
+    },
 }
 
 

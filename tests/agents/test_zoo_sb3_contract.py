@@ -26,7 +26,7 @@ def _observations(env, n: int, seed: int = 0) -> list[np.ndarray]:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name", ["ppo_robust", "ppo_recurrent", "ppo_banked"])
+@pytest.mark.parametrize("name", ["ppo_robust", "ppo_recurrent", "ppo_banked", "ppo_tracked"])
 def test_an_episode_in_sb3s_recurrent_loop_equals_the_agents_own_memory(name):
     """The loop of SB3's docs (RecurrentPPO's: state and episode_start passed back) on gym.make(card env) runs a
     whole episode; its actions are bitwise the actions of agent(obs), the agent keeping its memory itself (a banked

@@ -148,10 +148,11 @@ def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, name, bench_set):
 
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.parametrize("name", ["ppo_recurrent", "ppo_banked"])
+@pytest.mark.parametrize("name", ["ppo_recurrent", "ppo_banked", "ppo_tracked"])
 def test_the_shipped_recurrent_and_banked_ppo_reproduce_their_cards_seed_by_seed(tmp_path, name):
-    """The repository's shipped LSTM policy (agents/zoo/ppo_recurrent) and its PPO with a specimen bank beside it
-    (agents/zoo/ppo_banked, issue 34's real-time candidate): one training seed on the card's 200 held-out benches
+    """The repository's shipped LSTM policy (agents/zoo/ppo_recurrent) and its PPOs with a specimen bank beside them
+    (agents/zoo/ppo_banked, and ppo_tracked with its tracker and ppo_recurrent as its starter: issue 34's real-time
+    candidates): one training seed on the card's 200 held-out benches
     gives that seed's error and score on the card to float32 precision (an episode's noise seed is its bench index,
     so the evaluation is deterministic on one machine; on another CPU it is not to the last bit: on one with AVX-512
     and AMX, 2026-11-27, the recurrent error came out 0.8030794879 mm against the card's 0.8030794800, 1e-8
