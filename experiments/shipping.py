@@ -36,9 +36,10 @@ from agents.heldout import FAILURE_SCORE_MM
 import agents.zoo as zoo_package
 from agents.zoo import (CARD, ZOO_DIR, card_markdown, load_shipped, model_files, observation_layout, parse_card,
                         read_card, read_pinned)
-from triplanar.workbench.executor import ExecutorLike, run_tasks
+from triplanar.workbench.executor import ExecutorLike
 
-from .episodes import EpisodeBatch, outcome_table, run_batch
+from .episodes import EpisodeBatch, outcome_table
+from .evaluate import run_in_parts
 from .stats import row_stats
 
 ENV_ID = "TriPlanarShear-v1"
@@ -196,7 +197,7 @@ def figures(run_dirs: Sequence[Path], algo: str, env_kwargs: dict[str, Any], n: 
     out = {}
     for bench_set in SHIPPED_SETS:
         batches = [EpisodeBatch.of(spec(run), kind, bench_set, n, tip, kwargs, _run_seed(run)[0]) for run in run_dirs]
-        results = run_tasks(run_batch, batches, executor=executor, progress=True, desc=f"card: {bench_set}")
+        results = run_in_parts(batches, executor, True, f"card: {bench_set}")
         out[bench_set] = row_stats(*outcome_table(batches, results), FAILURE_SCORE_MM)
     return out
 

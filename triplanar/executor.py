@@ -193,12 +193,20 @@ def executor_scope(executor: ExecutorLike, n_tasks: int = 2) -> Iterator[Executo
 
 
 def _one_thread_for_good() -> None:
-    """Limit BLAS and OpenMP to one thread in this worker process, once (it runs nothing but tasks)."""
+    """Limit BLAS and OpenMP to one thread in this worker process, once (it runs nothing but tasks): the libraries
+    loaded now through ``threadpoolctl``, those a task loads later (torch's OpenMP, for a policy's forward pass)
+    through the environment they read when they load. Without the latter a worker's torch ran two threads beside
+    the other worker's on two cores, and a shipped LSTM agent's episodes took twice as long."""
     global _LIMITED
     if not _LIMITED:
         from threadpoolctl import threadpool_limits
+        for name in ONE_THREAD_ENV:
+            os.environ[name] = "1"
         threadpool_limits(limits=1)
         _LIMITED = True
+
+
+ONE_THREAD_ENV = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
 _LIMITED = False

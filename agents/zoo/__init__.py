@@ -94,7 +94,7 @@ SHIPPED: Pins = {
         "seed_2/policy.safetensors": "fe5e27b0c68d6a3f0631563573787531b27879e00d8697097e80091f4306ae7b",
     },
     "ppo_tracked": {
-        "card.json": "5d6df4246ac21524eaf50e56a33bf58ac2cc20cd3dfc44714602f46a4741c79e",
+        "card.json": "b5c07b118d1cbcbfeb400f207753683fc4b891d6947da8840555efcbd4ce6ee1",
         "seed_0/normalizer.json": "2c2b2ec77dbc6290ec4e9722aea99fcdcbdb4d5507d1c3280c78c79c67eb3d77",
         "seed_0/policy.safetensors": "c30d5ed1d2c502edb429f5ad0163b10ac62d4b5fcadb8e6fd64e6521912bf3aa",
         "seed_1/normalizer.json": "c33702411356b43ae840a35875da47f78af892b0b4ff204820c3c652149423f9",
