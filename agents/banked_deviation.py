@@ -20,7 +20,8 @@ machine), tens of ms per move, so it does not fit a period. ``start_periods`` > 
 (:meth:`MPCController.start_command`) first, whatever the policy would do (the policy still sees these
 observations in its frame stack, and the bank advances by the command sent); it cost accuracy here (the policy was
 not trained after it). With a ``starter`` (another controller: e.g. the shipped ``ppo_recurrent``, which fails
-less in the first decisions) the start is that controller's, fed every observation of those periods: finding 16 of
+less in the first decisions) the start is that controller's, fed every observation of those periods (it decides
+before the estimator takes the period's measurement, which it does not need): finding 16 of
 ``docs/notes/student-experiments.md`` (20 periods of ``ppo_recurrent``, then a tracker-trained policy: the best
 real-time score on the judge draws so far).
 
@@ -150,16 +151,21 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
         the period's slack on a bench, after the command is sent). ``info``: the thread CPU to the decision and in
         all."""
         started = time.thread_time()
-        self.estimate = self.deviation_bank.estimate(obs)
-        policy_input = np.concatenate([self._stack(obs), self.estimate.astype(np.float32)])
-        start = self.deviation_bank.periods <= self.start_periods
+        start = self.deviation_bank.periods < self.start_periods   # (this period's measurement not yet taken)
         if start and self.starter is not None:
+            # the starter decides without the estimate, so the estimator takes the measurement after the command
             action = np.asarray(self.starter.act(obs), dtype=np.float32)
-        elif start:   # mpc's designed excitation
-            action = self.bank_settings.start_command(self.deviation_bank.periods, self.config).astype(np.float32)
+            decided = time.thread_time()
+            self.estimate = self.deviation_bank.estimate(obs)
+            self._stack(obs)
         else:
-            action = self._decide(policy_input)
-        decided = time.thread_time()
+            self.estimate = self.deviation_bank.estimate(obs)
+            policy_input = np.concatenate([self._stack(obs), self.estimate.astype(np.float32)])
+            if start:   # mpc's designed excitation
+                action = self.bank_settings.start_command(self.deviation_bank.periods, self.config).astype(np.float32)
+            else:
+                action = self._decide(policy_input)
+            decided = time.thread_time()
         self.deviation_bank.advance(action)   # the command the bench runs (float32, exactly)
         self.info = {"decision_cpu_s": decided - started, "period_cpu_s": time.thread_time() - started}
         return action
