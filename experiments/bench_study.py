@@ -62,7 +62,7 @@ N_MODEL_BASED = 50
 DESIGN_MODEL_BASED = REFERENCES
 # Shipped agents of the default bench the study does not train itself (agents/zoo, their cards' seeds), evaluated
 # beside its own rows so that every controller a laboratory can run is in one table.
-SHIPPED_ROWS = ("ppo_banked",)
+SHIPPED_ROWS = ("ppo_tracked", "ppo_banked")
 # Benches per checkpointed part of a model-based batch (mpc, limit: ~10 s of CPU per episode; a whole 200-bench batch
 # was one task of up to an hour, lost whenever the study was interrupted).
 PART_BENCHES = 10

@@ -17,7 +17,7 @@ NAME = "study"
 # experiments.evaluate.MODEL_BASED's names (a test keeps them equal; experiments is not imported to build the CLI)
 MODEL_BASED = ("mpc", "limit", "information_bound")
 DESIGN_MODEL_BASED = ("limit", "information_bound")   # experiments.bench_study.DESIGN_MODEL_BASED (the same test)
-SHIPPED_ROWS = ("ppo_banked",)                         # experiments.bench_study.SHIPPED_ROWS (the same test)
+SHIPPED_ROWS = ("ppo_tracked", "ppo_banked")          # experiments.bench_study.SHIPPED_ROWS (the same test)
 HELP = "actuator design study: train PPO, evaluate every controller at the 12 loads, write tables, plots, report"
 
 
