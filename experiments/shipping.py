@@ -36,6 +36,7 @@ from agents.heldout import FAILURE_SCORE_MM
 import agents.zoo as zoo_package
 from agents.zoo import (CARD, ZOO_DIR, card_markdown, load_shipped, model_files, observation_layout, parse_card,
                         read_card, read_pinned)
+from agents.zoo.starter import load_starter
 from triplanar.workbench.executor import ExecutorLike
 
 from .episodes import EpisodeBatch, outcome_table
@@ -105,7 +106,7 @@ def _original(card: dict[str, Any], model: Any, normalizer: Any, frames: int, se
     if card["algo"] == "banked":
         from agents.banked_deviation import BankedDeviationPolicy
         named = card.get("starter")
-        start = {"starter": load_shipped(named["agent"], seed), "start_periods": named["periods"]} if named else {}
+        start = {"starter": load_starter(named["agent"], seed), "start_periods": named["periods"]} if named else {}
         return BankedDeviationPolicy.with_bank(DeviationPolicy(model, normalizer, frames=frames), card["bank_size"],
                                                bool(card.get("tracker", False)), **start)
     return RobustPolicy(model, normalizer, frames=frames)

@@ -94,7 +94,7 @@ SHIPPED: Pins = {
         "seed_2/policy.safetensors": "fe5e27b0c68d6a3f0631563573787531b27879e00d8697097e80091f4306ae7b",
     },
     "ppo_tracked": {
-        "card.json": "b5c07b118d1cbcbfeb400f207753683fc4b891d6947da8840555efcbd4ce6ee1",
+        "card.json": "5afd7e3940dd97518cd187d7bc254c392970b0db0b8de5bc5d901a09d91193a6",
         "seed_0/normalizer.json": "2c2b2ec77dbc6290ec4e9722aea99fcdcbdb4d5507d1c3280c78c79c67eb3d77",
         "seed_0/policy.safetensors": "c30d5ed1d2c502edb429f5ad0163b10ac62d4b5fcadb8e6fd64e6521912bf3aa",
         "seed_1/normalizer.json": "c33702411356b43ae840a35875da47f78af892b0b4ff204820c3c652149423f9",
@@ -198,4 +198,5 @@ def _starter(card: dict[str, Any], seed: int, zoo_dir: Path | None, pins: Pins |
     check_layout(starter_card, card["env_kwargs"])    # (the starter sees the agent's observations, on its bench)
     check_bench(starter_card, bench_arguments(card["env_kwargs"]), f"{card['name']!r}'s card",
                 "a starter runs on the bench of the agent it starts")
-    return load_shipped(agent, seed, zoo_dir, pins)
+    from .starter import load_starter
+    return load_starter(agent, seed, zoo_dir, pins)
