@@ -7,8 +7,8 @@ held-out and stress benches, write the model card, and print the pins to add to 
 trained" [--env-kwargs JSON] [--n 200] [--zoo DIR]`` (``--algo recurrent``: RecurrentPPO runs; ``--algo banked``:
 ``reference_deviation`` runs, shipped with a specimen bank beside the policy, :mod:`agents.zoo.banked_agent`: the
 size they were trained with in their loop, else ``banked:RUN``'s 16; ``--starter AGENT:N``: the project's shipped
-AGENT, its seed of each run's number, drives the first N decisions, named in the card). The runs' own files are SB3 pickles, unpickled here (the runs
-are the ones you name and trained). The card's figures come from the runs' files; ``triplanar evaluate --controller
+AGENT, its seed of each run's number, drives the first N decisions, named in the card). The runs' own files are
+SB3 pickles, unpickled here (the runs are the ones you name and trained). The card's figures come from the runs' files; ``triplanar evaluate --controller
 NAME`` on the shipped copies reproduces them. The agent's directory is written under a temporary name and renamed,
 so a shipped agent is complete or absent.
 

@@ -41,7 +41,8 @@ from .cards import (ShippedAgentError, bench_arguments, card_markdown, check_ben
                     parse_card)
 
 __all__ = ["ShippedAgentError", "bench_arguments", "card_markdown", "check_bench", "check_layout", "load_shipped",
-           "model_files", "observation_layout", "parse_card", "read_card", "read_pinned", "shipped_names", "SHIPPED", "ZOO_DIR"]
+           "model_files", "observation_layout", "parse_card", "read_card", "read_pinned", "shipped_names", "SHIPPED",
+           "ZOO_DIR"]
 
 ZOO_DIR = Path(__file__).parent
 CARD = "card.json"

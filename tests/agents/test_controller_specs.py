@@ -18,7 +18,8 @@ from experiments.episodes import EpisodeBatch, controller_of
 SPECS = [cs.ScriptedSpec("pi_feedback", (("kp", -20.0), ("ki", 200.0))), cs.ScriptedSpec("mpc"),
          cs.PPOSpec("/runs/ppo/seed_0"), cs.PPOSpec("/runs/rec/seed_1", "ppo_recurrent"),
          cs.PPOSpec("/runs/v0", "ppo_state"), cs.ShippedSpec("ppo_robust", 2, "/zoo"), cs.StudentSpec("/s/student"),
-         cs.EstimatedSpec("/e/estimator"), cs.BankedSpec("/d/run"), cs.BankedSpec("/d/run", "ppo_recurrent", 20, 2)]
+         cs.EstimatedSpec("/e/estimator"), cs.BankedSpec("/d/run"),
+         cs.BankedSpec("/d/run", "ppo_recurrent", 20, 2)]
 
 
 @pytest.mark.parametrize("spec", SPECS, ids=lambda s: type(s).__name__ + ":" + s.text)
