@@ -8,9 +8,9 @@ trained" [--env-kwargs JSON] [--n 200] [--zoo DIR]`` (``--algo recurrent``: Recu
 ``reference_deviation`` runs, shipped with a specimen bank beside the policy, :mod:`agents.zoo.banked_agent`: the
 size they were trained with in their loop, else ``banked:RUN``'s 16; ``--starter AGENT:N``: the project's shipped
 AGENT, its seed of each run's number, drives the first N decisions, named in the card). The runs' own files are
-SB3 pickles, unpickled here (the runs are the ones you name and trained). The card's figures come from the runs' files; ``triplanar evaluate --controller
-NAME`` on the shipped copies reproduces them. The agent's directory is written under a temporary name and renamed,
-so a shipped agent is complete or absent.
+SB3 pickles, unpickled here (the runs are the ones you name and trained). The card's figures come from the runs'
+files; ``triplanar evaluate --controller NAME`` on the shipped copies reproduces them. The agent's directory is
+written under a temporary name and renamed, so a shipped agent is complete or absent.
 
 ``python -m experiments.shipping --convert NAME [--zoo DIR]`` converts an agent shipped in the earlier pickled
 format (``seed_S/model.zip``, ``seed_S/vecnormalize.pkl``, checked against its card's SHA-256) in place, with the
