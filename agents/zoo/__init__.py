@@ -85,6 +85,15 @@ SHIPPED: Pins = {
         "seed_4/normalizer.json": "49eabba0469a7fe4e8207829035d203795abcfdcc8585e0fc166c06e4dd5ee0e",
         "seed_4/policy.safetensors": "41f5bf8cd8f940ce0953b8118e4e29f1ba5a6d1a1314e866fa4b65b080d382a0",
     },
+    "ppo_rolling_slow_noisy": {
+        "card.json": "0c738d7c4260c91ed8092bdca50f2748e6945026aa78ba9e4854f0b9b825f68f",
+        "seed_0/normalizer.json": "4520c7e9471eac1b9dbccc93d3465901ecdcbe169178f2d617af8c7195f04477",
+        "seed_0/policy.safetensors": "5b18059c2303f78d8462209434ef6932137c051b02d43a21919c0b5b94d8bdb3",
+        "seed_1/normalizer.json": "9e99c9c6f7a259b39d3ec9e8e8527fa7ba2eb50211af4d184610fc5854db5c2e",
+        "seed_1/policy.safetensors": "a319783c8021c2116f785638b34368c9eefbc8c92138100eba8555f01ee17cc3",
+        "seed_2/normalizer.json": "48a3aa426a78007aee102f243eedc3627861c5734d34828038057767d4ab1f4a",
+        "seed_2/policy.safetensors": "325b6c1053b9c1d8f585c31d1bba3178e0b28f16ce93c78dec7ac2e2edf5900e",
+    },
     "ppo_steel_slow_noisy": {
         "card.json": "7034f4b6e16fa9f82cb305ab8a95a0e410d6ecbe26cd963260e39dd8d63d8a2f",
         "seed_0/normalizer.json": "5254afc92091e1b95bec65434fe7fc223f9a6c9651dc6896957c5a58fd76ac15",

@@ -122,7 +122,8 @@ def test_the_shipped_agents_load_with_every_unpickler_disabled(monkeypatch):
     for module, attr in ((pickle, "load"), (pickle, "loads"), (pickle, "Unpickler"), (cloudpickle, "load"),
                          (cloudpickle, "loads"), (torch, "load")):
         monkeypatch.setattr(module, attr, refuse)
-    assert zoo.shipped_names() == ["ppo_banked", "ppo_recurrent", "ppo_robust", "ppo_steel_slow_noisy", "ppo_tracked"]
+    assert zoo.shipped_names() == ["ppo_banked", "ppo_recurrent", "ppo_robust", "ppo_rolling_slow_noisy",
+                                   "ppo_steel_slow_noisy", "ppo_tracked"]
     for name in zoo.shipped_names():   # one seed each (every seed: the conversion's check, experiments.shipping)
         agent = load_shipped(name, read_card(name)["seeds"][-1])
         action, _ = agent.predict(obs)

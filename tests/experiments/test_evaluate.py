@@ -130,12 +130,12 @@ def test_evaluate_on_a_shipped_agent_reproduces_its_card(tiny_zoo, tmp_path, mon
 # stay long (`make test-slow`). `make test` checks the same ship-and-evaluate path on a tiny shipped agent above.
 @pytest.mark.slow
 @pytest.mark.long
-@pytest.mark.parametrize("name", ["ppo_robust", "ppo_steel_slow_noisy"])
+@pytest.mark.parametrize("name", ["ppo_robust", "ppo_rolling_slow_noisy", "ppo_steel_slow_noisy"])
 @pytest.mark.parametrize("bench_set", ["heldout", "stress"])
 def test_the_shipped_robust_ppo_reproduces_its_card(tmp_path, name, bench_set):
     """The repository's own shipped agents (agents/zoo/ppo_robust: the default bench, 5 seeds x 2 M steps;
-    ppo_steel_slow_noisy: the study's recommended design, 3 seeds x 1 M steps, whose known 8 deg tip evaluate takes
-    from its card): evaluate on the card's benches gives the card's figures, each inside the card's interval."""
+    ppo_rolling_slow_noisy: the current study's recommended design, and ppo_steel_slow_noisy: the first study's,
+    3 seeds x 1 M steps each, whose known tip evaluate takes from its card): evaluate on the card's benches gives the card's figures, each inside the card's interval."""
     card = zoo.read_card(name)
     want = card["figures"][bench_set]
     assert cli.main(["evaluate", "--controller", name, "--benches", bench_set, "--n", str(want["n_benches"]),
