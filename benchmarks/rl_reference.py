@@ -34,7 +34,7 @@ MPC_BENCHES = 20       # mpc costs about 1 s of CPU per episode, more on hard be
 PPO_TIMESTEPS = 100_000
 PPO_LONG_TIMESTEPS = 2_000_000
 RANDOM_SEED = 40_040
-SHIPPED = ("ppo_robust", "ppo_recurrent", "ppo_steel_slow_noisy")
+SHIPPED = ("ppo_robust", "ppo_recurrent", "ppo_tracked", "ppo_banked", "ppo_rolling_slow_noisy", "ppo_steel_slow_noisy")
 ROWS = ("random", "zero", "ppo_100k", "ppo_2m", *SHIPPED, "mpc")
 FIELDS = ("row", "n_episodes", "n_seeds", "n_benches", "mean_return", "return_low", "return_high", "success_rate",
           "success_low", "success_high", "mimicry_error_mm", "error_low_mm", "error_high_mm", "bench", "command")
@@ -112,9 +112,18 @@ def _evaluated(name: str, n: int) -> dict[str, Any]:
     """A controller ``triplanar evaluate`` knows (a shipped agent over its card's seeds, or ``mpc``)."""
     from experiments.evaluate import evaluate
     result = evaluate(name, n=n, progress=False)
-    bench = "default" if name != "ppo_steel_slow_noisy" else "its card's (steel tip 8 deg known, 5 Hz, 10 ms, 1 mm)"
-    return {**_stats(*_tables(result.outcomes)), "bench": bench,
+    return {**_stats(*_tables(result.outcomes)), "bench": bench_of(name),
             "command": f"triplanar evaluate --controller {name} --n {n} --out OUT"}
+
+
+def bench_of(name: str) -> str:
+    """The bench a row runs on: the default, or a shipped agent's card's design (its known tip and hardware)."""
+    from agents.zoo import bench_arguments, read_card
+    if name not in SHIPPED or "tip_friction_deg" not in read_card(name)["env_kwargs"]:
+        return "default"
+    bench = bench_arguments(read_card(name)["env_kwargs"])   # (the card's, the bench's defaults filled in)
+    return (f"its card's (tip {bench['tip_friction_deg']:g} deg known, {bench['stage_bandwidth_hz']:g} Hz, "
+            f"{1e3 * bench['latency_s']:g} ms, {1e3 * bench['sensor_noise_m']:g} mm)")
 
 
 def make_row(name: str, work: Path) -> dict[str, Any]:
