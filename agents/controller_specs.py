@@ -249,7 +249,7 @@ class BankedSpec:
         from .banked_deviation import BankedDeviationPolicy
         if self.starter is None:
             return Built(BankedDeviationPolicy.load(self.run, name=label), dict(env_kwargs), True)
-        from .zoo.starter import load_starter
+        from .zoo import load_starter
         starter = load_starter(self.starter, self.seed)
         return Built(BankedDeviationPolicy.load(self.run, name=label, starter=starter,
                                                 start_periods=self.start_periods), dict(env_kwargs), True)

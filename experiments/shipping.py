@@ -34,9 +34,8 @@ from agents.controller_specs import BankedSpec, PPOSpec
 from agents.heldout import FAILURE_SCORE_MM
 
 import agents.zoo as zoo_package
-from agents.zoo import (CARD, ZOO_DIR, card_markdown, load_shipped, model_files, observation_layout, parse_card,
-                        read_card, read_pinned)
-from agents.zoo.starter import load_starter
+from agents.zoo import (CARD, ZOO_DIR, card_markdown, load_shipped, load_starter, model_files, observation_layout,
+                        parse_card, read_card, read_pinned)
 from triplanar.workbench.executor import ExecutorLike
 
 from .episodes import EpisodeBatch, outcome_table

@@ -41,8 +41,8 @@ from .cards import (ShippedAgentError, bench_arguments, card_markdown, check_ben
                     parse_card)
 
 __all__ = ["ShippedAgentError", "bench_arguments", "card_markdown", "check_bench", "check_layout", "load_shipped",
-           "model_files", "observation_layout", "parse_card", "read_card", "read_pinned", "shipped_names", "SHIPPED",
-           "ZOO_DIR"]
+           "load_starter", "model_files", "observation_layout", "parse_card", "read_card", "read_pinned", "shipped_names",
+           "SHIPPED", "ZOO_DIR"]
 
 ZOO_DIR = Path(__file__).parent
 CARD = "card.json"
@@ -208,5 +208,12 @@ def _starter(card: dict[str, Any], seed: int, zoo_dir: Path | None, pins: Pins |
     check_layout(starter_card, card["env_kwargs"])    # (the starter sees the agent's observations, on its bench)
     check_bench(starter_card, bench_arguments(card["env_kwargs"]), f"{card['name']!r}'s card",
                 "a starter runs on the bench of the agent it starts")
-    from .starter import load_starter
     return load_starter(agent, seed, zoo_dir, pins)
+
+
+def load_starter(name: str, seed: int, zoo_dir: Path | None = None, pins: Pins | None = None) -> Any:
+    """The shipped agent ``name``'s seed ``seed`` as a banked agent's starter: a recurrent one in numpy
+    (:class:`agents.zoo.starter.NumpyRecurrentStarter`), another as loaded."""
+    from .starter import NumpyRecurrentStarter
+    agent = load_shipped(name, seed, zoo_dir, pins)
+    return NumpyRecurrentStarter(agent) if agent.recurrent else agent

@@ -9,7 +9,7 @@ deviation_estimator`) is appended to the frame stack; the policy
 (a flat MLP, run in numpy: :class:`agents.banked_deviation.NumpyActor`) decides; then the bank advances every
 hypothesis by the command decided (on a bench: after the command is sent, in the period's slack). ``agent.info``
 holds the last period's thread CPU to the decision (``decision_cpu_s``) and in all (``period_cpu_s``). With the
-card's ``starter``, that shipped agent (``starter``: made by :func:`agents.zoo.starter.load_starter`) decides the
+card's ``starter``, that shipped agent (``starter``: made by :func:`agents.zoo.load_starter`) decides the
 first ``starter.periods`` periods instead of the policy; the bank and the frame stack see those periods all the same.
 
 **Memory.** The frame stack and the bank are one episode's, kept by the agent: ``predict`` takes one observation at

@@ -5,14 +5,13 @@ A recurrent agent's step through SB3's ``predict`` costs 0.5-0.6 ms on this mach
 of it torch's overhead per call around a 64-cell LSTM and three small layers, and an episode's first step 3-6 ms;
 :class:`NumpyRecurrentStarter` runs the same weights as float32 numpy (the LSTM's gates in torch's order, then
 :class:`agents.banked_deviation.NumpyActor`'s head). Its float32 sums are not torch's to the last bit, so the agent
-it starts is measured with it: :func:`load_starter` is the one way every builder of such an agent (the zoo's
-loader, ``banked:RUN?starter=...``, the shipping's check) makes its starter. A frame-stack starter runs through its
-shipped agent as is.
+it starts is measured with it: :func:`agents.zoo.load_starter` is the one way every builder of such an agent (the
+zoo's loader, ``banked:RUN?starter=...``, the shipping's check) makes its starter. A frame-stack starter runs through
+its shipped agent as is.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
@@ -53,11 +52,3 @@ class NumpyRecurrentStarter:
         self.c = (f * self.c + i * g).astype(np.float32)
         self.h = (o * np.tanh(self.c)).astype(np.float32)
         return self.head(self.h)
-
-
-def load_starter(name: str, seed: int, zoo_dir: Path | None = None, pins: Any = None) -> Any:
-    """The shipped agent ``name``'s seed ``seed`` as a starter: a recurrent one in numpy
-    (:class:`NumpyRecurrentStarter`), another as loaded."""
-    from . import load_shipped
-    agent = load_shipped(name, seed, zoo_dir, pins)
-    return NumpyRecurrentStarter(agent) if agent.recurrent else agent

@@ -196,7 +196,7 @@ def test_a_starter_drives_the_first_decisions_bitwise_as_banked_run_with_it_and_
                                "card_sha256": zoo.SHIPPED["ppo_recurrent"]["card.json"]}
     assert "first 5 decisions are the shipped `ppo_recurrent`'s" in (path / "README.md").read_text()
     agent = load_shipped("tiny_started", SEED)
-    from agents.zoo.starter import load_starter
+    from agents.zoo import load_starter
     original = BankedDeviationPolicy.load(run, starter=load_starter("ppo_recurrent", SEED), start_periods=5)
     plain = BankedDeviationPolicy.load(run)
     bench = nominal_benches([40.0])[0]

@@ -6,8 +6,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from agents.zoo import load_shipped
-from agents.zoo.starter import NumpyRecurrentStarter, load_starter
+from agents.zoo import load_shipped, load_starter
+from agents.zoo.starter import NumpyRecurrentStarter
 
 
 def test_the_numpy_lstm_acts_as_the_shipped_recurrent_agent_to_float32_rounding():
