@@ -227,3 +227,15 @@ def test_mpc_on_a_design_predicts_with_its_hardware_and_known_tip():
     controller.reset(40.0, make_config(None))
     assert np.all(controller.bank.theta[:, 0] == design.tip_friction_deg)  # every hypothesis holds the known tip
     assert controller.bank.env_kwargs["stage_bandwidth_hz"] == design.stage_bandwidth_hz
+
+
+def test_a_row_run_in_parts_gives_its_whole_batches_outcomes(monkeypatch):
+    """evaluate runs a row as parts of PART_BENCHES benches (tasks two workers share evenly); a part numbers its
+    episodes as the whole batch does, so the outcomes are the batch's, in order."""
+    from experiments import evaluate as ev
+    from experiments.episodes import EpisodeBatch, run_batch
+    monkeypatch.setattr(ev, "PART_BENCHES", 2)
+    batches = [EpisodeBatch("pi", "pi_feedback", (("kp", -20.0), ("ki", 200.0)), "heldout", 5, seed=s) for s in (0, 1)]
+    parts = ev.run_in_parts(batches, "serial", False, "")
+    assert [[(o.index, o.mimicry_error_mm) for o in r] for r in parts] == \
+        [[(o.index, o.mimicry_error_mm) for o in run_batch(b)] for b in batches]

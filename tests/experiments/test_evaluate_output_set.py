@@ -19,16 +19,16 @@ NAMES = ("heldout.csv", "heldout_episodes.csv", "heldout.json", "heldout.png")
 
 @pytest.fixture
 def episodes(monkeypatch):
-    """``run_batch`` stubbed: each batch's benches succeed with an error of 0.5 mm; the calls are counted."""
+    """``run_part`` stubbed: each part's benches succeed with an error of 0.5 mm; the calls are counted."""
     import experiments.evaluate as evaluate
     from agents.heldout import Outcome
     calls = []
 
-    def run_batch(batch):
-        calls.append(batch)
-        return [Outcome(batch.label, batch.bench_set, i, 30.0, True, "travel", 0.5, 0.01, 1.0, 10)
-                for i in range(batch.n)]
-    monkeypatch.setattr(evaluate, "run_batch", run_batch)
+    def run_part(part):
+        calls.append(part)
+        return [Outcome(part.batch.label, part.batch.bench_set, i, 30.0, True, "travel", 0.5, 0.01, 1.0, 10)
+                for i in range(part.start, part.stop)]
+    monkeypatch.setattr(evaluate, "run_part", run_part)
     return calls
 
 
