@@ -36,7 +36,7 @@ from triplanar.workbench.executor import ExecutorLike, TaskCheckpoint, run_tasks
 
 from . import tables
 from .designs import DESIGNS, Design
-from .episodes import BatchPart, EpisodeBatch, benches_of, outcome_table, run_batch, run_part
+from .episodes import EpisodeBatch, outcome_table, parts_of, run_batch, run_part
 from .evaluate import MODEL_BASED, REFERENCES, SCRIPTED, batches_for, runs_in_real_time, scripted_batch
 from .stats import indistinguishable, row_stats
 
@@ -145,9 +145,7 @@ def run_batches(batches: Sequence[EpisodeBatch], out_dir: Path, executor: Execut
     kept_whole = set(whole)
     for i, b in enumerate(batches):
         if i not in kept_whole:
-            count = len(benches_of(b))
-            parts += [(i, BatchPart(b, start, min(start + part_benches, count)))
-                      for start in range(0, count, part_benches)]
+            parts += [(i, part) for part in parts_of(b, part_benches)]
     checkpoint.forget(run_part, [p for i, p in parts if redo[i]])
     from tqdm import tqdm
     with tqdm(total=len(whole) + len(parts), desc=desc, unit="task") as bar:

@@ -83,6 +83,12 @@ class BatchPart:
     stop: int
 
 
+def parts_of(batch: EpisodeBatch, size: int) -> list[BatchPart]:
+    """``batch`` as consecutive parts of ``size`` benches (the last one shorter)."""
+    count = len(benches_of(batch))
+    return [BatchPart(batch, start, min(start + size, count)) for start in range(0, count, size)]
+
+
 def run_part(part: BatchPart) -> list[Outcome]:
     """The part's episodes; ``information_bound``'s outcome carries the bound, not its episode's error."""
     batch = part.batch

@@ -20,7 +20,7 @@ from triplanar.workbench.executor import ExecutorLike, run_tasks
 
 from . import tables
 from .designs import Design, design_by_name
-from .episodes import BatchPart, EpisodeBatch, benches_of, outcome_table, run_part
+from .episodes import EpisodeBatch, outcome_table, parts_of, run_part
 from .stats import return_stats, row_stats
 
 DEFAULT_DESIGN = "default"
@@ -175,10 +175,12 @@ def run_in_parts(batches: Sequence[EpisodeBatch], executor: ExecutorLike, progre
     """Each batch's outcomes, run as parts of :data:`PART_BENCHES` benches (one task per part: a batch per seed
     would leave a worker idle whenever the seeds do not divide among the workers; a part's episodes are numbered
     as in its whole batch, so the outcomes are the whole batch's)."""
-    parts = [BatchPart(b, start, min(start + PART_BENCHES, count))
-             for b in batches for count in [len(benches_of(b))] for start in range(0, count, PART_BENCHES)]
-    done = run_tasks(run_part, parts, executor=executor, progress=progress, desc=desc)
-    return [[o for part, outcomes in zip(parts, done) if part.batch is b for o in outcomes] for b in batches]
+    parts = [(i, part) for i, b in enumerate(batches) for part in parts_of(b, PART_BENCHES)]
+    done = run_tasks(run_part, [part for _, part in parts], executor=executor, progress=progress, desc=desc)
+    results: list[list[Any]] = [[] for _ in batches]
+    for (i, _), outcomes in zip(parts, done):
+        results[i] += outcomes
+    return results
 
 
 def write(evaluation: Evaluation, out_dir: str | Path) -> list[Path]:
