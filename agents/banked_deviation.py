@@ -151,17 +151,15 @@ class BankedDeviationPolicy(WrapsDeviationBank, RobustPolicy):
         the period's slack on a bench, after the command is sent). ``info``: the thread CPU to the decision and in
         all."""
         started = time.thread_time()
-        start = self.deviation_bank.periods < self.start_periods   # (this period's measurement not yet taken)
-        if start and self.starter is not None:
-            # the starter decides without the estimate, so the estimator takes the measurement after the command
+        # the starter decides without the estimate, so the estimator takes the measurement after its command
+        starter_decides = self.starter is not None and self.deviation_bank.periods < self.start_periods
+        if starter_decides:
             action = np.asarray(self.starter.act(obs), dtype=np.float32)
             decided = time.thread_time()
-            self.estimate = self.deviation_bank.estimate(obs)
-            self._stack(obs)
-        else:
-            self.estimate = self.deviation_bank.estimate(obs)
-            policy_input = np.concatenate([self._stack(obs), self.estimate.astype(np.float32)])
-            if start:   # mpc's designed excitation
+        self.estimate = self.deviation_bank.estimate(obs)
+        policy_input = np.concatenate([self._stack(obs), self.estimate.astype(np.float32)])
+        if not starter_decides:
+            if self.deviation_bank.periods <= self.start_periods:   # mpc's designed excitation
                 action = self.bank_settings.start_command(self.deviation_bank.periods, self.config).astype(np.float32)
             else:
                 action = self._decide(policy_input)
