@@ -119,9 +119,10 @@ def _evaluated(name: str, n: int) -> dict[str, Any]:
 def bench_of(name: str) -> str:
     """The bench a row runs on: the default, or a shipped agent's card's design (its known tip and hardware)."""
     from agents.zoo import bench_arguments, read_card
-    if name not in SHIPPED or "tip_friction_deg" not in read_card(name)["env_kwargs"]:
+    card_kwargs = read_card(name)["env_kwargs"] if name in SHIPPED else {}
+    if "tip_friction_deg" not in card_kwargs:
         return "default"
-    bench = bench_arguments(read_card(name)["env_kwargs"])   # (the card's, the bench's defaults filled in)
+    bench = bench_arguments(card_kwargs)   # (the card's, the bench's defaults filled in)
     return (f"its card's (tip {bench['tip_friction_deg']:g} deg known, {bench['stage_bandwidth_hz']:g} Hz, "
             f"{1e3 * bench['latency_s']:g} ms, {1e3 * bench['sensor_noise_m']:g} mm)")
 
